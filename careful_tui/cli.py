@@ -1,0 +1,198 @@
+"""The `careful` command line (SPEC section 4).
+
+Exit status: 0 success; 2 bad usage or bad input (one message on stderr, no traceback);
+1 anything else. Heavy modules (Textual, cvxpy) are imported only by the commands that
+need them, so `careful worlds` and `careful --help` answer at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rich.console import Console
+
+from irl_core.demonstrations import RecordingError
+from irl_core.world import WorldError
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class UsageError(Exception):
+    """Bad input found after parsing (a value out of range, a file that exists): exit 2."""
+
+
+def positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    value = float(text)
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"must be zero or more, got {text}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="careful",
+        description="Play the careful cliff game, record demonstrations, and fit rewards to them "
+        "with inverse RL that reads carefulness.",
+        epilog="Run 'careful COMMAND --help' for a command's options.",
+    )
+    parser.add_argument("--version", action="version", version=f"careful {app_version()}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    play = commands.add_parser("play", help="play the game and record every step", description=(
+        "Play the cliff gridworld. Arrow keys move; hold a key longer to be more careful "
+        "(careful moves cost more and slip less). Every step is saved as JSONL."))
+    play.add_argument("--world", default="paper", metavar="NAME|FILE", help="built-in world or TOML file (default: paper)")
+    play.add_argument("--player", default=None, help="name recorded in the session (default: your user name)")
+    play.add_argument("--out", type=Path, default=Path("recordings"), metavar="DIR", help="folder for recordings (default: recordings/)")
+    play.add_argument("--input", choices=["hold", "tap", "digits"], default="hold",
+                      help="hold: hold an arrow longer to be more careful (default); "
+                      "tap: tap an arrow k times for level k; digits: type the level, then the arrow")
+    play.add_argument("--seed", type=int, default=None, help="seed for the world's randomness (default: random)")
+    play.add_argument("--calibrate", action="store_true", help="measure your keyboard's autorepeat before playing")
+
+    replay = commands.add_parser("replay", help="watch a recorded session", description="Watch a recorded session step by step or animated.")
+    replay.add_argument("file", type=Path, metavar="FILE")
+
+    fit = commands.add_parser("fit", help="fit a reward to recordings (inverse RL)", description=(
+        "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "
+        "the fit view; without one, or with --no-view, it prints the result and exits."))
+    fit.add_argument("files", type=Path, nargs="+", metavar="FILE")
+    fit.add_argument("--method", choices=["lp", "loss", "maxent"], default="lp",
+                     help="lp: the paper's simple IRL agent (default); loss: its loss IRL agent, for noisy "
+                     "demonstrations; maxent: the maximum-entropy baseline")
+    fit.add_argument("--rmax", type=positive_float, default=1000.0, help="bound |R_S| <= rmax (default 1000)")
+    fit.add_argument("--lambda", dest="lam", type=non_negative_float, default=0.0, help="L1 penalty on R_S (default 0)")
+    fit.add_argument("--beta", type=positive_float, default=1.0, help="maxent inverse temperature (default 1.0)")
+    fit.add_argument("--reward-cells", choices=["special", "all"], default="special",
+                     help="special: fit non-ground cells, ground is 0 (default); all: fit every cell")
+    fit.add_argument("--tie", action="store_true", help="one unknown per symbol instead of per cell")
+    fit.add_argument("--intervals", action="store_true", help="the range each unknown can take (2 LPs per unknown)")
+    fit.add_argument("--json", type=Path, metavar="PATH", help="write the result as JSON")
+    fit.add_argument("--svg", type=Path, metavar="PATH", help="save a picture of the result as SVG")
+    fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
+
+    simulate = commands.add_parser("simulate", help="record a computer expert", description=(
+        "Roll out a computer expert and write its episodes as a recording."))
+    simulate.add_argument("--world", required=True, metavar="NAME|FILE")
+    simulate.add_argument("--policy", choices=["optimal", "boltzmann"], required=True)
+    simulate.add_argument("--beta", type=positive_float, default=1.0, help="Boltzmann inverse temperature (default 1.0)")
+    simulate.add_argument("--episodes", type=positive_int, required=True)
+    simulate.add_argument("--seed", type=int, required=True)
+    simulate.add_argument("--out", type=Path, required=True, metavar="FILE", help="the new recording (never overwritten)")
+
+    worlds = commands.add_parser("worlds", help="list the built-in worlds", description="List the built-in worlds, or show one.")
+    worlds.add_argument("--show", metavar="NAME|FILE", help="draw one world and print it as TOML")
+
+    experiment = commands.add_parser("experiment", help="the paper's experiments, end to end", description=(
+        "Run the paper's experiments end to end: figures as SVG, summary.json and report.md."))
+    experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR", help="output folder (default: experiment/)")
+    experiment.add_argument("--quick", action="store_true", help="reduced sizes, for a fast check")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    err = Console(stderr=True, highlight=False)
+    try:
+        return COMMANDS[args.command](args) or EXIT_OK
+    except (UsageError, WorldError, RecordingError) as exc:
+        err.print(f"[bold red]careful {args.command}:[/] {exc}", markup=True, soft_wrap=True)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        err.print(f"careful {args.command}: interrupted")
+        return EXIT_FAILURE
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: no traceback reaches a user
+        err.print(f"[bold red]careful {args.command}: unexpected error:[/] {type(exc).__name__}: {exc}", soft_wrap=True)
+        err.print("Please report this with the command you ran.")
+        return EXIT_FAILURE
+
+
+def app_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("careful")
+    except PackageNotFoundError:
+        return "0+unknown"
+
+
+def run_worlds(args: argparse.Namespace) -> int:
+    from careful_tui.worlds import print_world, print_world_table
+
+    console = Console()
+    if args.show:
+        from irl_core.world import load_world
+
+        print_world(console, load_world(args.show))
+    else:
+        print_world_table(console)
+    return EXIT_OK
+
+
+def run_simulate(args: argparse.Namespace) -> int:
+    from rich.progress import Progress
+
+    from irl_core.experts import boltzmann_policy, expert_name, optimal_policy, rollouts, write_rollouts
+    from irl_core.mdp import build_mdp
+    from irl_core.world import load_world
+
+    if args.out.exists():
+        raise UsageError(f"{args.out} already exists; recordings are never overwritten, choose another --out")
+    if not args.out.parent.is_dir():
+        raise UsageError(f"{args.out.parent} is not a folder; create it first")
+    mdp = build_mdp(load_world(args.world))
+    if args.policy == "optimal":
+        policy, player = optimal_policy(mdp), expert_name("optimal")
+    else:
+        policy, player = boltzmann_policy(mdp, beta=args.beta), expert_name("boltzmann", args.beta)
+    result = rollouts(mdp, policy, episodes=args.episodes, seed=args.seed)
+    with Progress(console=Console(stderr=True), transient=True, disable=args.episodes < 2000) as progress:
+        task = progress.add_task("writing episodes", total=args.episodes)
+        write_rollouts(args.out, mdp, result, player=player, seed=args.seed,
+                       progress=lambda done: progress.update(task, completed=done))
+    outcomes = mdp.symbols
+    reached = [outcomes[s] if not t else "step limit" for s, t in zip(result.final_state, result.truncated)]
+    summary = ", ".join(f"{reached.count(k)} {k}" for k in sorted(set(reached)))
+    Console(stderr=True, highlight=False).print(
+        f"wrote {args.episodes} episodes ({result.state.size} steps; ended: {summary}) to {args.out}"
+    )
+    return EXIT_OK
+
+
+def _lazy(module: str, function: str):
+    def run(args: argparse.Namespace) -> int:
+        import importlib
+
+        return getattr(importlib.import_module(module), function)(args)
+
+    return run
+
+
+COMMANDS = {
+    "play": _lazy("careful_tui.play", "run_play"),
+    "replay": _lazy("careful_tui.replay", "run_replay"),
+    "fit": _lazy("careful_tui.fit", "run_fit"),
+    "simulate": run_simulate,
+    "worlds": run_worlds,
+    "experiment": _lazy("careful_tui.experiment", "run_experiment"),
+}
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,165 @@
+"""One picture of a world, used everywhere a grid is drawn.
+
+`WorldGrid` is a Rich renderable: the `careful fit` printout prints it, the play,
+replay and fit screens put it in a widget, and SVG export records it. Cells are
+coloured by symbol, or by a value on a diverging scale whose magnitude is
+compressed logarithmically, so that -1000 and -30 both read.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from rich.console import Console, ConsoleOptions, RenderResult
+from rich.segment import Segment
+from rich.style import Style
+from rich.text import Text
+
+from irl_core.world import WALL, World
+
+Cell = tuple[int, int]
+
+SYMBOL_COLOURS: dict[str, str] = {
+    ".": "#3b4a3f",  # ground
+    "C": "#8b1e1e",  # cliff
+    "G": "#c9a227",  # goal
+    "U": "#6b4f2a",  # mud: undesirable
+    WALL: "#1c1c1c",
+}
+SYMBOL_NAMES: dict[str, str] = {".": "ground", "C": "cliff", "G": "goal", "U": "mud", WALL: "wall"}
+OTHER_SYMBOL_COLOUR = "#4a4a6a"
+NEGATIVE = (178, 34, 34)  # firebrick
+POSITIVE = (34, 139, 34)  # forest green
+NEUTRAL = (72, 72, 72)
+# Values below this magnitude are drawn almost neutral; above it the colour grows with log|v|.
+LINEAR_THRESHOLD = 1.0
+
+
+def signed_log_fraction(value: float, scale: float) -> float:
+    """value mapped to [-1, 1] by sign(v) log(1 + |v|/t) / log(1 + scale/t)."""
+    if not math.isfinite(value) or scale <= 0:
+        return 0.0
+    top = math.log1p(scale / LINEAR_THRESHOLD)
+    return max(-1.0, min(1.0, math.copysign(math.log1p(abs(value) / LINEAR_THRESHOLD) / top, value)))
+
+
+def diverging_colour(value: float, scale: float) -> str:
+    """A hex colour: red below zero, green above, grey at zero; intensity on a log scale."""
+    f = signed_log_fraction(value, scale)
+    end = NEGATIVE if f < 0 else POSITIVE
+    mix = [round(n + (e - n) * abs(f)) for n, e in zip(NEUTRAL, end)]
+    return "#{:02x}{:02x}{:02x}".format(*mix)
+
+
+def format_value(value: float) -> str:
+    """A short label for a reward: -1000, -31.5, 0, 100."""
+    if not math.isfinite(value):
+        return "?"
+    if abs(value) >= 100 or value == round(value):
+        return f"{value:.0f}"
+    return f"{value:.1f}"
+
+
+def text_on(background: str) -> str:
+    """Black or white, whichever reads on `background` (#rrggbb)."""
+    r, g, b = (int(background[i : i + 2], 16) for i in (1, 3, 5))
+    return "#000000" if 0.299 * r + 0.587 * g + 0.114 * b > 150 else "#ffffff"
+
+
+@dataclass
+class WorldGrid:
+    """A world drawn as coloured cells, `cell_width` x `cell_height` characters each.
+
+    Args:
+        world: the layout to draw.
+        values: (rows, cols) numbers to colour and print in the cells (NaN: none), e.g. a
+            fitted R_S; without it cells are coloured by symbol.
+        scale: the magnitude that gets the strongest colour (default: the largest |value|).
+        labels: text per cell drawn on the cell's last line (e.g. "→8" for a policy).
+        overlays: lines of text per cell that replace the cell's contents (the player's arrow).
+        highlight: cells drawn with a bright frame colour (the player, a slip).
+    """
+
+    world: World
+    values: np.ndarray | None = None
+    scale: float | None = None
+    labels: Mapping[Cell, str] = field(default_factory=dict)
+    overlays: Mapping[Cell, list[Text]] = field(default_factory=dict)
+    highlight: Mapping[Cell, str] = field(default_factory=dict)
+    cell_width: int = 7
+    cell_height: int = 3
+
+    def background(self, cell: Cell) -> str:
+        symbol = self.world.symbol(cell)
+        if self.values is not None and symbol != WALL and np.isfinite(self.values[cell]):
+            return diverging_colour(float(self.values[cell]), self._scale())
+        return SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR)
+
+    def _scale(self) -> float:
+        if self.scale is not None:
+            return self.scale
+        finite = self.values[np.isfinite(self.values)] if self.values is not None else np.zeros(0)
+        return float(np.abs(finite).max()) if finite.size else 1.0
+
+    def cell_lines(self, cell: Cell) -> list[Text]:
+        """The cell's `cell_height` lines of text, each `cell_width` wide."""
+        w, h = self.cell_width, self.cell_height
+        bg = self.background(cell)
+        base = Style(bgcolor=bg, color=text_on(bg))
+        symbol = self.world.symbol(cell)
+        if cell in self.overlays:
+            content = list(self.overlays[cell])
+        else:
+            content = [Text(symbol if symbol not in (".", WALL) else "", style=base + Style(dim=True))]
+            if self.values is not None and symbol != WALL and np.isfinite(self.values[cell]):
+                content.append(Text(format_value(float(self.values[cell])), style=base + Style(bold=True)))
+            if cell in self.labels:
+                content.append(Text(self.labels[cell], style=base))
+        content = content[:h]
+        top = (h - len(content)) // 2
+        lines = [Text(" " * w, style=base) for _ in range(h)]
+        for i, text in enumerate(content):
+            line = text.copy()
+            line.truncate(w)
+            line.pad_left((w - line.cell_len) // 2)
+            line.pad_right(w - line.cell_len)
+            line.stylize(base, 0, len(line))
+            line.style = base
+            lines[top + i] = line
+        if cell in self.highlight:
+            frame = Style(color=self.highlight[cell], bgcolor=bg, bold=True)
+            lines[0] = Text("▛" + "▀" * (w - 2) + "▜", style=frame) if h >= 3 else lines[0]
+            lines[-1] = Text("▙" + "▄" * (w - 2) + "▟", style=frame) if h >= 3 else lines[-1]
+        return lines
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        world = self.world
+        for r in range(world.rows):
+            rows = [self.cell_lines((r, c)) for c in range(world.cols)]
+            for i in range(self.cell_height):
+                for cell_lines in rows:
+                    yield from cell_lines[i].render(console)
+                yield Segment.line()
+
+    def __rich_measure__(self, console: Console, options: ConsoleOptions):
+        from rich.measure import Measurement
+
+        width = self.world.cols * self.cell_width
+        return Measurement(width, width)
+
+
+def symbol_legend(world: World) -> Text:
+    """A one-line key to the symbols the world uses, with their colours and rewards."""
+    legend = Text()
+    seen = dict.fromkeys(ch for row in world.grid for ch in row)
+    for symbol in seen:
+        colour = SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR)
+        name = SYMBOL_NAMES.get(symbol, symbol)
+        legend.append("  ", style=Style(bgcolor=colour))
+        reward = f" {format_value(world.reward_of(symbol))}" if symbol in world.rewards else ""
+        terminal = " (ends)" if symbol in world.terminal else ""
+        legend.append(f" {name}{reward}{terminal}   ")
+    return legend

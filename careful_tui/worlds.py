@@ -1,0 +1,28 @@
+"""`careful worlds`: the built-in worlds as a table, or one world drawn."""
+
+from __future__ import annotations
+
+from rich.console import Console
+from rich.syntax import Syntax
+from rich.table import Table
+
+from careful_tui.grid import WorldGrid, format_value, symbol_legend
+from irl_core.world import BUILTIN_WORLDS, WORLD_PURPOSES, World
+
+
+def print_world_table(console: Console) -> None:
+    table = Table(title="Built-in worlds (careful worlds --show NAME draws one)")
+    for column in ("name", "size", "levels", "slip", "rewards", "what it is for"):
+        table.add_column(column)
+    for name, world in BUILTIN_WORLDS.items():
+        rewards = ", ".join(f"{k} {format_value(v)}" for k, v in world.rewards.items())
+        table.add_row(name, f"{world.rows}x{world.cols}", str(world.levels), world.slip, rewards, WORLD_PURPOSES[name])
+    console.print(table)
+
+
+def print_world(console: Console, world: World) -> None:
+    console.print(f"[bold]{world.name}[/]: {world.rows}x{world.cols} cells, {world.levels} carefulness "
+                  f"levels, slip {world.slip}, gamma {world.gamma}")
+    console.print(WorldGrid(world))
+    console.print(symbol_legend(world))
+    console.print(Syntax(world.to_toml(), "toml", theme="ansi_dark", background_color="default"))

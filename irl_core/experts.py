@@ -1,0 +1,183 @@
+"""Computer experts: optimal and Boltzmann policies, rolled out for many episodes at once.
+
+Rollouts are vectorised across episodes: every live episode takes its step together,
+so 10,000 episodes cost a few hundred array operations instead of 10,000 Python loops.
+The same seed gives the same episodes and, written out, the same bytes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step
+from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
+from irl_core.planning import soft_value_iteration, value_iteration
+
+# Simulated sessions are a function of (world, policy, seed): their header carries this
+# fixed time so that the same seed writes the same bytes.
+SIMULATED_AT = datetime(2000, 1, 1, tzinfo=timezone.utc)
+
+
+def optimal_policy(mdp: MDP) -> np.ndarray:
+    """(S, A) the deterministic optimal policy (ties to the lowest action index)."""
+    return value_iteration(mdp).policy
+
+
+def boltzmann_policy(mdp: MDP, *, beta: float) -> np.ndarray:
+    """(S, A) the soft-optimal policy pi(a | s) = exp(beta (Q(s, a) - V(s)))."""
+    return soft_value_iteration(mdp, beta=beta).policy
+
+
+def expert_name(policy: str, beta: float | None = None) -> str:
+    """The `player` of a simulated session, e.g. ``expert:boltzmann(beta=0.1)``."""
+    return f"expert:{policy}" if policy == "optimal" else f"expert:{policy}(beta={beta:g})"
+
+
+@dataclass(frozen=True)
+class Rollouts:
+    """Steps of many episodes, in the order they happened (time-major).
+
+    Step arrays (n_steps,): episode, t, state, action, direction (realised direction
+    index), next_state, reward. Episode arrays (n_episodes,): length (steps taken),
+    final_state, truncated (hit the step limit).
+    """
+
+    episode: np.ndarray
+    t: np.ndarray
+    state: np.ndarray
+    action: np.ndarray
+    direction: np.ndarray
+    next_state: np.ndarray
+    reward: np.ndarray
+    length: np.ndarray
+    final_state: np.ndarray
+    truncated: np.ndarray
+
+
+def rollouts(
+    mdp: MDP,
+    policy: np.ndarray,
+    *,
+    episodes: int,
+    seed: int,
+    max_steps: int | None = None,
+) -> Rollouts:
+    """Roll out `policy` (S, A) from the world's start cells for `episodes` episodes."""
+    world = mdp.world
+    max_steps = world.max_steps if max_steps is None else max_steps
+    rng = np.random.default_rng(seed)
+    starts = np.array([mdp.state_of[cell] for cell in world.start_cells])
+    policy_cdf = np.cumsum(policy, axis=1)
+    slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, slip=world.slip), axis=1)  # (A, 4)
+    R = mdp.reward_matrix()
+    last = mdp.n_actions - 1
+
+    state = starts[rng.integers(len(starts), size=episodes)]
+    length = np.zeros(episodes, dtype=np.int64)
+    live = np.arange(episodes)
+    trace: list[tuple[np.ndarray, ...]] = []
+    for t in range(max_steps):
+        if live.size == 0:
+            break
+        s = state[live]
+        a = np.minimum((policy_cdf[s] < rng.random((live.size, 1))).sum(axis=1), last)
+        k = np.minimum((slip_cdf[a] < rng.random((live.size, 1))).sum(axis=1), 3)
+        d = (mdp.direction[a] + k) % 4
+        s_next = mdp.neighbour[s, d]
+        trace.append((live, np.full(live.size, t), s, a, d, s_next, R[s, a]))
+        state[live] = s_next
+        length[live] += 1
+        live = live[mdp.nonterminal[s_next]]
+
+    columns = [np.concatenate(parts) for parts in zip(*trace)] if trace else [np.zeros(0, int)] * 7
+    return Rollouts(
+        *columns,
+        length=length,
+        final_state=state,
+        truncated=mdp.nonterminal[state],
+    )
+
+
+def write_rollouts(
+    path: str | Path,
+    mdp: MDP,
+    result: Rollouts,
+    *,
+    player: str,
+    seed: int,
+    progress: Callable[[int], None] | None = None,
+) -> Path:
+    """Write rollouts as a SPEC section 2 session file (never overwriting).
+
+    Args:
+        progress: called with the number of episodes written so far, now and then.
+    """
+    world = mdp.world
+    header = SessionHeader(
+        world=world,
+        player=player,
+        created=SIMULATED_AT,
+        seed=seed,
+        # A computer expert states its level directly, as a digits-mode player does.
+        input={"mode": "digits", "expert": player},
+        app_version=_app_version(),
+    )
+    order = np.lexsort((result.t, result.episode))
+    cells = mdp.cells
+    steps_of = np.bincount(result.episode, minlength=result.length.size)
+    with RecordingWriter(path, header, sync_episodes=False) as writer:
+        i = 0
+        for episode, n_steps in enumerate(steps_of):
+            score = world.initial_score
+            for j in order[i : i + n_steps]:
+                s, a, s_next = int(result.state[j]), int(result.action[j]), int(result.next_state[j])
+                score += float(result.reward[j])
+                writer.write_step(
+                    Step.model_construct(
+                        episode=episode,
+                        t=int(result.t[j]),
+                        state=cells[s],
+                        direction=DIRECTIONS[int(mdp.direction[a])],
+                        carefulness=int(mdp.carefulness[a]),
+                        hold_ms=0.0,
+                        hold_exact=False,
+                        next_state=cells[s_next],
+                        slipped=bool(result.direction[j] != mdp.direction[a]),
+                        reward=float(result.reward[j]),
+                        score=score,
+                    )
+                )
+            i += n_steps
+            final = int(result.final_state[episode])
+            truncated = bool(result.truncated[episode])
+            terminal_reward = 0.0 if truncated else float(mdp.R_S[final])
+            score += terminal_reward
+            writer.end_episode(
+                EpisodeEnd(
+                    episode=episode,
+                    outcome="step_limit" if truncated else "terminal",
+                    terminal_symbol=None if truncated else mdp.symbols[final],
+                    steps=int(n_steps),
+                    return_=score - world.initial_score,
+                    score=score,
+                )
+            )
+            if progress is not None and (episode + 1) % 500 == 0:
+                progress(episode + 1)
+    if progress is not None:
+        progress(result.length.size)
+    return Path(path)
+
+
+def _app_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("careful")
+    except PackageNotFoundError:
+        return "0+unknown"

@@ -1,0 +1,224 @@
+"""Worlds: the cliff gridworlds of the paper as validated data (SPEC section 1).
+
+A world is a layout string plus the numbers that turn it into an MDP. It is read from
+TOML with the standard library and validated with pydantic; five worlds are built in.
+
+====================  =====================================================
+field                 meaning
+====================  =====================================================
+``layout``            rows of symbols, row 0 at the top: ``.`` ground,
+                      ``C`` cliff, ``G`` goal, ``U`` undesirable, ``#`` wall
+``levels``            L, the number of carefulness levels (c = 1..L)
+``cost_per_level``    action cost R_A(a) = -cost_per_level * c
+``gamma``             discount for planning and IRL, in [0, 1)
+``slip``              ``halving``: P(chosen direction) = 1 - 2^-c, ``none``
+``terminal``          symbols whose cell ends the episode when entered
+``start``             ``random`` (uniform non-terminal cell) or ``[row, col]``
+``initial_score``     the game's starting score (undiscounted)
+``max_steps``         step limit that truncates an episode
+``rewards``           R_S per symbol; unlisted symbols have R_S = 0
+====================  =====================================================
+"""
+
+from __future__ import annotations
+
+import tomllib
+from functools import cached_property
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+WALL = "#"
+GROUND = "."
+
+
+class WorldError(ValueError):
+    """A world file or name that cannot be used; the message is one sentence for the user."""
+
+
+class World(BaseModel):
+    """One gridworld, exactly as SPEC section 1 and the recordings' headers describe it."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = "custom"
+    layout: str
+    levels: int = Field(14, ge=1)
+    cost_per_level: float = Field(1.0, ge=0)
+    gamma: float = Field(0.95, ge=0, lt=1)
+    slip: Literal["halving", "none"] = "halving"
+    terminal: tuple[str, ...] = ("C", "G")
+    start: Literal["random"] | tuple[int, int] = "random"
+    initial_score: float = 200.0
+    max_steps: int = Field(200, ge=1)
+    rewards: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("layout")
+    @classmethod
+    def _layout_is_rectangular(cls, layout: str) -> str:
+        rows = _layout_rows(layout)
+        if not rows:
+            raise ValueError("the layout has no rows")
+        widths = {len(row) for row in rows}
+        if len(widths) != 1:
+            ragged = next(i for i, row in enumerate(rows) if len(row) != len(rows[0]))
+            raise ValueError(
+                f"the layout is ragged: row 0 has {len(rows[0])} cells but row {ragged} has {len(rows[ragged])}"
+            )
+        if any(ch.isspace() for row in rows for ch in row):
+            raise ValueError("the layout contains a space inside a row; use '.' for ground")
+        return "\n".join(rows) + "\n"
+
+    @field_validator("terminal")
+    @classmethod
+    def _terminal_symbols_are_single(cls, terminal: tuple[str, ...]) -> tuple[str, ...]:
+        for symbol in terminal:
+            if len(symbol) != 1:
+                raise ValueError(f"terminal symbol {symbol!r} is not one character")
+        return terminal
+
+    @model_validator(mode="after")
+    def _consistent(self) -> World:
+        symbols = {ch for row in self.grid for ch in row}
+        for symbol in self.rewards:
+            if len(symbol) != 1:
+                raise ValueError(f"reward symbol {symbol!r} is not one character")
+            if symbol not in symbols:
+                raise ValueError(f"a reward is given for {symbol!r}, which the layout does not use")
+            if symbol == WALL:
+                raise ValueError("a wall '#' is not a state and cannot have a reward")
+        if not self.start_cells:
+            raise ValueError("there is no cell to start from: every cell is a wall or terminal")
+        if self.start != "random":
+            r, c = self.start
+            if not (0 <= r < self.rows and 0 <= c < self.cols):
+                raise ValueError(f"start {list(self.start)} is outside the {self.rows}x{self.cols} grid")
+            symbol = self.grid[r][c]
+            if symbol == WALL:
+                raise ValueError(f"start {list(self.start)} is a wall")
+            if symbol in self.terminal:
+                raise ValueError(f"start {list(self.start)} is a terminal cell {symbol!r}")
+        return self
+
+    @cached_property
+    def grid(self) -> list[str]:
+        """The layout's rows, top to bottom."""
+        return _layout_rows(self.layout)
+
+    @property
+    def rows(self) -> int:
+        return len(self.grid)
+
+    @property
+    def cols(self) -> int:
+        return len(self.grid[0])
+
+    def symbol(self, cell: tuple[int, int]) -> str:
+        return self.grid[cell[0]][cell[1]]
+
+    def reward_of(self, symbol: str) -> float:
+        """R_S for a symbol (0 when the world lists none)."""
+        return float(self.rewards.get(symbol, 0.0))
+
+    @cached_property
+    def cells(self) -> list[tuple[int, int]]:
+        """Every cell that is a state (not a wall), in row-major order."""
+        return [(r, c) for r, row in enumerate(self.grid) for c, ch in enumerate(row) if ch != WALL]
+
+    @property
+    def start_cells(self) -> list[tuple[int, int]]:
+        """Cells an episode may start from: a fixed start, or every non-terminal state."""
+        if self.start != "random":
+            return [tuple(self.start)]
+        return [cell for cell in self.cells if self.symbol(cell) not in self.terminal]
+
+    def to_toml(self) -> str:
+        """The world as a TOML file that `load_world` reads back to an equal world."""
+        start = '"random"' if self.start == "random" else f"[{self.start[0]}, {self.start[1]}]"
+        lines = [
+            f"name = {_toml_str(self.name)}",
+            f'layout = """\n{self.layout}"""',
+            f"levels = {self.levels}",
+            f"cost_per_level = {self.cost_per_level!r}",
+            f"gamma = {self.gamma!r}",
+            f"slip = {_toml_str(self.slip)}",
+            "terminal = [" + ", ".join(_toml_str(t) for t in self.terminal) + "]",
+            f"start = {start}",
+            f"initial_score = {self.initial_score!r}",
+            f"max_steps = {self.max_steps}",
+            "[rewards]",
+            *(f"{_toml_str(k)} = {v!r}" for k, v in self.rewards.items()),
+        ]
+        return "\n".join(lines) + "\n"
+
+
+def _toml_str(value: str) -> str:
+    return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _layout_rows(layout: str) -> list[str]:
+    return [row.strip() for row in layout.strip("\n").splitlines() if row.strip()]
+
+
+_PAPER_LAYOUT = "......\n......\n......\n.CCCCG\n"
+_MUD_LAYOUT = "......\n.UU...\n......\n.CCCCG\n"
+_PAPER_REWARDS = {"C": -1000.0, "G": 100.0}
+_MUD_REWARDS = {"C": -1000.0, "G": 100.0, "U": -30.0}
+
+BUILTIN_WORLDS: dict[str, World] = {
+    "paper": World(name="paper", layout=_PAPER_LAYOUT, levels=14, rewards=_PAPER_REWARDS),
+    "paper-simple": World(name="paper-simple", layout=_PAPER_LAYOUT, levels=1, rewards=_PAPER_REWARDS),
+    "paper-maxent": World(
+        name="paper-maxent", layout=_PAPER_LAYOUT, levels=1, slip="none", rewards=_PAPER_REWARDS
+    ),
+    "mud": World(name="mud", layout=_MUD_LAYOUT, levels=14, rewards=_MUD_REWARDS),
+    "mud-simple": World(name="mud-simple", layout=_MUD_LAYOUT, levels=1, rewards=_MUD_REWARDS),
+}
+
+WORLD_PURPOSES: dict[str, str] = {
+    "paper": "the paper's careful setting",
+    "paper-simple": "four actions, no carefulness choice",
+    "paper-maxent": "the MaxEnt baseline's deterministic world",
+    "mud": "catastrophic vs merely undesirable",
+    "mud-simple": "the same without carefulness",
+}
+
+
+def world_from_dict(data: dict, *, source: str = "world") -> World:
+    """Validate a world given as a mapping (a TOML table or a recording's header)."""
+    try:
+        return World.model_validate(data)
+    except ValidationError as exc:
+        raise WorldError(f"{source}: {describe_validation_error(exc)}") from None
+
+
+def load_world(name_or_path: str | Path) -> World:
+    """A built-in world by name, or a world read from a TOML file.
+
+    Raises `WorldError` with a one-line message for an unknown name, an unreadable
+    file, bad TOML or a world that fails validation.
+    """
+    key = str(name_or_path)
+    if key in BUILTIN_WORLDS:
+        return BUILTIN_WORLDS[key]
+    path = Path(key)
+    if not path.exists():
+        known = ", ".join(BUILTIN_WORLDS)
+        raise WorldError(f"no world named {key!r} and no such file (built-in worlds: {known})")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise WorldError(f"{path}: cannot read the world file ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise WorldError(f"{path}: not valid TOML ({exc})") from None
+    data.setdefault("name", path.stem)
+    return world_from_dict(data, source=str(path))
+
+
+def describe_validation_error(exc: ValidationError) -> str:
+    """The first problem in a pydantic error as `field: problem`, readable by a user."""
+    first = exc.errors()[0]
+    where = ".".join(str(part) for part in first["loc"]) or "value"
+    message = first["msg"].removeprefix("Value error, ")
+    return f"{where}: {message}"
