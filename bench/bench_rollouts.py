@@ -1,6 +1,6 @@
 """Vectorised rollouts against a plain per-episode loop, in the same process.
 
-Run: .venv/bin/python bench/bench_rollouts.py  (or `make bench` for every benchmark)
+Run: .venv/bin/python -m bench.bench_rollouts  (or `make bench` for every benchmark)
 """
 
 from __future__ import annotations

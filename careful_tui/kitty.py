@@ -13,15 +13,18 @@ and the app panics. This module adds:
   bubbling to the app), and anything malformed is dropped instead of raising.
 - `KittyDriver`: the Linux/macOS driver using that parser and also asking for event types.
   Use it as `App(driver_class=KittyDriver)`. Terminals without the protocol ignore the request
-  and keep sending plain presses and autorepeats.
+  and keep sending plain presses and autorepeats. It subclasses Textual's POSIX driver, so this
+  module does not import on Windows (there, leave `driver_class` unset).
 
 Private Textual APIs touched (hence the exact pin `textual==8.2.8`):
-`textual._xterm_parser.XTermParser._sequence_to_key_events` (overridden; the parse loop calls it
-for every candidate escape sequence), `textual._keyboard_protocol.FUNCTIONAL_KEYS` and
-`MODIFIER_FUNCTIONAL_KEYS`, `textual.keys._character_to_key` (to name keys exactly as Textual
-does), and `LinuxDriver.run_input_thread` (copied with the parser swapped, as the parser class is
-hard-wired there) with the attributes it uses: `fileno`, `exit_event`, `_debug`,
-`textual._loop.loop_last`.
+- `textual._xterm_parser.XTermParser._sequence_to_key_events`, overridden: the parse loop calls
+  it for every candidate escape sequence; also `SPECIAL_KEY_TO_CHARACTER` from that module.
+- `textual._keyboard_protocol.FUNCTIONAL_KEYS` and `MODIFIER_FUNCTIONAL_KEYS`, and
+  `textual.keys._character_to_key`, to name keys exactly as Textual does.
+- `LinuxDriver.run_input_thread`, copied with the parser swapped (the parser class is
+  hard-wired there), with what it uses: `fileno`, `exit_event`, `_debug`,
+  `textual._loop.loop_last`, `textual._parser.ParseError`; and `_writer_thread`, to skip the
+  flag when Textual did not start its writer.
 
 `App.run_test()` always uses Textual's headless driver, whatever `driver_class` says, so tests
 feed byte strings to `KittyParser` directly and post the events it yields to a running app; a
@@ -55,7 +58,8 @@ _MODIFIER_BITS = ("shift", "alt", "ctrl", "super", "hyper", "meta", "caps_lock",
 
 # CSI key-code[:alternates] ; modifiers[:event-type] ; text-codepoints final
 _re_key = re.compile(
-    r"\x1b\[(?P<code>[\d:]*)(?:;(?P<mods>[\d:]*)(?:;(?P<text>[\d:]*))?)?(?P<final>[u~A-FHPQRS])"
+    r"\x1b\[(?P<code>[\d:]*)(?:;(?P<mods>[\d:]*)(?:;(?P<text>[\d:]*))?)?(?P<final>[u~A-FHPQRS])",
+    re.ASCII,
 )
 
 _MAX_CODEPOINT = 0x10FFFF
@@ -141,7 +145,7 @@ def _base_name(code: int, final: str, text: str | None) -> str | None:
 
 
 def _textual_name(base: str, modifiers: frozenset[str], text: str | None) -> str:
-    """Prefix the modifiers Textual would name, in its order, as `_parse_extended_key` does.
+    """The full key name, with the modifiers Textual's `_parse_extended_key` would name.
 
     Textual drops shift and alt when the terminal reported text (the text already says "A"),
     never names caps_lock or num_lock, and names no modifier on a modifier key itself.

@@ -201,7 +201,7 @@ def test_a_release_wins_over_inference(detector: HoldDetector, clock: FakeClock)
     [hold] = detector.release("up")
     assert hold.exact is True
     assert hold.hold_ms == pytest.approx(1234.0)
-    assert hold.level == 7
+    assert hold.level == 6  # 2 + floor(734 / 150)
     assert detector.poll() == []
     assert detector.deadline() is None
 
@@ -214,7 +214,7 @@ def test_a_late_release_still_wins_if_poll_has_not_run(
     [hold] = detector.release("up")
     assert hold.exact is True
     assert hold.hold_ms == pytest.approx(900.0)
-    assert hold.level == 3
+    assert hold.level == 4  # 2 + floor(400 / 150)
 
 
 def test_a_release_of_another_key_is_ignored(detector: HoldDetector, clock: FakeClock) -> None:
@@ -311,7 +311,7 @@ def test_current_fills_the_gauge_while_held(detector: HoldDetector, clock: FakeC
     clock.now = 0.8
     current = detector.current()
     assert current is not None
-    assert current.level == 3
+    assert current.level == 4  # 2 + floor(300 / 150)
     assert current.elapsed_ms == pytest.approx(800.0)
 
 

@@ -1,0 +1,30 @@
+"""Every benchmark, one after another: `make bench` or `.venv/bin/python -m bench`.
+
+Each prints its measurements side by side with a baseline run in the same process;
+ratios, not absolute times, are what to compare across these shared machines.
+"""
+
+import argparse
+import importlib
+
+BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "bench_scaling")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
+    parser.add_argument("only", nargs="*", metavar="NAME", help="run only these: " + ", ".join(BENCHMARKS))
+    names = parser.parse_args().only or BENCHMARKS
+    unknown = set(names) - set(BENCHMARKS)
+    if unknown:
+        parser.error(f"unknown benchmark {', '.join(sorted(unknown))}")
+    for name in names:
+        print(f"\n=== {name} ===", flush=True)
+        module = importlib.import_module(f"bench.{name}")
+        if name == "bench_scaling":
+            module.main([])
+        else:
+            module.main()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,235 @@
+"""The cliff game's rules, without a screen: what `careful play` runs (SPEC sections 1 and 2).
+
+A `Game` takes move intents (direction, carefulness, how long the key was held) and plays
+them in the world's MDP with one seeded numpy Generator. It keeps the score and writes every
+step and every episode end to a `RecordingSink` the moment it happens.
+
+==============  ==============================================================
+episode         numbered 0, 1, 2, ... for the whole game; starts at a start cell
+                drawn from the world (a fixed cell, or uniform over non-terminal
+                cells)
+score           undiscounted, reset to ``initial_score`` at each episode start;
+                a step adds R(s, a) = R_S(s) + R_A(a); entering a terminal cell
+                adds its R_S once, at the episode end
+slip            the realised direction differs from the chosen one (a move into
+                a wall or off the grid that slips still counts as a slip)
+episode end     ``terminal`` (entered a terminal cell), ``step_limit`` (after
+                ``max_steps`` moves), ``quit`` (`Game.quit` during an episode
+                that has at least one step; an episode without steps is not
+                recorded)
+==============  ==============================================================
+
+`SessionRecorder` is the sink `careful play` uses: the session file is created at the first
+line, so a header can still change (a calibration) until something was played; a header
+change after that closes the file and starts a new session file at the next line.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step
+from irl_core.mdp import DIRECTIONS, action_index, build_mdp
+from irl_core.world import World
+
+Cell = tuple[int, int]
+
+
+class RecordingSink(Protocol):
+    """Where a game's lines go (a `RecordingWriter`, a `SessionRecorder`, a list in tests)."""
+
+    def write_step(self, step: Step) -> None: ...
+
+    def end_episode(self, end: EpisodeEnd) -> None: ...
+
+
+@dataclass(frozen=True)
+class MoveResult:
+    """One resolved move.
+
+    Attributes:
+        step: the step line as recorded.
+        realised: the direction actually taken ("up", ...); differs from `step.direction` on a slip.
+        end: the episode end this move caused (a terminal cell or the step limit), else None.
+    """
+
+    step: Step
+    realised: str
+    end: EpisodeEnd | None
+
+    @property
+    def slipped(self) -> bool:
+        return self.step.slipped
+
+
+class GameOver(RuntimeError):
+    """A move was asked for when no episode is running (a programmer's error)."""
+
+
+class Game:
+    """Episodes of one world, played move by move and recorded as they happen.
+
+    Args:
+        world: the world to play.
+        seed: seeds the one Generator behind start cells and slips.
+        sink: receives every step and episode end.
+    """
+
+    def __init__(self, world: World, *, seed: int, sink: RecordingSink) -> None:
+        self.world = world
+        self.mdp = build_mdp(world)
+        self.seed = seed
+        self.sink = sink
+        self._rng = np.random.default_rng(seed)
+        self._reward = self.mdp.reward_matrix()
+        self._starts = [self.mdp.state_of[cell] for cell in world.start_cells]
+        self.episode = -1
+        self.t = 0
+        self.cell: Cell | None = None
+        self.score = world.initial_score
+        self.live = False
+        self.last_end: EpisodeEnd | None = None
+
+    def costs(self) -> list[float]:
+        """The action cost of each carefulness level 1..L, as a positive number."""
+        return [self.world.cost_per_level * c for c in range(1, self.world.levels + 1)]
+
+    def begin_episode(self) -> Cell:
+        """Start the next episode at a start cell; returns that cell."""
+        if self.live:
+            raise GameOver("an episode is already running")
+        self.episode += 1
+        self.t = 0
+        self.score = self.world.initial_score
+        self.cell = self.mdp.cells[self._starts[int(self._rng.integers(len(self._starts)))]]
+        self.live = True
+        return self.cell
+
+    def move(self, direction: str, carefulness: int, *, hold_ms: float | None = None, exact: bool = False) -> MoveResult:
+        """Play one move, record it, and end the episode if it ends here.
+
+        Raises:
+            GameOver: no episode is running.
+            ValueError: an unknown direction or a carefulness outside 1..L.
+        """
+        if not self.live or self.cell is None:
+            raise GameOver("no episode is running: call begin_episode first")
+        if direction not in DIRECTIONS:
+            raise ValueError(f"unknown direction {direction!r}")
+        if not 1 <= carefulness <= self.world.levels:
+            raise ValueError(f"carefulness must be in 1..{self.world.levels}, got {carefulness}")
+        s = self.mdp.state_of[self.cell]
+        a = action_index(direction, carefulness, self.world.levels)
+        s_next, realised = self.mdp.move(s, a, self._rng)
+        reward = float(self._reward[s, a])
+        self.score += reward
+        step = Step(
+            episode=self.episode,
+            t=self.t,
+            state=self.cell,
+            direction=direction,
+            carefulness=carefulness,
+            hold_ms=None if hold_ms is None else round(float(hold_ms), 1),
+            hold_exact=exact,
+            next_state=self.mdp.cells[s_next],
+            slipped=DIRECTIONS[realised] != direction,
+            reward=reward,
+            score=self.score,
+        )
+        self.sink.write_step(step)
+        self.t += 1
+        self.cell = step.next_state
+        end = None
+        if self.mdp.terminal[s_next]:
+            symbol = self.mdp.symbols[s_next]
+            self.score += float(self.mdp.R_S[s_next])
+            end = self._end("terminal", symbol)
+        elif self.t >= self.world.max_steps:
+            end = self._end("step_limit", None)
+        return MoveResult(step=step, realised=DIRECTIONS[realised], end=end)
+
+    def quit(self) -> EpisodeEnd | None:
+        """End the running episode as ``quit``; None (and nothing recorded) when no step was played."""
+        if not self.live:
+            return None
+        if self.t == 0:
+            self.live = False
+            self.episode -= 1
+            return None
+        return self._end("quit", None)
+
+    def _end(self, outcome: str, symbol: str | None) -> EpisodeEnd:
+        end = EpisodeEnd(
+            episode=self.episode,
+            outcome=outcome,
+            terminal_symbol=symbol,
+            steps=self.t,
+            return_=self.score - self.world.initial_score,
+            score=self.score,
+        )
+        self.sink.end_episode(end)
+        self.live = False
+        self.last_end = end
+        return end
+
+
+class SessionRecorder:
+    """A session file in `folder`, created (named by time and player) at its first line.
+
+    `header` is the session header without its time; `created` is filled in when the file is
+    created. `set_header` before anything was written replaces the header; after, it closes the
+    file and the next line starts a new session file with the new header.
+    """
+
+    def __init__(self, folder: str | Path, header: SessionHeader) -> None:
+        self.folder = Path(folder)
+        self.header = header
+        self.paths: list[Path] = []
+        self._writer: RecordingWriter | None = None
+
+    @property
+    def path(self) -> Path | None:
+        """The file being written, or None before the first line (or after a header change)."""
+        return None if self._writer is None else self._writer.path
+
+    def set_header(self, header: SessionHeader) -> None:
+        self.close()
+        self.header = header
+
+    def write_step(self, step: Step) -> None:
+        self._open().write_step(step)
+
+    def end_episode(self, end: EpisodeEnd) -> None:
+        self._open().end_episode(end)
+
+    def close(self) -> None:
+        if self._writer is not None:
+            self._writer.close()
+            self._writer = None
+
+    def _open(self) -> RecordingWriter:
+        if self._writer is None:
+            header = self.header.model_copy(update={"created": datetime.now().astimezone()})
+            self._writer = RecordingWriter.create_in(self.folder, header)
+            self.paths.append(self._writer.path)
+        return self._writer
+
+
+def check_writable(folder: str | Path) -> None:
+    """Create `folder` if needed and prove a file can be written in it.
+
+    Raises:
+        OSError: the folder cannot be created or written to.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, probe = tempfile.mkstemp(dir=folder, prefix=".careful-probe-")
+    os.close(fd)
+    os.unlink(probe)
