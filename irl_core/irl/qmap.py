@@ -169,13 +169,10 @@ class QMap:
 def build_qmap(mdp: MDP, unknowns: Unknowns) -> QMap:
     """Assemble M, q0, E and e for `mdp` in a handful of sparse operations (no Python loops)."""
     S, A, k = mdp.n_states, mdp.n_actions, unknowns.k
-    acting = mdp.nonterminal
-    # Reward part: row s * A + a gets R_S(s) = basis[s] @ theta, at every state but the exit.
+    # Reward part: row s * A + a gets R_S(s) = basis[s] @ theta (the exit's basis row is empty).
     reward_rows = sp.kron(unknowns.basis, np.ones((A, 1)), format="csr")
-    reward_rows = sp.diags(np.repeat(np.arange(S) != mdp.exit_state, A).astype(float)) @ reward_rows
     M = sp.hstack([reward_rows, mdp.gamma * mdp.P], format="csr")
-    q0 = np.where(np.repeat(acting, A), np.tile(mdp.R_A, S), 0.0) + np.repeat(unknowns.fixed, A)
-    q0[mdp.exit_state * A :] = 0.0
+    q0 = np.where(np.repeat(mdp.nonterminal, A), np.tile(mdp.R_A, S), 0.0) + np.repeat(unknowns.fixed, A)
 
     # Terminal cells: V(s) - R_S(s) = fixed(s); the exit: V(exit) = 0.
     terminal = np.flatnonzero(mdp.terminal)

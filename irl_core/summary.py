@@ -1,0 +1,94 @@
+"""What a recorded session says at a glance: outcomes, scores, and carefulness by danger.
+
+The paper's claim in one table: a careful expert's carefulness rises as the nearest
+terminal cell (the cliff, the goal) gets closer.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+
+import numpy as np
+
+from irl_core.demonstrations import Recording
+from irl_core.mdp import build_mdp
+from irl_core.world import World
+
+
+def distance_to_terminal(world: World) -> dict[tuple[int, int], int]:
+    """Grid steps (breadth first, around walls) from each cell to the nearest terminal cell.
+
+    Cells that cannot reach a terminal cell are left out.
+    """
+    mdp = build_mdp(world)
+    distance = {cell: 0 for cell in mdp.cells if world.symbol(cell) in world.terminal}
+    frontier = list(distance)
+    while frontier:
+        nxt = []
+        for cell in frontier:
+            for n in mdp.neighbour[mdp.state_of[cell]]:
+                other = mdp.cells[n] if n < len(mdp.cells) else None
+                if other is not None and other not in distance:
+                    distance[other] = distance[cell] + 1
+                    nxt.append(other)
+        frontier = nxt
+    return distance
+
+
+@dataclass(frozen=True)
+class SessionSummary:
+    """Episodes, outcomes and carefulness of one recording.
+
+    Attributes:
+        episodes: number of episodes (finished or not).
+        outcomes: count per outcome label: "goal G", "cliff C", "quit", "step limit", "unfinished".
+        final_score: the score after the last step or episode end (None if nothing was played).
+        steps: number of steps.
+        slips: number of steps that slipped.
+        carefulness_by_distance: distance to the nearest terminal cell -> (mean carefulness, steps).
+    """
+
+    episodes: int
+    outcomes: dict[str, int]
+    final_score: float | None
+    steps: int
+    slips: int
+    carefulness_by_distance: dict[int, tuple[float, int]]
+
+
+def outcome_label(outcome: str, symbol: str | None, world: World) -> str:
+    """A reader's name for how an episode ended: "fell off the cliff", "reached the goal", ..."""
+    if outcome == "quit":
+        return "quit"
+    if outcome == "step_limit":
+        return "step limit"
+    names = {"C": "fell off the cliff", "G": "reached the goal"}
+    return names.get(symbol or "", f"ended on {symbol}")
+
+
+def summarise(recording: Recording) -> SessionSummary:
+    world = recording.world
+    ended = {end.episode: end for end in recording.episode_ends}
+    outcomes = Counter(
+        outcome_label(ended[e].outcome, ended[e].terminal_symbol, world) if e in ended else "unfinished"
+        for e in recording.episodes
+    )
+    last_score = None
+    if recording.steps or recording.episode_ends:
+        lines = [*recording.steps, *recording.episode_ends]
+        last_score = max(lines, key=lambda line: (line.episode, line.kind == "episode_end", getattr(line, "t", 0))).score
+    distance = distance_to_terminal(world)
+    by_distance: dict[int, list[int]] = {}
+    for step in recording.steps:
+        if step.state in distance:
+            by_distance.setdefault(distance[step.state], []).append(step.carefulness)
+    return SessionSummary(
+        episodes=len(recording.episodes),
+        outcomes=dict(outcomes),
+        final_score=last_score,
+        steps=len(recording.steps),
+        slips=sum(step.slipped for step in recording.steps),
+        carefulness_by_distance={d: (float(np.mean(cs)), len(cs)) for d, cs in sorted(by_distance.items())},
+    )
+
