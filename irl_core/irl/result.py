@@ -1,0 +1,185 @@
+"""The one result of every fit, and the errors a fit can end with.
+
+A `FitResult` holds what `careful fit` shows and writes: the fitted reward on the grid,
+which cells were fitted, their intervals, the demonstrated policy, how much was read,
+the solver's status and time, and notes a researcher should read (e.g. "not unique").
+`to_json()` is SPEC section 3's JSON, key for key.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from irl_core.irl.qmap import Unknowns
+from irl_core.mdp import MDP, action_parts
+from irl_core.world import World
+
+
+class FitError(RuntimeError):
+    """A fit that produced no reward. `str()` is one sentence for the user."""
+
+
+class InfeasibleError(FitError):
+    """No reward satisfies the constraints: bad input rather than a bug (exit 2)."""
+
+
+class SolverError(FitError):
+    """The solver failed or gave up (exit 1)."""
+
+
+@dataclass(frozen=True)
+class PolicyCell:
+    """The most frequent demonstrated action at one cell, and how often it was taken."""
+
+    direction: str
+    carefulness: int
+    count: int
+    visits: int
+
+
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    """A fitted reward and everything needed to show or save it.
+
+    Attributes:
+        method: ``lp``, ``loss`` or ``maxent``.
+        world: the world the recordings share.
+        options: the fit's options as SPEC names them (rmax, lambda, beta, reward_cells, tie, intervals).
+        R_S: (S,) fitted state rewards (known cells at their fixed value, 0 at the exit).
+        V: (S,) the values that came with the fit (the LP's or loss's V, maxent's soft V).
+        theta: (k,) the fitted unknowns.
+        unknowns: which state rewards theta stands for (labels, basis).
+        intervals: (k, 2) [low, high] per unknown, or None when not computed.
+        counts: (S, A) demonstrated action counts N(s, a).
+        demonstrations: files, episodes and steps read.
+        status: ``optimal`` or the solver's word for a usable but imperfect answer.
+        elapsed_s: wall-clock seconds the fit took (intervals included).
+        notes: sentences for the reader: non-uniqueness, rewards at the bound, ...
+    """
+
+    method: str
+    mdp: MDP
+    options: dict[str, Any]
+    R_S: np.ndarray
+    V: np.ndarray
+    theta: np.ndarray
+    unknowns: Unknowns
+    intervals: np.ndarray | None
+    counts: np.ndarray
+    demonstrations: dict[str, int]
+    status: str
+    elapsed_s: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def world(self) -> World:
+        return self.mdp.world
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        return self.unknowns.labels
+
+    @property
+    def unknown(self) -> np.ndarray:
+        """(S,) True at states whose reward was fitted."""
+        return self.unknowns.mask
+
+    def grid(self, per_state: np.ndarray, fill: float = np.nan) -> np.ndarray:
+        """(rows, cols) from a per-state array (S,), `fill` at walls."""
+        out = np.full((self.world.rows, self.world.cols), fill, dtype=float)
+        for s, (r, c) in enumerate(self.mdp.cells):
+            out[r, c] = per_state[s]
+        return out
+
+    @property
+    def reward_grid(self) -> np.ndarray:
+        """(rows, cols) fitted R_S, NaN at walls."""
+        return self.grid(self.R_S)
+
+    @property
+    def true_reward_grid(self) -> np.ndarray:
+        """(rows, cols) the world's own R_S, NaN at walls."""
+        return self.grid(self.mdp.R_S)
+
+    @property
+    def unknown_grid(self) -> np.ndarray:
+        """(rows, cols) bool, True at fitted cells."""
+        return self.grid(self.unknown.astype(float), fill=0.0) > 0
+
+    @property
+    def interval_grid(self) -> np.ndarray:
+        """(rows, cols, 2) [low, high] per cell, NaN where not computed."""
+        out = np.full((self.world.rows, self.world.cols, 2), np.nan)
+        if self.intervals is None:
+            return out
+        basis = self.unknowns.basis.tocoo()
+        for s, j in zip(basis.row, basis.col):
+            out[self.mdp.cells[s]] = self.intervals[j]
+        return out
+
+    def policy_cells(self) -> dict[tuple[int, int], PolicyCell]:
+        """The most frequent demonstrated action (lowest index among ties) at each demonstrated cell."""
+        levels = self.world.levels
+        out = {}
+        for s, cell in enumerate(self.mdp.cells):
+            visits = int(self.counts[s].sum())
+            if visits == 0:
+                continue
+            a = int(self.counts[s].argmax())
+            direction, carefulness = action_parts(a, levels)
+            out[cell] = PolicyCell(direction, carefulness, int(self.counts[s, a]), visits)
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        """SPEC section 3's JSON: rows x cols grids with null at walls (and where undefined).
+
+        ``policy`` gives, per demonstrated cell, the most frequent action and its count
+        (how often that action was taken there); null at cells never acted in.
+        """
+        world = self.world
+        wall = [[ch == "#" for ch in row] for row in world.grid]
+        reward = self.reward_grid
+        unknown = self.unknown_grid
+        interval = self.interval_grid
+        policy = self.policy_cells()
+        return {
+            "method": self.method,
+            "world": world.model_dump(mode="json"),
+            "options": dict(self.options),
+            "reward": [
+                [None if wall[r][c] else _number(reward[r, c]) for c in range(world.cols)] for r in range(world.rows)
+            ],
+            "unknown": [[bool(unknown[r, c]) for c in range(world.cols)] for r in range(world.rows)],
+            "interval": [
+                [
+                    None if np.isnan(interval[r, c]).any() else [_number(interval[r, c, 0]), _number(interval[r, c, 1])]
+                    for c in range(world.cols)
+                ]
+                for r in range(world.rows)
+            ],
+            "policy": [
+                [
+                    None
+                    if (r, c) not in policy
+                    else {
+                        "direction": policy[(r, c)].direction,
+                        "carefulness": policy[(r, c)].carefulness,
+                        "count": policy[(r, c)].count,
+                    }
+                    for c in range(world.cols)
+                ]
+                for r in range(world.rows)
+            ],
+            "demonstrations": dict(self.demonstrations),
+            "status": self.status,
+            "elapsed_s": round(float(self.elapsed_s), 4),
+        }
+
+
+def _number(value: float) -> float:
+    """A JSON number without solver dust: -0.0 and |x| < 1e-9 become 0.0."""
+    value = float(value)
+    return 0.0 if abs(value) < 1e-9 else value
