@@ -21,7 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 from irl_core.mdp import DIRECTIONS, MDP, action_index, build_mdp
-from irl_core.world import World
+from irl_core.world import World, field_path
 
 SCHEMA_VERSION = 1
 Direction = Literal["up", "right", "down", "left"]
@@ -206,12 +206,11 @@ def read_recording(path: str | Path) -> Recording:
             continue
         try:
             obj = json.loads(text.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
             if is_last and not ends_cleanly and recording is not None:
                 recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
                 break
-            problem = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else f"not valid JSON ({exc.msg})"
-            raise RecordingError(path, number, None, problem) from None
+            raise RecordingError(path, number, None, _json_problem(exc)) from None
         if not isinstance(obj, dict):
             raise RecordingError(path, number, None, "a line must be a JSON object")
         if recording is None:
@@ -231,14 +230,32 @@ def read_recording(path: str | Path) -> Recording:
     return recording
 
 
+def _json_problem(exc: Exception) -> str:
+    if isinstance(exc, UnicodeDecodeError):
+        return "not UTF-8 text"
+    if isinstance(exc, RecursionError):
+        return "not valid JSON (arrays or objects nested too deeply)"
+    return f"not valid JSON ({exc.msg})"
+
+
+def _brief(value: Any) -> str:
+    """A value from the file, as JSON, short enough for a one-line message."""
+    text = json.dumps(value, default=str)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _read_header(obj: dict, path: Path, number: int) -> SessionHeader:
     if obj.get("kind") != "session":
-        raise RecordingError(path, number, "kind", f"the first line must be the session header, not {obj.get('kind')!r}")
-    schema = obj.get("schema")
+        raise RecordingError(
+            path, number, "kind", f"the first line must be the session header, not {_brief(obj.get('kind'))}"
+        )
+    if "schema" not in obj:
+        raise RecordingError(path, number, "schema", "missing")
+    schema = obj["schema"]
     if schema != SCHEMA_VERSION:
         raise RecordingError(
             path, number, "schema",
-            f"schema version {schema!r} is not supported (this careful reads version {SCHEMA_VERSION}); "
+            f"schema version {_brief(schema)} is not supported (this careful reads version {SCHEMA_VERSION}); "
             "a newer careful may read it",
         )
     try:
@@ -249,16 +266,16 @@ def _read_header(obj: dict, path: Path, number: int) -> SessionHeader:
 
 def _line_error(path: Path, number: int, exc: ValidationError, obj: dict) -> RecordingError:
     first = exc.errors()[0]
-    loc = [str(p) for p in first["loc"]]
+    loc = list(first["loc"])
     # The discriminated union puts the kind first in the location: drop it.
     if loc and loc[0] == obj.get("kind"):
         loc = loc[1:]
-    name = ".".join(loc) or "kind"
+    name = field_path(loc) or "kind"
     problem = first["msg"].removeprefix("Value error, ")
     if first["type"] == "missing":
         problem = "missing"
     elif "input" in first and first["type"] != "extra_forbidden":
-        problem = f"{problem} (got {json.dumps(first['input'])[:60]})"
+        problem = f"{problem} (got {_brief(first['input'])})"
     return RecordingError(path, number, name, problem)
 
 
@@ -322,10 +339,11 @@ class Demonstrations:
         world = recordings[0].world
         for other in recordings[1:]:
             if other.world != world:
+                differ = ", ".join(k for k in World.model_fields if getattr(other.world, k) != getattr(world, k))
                 raise RecordingError(
                     other.path, None, "world",
                     f"recorded in world {other.world.name!r}, but {recordings[0].path} is from "
-                    f"{world.name!r}: fit recordings of one world at a time",
+                    f"{world.name!r} (they differ in {differ}): fit recordings of one world at a time",
                 )
         mdp = build_mdp(world)
         counts = np.zeros((mdp.n_states, mdp.n_actions))

@@ -8,7 +8,7 @@ field                 meaning
 ====================  =====================================================
 ``layout``            rows of symbols, row 0 at the top: ``.`` ground,
                       ``C`` cliff, ``G`` goal, ``U`` undesirable, ``#`` wall
-``levels``            L, the number of carefulness levels (c = 1..L)
+``levels``            L, the number of carefulness levels (c = 1..L, L <= 53)
 ``cost_per_level``    action cost R_A(a) = -cost_per_level * c
 ``gamma``             discount for planning and IRL, in [0, 1)
 ``slip``              ``halving``: P(chosen direction) = 1 - 2^-c, ``none``
@@ -31,6 +31,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 WALL = "#"
 GROUND = "."
+# With halving slip, 1 - 2^-c rounds to exactly 1 in double precision above c = 53, so more
+# levels add nothing but cost; the bound also keeps a typo from building an MDP with 4e9 actions.
+MAX_LEVELS = 53
 
 
 class WorldError(ValueError):
@@ -40,11 +43,11 @@ class WorldError(ValueError):
 class World(BaseModel):
     """One gridworld, exactly as SPEC section 1 and the recordings' headers describe it."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     name: str = "custom"
     layout: str
-    levels: int = Field(14, ge=1)
+    levels: int = Field(14, ge=1, le=MAX_LEVELS)
     cost_per_level: float = Field(1.0, ge=0)
     gamma: float = Field(0.95, ge=0, lt=1)
     slip: Literal["halving", "none"] = "halving"
@@ -69,6 +72,18 @@ class World(BaseModel):
         if any(ch.isspace() for row in rows for ch in row):
             raise ValueError("the layout contains a space inside a row; use '.' for ground")
         return "\n".join(rows) + "\n"
+
+    @field_validator("start", mode="before")
+    @classmethod
+    def _start_is_random_or_a_cell(cls, start: object) -> object:
+        # Without this the union reports its first branch: "start.literal['random']: Input should be 'random'".
+        if (isinstance(start, str) and start == "random") or (
+            isinstance(start, list | tuple)
+            and len(start) == 2
+            and all(isinstance(x, int) and not isinstance(x, bool) for x in start)
+        ):
+            return start
+        raise ValueError('must be "random" or a cell [row, col] of two integers')
 
     @field_validator("terminal")
     @classmethod
@@ -138,7 +153,7 @@ class World(BaseModel):
         start = '"random"' if self.start == "random" else f"[{self.start[0]}, {self.start[1]}]"
         lines = [
             f"name = {_toml_str(self.name)}",
-            f'layout = """\n{self.layout}"""',
+            f'layout = """\n{_toml_escape(self.layout, keep_newlines=True)}"""',
             f"levels = {self.levels}",
             f"cost_per_level = {self.cost_per_level!r}",
             f"gamma = {self.gamma!r}",
@@ -154,7 +169,22 @@ class World(BaseModel):
 
 
 def _toml_str(value: str) -> str:
-    return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return '"' + _toml_escape(value) + '"'
+
+
+def _toml_escape(value: str, *, keep_newlines: bool = False) -> str:
+    """`value` for a TOML basic string: backslash, quote and control characters escaped."""
+    out = []
+    for ch in value:
+        if ch in '\\"':
+            out.append("\\" + ch)
+        elif ch == "\n" and keep_newlines:
+            out.append(ch)
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return "".join(out)
 
 
 def _layout_rows(layout: str) -> list[str]:
@@ -212,13 +242,21 @@ def load_world(name_or_path: str | Path) -> World:
         raise WorldError(f"{path}: cannot read the world file ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise WorldError(f"{path}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise WorldError(f"{path}: not valid TOML (arrays or tables nested too deeply)") from None
     data.setdefault("name", path.stem)
     return world_from_dict(data, source=str(path))
 
 
 def describe_validation_error(exc: ValidationError) -> str:
-    """The first problem in a pydantic error as `field: problem`, readable by a user."""
+    """The first problem in a pydantic error as `field: problem` (or `problem` for the whole), readable by a user."""
     first = exc.errors()[0]
-    where = ".".join(str(part) for part in first["loc"]) or "value"
+    where = field_path(first["loc"])
     message = first["msg"].removeprefix("Value error, ")
-    return f"{where}: {message}"
+    # A check of the whole world (a start in a wall, say) has no field: its message names one.
+    return f"{where}: {message}" if where else message
+
+
+def field_path(loc: tuple[str | int, ...] | list[str | int]) -> str:
+    """A pydantic error location as `world.rewards.C`; a key that would break the line is quoted."""
+    return ".".join(str(part) if str(part).isprintable() else repr(part) for part in loc)

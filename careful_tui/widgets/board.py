@@ -30,9 +30,11 @@ MAX_CELL = (15, 7)
 PLAYER_GLYPH = "●"
 PLAYER_STYLE = Style(color="#ffffff", bold=True)
 SLIP_COLOUR = "#ff9f1c"
+CHECKER_SHADE = 0.82
 # The longest arrow (level L) reaches this many cells beyond the player's centre.
 ARROW_REACH = 1.5
-_SHAFT = {"up": "┃", "down": "┃", "left": "━", "right": "━"}
+# Shafts thicken with the level: thin, heavy, solid.
+_SHAFTS = {"up": "│┃█", "down": "│┃█", "left": "─━▬", "right": "─━▬"}
 _HEAD = {"up": "▲", "down": "▼", "left": "◀", "right": "▶"}
 
 
@@ -51,8 +53,14 @@ def arrow_length(arrow: Arrow, cell_size: tuple[int, int]) -> int:
     vertical = arrow.direction in ("up", "down")
     longest = max(2, round(ARROW_REACH * (h if vertical else w)))
     shortest = 1 if vertical else 2
-    f = 0.5 if arrow.levels <= 1 else min(1.0, max(0.0, (arrow.level - 1) / (arrow.levels - 1)))
-    return shortest + round(f * (longest - shortest))
+    return shortest + round(_fraction(arrow) * (longest - shortest))
+
+
+def _fraction(arrow: Arrow) -> float:
+    """Where the arrow's level lies between 1 (0.0) and L (1.0); 0.5 in a one-level world."""
+    if arrow.levels <= 1:
+        return 0.5
+    return min(1.0, max(0.0, (arrow.level - 1) / (arrow.levels - 1)))
 
 
 @dataclass
@@ -67,6 +75,13 @@ class BoardGrid(WorldGrid):
 
     marks: Mapping[Cell, Mapping[tuple[int, int], Mark]] = field(default_factory=dict)
 
+    def background(self, cell: Cell) -> str:
+        """The symbol's colour, a shade darker on every other cell so that cells can be counted."""
+        colour = super().background(cell)
+        if self.values is None and sum(cell) % 2:
+            return _darker(colour, CHECKER_SHADE)
+        return colour
+
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         for r in range(self.world.rows):
             row = [((r, c), self.cell_lines((r, c))) for c in range(self.world.cols)]
@@ -77,6 +92,11 @@ class BoardGrid(WorldGrid):
                     marks = {j: mark for (k, j), mark in self.marks.get(cell, {}).items() if k == i}
                     yield from _with_marks(segments, marks) if marks else segments
                 yield Segment.line()
+
+
+def _darker(colour: str, factor: float) -> str:
+    r, g, b = (int(colour[i : i + 2], 16) for i in (1, 3, 5))
+    return "#{:02x}{:02x}{:02x}".format(*(round(v * factor) for v in (r, g, b)))
 
 
 def _with_marks(segments, marks: Mapping[int, Mark]):
@@ -104,8 +124,10 @@ def board_marks(world: World, cell_size: tuple[int, int], player: Cell | None, a
         dy, dx = OFFSETS[DIRECTIONS.index(arrow.direction)]
         n = arrow_length(arrow, cell_size)
         style = Style(color=level_colour(arrow.level, arrow.levels), bold=True)
+        shafts = _SHAFTS[arrow.direction]
+        shaft = shafts[min(len(shafts) - 1, int(_fraction(arrow) * len(shafts)))]
         for k in range(1, n + 1):
-            put(cy + dy * k, cx + dx * k, _HEAD[arrow.direction] if k == n else _SHAFT[arrow.direction], style)
+            put(cy + dy * k, cx + dx * k, _HEAD[arrow.direction] if k == n else shaft, style)
     return marks
 
 

@@ -1,0 +1,448 @@
+"""`careful play`: the paper's cliff game, recorded step by step (SPEC sections 2, 4 and 5).
+
+The player moves with the arrow keys and holds a key longer to be more careful. While a key is
+held the gauge fills and the arrow on the player grows; the move is made when the hold ends
+(`careful_tui.hold` infers the end from the autorepeat rhythm, or a kitty release event ends it
+exactly). The rules and the recording live in `irl_core.game`; this module is the screen.
+
+Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
+default), shared by the input detector, the live gauge and the calibration screen. A 30 Hz
+timer runs only while a move is being entered; it calls `PlayApp.tick`, which tests call
+directly after advancing a fake clock.
+
+Recording: the session file (`recordings/<time>-<player>.jsonl`) is created at the first
+move, so a calibration made before anything was played goes into its header. Calibration is
+offered whenever no episode is half played (before an episode's first move or after its end);
+if the file already holds steps, the calibrated profile starts a new session file, whose
+episodes continue the numbering. Quitting (`q`, Ctrl+C, Ctrl+Q, closing the terminal) records
+a running episode that has steps as `quit`; a hold still being entered is not a move and is
+dropped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import getpass
+import os
+import secrets
+import signal
+import sys
+import time
+from datetime import datetime
+from pathlib import Path
+
+from rich.text import Text
+from textual import events
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal, Vertical
+from textual.driver import Driver
+from textual.widgets import Static
+
+from careful_tui.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, format_value
+from careful_tui.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput, make_input
+from careful_tui.kitty import KeyRelease, KittyDriver, key_repeat
+from careful_tui.widgets import Arrow, Board, Gauge, KeyBar
+from careful_tui.widgets.board import SLIP_COLOUR
+from careful_tui.widgets.calibration import CalibrationScreen
+from careful_tui.widgets.gauge import level_colour
+from irl_core.demonstrations import EpisodeEnd, SessionHeader
+from irl_core.game import Game, MoveResult, SessionRecorder, check_writable
+from irl_core.world import World, load_world
+
+FLASH_S = 0.8
+TICK_S = 1 / 30
+GOOD, BAD, NOTE = "#7ee787", "#ff6b6b", "#9ecbff"
+
+
+def outcome_text(end: EpisodeEnd) -> str:
+    """How an episode ended, for a person: "reached the goal", "fell off the cliff", ..."""
+    if end.outcome == "quit":
+        return "quit"
+    if end.outcome == "step_limit":
+        return "ran out of steps"
+    if end.terminal_symbol == "G":
+        return "reached the goal"
+    if end.terminal_symbol == "C":
+        return "fell off the cliff"
+    return f"ended on {SYMBOL_NAMES.get(end.terminal_symbol or '', repr(end.terminal_symbol))}"
+
+
+def legend(world: World) -> Text:
+    """One line naming the world's rewarded symbols: "■ cliff -1000 · ■ goal 100 (ends)"."""
+    text = Text()
+    for symbol, reward in world.rewards.items():
+        if text:
+            text.append(" · ")
+        text.append("■ ", style=SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR))
+        text.append(f"{SYMBOL_NAMES.get(symbol, symbol)} {format_value(reward)}")
+        if symbol in world.terminal:
+            text.append(" (ends)", style="dim")
+    return text
+
+
+def minimum_size(world: World) -> tuple[int, int]:
+    """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
+    gauge_width = len(str(world.levels)) + 1 + 6 + 1 + len(format_value(-world.cost_per_level * world.levels)) + 2
+    width = (gauge_width + 5) + (world.cols * 7 + 2)
+    height = 2 + max(world.levels + 2, world.rows * 3 + 2 + 3)
+    return width, height
+
+
+class PlayApp(App[None]):
+    """The play screen. Build it with `make_play_app`, which the CLI and the tests share."""
+
+    CSS_PATH = "play.tcss"
+    TITLE = "careful play"
+    ENABLE_COMMAND_PALETTE = False
+    BINDINGS = [
+        Binding("ctrl+c", "quit_game", "quit", priority=True, show=False),
+        Binding("ctrl+q", "quit_game", "quit", priority=True, show=False),
+        Binding("q", "quit_game", "quit", priority=True, show=False),
+    ]
+
+    def __init__(
+        self,
+        game: Game,
+        recorder: SessionRecorder,
+        *,
+        input_mode: str = "hold",
+        profile: HoldProfile | None = None,
+        clock: Clock = time.monotonic,
+        calibrate: bool = False,
+        player: str = "player",
+        driver_class: type[Driver] | None = None,
+    ) -> None:
+        super().__init__(driver_class=driver_class)
+        self.game = game
+        self.recorder = recorder
+        self.world = game.world
+        self.clock = clock
+        self.player = player
+        self.input_mode = input_mode
+        self.profile = profile or HoldProfile(levels=self.world.levels)
+        self.input: MoveInput = make_input(input_mode, self.profile, clock=clock)
+        self.releases_seen = False
+        self.last_move: MoveResult | None = None
+        self.message = Text()
+        self._calibrate_at_start = calibrate
+        self._last_key_at: float | None = None
+        self._shown_view: tuple | None = None
+        self._too_small = False
+
+    # ------------------------------------------------------------------ layout
+
+    def compose(self) -> ComposeResult:
+        yield Static(id="title")
+        with Horizontal(id="main"):
+            with Vertical(id="side"):
+                gauge = Gauge(self.game.costs(), id="gauge")
+                gauge.border_title = "carefulness"
+                yield gauge
+                yield Static(id="hold-info")
+            with Vertical(id="right"):
+                board = Board(self.world, id="board")
+                board.border_title = f"{self.world.name} · {self.world.levels} levels · slip {self.world.slip}"
+                board.border_subtitle = legend(self.world)
+                yield board
+                yield Static(id="status")
+        yield Static(id="too-small")
+        yield KeyBar(id="keys")
+
+    def on_mount(self) -> None:
+        self._ticker = self.set_interval(TICK_S, self.tick, pause=True)
+        self.game.begin_episode()
+        self._check_size(*self.size)
+        self._refresh_all()
+        if not self.is_headless:
+            loop = asyncio.get_running_loop()
+            for sig in (signal.SIGHUP, signal.SIGTERM):
+                loop.add_signal_handler(sig, self.action_quit_game)
+        if self._calibrate_at_start:
+            self.action_calibrate()
+
+    def on_unmount(self) -> None:
+        self.record_quit()
+
+    def on_resize(self, event: events.Resize) -> None:
+        self._check_size(event.size.width, event.size.height)
+
+    def _check_size(self, width: int, height: int) -> None:
+        need_w, need_h = minimum_size(self.world)
+        self._too_small = width < need_w or height < need_h
+        self.screen.set_class(self._too_small, "-too-small")
+        self.query_one(KeyBar).show(self._keys())
+        if self._too_small:
+            self.query_one("#too-small", Static).update(Text(
+                f"The terminal is {width}x{height}; careful play needs {need_w}x{need_h}.\n"
+                "Make the window larger (q quits).", justify="center"))
+
+    # ------------------------------------------------------------------ input
+
+    def on_key(self, event: events.Key) -> None:
+        key = event.key
+        if key in self.input.keys:
+            event.stop()
+            event.prevent_default()
+            if self.game.live and not self._too_small:
+                self._last_key_at = self.clock()
+                self._commit(self.input.press(key, repeat=key_repeat(event)))
+                self._refresh_live()
+                if self.input.deadline() is not None or self.input.current() is not None:
+                    self._ticker.resume()
+        elif key in ("space", "enter") and not self.game.live:
+            event.stop()
+            self.game.begin_episode()
+            self.message = Text()
+            self._refresh_all()
+        elif key == "c":
+            event.stop()
+            self.action_calibrate()
+
+    def on_key_release(self, event: KeyRelease) -> None:
+        if event.key in self.input.keys:
+            self.releases_seen = True
+            self._commit(self.input.release(event.key))
+            self._refresh_live()
+
+    def tick(self) -> None:
+        """Commit a hold whose release timeout has passed and redraw the live gauge and arrow."""
+        self._commit(self.input.poll())
+        self._refresh_live()
+        if self.input.current() is None and self.input.deadline() is None:
+            self._ticker.pause()
+
+    def _commit(self, holds: list[Hold]) -> None:
+        for hold in holds:
+            if not self.game.live:
+                break
+            result = self.game.move(hold.key, hold.level, hold_ms=hold.hold_ms, exact=hold.exact)
+            self.last_move = result
+            self._show_move(result)
+            if result.end is not None:
+                self.input.reset()
+        if holds:
+            self._refresh_all()
+
+    # ------------------------------------------------------------------ actions
+
+    def action_quit_game(self) -> None:
+        self.record_quit()
+        self.exit()
+
+    def action_quit(self) -> None:
+        self.action_quit_game()
+
+    def record_quit(self) -> None:
+        """End a running episode as `quit` and close the file (safe to call more than once)."""
+        self.input.reset()
+        self.game.quit()
+        self.recorder.close()
+
+    def action_calibrate(self) -> None:
+        if self.game.live and self.game.t > 0:
+            self.notify("Calibrate before an episode's first move or after it ends.", title="calibrate")
+            return
+        self.input.reset()
+        self.push_screen(CalibrationScreen(self.profile, clock=self.clock), self.use_profile)
+
+    def use_profile(self, profile: HoldProfile | None) -> None:
+        """Play on with `profile` (a calibration's result); None keeps the current one."""
+        if profile is None:
+            return
+        self.profile = profile
+        self.input = make_input(self.input_mode, profile, clock=self.clock)
+        self.recorder.set_header(self.recorder.header.model_copy(update={"input": self.input.header()}))
+        self.message = Text(f"Calibrated: autorepeat after {profile.initial_delay_ms:.0f} ms, "
+                            f"every {profile.repeat_period_ms:.0f} ms.", style=NOTE)
+        self._refresh_all()
+
+    # ------------------------------------------------------------------ drawing
+
+    def _show_move(self, result: MoveResult) -> None:
+        step = result.step
+        board = self.query_one(Board)
+        if result.slipped:
+            self.message = Text.assemble(("slipped! ", f"bold {SLIP_COLOUR}"),
+                                         f"you went {result.realised} instead of {step.direction}")
+            board.highlight = {step.next_state: SLIP_COLOUR}
+            self.set_timer(FLASH_S, self._end_flash)
+        else:
+            self.message = Text()
+            board.highlight = {}
+        if result.end is not None:
+            end = result.end
+            good = end.terminal_symbol == "G"
+            self.message.append(("  " if self.message else "") + outcome_text(end).capitalize() + "!",
+                                style=f"bold {GOOD if good else BAD}")
+            self.message.append(f" Score {format_value(end.score)}.")
+
+    def _end_flash(self) -> None:
+        self.query_one(Board).highlight = {}
+
+    def _live_view(self, current: ActiveHold) -> tuple[int, float, float]:
+        """(level, gauge fill, hold ms shown) of the move being entered.
+
+        In hold mode without release events a hold with no autorepeat yet is a tap (level 1)
+        and a hold shows no more than one repeat period past its last key event, so the
+        gauge never shows a level the move will not get.
+        """
+        if self.input_mode != "hold":
+            return current.level, float(current.level), current.elapsed_ms
+        p = self.profile
+        shown_ms = current.elapsed_ms
+        if not self.releases_seen:
+            if current.repeats == 0:
+                return 1, 1 + 0.9 * min(1.0, shown_ms / p.initial_delay_ms), shown_ms
+            if self._last_key_at is not None:
+                started = self.clock() - current.elapsed_ms / 1000
+                shown_ms = min(shown_ms, (self._last_key_at - started) * 1000 + p.repeat_period_ms)
+        level = p.level_for(shown_ms)
+        if shown_ms < p.initial_delay_ms:
+            fill = 1 + shown_ms / p.initial_delay_ms
+        else:
+            fill = 2 + (shown_ms - p.initial_delay_ms) / p.ms_per_level
+        return level, min(fill, level + 0.999, float(p.levels)), shown_ms
+
+    def _refresh_live(self) -> None:
+        """Redraw the gauge, the arrow and the hold's numbers, if they changed."""
+        current = self.input.current()
+        view = None if current is None else (current.key, *self._live_view(current))
+        if view == self._shown_view and current is not None:
+            return
+        self._shown_view = view
+        gauge = self.query_one(Gauge)
+        board = self.query_one(Board)
+        info = self.query_one("#hold-info", Static)
+        if current is None:
+            gauge.level, gauge.fill, board.arrow = None, 0.0, None
+            gauge.border_subtitle = ""
+            info.update(self._idle_info())
+            return
+        level, fill, shown_ms = view[1:]
+        gauge.level, gauge.fill = level, fill
+        board.arrow = None if current.key is None else Arrow(current.key, fill, self.world.levels)
+        gauge.border_subtitle = f"{shown_ms:.0f} ms" if self.input_mode == "hold" else ""
+        cost = self.world.cost_per_level * level
+        info.update(Text.assemble(
+            ("level ", "dim"), (f"{level}", f"bold {level_colour(level, self.world.levels)}"),
+            ("  cost ", "dim"), (format_value(cost), "bold"),
+        ))
+
+    def _idle_info(self) -> Text:
+        if self.last_move is None:
+            return Text("hold longer:\nmore careful", style="dim")
+        step = self.last_move.step
+        text = Text.assemble(("last move\n", "dim"), (f"{step.direction} ", "bold"),
+                             (f"level {step.carefulness}", f"bold {level_colour(step.carefulness, self.world.levels)}"))
+        if step.hold_ms is not None and self.input_mode == "hold":
+            text.append(f"\n{step.hold_ms:.0f} ms" + (" (exact)" if step.hold_exact else ""), style="dim")
+        return text
+
+    def _refresh_all(self) -> None:
+        game = self.game
+        board = self.query_one(Board)
+        board.player = game.cell
+        self._refresh_live()
+
+        path = self.recorder.path
+        where = str(path) if path is not None else f"{self.recorder.folder}{os.sep}"
+        self.query_one("#title", Static).update(Text.assemble(
+            ("careful play", f"bold {NOTE}"), " · player ", (self.player, "bold"),
+            f" · {self.input_mode} input", (f" · recording → {where}", "dim"),
+        ))
+
+        status = Text()
+        status.append(f"Episode {game.episode + 1}", style="bold")
+        status.append(f"   step {game.t}/{self.world.max_steps}   score ", style="dim")
+        status.append(format_value(game.score), style=f"bold {GOOD if game.score >= self.world.initial_score else '#ffd54f'}")
+        status.append("\n")
+        if game.last_end is not None:
+            end = game.last_end
+            good = end.terminal_symbol == "G"
+            status.append(f"Last episode ({end.episode + 1}): ", style="dim")
+            status.append(outcome_text(end), style=GOOD if good else BAD)
+            status.append(f", score {format_value(end.score)}", style="dim")
+        else:
+            status.append("Reach the goal; don't fall off the cliff.", style="dim")
+        status.append("\n")
+        status.append_text(self.message)
+        self.query_one("#status", Static).update(status)
+        self.query_one(KeyBar).show(self._keys())
+
+    def _keys(self) -> list[tuple[str, str]]:
+        if self._too_small:
+            return [("q", "quit")]
+        if not self.game.live:
+            return [("space", "next episode"), ("c", "calibrate"), ("q", "quit")]
+        moves = {
+            "hold": [("←↑→↓", "move"), ("hold", "more careful (costs more)")],
+            "tap": [("←↑→↓", "move"), ("tap ×k", "level k")],
+            "digits": [("1-9", f"level 1-{self.world.levels}"), ("←↑→↓", "move"), ("⌫", "fix")],
+        }[self.input_mode]
+        extra = [("c", "calibrate")] if self.game.t == 0 else []
+        return [*moves, *extra, ("q", "quit")]
+
+
+def make_play_app(
+    world: World,
+    *,
+    out: str | Path,
+    player: str,
+    seed: int,
+    input_mode: str = "hold",
+    clock: Clock = time.monotonic,
+    calibrate: bool = False,
+    driver_class: type[Driver] | None = None,
+) -> PlayApp:
+    """The play app, recording to a new file in `out` (the CLI and the tests both build it here)."""
+    from careful_tui.cli import app_version
+
+    profile = HoldProfile(levels=world.levels)
+    header = SessionHeader(
+        world=world,
+        player=player,
+        created=datetime.now().astimezone(),
+        seed=seed,
+        input=make_input(input_mode, profile, clock=clock).header(),
+        app_version=app_version(),
+    )
+    recorder = SessionRecorder(out, header)
+    game = Game(world, seed=seed, sink=recorder)
+    return PlayApp(game, recorder, input_mode=input_mode, profile=profile, clock=clock,
+                   calibrate=calibrate, player=player, driver_class=driver_class)
+
+
+def default_player() -> str:
+    try:
+        return getpass.getuser() or "player"
+    except (KeyError, OSError):
+        return "player"
+
+
+def run_play(args: argparse.Namespace) -> int:
+    """`careful play`: check the world and the recordings folder, then play."""
+    from careful_tui.cli import UsageError
+
+    world = load_world(args.world)
+    try:
+        check_writable(args.out)
+    except OSError as exc:
+        raise UsageError(f"cannot write recordings to {args.out} ({exc.strerror or exc}); "
+                         "choose a writable folder with --out") from None
+    if not (sys.stdin.isatty() and sys.stdout.isatty()):
+        raise UsageError("careful play needs an interactive terminal")
+    seed = args.seed if args.seed is not None else secrets.randbelow(2**32)
+    player = args.player or default_player()
+    app = make_play_app(world, out=args.out, player=player, seed=seed, input_mode=args.input,
+                        calibrate=args.calibrate, driver_class=KittyDriver)
+    try:
+        app.run()
+    finally:
+        app.record_quit()
+    for path in app.recorder.paths:
+        print(f"recorded to {path}")
+    if not app.recorder.paths:
+        print("nothing was played, so nothing was recorded")
+    return 0

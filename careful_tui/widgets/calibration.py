@@ -1,0 +1,125 @@
+"""The calibration screen: "hold an arrow for 2 seconds" measures the keyboard's autorepeat.
+
+It feeds every arrow press and autorepeat to `careful_tui.hold.Calibration` and ends the
+attempt at the key's release (a kitty release event, or a silence longer than
+`SILENCE_S`). It returns the calibrated `HoldProfile`, or None when cancelled.
+"""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual import events
+from textual.app import ComposeResult
+from textual.containers import Vertical
+from textual.screen import ModalScreen
+from textual.widgets import Static
+
+from careful_tui.hold import DIRECTIONS, Calibration, Clock, HoldProfile
+from careful_tui.kitty import KeyRelease
+
+HOLD_S = 2.0
+SILENCE_S = 0.4
+BAR_WIDTH = 30
+
+
+class CalibrationScreen(ModalScreen[HoldProfile | None]):
+    """Measure the autorepeat initial delay and period from one long hold of an arrow."""
+
+    def __init__(self, base: HoldProfile, *, clock: Clock) -> None:
+        super().__init__()
+        self.base = base
+        self._clock = clock
+        self._calibration = Calibration(base)
+        self._first: float | None = None
+        self._last: float | None = None
+        self._result: HoldProfile | None = None
+        self._problem: str | None = None
+        self._shown: tuple | None = None
+
+    def compose(self) -> ComposeResult:
+        with Vertical(id="calibration-box") as box:
+            box.border_title = "calibrate"
+            yield Static(id="calibration-text")
+
+    def on_mount(self) -> None:
+        self._ticker = self.set_interval(1 / 20, self.tick)
+        self._show()
+
+    def on_key(self, event: events.Key) -> None:
+        event.stop()
+        event.prevent_default()
+        key = event.key
+        if key == "escape":
+            self.dismiss(None)
+        elif key == "enter" and self._result is not None:
+            self.dismiss(self._result)
+        elif key == "r":
+            self._restart()
+        elif key in DIRECTIONS and self._result is None and self._problem is None:
+            now = self._clock()
+            if self._first is None:
+                self._first = now
+            self._last = now
+            self._calibration.feed(key, now)
+            self._show()
+
+    def on_key_release(self, event: KeyRelease) -> None:
+        event.stop()
+        if event.key in DIRECTIONS and self._first is not None and self._result is None:
+            self._finish()
+
+    def tick(self) -> None:
+        """End the attempt once the key has been silent for `SILENCE_S`; redraw the progress."""
+        if self._last is not None and self._result is None and self._problem is None:
+            if self._clock() - self._last >= SILENCE_S:
+                self._finish()
+            else:
+                self._show()
+
+    def _finish(self) -> None:
+        try:
+            self._result = self._calibration.result()
+        except ValueError as exc:
+            self._problem = str(exc)
+        self._show()
+
+    def _restart(self) -> None:
+        self._calibration = Calibration(self.base)
+        self._first = self._last = self._result = self._problem = None
+        self._show()
+
+    def _show(self) -> None:
+        held = 0.0 if self._first is None else self._clock() - self._first
+        state = (round(held, 1), self._calibration.repeats, self._result, self._problem)
+        if state == self._shown:
+            return
+        self._shown = state
+        text = Text()
+        if self._result is not None:
+            p = self._result
+            text.append("Measured.\n\n", style="bold #7ee787")
+            text.append(f"Autorepeat starts after {p.initial_delay_ms:.0f} ms and repeats every "
+                        f"{p.repeat_period_ms:.0f} ms.\nA hold shorter than {p.initial_delay_ms:.0f} ms is level 1; "
+                        f"each {p.ms_per_level:.0f} ms more is one level more.\n\n")
+            text.append(" enter ", style="bold #101418 on #9ecbff")
+            text.append(" use it   ")
+            text.append(" r ", style="bold #101418 on #9ecbff")
+            text.append(" again   ")
+            text.append(" esc ", style="bold #101418 on #9ecbff")
+            text.append(" keep the current timing")
+        elif self._problem is not None:
+            text.append(f"{self._problem[0].upper()}{self._problem[1:]}.\n\n", style="bold #ff9f1c")
+            text.append(" r ", style="bold #101418 on #9ecbff")
+            text.append(" try again   ")
+            text.append(" esc ", style="bold #101418 on #9ecbff")
+            text.append(" cancel")
+        else:
+            text.append("Hold any arrow key down for 2 seconds, then let go.\n\n", style="bold")
+            filled = round(BAR_WIDTH * min(1.0, held / HOLD_S))
+            text.append(" " * filled, style="on #4fc3f7")
+            text.append(" " * (BAR_WIDTH - filled), style="on #262b33")
+            text.append(f"  {held:.1f} s   {self._calibration.repeats} repeats\n\n")
+            text.append("This measures your keyboard's autorepeat, so that levels count from it.\n", style="dim")
+            text.append(" esc ", style="bold #101418 on #9ecbff")
+            text.append(" cancel")
+        self.query_one("#calibration-text", Static).update(text)

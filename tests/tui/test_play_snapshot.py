@@ -1,0 +1,39 @@
+"""How the play screen looks mid-hold: gauge part-filled, arrow grown (an SVG snapshot).
+
+Update the snapshot after an intended change with `pytest tests/tui --snapshot-update`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from textual.pilot import Pilot
+
+from careful_tui.play import make_play_app
+from irl_core.world import load_world
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 50.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_play_screen_mid_hold(snap_compare) -> None:
+    clock = FakeClock()
+    # A relative folder that is never created: nothing is played, so nothing is recorded.
+    app = make_play_app(load_world("paper"), out=Path("never-created"), player="snapshot", seed=4, clock=clock)
+
+    async def hold_right(pilot: Pilot) -> None:
+        await pilot.press("right")
+        clock.now += 0.5
+        for _ in range(26):
+            await pilot.press("right")
+            clock.now += 0.033
+        app.tick()
+        await pilot.pause()
+
+    assert snap_compare(app, run_before=hold_right, terminal_size=(100, 35))
+    assert app.game.t == 0 and not Path("never-created").exists()
