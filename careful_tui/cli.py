@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 
 from irl_core.demonstrations import RecordingError
 from irl_core.world import WorldError
@@ -112,13 +113,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return COMMANDS[args.command](args) or EXIT_OK
     except (UsageError, WorldError, RecordingError) as exc:
-        err.print(f"[bold red]careful {args.command}:[/] {exc}", markup=True, soft_wrap=True)
+        err.print(f"[bold red]careful {args.command}:[/] {escape(str(exc))}", soft_wrap=True)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         err.print(f"careful {args.command}: interrupted")
         return EXIT_FAILURE
     except Exception as exc:  # noqa: BLE001 - the last line of defence: no traceback reaches a user
-        err.print(f"[bold red]careful {args.command}: unexpected error:[/] {type(exc).__name__}: {exc}", soft_wrap=True)
+        err.print(f"[bold red]careful {args.command}: unexpected error:[/] {type(exc).__name__}: {escape(str(exc))}",
+                  soft_wrap=True)
         err.print("Please report this with the command you ran.")
         return EXIT_FAILURE
 
@@ -195,4 +197,8 @@ COMMANDS = {
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # Run the imported module's main, not this __main__ copy: command modules raise
+    # careful_tui.cli.UsageError, which must be the class main() catches.
+    from careful_tui.cli import main as _main
+
+    sys.exit(_main())

@@ -157,8 +157,8 @@ class PlayApp(App[None]):
         self._refresh_all()
         if not self.is_headless:
             loop = asyncio.get_running_loop()
-            for sig in (signal.SIGHUP, signal.SIGTERM):
-                loop.add_signal_handler(sig, self.action_quit_game)
+            loop.add_signal_handler(signal.SIGHUP, self.hang_up)
+            loop.add_signal_handler(signal.SIGTERM, self.action_quit_game)
         if self._calibrate_at_start:
             self.action_calibrate()
 
@@ -234,6 +234,16 @@ class PlayApp(App[None]):
     def action_quit(self) -> None:
         self.action_quit_game()
 
+    def hang_up(self) -> None:
+        """The terminal was closed: record the quit and leave at once.
+
+        Textual's orderly exit writes to the terminal to restore it, and with the terminal gone
+        that write blocks forever, so after the recording is safely on disk the process ends
+        without it (exit status 129, as for a hang-up).
+        """
+        self.record_quit()
+        os._exit(128 + signal.SIGHUP)
+
     def record_quit(self) -> None:
         """End a running episode as `quit` and close the file (safe to call more than once)."""
         self.input.reset()
@@ -271,12 +281,6 @@ class PlayApp(App[None]):
         else:
             self.message = Text()
             board.highlight = {}
-        if result.end is not None:
-            end = result.end
-            good = end.terminal_symbol == "G"
-            self.message.append(("  " if self.message else "") + outcome_text(end).capitalize() + "!",
-                                style=f"bold {GOOD if good else BAD}")
-            self.message.append(f" Score {format_value(end.score)}.")
 
     def _end_flash(self) -> None:
         self.query_one(Board).highlight = {}
@@ -354,20 +358,31 @@ class PlayApp(App[None]):
         ))
 
         status = Text()
-        status.append(f"Episode {game.episode + 1}", style="bold")
-        status.append(f"   step {game.t}/{self.world.max_steps}   score ", style="dim")
-        status.append(format_value(game.score), style=f"bold {GOOD if game.score >= self.world.initial_score else '#ffd54f'}")
-        status.append("\n")
-        if game.last_end is not None:
-            end = game.last_end
-            good = end.terminal_symbol == "G"
-            status.append(f"Last episode ({end.episode + 1}): ", style="dim")
-            status.append(outcome_text(end), style=GOOD if good else BAD)
-            status.append(f", score {format_value(end.score)}", style="dim")
+        if game.live or game.last_end is None:
+            status.append(f"Episode {game.episode + 1}", style="bold")
+            status.append(f"   step {game.t}/{self.world.max_steps}   score ", style="dim")
+            status.append(format_value(game.score), style="bold " + (GOOD if game.score >= self.world.initial_score else "#ffd54f"))
+            status.append("\n")
+            if game.last_end is not None:
+                end = game.last_end
+                status.append(f"Last episode ({end.episode + 1}): ", style="dim")
+                status.append(outcome_text(end), style=GOOD if end.terminal_symbol == "G" else BAD)
+                status.append(f", score {format_value(end.score)}", style="dim")
+            else:
+                status.append("Reach the goal; don't fall off the cliff.", style="dim")
+            status.append("\n")
+            status.append_text(self.message)
         else:
-            status.append("Reach the goal; don't fall off the cliff.", style="dim")
-        status.append("\n")
-        status.append_text(self.message)
+            end = game.last_end
+            colour = GOOD if end.terminal_symbol == "G" else BAD
+            status.append(f"Episode {end.episode + 1}: ", style="bold")
+            status.append(f"{outcome_text(end)}!", style=f"bold {colour}")
+            status.append("   score ", style="dim")
+            status.append(format_value(end.score), style=f"bold {colour}")
+            status.append("\n")
+            status.append_text(self.message)
+            status.append("\n")
+            status.append("Press space for the next episode.", style="dim")
         self.query_one("#status", Static).update(status)
         self.query_one(KeyBar).show(self._keys())
 

@@ -29,6 +29,7 @@ MIN_CELL = (7, 3)
 MAX_CELL = (15, 7)
 PLAYER_GLYPH = "●"
 PLAYER_STYLE = Style(color="#ffffff", bold=True)
+PLAYER_FRAME = "#aab8c8"
 SLIP_COLOUR = "#ff9f1c"
 CHECKER_SHADE = 0.82
 # The longest arrow (level L) reaches this many cells beyond the player's centre.
@@ -141,7 +142,8 @@ class Board(Widget):
     Reactives:
         player: the player's cell, or None.
         arrow: the move being chosen, drawn from the player, or None.
-        highlight: cells to frame in a colour (a slip), {cell: "#rrggbb"}.
+        highlight: cells to frame in a colour (a slip), {cell: "#rrggbb"}; the player's cell is
+            framed in `PLAYER_FRAME` unless highlighted.
     """
 
     player: reactive[Cell | None] = reactive(None)
@@ -179,12 +181,13 @@ class Board(Widget):
     def grid(self) -> BoardGrid:
         """The renderable for the current state (also usable outside Textual)."""
         w, h = self.cell_size()
+        frames = {} if self.player is None else {self.player: PLAYER_FRAME}
         return BoardGrid(
             self.world,
             values=self.values,
             scale=self.scale,
             labels=self.labels,
-            highlight=self.highlight,
+            highlight={**frames, **self.highlight},
             cell_width=w,
             cell_height=h,
             marks=board_marks(self.world, (w, h), self.player, self.arrow),

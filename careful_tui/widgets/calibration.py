@@ -99,8 +99,8 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
             p = self._result
             text.append("Measured.\n\n", style="bold #7ee787")
             text.append(f"Autorepeat starts after {p.initial_delay_ms:.0f} ms and repeats every "
-                        f"{p.repeat_period_ms:.0f} ms.\nA hold shorter than {p.initial_delay_ms:.0f} ms is level 1; "
-                        f"each {p.ms_per_level:.0f} ms more is one level more.\n\n")
+                        f"{p.repeat_period_ms:.0f} ms.\nHolds under {p.initial_delay_ms:.0f} ms are level 1; "
+                        f"every {p.ms_per_level:.0f} ms more adds a level.\n\n")
             text.append(" enter ", style="bold #101418 on #9ecbff")
             text.append(" use it   ")
             text.append(" r ", style="bold #101418 on #9ecbff")

@@ -9,33 +9,39 @@ pi(s, a), the demonstrated action frequencies, and minimises
 
 subject to |R_S| <= rmax and (SPEC section 3) V(s) = sum_a pi(s, a) Q(s, a) at demonstrated
 s, V(s) >= Q(s, a) at every other non-terminal s, V(s) = R_S(s) at terminal cells and
-V(exit) = 0 (the same affine Q as the lp, `qmap`, and the same value bound). z_s <= 0 when
-the most frequent action has the largest Q; each term is 1 then and grows exponentially
-with the evidence against the reward.
+V(exit) = 0: the same affine Q (`qmap`) and value bound as the lp. z_s <= 0 when the most
+frequent action has the largest Q; each term is then 1, and it grows exponentially with
+the evidence against the reward.
 
-Convexity (DCP): Q is affine in x = [theta; V]; max_{a' != a} Q(s, a') is convex (we write
-it as an epigraph variable m_{s,a} >= Q(s, a') for each demonstrated pair); a non-negative
-combination minus an affine term is convex; ReLU (cvxpy ``pos``) of a convex function is
-convex; exp is convex and non-decreasing, so exp(ReLU(z_s)) is convex. `loss_problem`
-builds exactly this, and cvxpy accepts it.
+Convexity (DCP). Q is affine in x = [theta; V]; max_{a' != a} Q(s, a') is convex (an
+epigraph variable m_{s,a} >= Q(s, a') per demonstrated pair); a non-negative combination
+minus an affine term is convex; ReLU of a convex function is convex; exp is convex and
+non-decreasing. `loss_problem` states exactly this in cvxpy, which accepts it as DCP.
 
-Robustness. Q differences are in reward units (hundreds), so exp(z) overflows long before
-a solver could use it. Three steps keep every exponential small without changing the answer:
+Solving it. Through cvxpy the exponential cones go to Clarabel or SCS. On the paper's
+world Clarabel stops with "insufficient progress" on most instances (the 14 carefulness
+levels give nearly parallel rows Q(s, (d, c)), which its exponential-cone steps do not
+survive; with one level it nearly always succeeds), and SCS needs seconds to tens of
+seconds for 4-6 digits. So `fit_loss` solves the same convex problem exactly by outer
+approximation with HiGHS: with r_s >= z_s, r_s >= 0, the objective sum_s exp(r_s) is
+separable and one-dimensional per state, and each exp is replaced by its tangents
+w_s >= e^rho (1 + r_s - rho). Every round solves the LP (from the previous basis), adds a
+tangent at each r_s where the cut is loose, and stops when the LP's value (a lower bound
+on the optimum) and sum exp(r_s) at its solution (an upper bound) agree to 1e-9. Nothing
+is exponentiated beyond the data's own scale:
 
-1. Minimise log sum_s exp(ReLU(z_s)) instead (for lambda = 0). log is increasing, so the
-   minimisers are the same; cvxpy writes log-sum-exp <= tau as sum exp(v - tau) <= 1, whose
-   exponents are <= 0 at every feasible point. Its value is tau* = log L*.
-2. With lambda > 0, minimise exp(tau - tau*) + lambda e^-tau* ||R_S||_1 with
-   tau >= log-sum-exp(ReLU(z)): the true objective divided by the constant L*, so the same
-   minimisers, with exponents near 0.
-3. Many rewards often minimise the loss equally (every reward that makes each demonstrated
-   action the best one reaches the floor L = number of demonstrated states). To make the
-   answer reproducible a second, lexicographic stage keeps the first stage's objective within
-   a relative 1e-6 of its optimum and picks the reward of smallest weighted ||R_S||_1 (plus
-   1e-6 of a squared norm, which makes the choice unique). When the two stages' rewards
-   differ, the result says the minimiser is not unique.
+* the first LP (the tangent at 0: minimise sum ReLU(z_s)) gives a feasible point whose
+  loss U0 bounds the optimum, so at the optimum every ReLU(z_s) <= log U0; this cap on
+  r_s is added to the LP (it removes no minimiser) and bounds every tangent's slope by U0;
+* tangent rows are written as r_s - e^-rho w_s <= rho - 1, coefficients in [1/U0, 1].
 
-Solver: Clarabel (interior point, exponential cones), SCS if Clarabel fails.
+Many rewards often minimise the loss equally (for clean demonstrations, every reward that
+makes each demonstrated action the best reaches the floor L = number of demonstrated
+states). To make the answer reproducible a second, lexicographic stage keeps the loss
+within a relative 1e-9 of its minimum and picks the reward with the smallest weighted
+||R_S||_1 (the paper's sparsity preference). Whether the minimiser is unique is then
+checked directly: a fixed generic linear function of R_S is minimised and maximised over
+the same optimal set; if the two differ, the result says "not unique".
 """
 
 from __future__ import annotations
@@ -46,51 +52,62 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
+from irl_core.irl.lp import HighsLP
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import SolverError
 
-# The second stage may spend this much (relative) of the first stage's optimum.
-LEXICOGRAPHIC_SLACK = 1e-6
-# Weight of the squared norm that makes the second stage's minimiser unique.
-TIE_BREAK = 1e-6
-# Two unknowns differing by more than this (relative to rmax) count as different rewards.
-UNIQUE_TOLERANCE = 1e-3
-SOLVERS = ("CLARABEL", "SCS")
+# Relative agreement of the lower and upper bounds that ends the outer approximation
+# (HiGHS's own feasibility tolerance is 1e-7, so the LP value is good to about 1e-8).
+GAP_TOLERANCE = 1e-8
+# A tangent is added where exp(r_s) exceeds w_s by more than this (relative).
+CUT_TOLERANCE = 1e-9
+# Once the LP value stops moving, a gap up to this is accepted as the LP's noise floor.
+STALL_TOLERANCE = 1e-6
+MAX_ROUNDS = 500
+# Two optimal rewards differing by more than this (relative to rmax) make the answer not unique.
+UNIQUE_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
-class LossModel:
-    """The loss agent's variables and affine pieces, as cvxpy expressions.
+class LossConstraints:
+    """The loss agent's constraints and z_s, over y = [x (n); m (K)], x = [theta; V].
+
+    row_lower <= A y <= row_upper, lower <= y <= upper; z = Z y + z0 (d,), where m_j >=
+    max_{a' != a_j} Q(s_j, a') for each demonstrated pair j (the epigraph rows are in A).
 
     Attributes:
-        x: variable (k + S,) = [theta; V].
-        m: variable (K,), m_k >= max_{a' != a_k} Q(s_k, a') for each demonstrated pair k.
-        z: expression (d,), z_s per demonstrated state.
-        constraints: the feasible set (values, bounds and the epigraph of m).
-        l1: expression, the weighted ||R_S||_1 = weight @ |theta|.
+        demonstrated: (d,) demonstrated states.
+        pairs: (K, 2) demonstrated (state, action) pairs.
     """
 
     qmap: QMap
     frequencies: np.ndarray
-    x: cp.Variable
-    m: cp.Variable
-    z: cp.Expression
-    constraints: list[cp.Constraint]
-    l1: cp.Expression
+    demonstrated: np.ndarray
+    pairs: np.ndarray
+    A: sp.csr_matrix
+    row_lower: np.ndarray
+    row_upper: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    Z: sp.csr_matrix
+    z0: np.ndarray
 
 
-def loss_model(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> LossModel:
-    """Variables and constraints for demonstrated frequencies pi (S, A) (rows of 0: not demonstrated)."""
+def loss_constraints(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> LossConstraints:
+    """The constraints for demonstrated frequencies pi (S, A) (rows of 0: not demonstrated)."""
     mdp = qmap.mdp
     S, A, k, n = mdp.n_states, mdp.n_actions, qmap.k, qmap.n
     pi = np.asarray(frequencies, dtype=float)
     shown = pi.sum(axis=1) > 0
+    if np.any(shown & ~mdp.nonterminal):
+        raise ValueError("frequencies are given at a terminal state or the exit")
     d = np.flatnonzero(shown)
+    pair_s, pair_a = np.nonzero(pi > 0)
+    K = pair_s.size
 
-    # V(s) >= Q(s, a) at non-terminal, non-demonstrated s.
-    free = np.flatnonzero(mdp.nonterminal & ~shown)
-    rows_q, q0 = qmap.rows(np.repeat(free, A), np.tile(np.arange(A), free.size))
-    better = rows_q - qmap.value_selector(np.repeat(free, A))
+    def with_m(rows_x: sp.spmatrix, rows_m: sp.spmatrix | None = None) -> sp.csr_matrix:
+        rows_m = sp.csr_matrix((rows_x.shape[0], K)) if rows_m is None else rows_m
+        return sp.hstack([rows_x, rows_m], format="csr")
 
     # V(s) = sum_a pi(s, a) Q(s, a) at demonstrated s.
     weights = sp.csr_matrix(
@@ -98,121 +115,274 @@ def loss_model(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> LossModel
         shape=(d.size, S * A),
     )
     average = qmap.value_selector(d) - weights @ qmap.M
-
-    # Demonstrated pairs (s_k, a_k) and the epigraph m_k >= Q(s_k, a') for a' != a_k.
-    pair_s, pair_a = np.nonzero(pi > 0)
-    K = pair_s.size
-    others = np.tile(np.arange(A), K) != np.repeat(pair_a, A)
-    rows_o, q0_o = qmap.rows(np.repeat(pair_s, A)[others], np.tile(np.arange(A), K)[others])
+    # V(s) >= Q(s, a) at non-terminal, non-demonstrated s.
+    free = np.flatnonzero(mdp.nonterminal & ~shown)
+    rows_free, q0_free = qmap.rows(np.repeat(free, A), np.tile(np.arange(A), free.size))
+    better = rows_free - qmap.value_selector(np.repeat(free, A))
+    # m_j >= Q(s_j, a') for a' != a_j.
+    other = np.tile(np.arange(A), K) != np.repeat(pair_a, A)
+    rows_o, q0_o = qmap.rows(np.repeat(pair_s, A)[other], np.tile(np.arange(A), K)[other])
     pick_m = sp.csr_matrix(
-        (np.ones(int(others.sum())), (np.arange(int(others.sum())), np.repeat(np.arange(K), A)[others])), shape=(others.sum(), K)
+        (np.ones(int(other.sum())), (np.arange(int(other.sum())), np.repeat(np.arange(K), A)[other])),
+        shape=(int(other.sum()), K),
     )
-
-    # z_s = sum_k pi_k (m_k - Q(s_k, a_k)), summed per demonstrated state.
-    state_row = np.searchsorted(d, pair_s)
-    pair_weight = pi[pair_s, pair_a]
-    to_state = sp.csr_matrix((pair_weight, (state_row, np.arange(K))), shape=(d.size, K))
+    # z_s = sum_j pi_j (m_j - Q(s_j, a_j)), summed over the pairs of each state.
+    to_state = sp.csr_matrix((pi[pair_s, pair_a], (np.searchsorted(d, pair_s), np.arange(K))), shape=(d.size, K))
     rows_k, q0_k = qmap.rows(pair_s, pair_a)
 
-    x = cp.Variable(n, name="x")
-    m = cp.Variable(K, name="m")
+    demanded = weights @ qmap.q0
     vmax = qmap.value_bound(rmax)
-    lower = np.concatenate([np.full(k, -rmax), np.full(S, -vmax)])
-    constraints = [
-        qmap.E @ x == qmap.e,
-        average @ x == weights @ qmap.q0,
-        x >= lower,
-        x <= -lower,
-        rows_o @ x + q0_o <= pick_m @ m,
-    ]
-    if free.size:
-        constraints.append(better @ x <= -q0)
-    z = to_state @ m - (to_state @ rows_k) @ x - to_state @ q0_k
-    l1 = qmap.unknowns.weight @ cp.abs(x[:k]) if k else cp.Constant(0.0)
-    return LossModel(qmap, pi, x, m, z, constraints, l1)
+    return LossConstraints(
+        qmap=qmap,
+        frequencies=pi,
+        demonstrated=d,
+        pairs=np.column_stack([pair_s, pair_a]),
+        A=sp.vstack([with_m(qmap.E), with_m(average), with_m(better), with_m(rows_o, -pick_m)], format="csr"),
+        row_lower=np.concatenate(
+            [qmap.e, demanded, np.full(better.shape[0], -np.inf), np.full(rows_o.shape[0], -np.inf)]
+        ),
+        row_upper=np.concatenate([qmap.e, demanded, -q0_free, -q0_o]),
+        lower=np.concatenate([np.full(k, -rmax), np.full(S, -vmax), np.full(K, -np.inf)]),
+        upper=np.concatenate([np.full(k, rmax), np.full(S, vmax), np.full(K, np.inf)]),
+        Z=with_m(-(to_state @ rows_k), to_state),
+        z0=-(to_state @ q0_k),
+    )
 
 
-def loss_problem(model: LossModel, *, lam: float = 0.0) -> cp.Problem:
-    """The paper's loss exactly as written: minimise sum exp(ReLU(z)) + lambda ||R_S||_1.
+def loss_problem(constraints: LossConstraints, *, lam: float = 0.0) -> tuple[cp.Problem, cp.Variable]:
+    """The paper's loss exactly as written, as a cvxpy problem over y = [theta; V; m].
 
-    Convex and DCP; `fit_loss` solves an equivalent, numerically safer form of it.
+    minimise sum_s exp(ReLU(z_s)) + lambda ||R_S||_1 subject to the loss agent's
+    constraints. cvxpy accepts it as DCP; `fit_loss` solves the same problem without cones.
     """
-    return cp.Problem(cp.Minimize(cp.sum(cp.exp(cp.pos(model.z))) + lam * model.l1), model.constraints)
+    c = constraints
+    y = cp.Variable(c.A.shape[1], name="y")
+    eq = c.row_lower == c.row_upper
+    bounded = np.isfinite(c.lower)
+    k = c.qmap.k
+    l1 = c.qmap.unknowns.weight @ cp.abs(y[:k]) if k else 0.0
+    problem = cp.Problem(
+        cp.Minimize(cp.sum(cp.exp(cp.pos(c.Z @ y + c.z0))) + lam * l1),
+        [
+            c.A[eq] @ y == c.row_lower[eq],
+            c.A[~eq] @ y <= c.row_upper[~eq],
+            y[bounded] >= c.lower[bounded],
+            y[bounded] <= c.upper[bounded],
+        ],
+    )
+    return problem, y
+
+
+@dataclass(frozen=True, eq=False)
+class _LossLP:
+    """The outer approximation's LP over v = [y (n + K); r (d); w (d); u (k)].
+
+    r_s >= z_s, r_s >= 0 (so r_s >= ReLU(z_s)); w_s >= exp(r_s) through tangents added
+    later; u >= |theta|.
+    """
+
+    constraints: LossConstraints
+    A: sp.csr_matrix
+    row_lower: np.ndarray
+    row_upper: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @property
+    def y(self) -> slice:
+        return slice(0, self.constraints.A.shape[1])
+
+    @property
+    def x(self) -> slice:
+        return slice(0, self.constraints.qmap.n)
+
+    @property
+    def r(self) -> slice:
+        return slice(self.y.stop, self.y.stop + self.constraints.demonstrated.size)
+
+    @property
+    def w(self) -> slice:
+        return slice(self.r.stop, self.r.stop + self.constraints.demonstrated.size)
+
+    @property
+    def u(self) -> slice:
+        return slice(self.w.stop, self.w.stop + self.constraints.qmap.k)
+
+    @property
+    def size(self) -> int:
+        return self.u.stop
+
+    def tangents(self, states: np.ndarray, rho: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+        """Rows r_s - e^-rho w_s <= rho - 1, i.e. w_s >= e^rho (1 + r_s - rho), at positions `states`."""
+        states = np.asarray(states, dtype=np.int64)
+        rows = np.repeat(np.arange(states.size), 2)
+        cols = np.column_stack([self.r.start + states, self.w.start + states]).ravel()
+        data = np.column_stack([np.ones(states.size), -np.exp(-rho)]).ravel()
+        return sp.csr_matrix((data, (rows, cols)), shape=(states.size, self.size)), rho - 1.0
+
+
+def _loss_lp(constraints: LossConstraints) -> _LossLP:
+    c = constraints
+    n_y, d, k = c.A.shape[1], c.demonstrated.size, c.qmap.k
+    size = n_y + 2 * d + k
+    eye_k = sp.identity(k, format="csr")
+
+    def place(block: sp.spmatrix, at: int) -> sp.csr_matrix:
+        block = sp.csr_matrix(block)
+        return sp.hstack(
+            [sp.csr_matrix((block.shape[0], at)), block, sp.csr_matrix((block.shape[0], size - at - block.shape[1]))],
+            format="csr",
+        )
+
+    A = sp.vstack(
+        [
+            place(c.A, 0),
+            place(c.Z, 0) - place(sp.identity(d), n_y),  # z_s - r_s <= -z0
+            place(eye_k, 0) - place(eye_k, size - k),  # theta - u <= 0
+            -place(eye_k, 0) - place(eye_k, size - k),  # -theta - u <= 0
+        ],
+        format="csr",
+    )
+    return _LossLP(
+        constraints=c,
+        A=A,
+        row_lower=np.concatenate([c.row_lower, np.full(d + 2 * k, -np.inf)]),
+        row_upper=np.concatenate([c.row_upper, -c.z0, np.zeros(2 * k)]),
+        lower=np.concatenate([c.lower, np.zeros(2 * d + k)]),
+        upper=np.concatenate([c.upper, np.full(2 * d, np.inf), c.upper[:k]]),
+    )
+
+
+def relu_terms(qmap: QMap, frequencies: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(d,) z_s at x = [theta; V] for each demonstrated state, with the max over a' != a exact."""
+    pi = np.asarray(frequencies, dtype=float)
+    Q = qmap.q(x)
+    order = np.argsort(-Q, axis=1, kind="stable")
+    best, second = order[:, 0], order[:, 1]
+    rows = np.arange(Q.shape[0])
+    rival = np.repeat(Q[rows, best][:, None], Q.shape[1], axis=1)
+    rival[rows, best] = Q[rows, second]
+    shown = pi.sum(axis=1) > 0
+    return (pi * (rival - Q)).sum(axis=1)[shown]
 
 
 def loss_value(qmap: QMap, frequencies: np.ndarray, x: np.ndarray, *, lam: float = 0.0) -> float:
-    """L(R_S) at x = [theta; V], evaluated directly with numpy (for checks and reports)."""
-    pi = np.asarray(frequencies, dtype=float)
-    Q = qmap.q(x)
-    shown = pi.sum(axis=1) > 0
-    top2 = np.sort(Q, axis=1)[:, -2:]
-    # max over a' != a: the best Q unless a is the (first) best action, then the second best.
-    best_action = Q.argmax(axis=1)
-    rival = np.where(np.arange(Q.shape[1])[None, :] == best_action[:, None], top2[:, :1], top2[:, 1:])
-    z = (pi * (rival - Q)).sum(axis=1)[shown]
+    """L(R_S) at x = [theta; V], evaluated directly with numpy."""
+    z = relu_terms(qmap, frequencies, x)
     theta, _ = qmap.split(x)
     return float(np.exp(np.maximum(z, 0.0)).sum() + lam * qmap.unknowns.weight @ np.abs(theta))
 
 
 @dataclass(frozen=True)
 class LossSolution:
-    """The loss agent's answer: x = [theta; V], the loss there, and what to tell the user."""
+    """The loss agent's answer.
+
+    Attributes:
+        x: [theta; V] of the reported minimiser (smallest ||R_S||_1 among the minimisers).
+        loss: L at x (lambda term included).
+        lower_bound: a certified lower bound on the minimum.
+        unique: whether the minimiser is unique (up to UNIQUE_TOLERANCE).
+        rounds: LP solves used.
+        notes: sentences for the user.
+    """
 
     x: np.ndarray
     loss: float
-    status: str
+    lower_bound: float
     unique: bool
+    rounds: int
     notes: list[str] = field(default_factory=list)
 
 
+class _OuterApproximation:
+    """The loss LP with tangent cuts, one HiGHS model kept across every stage."""
+
+    def __init__(self, problem: _LossLP, *, lam: float):
+        self.problem, self.lam, self.rounds = problem, lam, 0
+        self.solver = HighsLP(problem.A, problem.row_lower, problem.row_upper, problem.lower, problem.upper)
+        d = problem.constraints.demonstrated.size
+        self.add_tangents(np.arange(d), np.zeros(d))
+
+    def add_tangents(self, states: np.ndarray, rho: np.ndarray) -> None:
+        rows, upper = self.problem.tangents(states, rho)
+        self.solver.add_rows(rows, np.full(rows.shape[0], -np.inf), upper)
+
+    def cap(self, r_max: float) -> None:
+        """Bound every r_s by r_max (see the module docstring: it removes no minimiser)."""
+        r = self.problem.r
+        cols = np.arange(r.start, r.stop, dtype=np.int32)
+        self.solver.highs.changeColsBounds(cols.size, cols, np.zeros(cols.size), np.full(cols.size, r_max))
+
+    def loss(self, v: np.ndarray) -> float:
+        """The true objective L(R_S) + lambda ||R_S||_1 at the LP point v."""
+        c = self.problem.constraints
+        return loss_value(c.qmap, c.frequencies, v[self.problem.x], lam=self.lam)
+
+    def minimise(self, cost: np.ndarray, *, level: float | None = None) -> tuple[np.ndarray, float]:
+        """Minimise cost @ v, adding tangents until the loss is pinned down; (v, LP value).
+
+        Without `level` (cost is the objective itself): until the LP value, a lower bound
+        on the minimum, is within GAP_TOLERANCE of the true loss at its solution. With
+        `level`: until the solution's true loss is within GAP_TOLERANCE of `level`.
+        """
+        r, w = self.problem.r, self.problem.w
+        previous = None
+        for _ in range(MAX_ROUNDS):
+            v, value = self.solver.minimise(cost)
+            self.rounds += 1
+            loss = self.loss(v)
+            excess = (loss - value) if level is None else (loss - level)
+            scale = max(abs(loss), 1.0)
+            loose = np.flatnonzero(np.exp(v[r]) > v[w] * (1 + CUT_TOLERANCE))
+            if excess <= GAP_TOLERANCE * scale or loose.size == 0:
+                return v, value
+            stalled = previous is not None and abs(value - previous) <= 1e-12 * max(abs(value), 1.0)
+            if stalled and excess <= STALL_TOLERANCE * scale:
+                return v, value
+            previous = value
+            self.add_tangents(loose, v[r][loose])
+        raise SolverError(f"the loss did not converge in {MAX_ROUNDS} rounds of tangent cuts")
+
+
 def fit_loss(qmap: QMap, frequencies: np.ndarray, *, rmax: float, lam: float = 0.0) -> LossSolution:
-    """Minimise the loss (robust form), then pick the smallest-||R_S||_1 minimiser."""
-    model = loss_model(qmap, frequencies, rmax=rmax)
+    """Minimise the loss exactly, then pick the smallest-||R_S||_1 minimiser and test uniqueness."""
+    constraints = loss_constraints(qmap, frequencies, rmax=rmax)
+    if constraints.demonstrated.size == 0:
+        raise ValueError("the loss needs at least one demonstrated state")
+    problem = _loss_lp(constraints)
+    outer = _OuterApproximation(problem, lam=lam)
     k = qmap.k
-    relu = cp.pos(model.z)
-    log_loss = cp.log_sum_exp(relu)
 
-    status = _solve(cp.Problem(cp.Minimize(log_loss), model.constraints))
-    log_best = float(log_loss.value)
-    if lam > 0:
-        tau = cp.Variable(name="tau")
-        scaled = cp.exp(tau - log_best) + lam * np.exp(-log_best) * model.l1
-        first = cp.Problem(cp.Minimize(scaled), [*model.constraints, log_loss <= tau])
-        status = _worse(status, _solve(first))
-        level = [scaled <= float(scaled.value) * (1 + LEXICOGRAPHIC_SLACK), log_loss <= tau]
-    else:
-        level = [log_loss <= log_best + LEXICOGRAPHIC_SLACK]
-    first_theta = model.x.value[:k].copy()
+    objective = np.zeros(problem.size)
+    objective[problem.w] = 1.0
+    objective[problem.u] = lam * qmap.unknowns.weight
+    # The tangent at 0 alone: a feasible point whose loss bounds every ReLU(z_s) at the optimum.
+    first, _ = outer.minimise(objective, level=np.inf)
+    outer.cap(float(np.log(outer.loss(first) * (1 + 1e-6))))
+    optimum, lower_bound = outer.minimise(objective)
 
-    rmax_scale = max(rmax, 1.0)
-    tie_break = TIE_BREAK * cp.sum_squares(cp.multiply(np.sqrt(qmap.unknowns.weight), model.x[:k])) / rmax_scale
-    second = cp.Problem(cp.Minimize(model.l1 + tie_break), [*model.constraints, *level])
-    status = _worse(status, _solve(second))
-    x = np.asarray(model.x.value, dtype=float)
+    # The optimal set: objective <= level. Lexicographic stage: the smallest weighted ||R_S||_1 in it.
+    level = outer.loss(optimum) * (1 + GAP_TOLERANCE)
+    outer.solver.add_rows(sp.csr_matrix(objective), np.array([-np.inf]), np.array([level]))
+    l1 = np.zeros(problem.size)
+    l1[problem.u] = qmap.unknowns.weight
+    chosen, _ = outer.minimise(l1, level=level)
 
-    unique = bool(np.max(np.abs(x[:k] - first_theta), initial=0.0) <= UNIQUE_TOLERANCE * rmax_scale)
+    # Uniqueness: the range of a fixed generic linear function of theta over the optimal set.
+    generic = np.zeros(problem.size)
+    generic[:k] = 1.0 + (np.arange(k) * 0.6180339887498949) % 1.0
+    low, _ = outer.minimise(generic, level=level)
+    high, _ = outer.minimise(-generic, level=level)
+    unique = float(np.max(np.abs(high[:k] - low[:k]), initial=0.0)) <= UNIQUE_TOLERANCE * max(rmax, 1.0)
+
     notes = []
     if not unique:
-        notes.append(
-            "not unique: many rewards minimise the loss equally; shown is the one with the smallest ||R_S||_1"
-        )
-    return LossSolution(x=x, loss=loss_value(qmap, frequencies, x, lam=lam), status=status, unique=unique, notes=notes)
-
-
-def _solve(problem: cp.Problem) -> str:
-    """Solve with the first solver that succeeds; the status it reached."""
-    failures = []
-    for solver in SOLVERS:
-        try:
-            problem.solve(solver=solver)
-        except cp.SolverError as exc:
-            failures.append(f"{solver}: {exc}")
-            continue
-        if problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-            return problem.status
-        failures.append(f"{solver}: {problem.status}")
-    raise SolverError("the loss could not be minimised (" + "; ".join(failures) + ")")
-
-
-def _worse(a: str, b: str) -> str:
-    return a if a != cp.OPTIMAL else b
+        notes.append("not unique: many rewards minimise the loss equally; shown is the one with the smallest ||R_S||_1")
+    return LossSolution(
+        x=chosen[problem.x],
+        loss=outer.loss(chosen),
+        lower_bound=float(lower_bound),
+        unique=unique,
+        rounds=outer.rounds,
+        notes=notes,
+    )

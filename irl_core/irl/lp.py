@@ -144,6 +144,15 @@ class HighsLP:
         self.highs.passModel(lp)
         self.iterations = 0
 
+    def add_rows(self, A: sp.spmatrix, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
+        """Append constraints row_lower <= A z <= row_upper; the current basis is kept."""
+        A = sp.csr_matrix(A)
+        A.sort_indices()
+        self.highs.addRows(
+            A.shape[0], _finite(row_lower), _finite(row_upper), A.nnz,
+            A.indptr.astype(np.int32), A.indices.astype(np.int32), A.data.astype(float),
+        )
+
     def minimise(self, cost: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """Solve (with new costs if given) and return (z, objective).
 

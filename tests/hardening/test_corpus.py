@@ -451,16 +451,6 @@ def cli(generated, cli_cwd) -> dict[tuple[str, str], Outcome]:
     return {key: outcomes[case] for key, case in runnable.items()}
 
 
-# careful_tui/cli.py prints the message as rich markup, so a "[/]" in it raises MarkupError.
-MARKUP_BUG = pytest.mark.xfail(
-    strict=True, reason="cli.py puts the error text into rich markup unescaped; remove this mark once it escapes it"
-)
-
-
-def with_markup_bug(names: list[str]) -> list:
-    return [pytest.param(name, marks=MARKUP_BUG) if name.startswith("markup_field.") else name for name in names]
-
-
 def assert_one_message(outcome: Outcome, *parts: str) -> None:
     """Exit status 2 and exactly one line on stderr holding every part; no traceback."""
     assert outcome.status is not None, f"still running after {TIMEOUT_S} s (did it open the app?)"
@@ -478,14 +468,14 @@ def recording_message_parts(path: Path, line: int | None, field: str | None) -> 
 
 
 @pytest.mark.parametrize("command", ["simulate", "worlds", pytest.param("play", marks=needs("play"))])
-@pytest.mark.parametrize("name", with_markup_bug([*BAD_WORLDS, *GENERATED_BAD_WORLDS]))
+@pytest.mark.parametrize("name", [*BAD_WORLDS, *GENERATED_BAD_WORLDS])
 def test_bad_world_file_exits_2_with_one_message(cli, generated, command, name):
     parts = {**BAD_WORLDS, **GENERATED_BAD_WORLDS}[name]
     assert_one_message(cli[command, name], f"{world_path(name, generated)}: ", *parts)
 
 
 @pytest.mark.parametrize("command", [pytest.param(command, marks=needs(command)) for command in ("fit", "replay")])
-@pytest.mark.parametrize("name", with_markup_bug([*BAD_RECORDINGS, *GENERATED_BAD_RECORDINGS]))
+@pytest.mark.parametrize("name", [*BAD_RECORDINGS, *GENERATED_BAD_RECORDINGS])
 def test_bad_recording_exits_2_with_one_message(cli, generated, command, name):
     line, field, _ = {**BAD_RECORDINGS, **GENERATED_BAD_RECORDINGS}[name]
     assert_one_message(cli[command, name], *recording_message_parts(recording_path(name, generated), line, field))
@@ -508,11 +498,6 @@ def test_valid_world_files_work(cli, name):
 
 
 @needs("play")
-@pytest.mark.xfail(
-    strict=True,
-    reason="under `python -m careful_tui.cli` the module runs as __main__, so the UsageError that play.py imports "
-    "from careful_tui.cli is another class and main() reports it as an unexpected error (exit 1)",
-)
 def test_play_without_a_terminal_is_bad_usage(cli):
     assert_one_message(cli["play", "valid.toml"], "terminal")
 
