@@ -38,13 +38,14 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.driver import Driver
+from textual.timer import Timer
 from textual.widgets import Static
 
 from careful_tui.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, format_value
 from careful_tui.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput, make_input
 from careful_tui.kitty import KeyRelease, KittyDriver, key_repeat
 from careful_tui.widgets import Arrow, Board, Gauge, KeyBar
-from careful_tui.widgets.board import SLIP_COLOUR
+from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
 from careful_tui.widgets.calibration import CalibrationScreen
 from careful_tui.widgets.gauge import level_colour
 from irl_core.demonstrations import EpisodeEnd, SessionHeader
@@ -84,9 +85,12 @@ def legend(world: World) -> Text:
 
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
-    gauge_width = len(str(world.levels)) + 1 + 6 + 1 + len(format_value(-world.cost_per_level * world.levels)) + 2
-    width = (gauge_width + 5) + (world.cols * 7 + 2)
-    height = 2 + max(world.levels + 2, world.rows * 3 + 2 + 3)
+    gauge = Gauge([world.cost_per_level * c for c in range(1, world.levels + 1)])
+    gauge_width = gauge.get_content_width(None, None)
+    cell_width, cell_height = MIN_CELL
+    # Borders, padding and margins as in play.tcss; a title bar and a key bar; 3 status lines.
+    width = (gauge_width + 5) + (world.cols * cell_width + 2)
+    height = 2 + max(world.levels + 2, world.rows * cell_height + 2 + 3)
     return width, height
 
 
@@ -130,6 +134,8 @@ class PlayApp(App[None]):
         self._last_key_at: float | None = None
         self._shown_view: tuple | None = None
         self._too_small = False
+        self._flash: Timer | None = None
+        self._title_shows: str | None = None
 
     # ------------------------------------------------------------------ layout
 
@@ -277,7 +283,9 @@ class PlayApp(App[None]):
             self.message = Text.assemble(("slipped! ", f"bold {SLIP_COLOUR}"),
                                          f"you went {result.realised} instead of {step.direction}")
             board.highlight = {step.next_state: SLIP_COLOUR}
-            self.set_timer(FLASH_S, self._end_flash)
+            if self._flash is not None:
+                self._flash.stop()
+            self._flash = self.set_timer(FLASH_S, self._end_flash)
         else:
             self.message = Text()
             board.highlight = {}
@@ -321,18 +329,19 @@ class PlayApp(App[None]):
         info = self.query_one("#hold-info", Static)
         if current is None:
             gauge.level, gauge.fill, board.arrow = None, 0.0, None
-            gauge.border_subtitle = ""
-            info.update(self._idle_info())
+            info.update(self._idle_info(), layout=False)
             return
         level, fill, shown_ms = view[1:]
         gauge.level, gauge.fill = level, fill
         board.arrow = None if current.key is None else Arrow(current.key, fill, self.world.levels)
-        gauge.border_subtitle = f"{shown_ms:.0f} ms" if self.input_mode == "hold" else ""
         cost = self.world.cost_per_level * level
-        info.update(Text.assemble(
+        text = Text.assemble(
             ("level ", "dim"), (f"{level}", f"bold {level_colour(level, self.world.levels)}"),
             ("  cost ", "dim"), (format_value(cost), "bold"),
-        ))
+        )
+        if self.input_mode == "hold":
+            text.append(f"\nheld {shown_ms:.0f} ms", style="dim")
+        info.update(text, layout=False)
 
     def _idle_info(self) -> Text:
         if self.last_move is None:
@@ -352,10 +361,12 @@ class PlayApp(App[None]):
 
         path = self.recorder.path
         where = str(path) if path is not None else f"{self.recorder.folder}{os.sep}"
-        self.query_one("#title", Static).update(Text.assemble(
-            ("careful play", f"bold {NOTE}"), " · player ", (self.player, "bold"),
-            f" · {self.input_mode} input", (f" · recording → {where}", "dim"),
-        ))
+        if where != self._title_shows:
+            self._title_shows = where
+            self.query_one("#title", Static).update(Text.assemble(
+                ("careful play", f"bold {NOTE}"), " · player ", (self.player, "bold"),
+                f" · {self.input_mode} input", (f" · recording → {where}", "dim"),
+            ), layout=False)
 
         status = Text()
         if game.live or game.last_end is None:
@@ -383,7 +394,7 @@ class PlayApp(App[None]):
             status.append_text(self.message)
             status.append("\n")
             status.append("Press space for the next episode.", style="dim")
-        self.query_one("#status", Static).update(status)
+        self.query_one("#status", Static).update(status, layout=False)
         self.query_one(KeyBar).show(self._keys())
 
     def _keys(self) -> list[tuple[str, str]]:
@@ -441,6 +452,8 @@ def run_play(args: argparse.Namespace) -> int:
     from careful_tui.cli import UsageError
 
     world = load_world(args.world)
+    if args.out.exists() and not args.out.is_dir():
+        raise UsageError(f"{args.out} is a file, not a folder; choose a folder for recordings with --out")
     try:
         check_writable(args.out)
     except OSError as exc:

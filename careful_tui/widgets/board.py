@@ -7,14 +7,18 @@ terminal), up to 15x7.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from itertools import product
 
 import numpy as np
 from rich.console import Console, ConsoleOptions, RenderResult
 from rich.segment import Segment
 from rich.style import Style
+from textual.geometry import Region
 from textual.reactive import reactive
+from textual.strip import Strip
 from textual.widget import Widget
 
 from careful_tui.grid import WorldGrid
@@ -83,15 +87,22 @@ class BoardGrid(WorldGrid):
             return _darker(colour, CHECKER_SHADE)
         return colour
 
+    def cell_segments(self, cell: Cell, console: Console) -> list[list[Segment]]:
+        """The cell's `cell_height` lines as segments, its marks drawn in."""
+        marks = self.marks.get(cell, {})
+        lines = []
+        for i, line in enumerate(self.cell_lines(cell)):
+            segments = list(Segment.apply_style(line.render(console), console.get_style(line.style)))
+            on_line = {j: mark for (k, j), mark in marks.items() if k == i}
+            lines.append(_with_marks(segments, on_line) if on_line else segments)
+        return lines
+
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         for r in range(self.world.rows):
-            row = [((r, c), self.cell_lines((r, c))) for c in range(self.world.cols)]
+            row = [self.cell_segments((r, c), console) for c in range(self.world.cols)]
             for i in range(self.cell_height):
-                for cell, lines in row:
-                    line = lines[i]
-                    segments = Segment.apply_style(line.render(console), console.get_style(line.style))
-                    marks = {j: mark for (k, j), mark in self.marks.get(cell, {}).items() if k == i}
-                    yield from _with_marks(segments, marks) if marks else segments
+                for lines in row:
+                    yield from lines[i]
                 yield Segment.line()
 
 
@@ -105,7 +116,7 @@ def _with_marks(segments, marks: Mapping[int, Mark]):
     for j, (glyph, style) in marks.items():
         if 0 <= j < len(chars):
             chars[j] = Segment(glyph, chars[j].style + style)
-    return Segment.simplify(chars)
+    return list(Segment.simplify(chars))
 
 
 def board_marks(world: World, cell_size: tuple[int, int], player: Cell | None, arrow: Arrow | None):
@@ -124,7 +135,7 @@ def board_marks(world: World, cell_size: tuple[int, int], player: Cell | None, a
     if arrow is not None:
         dy, dx = OFFSETS[DIRECTIONS.index(arrow.direction)]
         n = arrow_length(arrow, cell_size)
-        style = Style(color=level_colour(arrow.level, arrow.levels), bold=True)
+        style = Style(color=level_colour(math.floor(arrow.level), arrow.levels), bold=True)
         shafts = _SHAFTS[arrow.direction]
         shaft = shafts[min(len(shafts) - 1, int(_fraction(arrow) * len(shafts)))]
         for k in range(1, n + 1):
@@ -133,7 +144,7 @@ def board_marks(world: World, cell_size: tuple[int, int], player: Cell | None, a
 
 
 class Board(Widget):
-    """A world with the player, its arrow and highlighted cells.
+    """A world with the player, its arrow and highlighted cells, centred in the widget.
 
     Args:
         world: the world to draw.
@@ -144,11 +155,14 @@ class Board(Widget):
         arrow: the move being chosen, drawn from the player, or None.
         highlight: cells to frame in a colour (a slip), {cell: "#rrggbb"}; the player's cell is
             framed in `PLAYER_FRAME` unless highlighted.
+
+    It draws line by line (Textual's line API) from cells it caches: a change of the player or
+    the arrow redraws only the cells they touch, which keeps a held key's redraw cheap.
     """
 
-    player: reactive[Cell | None] = reactive(None)
-    arrow: reactive[Arrow | None] = reactive(None)
-    highlight: reactive[dict[Cell, str]] = reactive(dict)
+    player: reactive[Cell | None] = reactive(None, repaint=False)
+    arrow: reactive[Arrow | None] = reactive(None, repaint=False)
+    highlight: reactive[dict[Cell, str]] = reactive(dict, repaint=False)
 
     def __init__(
         self,
@@ -166,6 +180,8 @@ class Board(Widget):
         self.values = values
         self.scale = scale
         self.labels = dict(labels or {})
+        self._cells: dict[tuple, list[list[Segment]]] = {}
+        self._lines: list[list[Segment]] | None = None
 
     def cell_size(self) -> tuple[int, int]:
         """(width, height) of a cell in characters, fitted to the widget's size (odd, to centre)."""
@@ -179,7 +195,7 @@ class Board(Widget):
         return (w if w % 2 else w - 1), (h if h % 2 else h - 1)
 
     def grid(self) -> BoardGrid:
-        """The renderable for the current state (also usable outside Textual)."""
+        """The board as a Rich renderable in its current state (for printing or SVG export)."""
         w, h = self.cell_size()
         frames = {} if self.player is None else {self.player: PLAYER_FRAME}
         return BoardGrid(
@@ -193,5 +209,65 @@ class Board(Widget):
             marks=board_marks(self.world, (w, h), self.player, self.arrow),
         )
 
-    def render(self) -> BoardGrid:
-        return self.grid()
+    def _watch_state(self) -> None:
+        """Repaint only the lines that changed."""
+        old, self._lines = self._lines, None
+        if not self.is_mounted:
+            return
+        new = self._board_lines()
+        if old is None or len(old) != len(new):
+            self.refresh()
+            return
+        top = self._top()
+        width = self.content_size.width
+        changed = [Region(0, top + y, width, 1) for y, (a, b) in enumerate(zip(old, new)) if a != b]
+        if changed:
+            self.refresh(*changed)
+
+    def _top(self) -> int:
+        return max(0, (self.content_size.height - self.world.rows * self.cell_size()[1]) // 2)
+
+    watch_player = watch_arrow = watch_highlight = _watch_state
+
+    def redraw(self) -> None:
+        """Draw everything again, e.g. after changing `values`, `scale` or `labels`."""
+        self._cells.clear()
+        self._lines = None
+        self.refresh()
+
+    def on_resize(self) -> None:
+        self.redraw()
+
+    def _board_lines(self) -> list[list[Segment]]:
+        if self._lines is None:
+            grid = self.grid()
+            console = self.app.console
+            if len(self._cells) > 2000:
+                self._cells.clear()
+            cells = {}
+            for cell in product(range(grid.world.rows), range(grid.world.cols)):
+                marks = grid.marks.get(cell)
+                key = (cell, grid.cell_width, grid.cell_height, grid.highlight.get(cell),
+                       tuple(sorted(marks.items())) if marks else None)
+                if key not in self._cells:
+                    self._cells[key] = grid.cell_segments(cell, console)
+                cells[cell] = self._cells[key]
+            self._lines = [
+                [segment for c in range(grid.world.cols) for segment in cells[(r, c)][i]]
+                for r in range(grid.world.rows)
+                for i in range(grid.cell_height)
+            ]
+        return self._lines
+
+    def render_line(self, y: int) -> Strip:
+        width, height = self.content_size
+        background = self.visual_style.rich_style
+        lines = self._board_lines()
+        board_width = self.world.cols * self.cell_size()[0]
+        top = self._top()
+        left = max(0, (width - board_width) // 2)
+        if not top <= y < top + len(lines):
+            return Strip.blank(width, background)
+        right = max(0, width - left - board_width)
+        segments = [Segment(" " * left, background), *lines[y - top], Segment(" " * right, background)]
+        return Strip(segments).crop(0, width)

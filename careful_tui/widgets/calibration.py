@@ -1,8 +1,9 @@
 """The calibration screen: "hold an arrow for 2 seconds" measures the keyboard's autorepeat.
 
 It feeds every arrow press and autorepeat to `careful_tui.hold.Calibration` and ends the
-attempt at the key's release (a kitty release event, or a silence longer than
-`SILENCE_S`). It returns the calibrated `HoldProfile`, or None when cancelled.
+attempt at the key's release: a kitty release event, or a silence of `SILENCE_S` once the
+autorepeat has started (`FIRST_REPEAT_S` before, longer than any initial delay it accepts).
+It returns the calibrated `HoldProfile`, or None when cancelled.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from careful_tui.hold import DIRECTIONS, Calibration, Clock, HoldProfile
 from careful_tui.kitty import KeyRelease
 
 HOLD_S = 2.0
-SILENCE_S = 0.4
+SILENCE_S = 0.3
+FIRST_REPEAT_S = Calibration.DELAY_RANGE_MS[1] / 1000 + 0.2
 BAR_WIDTH = 30
 
 
@@ -69,9 +71,10 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
             self._finish()
 
     def tick(self) -> None:
-        """End the attempt once the key has been silent for `SILENCE_S`; redraw the progress."""
+        """End the attempt once the key has been released (silent); redraw the progress."""
         if self._last is not None and self._result is None and self._problem is None:
-            if self._clock() - self._last >= SILENCE_S:
+            silence = SILENCE_S if self._calibration.repeats else FIRST_REPEAT_S
+            if self._clock() - self._last >= silence:
                 self._finish()
             else:
                 self._show()

@@ -18,27 +18,29 @@ epigraph variable m_{s,a} >= Q(s, a') per demonstrated pair); a non-negative com
 minus an affine term is convex; ReLU of a convex function is convex; exp is convex and
 non-decreasing. `loss_problem` states exactly this in cvxpy, which accepts it as DCP.
 
-Solving it. Through cvxpy the exponential cones go to Clarabel or SCS. On the paper's
-world Clarabel stops with "insufficient progress" on most instances (the 14 carefulness
-levels give nearly parallel rows Q(s, (d, c)), which its exponential-cone steps do not
-survive; with one level it nearly always succeeds), and SCS needs seconds to tens of
-seconds for 4-6 digits. So `fit_loss` solves the same convex problem exactly by outer
-approximation with HiGHS: with r_s >= z_s, r_s >= 0, the objective sum_s exp(r_s) is
-separable and one-dimensional per state, and each exp is replaced by its tangents
+Solving it. cvxpy hands the exponential cones to an interior-point solver, and that is
+fragile here: Clarabel stops with "insufficient progress" on 17 of 20 noisy instances on
+the paper's world with the rival maxima written directly (14 carefulness levels make rows
+Q(s, (d, c)) nearly parallel), and still on 9 of 120 across the built-in worlds with the
+compact rows of `_rival_rows`; a lexicographic second stage has no interior at all. So `fit_loss` solves the same
+convex problem exactly by outer approximation with HiGHS, and `loss_problem` (the cvxpy
+model) is kept for what cvxpy is good at: stating the problem and checking it is DCP; the
+tests compare the two. With r_s >= z_s and r_s >= 0 the objective sum_s exp(r_s) is
+separable and one-dimensional per state; each exp is replaced by its tangents
 w_s >= e^rho (1 + r_s - rho). Every round solves the LP (from the previous basis), adds a
 tangent at each r_s where the cut is loose, and stops when the LP's value (a lower bound
-on the optimum) and sum exp(r_s) at its solution (an upper bound) agree to 1e-9. Nothing
-is exponentiated beyond the data's own scale:
+on the minimum) and the loss at its solution (an upper bound) agree to 1e-8. Nothing is
+exponentiated beyond the data's own scale:
 
 * the first LP (the tangent at 0: minimise sum ReLU(z_s)) gives a feasible point whose
-  loss U0 bounds the optimum, so at the optimum every ReLU(z_s) <= log U0; this cap on
+  loss U0 bounds the minimum, so at any minimiser every ReLU(z_s) <= log U0; this cap on
   r_s is added to the LP (it removes no minimiser) and bounds every tangent's slope by U0;
 * tangent rows are written as r_s - e^-rho w_s <= rho - 1, coefficients in [1/U0, 1].
 
 Many rewards often minimise the loss equally (for clean demonstrations, every reward that
 makes each demonstrated action the best reaches the floor L = number of demonstrated
 states). To make the answer reproducible a second, lexicographic stage keeps the loss
-within a relative 1e-9 of its minimum and picks the reward with the smallest weighted
+within a relative 1e-8 of its minimum and picks the reward with the smallest weighted
 ||R_S||_1 (the paper's sparsity preference). Whether the minimiser is unique is then
 checked directly: a fixed generic linear function of R_S is minimised and maximised over
 the same optimal set; if the two differ, the result says "not unique".
@@ -70,10 +72,10 @@ UNIQUE_TOLERANCE = 1e-4
 
 @dataclass(frozen=True, eq=False)
 class LossConstraints:
-    """The loss agent's constraints and z_s, over y = [x (n); m (K)], x = [theta; V].
+    """The loss agent's constraints and z_s, over y = [x; auxiliaries], x = [theta; V].
 
-    row_lower <= A y <= row_upper, lower <= y <= upper; z = Z y + z0 (d,), where m_j >=
-    max_{a' != a_j} Q(s_j, a') for each demonstrated pair j (the epigraph rows are in A).
+    row_lower <= A y <= row_upper, lower <= y <= upper; z = Z y + z0 (d,). The auxiliaries
+    bound max_{a' != a} Q(s, a') for each demonstrated pair (see `_rival_rows`).
 
     Attributes:
         demonstrated: (d,) demonstrated states.
@@ -96,18 +98,19 @@ class LossConstraints:
 def loss_constraints(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> LossConstraints:
     """The constraints for demonstrated frequencies pi (S, A) (rows of 0: not demonstrated)."""
     mdp = qmap.mdp
-    S, A, k, n = mdp.n_states, mdp.n_actions, qmap.k, qmap.n
+    S, A, k = mdp.n_states, mdp.n_actions, qmap.k
     pi = np.asarray(frequencies, dtype=float)
     shown = pi.sum(axis=1) > 0
     if np.any(shown & ~mdp.nonterminal):
         raise ValueError("frequencies are given at a terminal state or the exit")
     d = np.flatnonzero(shown)
     pair_s, pair_a = np.nonzero(pi > 0)
-    K = pair_s.size
+    vmax = qmap.value_bound(rmax)
+    rivals, rivals_upper, m = _rival_rows(qmap, d, pair_s, pair_a)
+    n_aux = rivals.shape[1] - qmap.n
 
-    def with_m(rows_x: sp.spmatrix, rows_m: sp.spmatrix | None = None) -> sp.csr_matrix:
-        rows_m = sp.csr_matrix((rows_x.shape[0], K)) if rows_m is None else rows_m
-        return sp.hstack([rows_x, rows_m], format="csr")
+    def widen(rows_x: sp.spmatrix) -> sp.csr_matrix:
+        return sp.hstack([rows_x, sp.csr_matrix((rows_x.shape[0], n_aux))], format="csr")
 
     # V(s) = sum_a pi(s, a) Q(s, a) at demonstrated s.
     weights = sp.csr_matrix(
@@ -115,42 +118,96 @@ def loss_constraints(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> Los
         shape=(d.size, S * A),
     )
     average = qmap.value_selector(d) - weights @ qmap.M
+    demanded = weights @ qmap.q0
     # V(s) >= Q(s, a) at non-terminal, non-demonstrated s.
     free = np.flatnonzero(mdp.nonterminal & ~shown)
     rows_free, q0_free = qmap.rows(np.repeat(free, A), np.tile(np.arange(A), free.size))
     better = rows_free - qmap.value_selector(np.repeat(free, A))
-    # m_j >= Q(s_j, a') for a' != a_j.
-    other = np.tile(np.arange(A), K) != np.repeat(pair_a, A)
-    rows_o, q0_o = qmap.rows(np.repeat(pair_s, A)[other], np.tile(np.arange(A), K)[other])
-    pick_m = sp.csr_matrix(
-        (np.ones(int(other.sum())), (np.arange(int(other.sum())), np.repeat(np.arange(K), A)[other])),
-        shape=(int(other.sum()), K),
-    )
     # z_s = sum_j pi_j (m_j - Q(s_j, a_j)), summed over the pairs of each state.
+    K = pair_s.size
     to_state = sp.csr_matrix((pi[pair_s, pair_a], (np.searchsorted(d, pair_s), np.arange(K))), shape=(d.size, K))
     rows_k, q0_k = qmap.rows(pair_s, pair_a)
+    pick_m = sp.csr_matrix((np.ones(K), (np.arange(K), m)), shape=(K, n_aux))
 
-    demanded = weights @ qmap.q0
-    vmax = qmap.value_bound(rmax)
     return LossConstraints(
         qmap=qmap,
         frequencies=pi,
         demonstrated=d,
         pairs=np.column_stack([pair_s, pair_a]),
-        A=sp.vstack([with_m(qmap.E), with_m(average), with_m(better), with_m(rows_o, -pick_m)], format="csr"),
-        row_lower=np.concatenate(
-            [qmap.e, demanded, np.full(better.shape[0], -np.inf), np.full(rows_o.shape[0], -np.inf)]
-        ),
-        row_upper=np.concatenate([qmap.e, demanded, -q0_free, -q0_o]),
-        lower=np.concatenate([np.full(k, -rmax), np.full(S, -vmax), np.full(K, -np.inf)]),
-        upper=np.concatenate([np.full(k, rmax), np.full(S, vmax), np.full(K, np.inf)]),
-        Z=with_m(-(to_state @ rows_k), to_state),
+        A=sp.vstack([widen(qmap.E), widen(average), widen(better), rivals], format="csr"),
+        row_lower=np.concatenate([qmap.e, demanded, np.full(better.shape[0] + rivals.shape[0], -np.inf)]),
+        row_upper=np.concatenate([qmap.e, demanded, -q0_free, rivals_upper]),
+        # Every Q lies in [-vmax, vmax], so the rival maxima may be bounded below by -vmax.
+        lower=np.concatenate([np.full(k, -rmax), np.full(S + n_aux, -vmax)]),
+        upper=np.concatenate([np.full(k, rmax), np.full(S, vmax), np.full(n_aux, np.inf)]),
+        Z=sp.hstack([-(to_state @ rows_k), to_state @ pick_m], format="csr"),
         z0=-(to_state @ q0_k),
     )
 
 
+def _rival_rows(
+    qmap: QMap, d: np.ndarray, pair_s: np.ndarray, pair_a: np.ndarray
+) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """Rows making m_j >= max_{a' != a_j} Q(s_j, a') for every demonstrated pair j.
+
+    Written directly this takes A - 1 rows per pair, K (A - 1) in all: tens of thousands
+    for a noisy expert who tried most actions. Per demonstrated state, with U its
+    undemonstrated actions and D_1..D_k its demonstrated ones, we use instead
+
+        M >= Q(s, a') (a' in U);  P_j >= Q(s, D_j), P_j >= P_{j-1} (P_0 = M);
+        S_j >= Q(s, D_j), S_j >= S_{j+1};  m_j >= P_{j-1},  m_j >= S_{j+1},
+
+    so P_{j-1} bounds everything before D_j and S_{j+1} everything after: A + 6k rows.
+    The objective only ever pushes these maxima down, so the relaxation is exact.
+
+    Returns (rows over [x; M (d); P (K); S (K); m (K)], their upper bounds (<=), the
+    column of each m_j within the auxiliary block).
+    """
+    A, n = qmap.mdp.n_actions, qmap.n
+    K, n_d = pair_s.size, d.size
+    position = np.searchsorted(d, pair_s)
+    first = np.r_[True, position[1:] != position[:-1]] if K else np.zeros(0, bool)
+    last = np.r_[position[1:] != position[:-1], True] if K else np.zeros(0, bool)
+    M_col, P_col, S_col, m_col = position, n_d + np.arange(K), n_d + K + np.arange(K), n_d + 2 * K + np.arange(K)
+    n_aux = n_d + 3 * K
+
+    def below(rows_x: sp.csr_matrix, q0: np.ndarray, aux: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+        """Q rows <= aux columns: rows_x @ x - aux <= -q0."""
+        minus = sp.csr_matrix((-np.ones(aux.size), (np.arange(aux.size), aux)), shape=(aux.size, n_aux))
+        return sp.hstack([rows_x, minus], format="csr"), -q0
+
+    def order(low: np.ndarray, high: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+        """aux[low] <= aux[high]."""
+        count = low.size
+        rows = np.repeat(np.arange(count), 2)
+        cols = np.column_stack([low, high]).ravel()
+        data = np.tile([1.0, -1.0], count)
+        block = sp.csr_matrix((data, (rows, cols)), shape=(count, n_aux))
+        return sp.hstack([sp.csr_matrix((count, n)), block], format="csr"), np.zeros(count)
+
+    shown = np.zeros((n_d, A), dtype=bool)
+    shown[position, pair_a] = True
+    u_state, u_action = np.nonzero(~shown)
+    rows_u, q0_u = qmap.rows(d[u_state], u_action)
+    rows_pairs, q0_pairs = qmap.rows(pair_s, pair_a)
+    parts = [
+        below(rows_u, q0_u, u_state),
+        below(rows_pairs, q0_pairs, P_col),
+        below(rows_pairs, q0_pairs, S_col),
+        order(np.where(first, M_col, np.roll(P_col, 1)), P_col),
+        order(S_col[1:][~last[:-1]], S_col[:-1][~last[:-1]]),
+        order(np.where(first, M_col, np.roll(P_col, 1)), m_col),
+        order(S_col[1:][~last[:-1]], m_col[:-1][~last[:-1]]),
+    ]
+    return (
+        sp.vstack([p[0] for p in parts], format="csr"),
+        np.concatenate([p[1] for p in parts]),
+        m_col,
+    )
+
+
 def loss_problem(constraints: LossConstraints, *, lam: float = 0.0) -> tuple[cp.Problem, cp.Variable]:
-    """The paper's loss exactly as written, as a cvxpy problem over y = [theta; V; m].
+    """The paper's loss exactly as written, as a cvxpy problem over y = [theta; V; auxiliaries].
 
     minimise sum_s exp(ReLU(z_s)) + lambda ||R_S||_1 subject to the loss agent's
     constraints. cvxpy accepts it as DCP; `fit_loss` solves the same problem without cones.
@@ -175,7 +232,7 @@ def loss_problem(constraints: LossConstraints, *, lam: float = 0.0) -> tuple[cp.
 
 @dataclass(frozen=True, eq=False)
 class _LossLP:
-    """The outer approximation's LP over v = [y (n + K); r (d); w (d); u (k)].
+    """The outer approximation's LP over v = [y; r (d); w (d); u (k)].
 
     r_s >= z_s, r_s >= 0 (so r_s >= ReLU(z_s)); w_s >= exp(r_s) through tangents added
     later; u >= |theta|.

@@ -15,15 +15,19 @@ import numpy as np
 
 from irl_core.irl.qmap import Unknowns
 from irl_core.mdp import MDP, action_parts
-from irl_core.world import World
+from irl_core.world import WALL, World
 
 
 class FitError(RuntimeError):
     """A fit that produced no reward. `str()` is one sentence for the user."""
 
 
-class InfeasibleError(FitError):
-    """No reward satisfies the constraints: bad input rather than a bug (exit 2)."""
+class BadInputError(FitError):
+    """Demonstrations that cannot be fitted as given: the user's to fix (exit 2)."""
+
+
+class InfeasibleError(BadInputError):
+    """No reward satisfies the constraints: the demonstrations or the bound are at fault."""
 
 
 class SolverError(FitError):
@@ -37,7 +41,6 @@ class PolicyCell:
     direction: str
     carefulness: int
     count: int
-    visits: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +49,7 @@ class FitResult:
 
     Attributes:
         method: ``lp``, ``loss`` or ``maxent``.
-        world: the world the recordings share.
+        mdp: the MDP of the world the recordings share (``world`` is that world).
         options: the fit's options as SPEC names them (rmax, lambda, beta, reward_cells, tie, intervals).
         R_S: (S,) fitted state rewards (known cells at their fixed value, 0 at the exit).
         V: (S,) the values that came with the fit (the LP's or loss's V, maxent's soft V).
@@ -125,12 +128,11 @@ class FitResult:
         levels = self.world.levels
         out = {}
         for s, cell in enumerate(self.mdp.cells):
-            visits = int(self.counts[s].sum())
-            if visits == 0:
+            if self.counts[s].sum() == 0:
                 continue
             a = int(self.counts[s].argmax())
             direction, carefulness = action_parts(a, levels)
-            out[cell] = PolicyCell(direction, carefulness, int(self.counts[s, a]), visits)
+            out[cell] = PolicyCell(direction, carefulness, int(self.counts[s, a]))
         return out
 
     def to_json(self) -> dict[str, Any]:
@@ -140,7 +142,7 @@ class FitResult:
         (how often that action was taken there); null at cells never acted in.
         """
         world = self.world
-        wall = [[ch == "#" for ch in row] for row in world.grid]
+        wall = [[ch == WALL for ch in row] for row in world.grid]
         reward = self.reward_grid
         unknown = self.unknown_grid
         interval = self.interval_grid

@@ -189,7 +189,7 @@ def test_the_gauge_and_arrow_follow_a_hold_live(tmp_path: Path) -> None:
         app.tick()
         assert gauge.level == 6 and 6.0 <= gauge.fill < 7.0
         assert board.arrow.level == gauge.fill
-        assert gauge.border_subtitle == f"{(0.5 + 20 * 0.033) * 1000:.0f} ms"
+        assert f"held {(0.5 + 20 * 0.033) * 1000:.0f} ms" in str(app.query_one("#hold-info", Static).render())
         # After the last repeat the gauge stops within one period, where the move will land.
         clock.advance(0.09)
         app.tick()
@@ -340,3 +340,14 @@ def test_a_small_terminal_asks_to_be_enlarged_and_resizing_works(tmp_path: Path)
         assert app.game.t == 1
 
     run(app, body, size=(need[0] - 1, need[1]))
+
+
+def test_the_command_refuses_a_folder_it_cannot_write(tmp_path: Path, capsys) -> None:
+    from careful_tui.cli import main
+
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert main(["play", "--out", str(blocker)]) == 2
+    assert "is a file, not a folder" in capsys.readouterr().err
+    assert main(["play", "--out", str(blocker / "recordings")]) == 2
+    assert "cannot write recordings" in capsys.readouterr().err

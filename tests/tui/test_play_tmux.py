@@ -45,6 +45,10 @@ class Session:
                    f"--player e2e --seed 3; sleep 5")
         self.tmux("new-session", "-d", "-s", self.name, "-x", "100", "-y", "35", command)
         self.socket = Path(self.tmux("display-message", "-p", "#{socket_path}").strip())
+        # Keys go through one control-mode client: a write per key instead of a process per key,
+        # so that the 33 ms autorepeat rhythm survives a busy machine.
+        self.control = subprocess.Popen(["tmux", "-L", self.name, "-C", "attach", "-t", self.name],
+                                        stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
 
     def tmux(self, *args: str) -> str:
         command = ["tmux", "-L", self.name, *args]
@@ -63,7 +67,9 @@ class Session:
         raise AssertionError(f"{text!r} never appeared; the screen was:\n{self.screen()}")
 
     def send(self, key: str) -> None:
-        self.tmux("send-keys", "-t", self.name, key)
+        assert self.control.stdin is not None
+        self.control.stdin.write(f"send-keys -t {self.name} {key}\n")
+        self.control.stdin.flush()
 
     def hold(self, key: str, seconds: float, *, delay: float = 0.5, period: float = 0.033) -> None:
         """A press, `delay` of silence, then autorepeats every `period` until `seconds` after the delay."""
@@ -89,6 +95,8 @@ class Session:
     def kill(self) -> None:
         """Close the terminal: the session, and with it this test's tmux server."""
         subprocess.run(["tmux", "-L", self.name, "kill-server"], capture_output=True)
+        self.control.stdin.close()
+        self.control.wait(timeout=10)
         self.socket.unlink(missing_ok=True)
 
 

@@ -1,0 +1,132 @@
+"""`careful fit` on simulated recordings: the SPEC JSON, the printout and the errors."""
+
+import json
+from datetime import datetime, timezone
+
+import pytest
+
+import careful_tui.fit as fit_command
+from careful_tui.cli import main
+from irl_core.demonstrations import RecordingWriter, SessionHeader, Step
+from irl_core.experts import optimal_policy, rollouts, write_rollouts
+from irl_core.irl import SolverError
+from irl_core.mdp import build_mdp
+from irl_core.world import BUILTIN_WORLDS, World
+
+WALLED = World(name="walled", layout="..#.\n....\n.C.G\n", levels=3, rewards={"C": -100.0, "G": 10.0})
+
+
+def simulate(path, world, episodes=30, seed=0):
+    mdp = build_mdp(world)
+    write_rollouts(path, mdp, rollouts(mdp, optimal_policy(mdp), episodes=episodes, seed=seed),
+                   player="expert:optimal", seed=seed)
+    return path
+
+
+def header(world):
+    return SessionHeader(world=world, player="tester", created=datetime(2000, 1, 1, tzinfo=timezone.utc), seed=0)
+
+
+def run(capsys, *argv):
+    code = main(["fit", *map(str, argv)])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def mud_file(tmp_path_factory):
+    return simulate(tmp_path_factory.mktemp("rec") / "mud.jsonl", BUILTIN_WORLDS["mud"], episodes=100)
+
+
+def test_json_has_the_spec_structure(tmp_path, capsys, mud_file):
+    out_json = tmp_path / "fit.json"
+    code, out, err = run(capsys, mud_file, "--intervals", "--json", out_json, "--no-view")
+    assert code == 0, err
+    data = json.loads(out_json.read_text())
+    assert list(data) == ["method", "world", "options", "reward", "unknown", "interval", "policy",
+                          "demonstrations", "status", "elapsed_s"]
+    assert data["method"] == "lp" and data["status"] == "optimal"
+    assert data["world"] == BUILTIN_WORLDS["mud"].model_dump(mode="json")
+    assert data["options"] == {"rmax": 1000.0, "lambda": 0.0, "beta": 1.0, "reward_cells": "special",
+                               "tie": False, "intervals": True}
+    for key in ("reward", "unknown", "interval", "policy"):
+        assert len(data[key]) == 4 and all(len(row) == 6 for row in data[key])
+    assert data["unknown"][3][1] is True and data["unknown"][0][0] is False
+    assert data["reward"][0][0] == 0.0 and data["reward"][3][1] < -500
+    assert data["interval"][0][0] is None
+    low, high = data["interval"][1][1]
+    assert low <= -30.0 <= high
+    assert data["policy"][3][1] is None  # a cliff cell: nobody acts there
+    cell = data["policy"][2][2]
+    assert set(cell) == {"direction", "carefulness", "count"} and cell["direction"] in ("up", "right", "down", "left")
+    assert data["demonstrations"]["files"] == 1 and data["demonstrations"]["episodes"] == 100
+    assert data["demonstrations"]["steps"] >= sum(cell["count"] for row in data["policy"] for cell in row if cell)
+    assert isinstance(data["elapsed_s"], float)
+    assert "fitted R_S" in out and "status: optimal" in out
+
+
+def test_walls_are_null_and_intervals_null_when_not_asked(tmp_path, capsys):
+    recording = simulate(tmp_path / "walled.jsonl", WALLED)
+    out_json = tmp_path / "fit.json"
+    code, _, err = run(capsys, recording, "--method", "loss", "--json", out_json)
+    assert code == 0, err
+    data = json.loads(out_json.read_text())
+    assert data["reward"][0][2] is None and data["policy"][0][2] is None and data["interval"][0][2] is None
+    assert data["unknown"][0][2] is False
+    assert all(cell is None for row in data["interval"] for cell in row)
+
+
+@pytest.mark.parametrize("method", ["lp", "loss", "maxent"])
+def test_every_method_prints_and_saves_svg(tmp_path, capsys, mud_file, method):
+    svg = tmp_path / "fit.svg"
+    code, out, err = run(capsys, mud_file, "--method", method, "--svg", svg)
+    assert code == 0, err
+    assert svg.read_text().startswith("<svg") and "fitted R_S" in out and "demonstrated policy" in out
+
+
+def assert_one_line_error(code, err, *fragments):
+    assert code == 2
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for fragment in fragments:
+        assert fragment in lines[0]
+
+
+def test_recordings_of_different_worlds(tmp_path, capsys):
+    a = simulate(tmp_path / "a.jsonl", BUILTIN_WORLDS["paper"], episodes=3)
+    b = simulate(tmp_path / "b.jsonl", BUILTIN_WORLDS["mud"], episodes=3)
+    code, _, err = run(capsys, a, b)
+    assert_one_line_error(code, err, "one world at a time")
+
+
+def test_recording_without_steps(tmp_path, capsys):
+    empty = tmp_path / "empty.jsonl"
+    RecordingWriter(empty, header(BUILTIN_WORLDS["paper"])).close()
+    code, _, err = run(capsys, empty)
+    assert_one_line_error(code, err, "no steps")
+
+
+def test_demonstrations_no_reward_explains(tmp_path, capsys):
+    path = tmp_path / "wall.jsonl"
+    with RecordingWriter(path, header(BUILTIN_WORLDS["paper"])) as writer:
+        for t in range(5):
+            writer.write_step(Step(episode=0, t=t, state=(0, 0), direction="up", carefulness=14, hold_ms=900.0,
+                                   next_state=(0, 0), slipped=False, reward=-14.0, score=200.0 - 14 * (t + 1)))
+    code, _, err = run(capsys, path)
+    assert_one_line_error(code, err, "not optimal for any reward", "--method loss", "--rmax")
+
+
+def test_missing_output_folder_is_bad_usage(tmp_path, capsys, mud_file):
+    code, _, err = run(capsys, mud_file, "--json", tmp_path / "nowhere" / "fit.json")
+    assert_one_line_error(code, err, "does not exist")
+
+
+def test_solver_failure_exits_1_with_one_line(capsys, mud_file, monkeypatch):
+    def broken(*args, **kwargs):
+        raise SolverError("the LP solver HiGHS stopped without an answer (Time limit reached)")
+
+    monkeypatch.setattr(fit_command, "fit", broken)
+    code, _, err = run(capsys, mud_file)
+    assert code == 1
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "HiGHS" in lines[0] and "Traceback" not in err
