@@ -77,12 +77,21 @@ def run_fit(args: argparse.Namespace) -> int:
         err.print(Text(f"careful fit: {exc}", style="bold red"), soft_wrap=True)
         return EXIT_FAILURE
     if args.json is not None:
-        args.json.write_text(json.dumps(result.to_json(), indent=2) + "\n", encoding="utf-8")
+        text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
+        _write("--json", args.json, lambda: args.json.write_text(text, encoding="utf-8"))
     console = Console(record=args.svg is not None, highlight=False)
     print_fit(console, demos, result)
     if args.svg is not None:
-        console.save_svg(str(args.svg), title=f"careful fit: {result.method} on {result.world.name}")
+        title = f"careful fit: {result.method} on {result.world.name}"
+        _write("--svg", args.svg, lambda: console.save_svg(str(args.svg), title=title))
     return EXIT_OK
+
+
+def _write(option: str, path: Path, write) -> None:
+    try:
+        write()
+    except OSError as exc:
+        raise UsageError(f"{option} {path}: cannot write the file ({exc.strerror or exc})") from None
 
 
 def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> None:

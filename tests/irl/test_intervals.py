@@ -5,7 +5,7 @@ import pytest
 from scipy.optimize import linprog
 
 from irl_core.demonstrations import Demonstrations
-from irl_core.experts import optimal_policy, rollouts
+from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.lp import lp_constraints
@@ -93,3 +93,15 @@ def test_tied_intervals_cover_every_cell_of_the_symbol(mud):
     np.testing.assert_allclose(grid[3, 1:5], np.repeat(tied.intervals[1][None, :], 4, axis=0))
     # One value per symbol can only narrow what per-cell values allow.
     assert tied.intervals[1, 1] <= symbol_intervals(mud, "C")[:, 1].max() + TOLERANCE
+
+
+def test_noisy_demonstrations_fit_by_loss_say_why_there_are_no_intervals():
+    mdp = build_mdp(BUILTIN_WORLDS["paper"])
+    result = rollouts(mdp, boltzmann_policy(mdp, beta=1.0), episodes=10, seed=0)
+    counts = np.zeros((mdp.n_states, mdp.n_actions))
+    np.add.at(counts, (result.state, result.action), 1.0)
+    demos = Demonstrations(mdp=mdp, counts=counts, files=1, episodes=10, steps=int(counts.sum()))
+    fitted = fit(demos, method="loss", intervals=True)
+    assert fitted.intervals is None
+    assert any(note.startswith("intervals not computed") for note in fitted.notes)
+    assert np.isnan(fitted.interval_grid).all()
