@@ -126,7 +126,8 @@ class WorldGrid:
             line.truncate(w)
             line.pad_left((w - line.cell_len) // 2)
             line.pad_right(w - line.cell_len)
-            line.stylize(base, 0, len(line))
+            # Under the overlay's own colours, not over them.
+            line.stylize_before(base, 0, len(line))
             line.style = base
             lines[top + i] = line
         if cell in self.highlight:
@@ -135,13 +136,20 @@ class WorldGrid:
             lines[-1] = Text("▙" + "▄" * (w - 2) + "▟", style=frame) if h >= 3 else lines[-1]
         return lines
 
+    def cell_segments(self, cell: Cell, console: Console) -> list[list[Segment]]:
+        """The cell's `cell_height` lines as segments."""
+        # Text.render drops Text.style when a line has no spans: apply it here.
+        return [
+            list(Segment.apply_style(line.render(console), console.get_style(line.style)))
+            for line in self.cell_lines(cell)
+        ]
+
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
-        world = self.world
-        for r in range(world.rows):
-            rows = [self.cell_lines((r, c)) for c in range(world.cols)]
+        for r in range(self.world.rows):
+            row = [self.cell_segments((r, c), console) for c in range(self.world.cols)]
             for i in range(self.cell_height):
-                for cell_lines in rows:
-                    yield from cell_lines[i].render(console)
+                for lines in row:
+                    yield from lines[i]
                 yield Segment.line()
 
     def __rich_measure__(self, console: Console, options: ConsoleOptions):

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from itertools import product
 
 import numpy as np
-from rich.console import Console, ConsoleOptions, RenderResult
+from rich.console import Console
 from rich.segment import Segment
 from rich.style import Style
 from textual.geometry import Region
@@ -73,9 +73,7 @@ class BoardGrid(WorldGrid):
     """A `WorldGrid` with glyphs drawn at character positions inside cells.
 
     `marks[cell][(line, column)] = (glyph, style)` puts a glyph on a cell's background, so an
-    arrow can run from the player's cell into its neighbours. It also gives every line its
-    cell's background: `WorldGrid` renders a `Text` that has no spans without its style (blank
-    cell lines, highlight frames), which Rich's `Text.render` leaves to the caller.
+    arrow can run from the player's cell into its neighbours.
     """
 
     marks: Mapping[Cell, Mapping[tuple[int, int], Mark]] = field(default_factory=dict)
@@ -90,20 +88,12 @@ class BoardGrid(WorldGrid):
     def cell_segments(self, cell: Cell, console: Console) -> list[list[Segment]]:
         """The cell's `cell_height` lines as segments, its marks drawn in."""
         marks = self.marks.get(cell, {})
-        lines = []
-        for i, line in enumerate(self.cell_lines(cell)):
-            segments = list(Segment.apply_style(line.render(console), console.get_style(line.style)))
+        lines = super().cell_segments(cell, console)
+        for i, segments in enumerate(lines):
             on_line = {j: mark for (k, j), mark in marks.items() if k == i}
-            lines.append(_with_marks(segments, on_line) if on_line else segments)
+            if on_line:
+                lines[i] = _with_marks(segments, on_line)
         return lines
-
-    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
-        for r in range(self.world.rows):
-            row = [self.cell_segments((r, c), console) for c in range(self.world.cols)]
-            for i in range(self.cell_height):
-                for lines in row:
-                    yield from lines[i]
-                yield Segment.line()
 
 
 def _darker(colour: str, factor: float) -> str:

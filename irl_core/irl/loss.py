@@ -33,9 +33,10 @@ on the minimum) and the loss at its solution (an upper bound) agree to 1e-8. Not
 exponentiated beyond the data's own scale:
 
 * the first LP (the tangent at 0: minimise sum ReLU(z_s)) gives a feasible point whose
-  loss U0 bounds the minimum, so at any minimiser every ReLU(z_s) <= log U0; this cap on
-  r_s is added to the LP (it removes no minimiser) and bounds every tangent's slope by U0;
-* tangent rows are written as r_s - e^-rho w_s <= rho - 1, coefficients in [1/U0, 1].
+  loss U0 bounds the minimum, so at any minimiser every ReLU(z_s) <= log U0; the cap
+  r_s <= log U0 + 1 is added to the LP (it removes no minimiser, and the 1 is far above
+  the LP's tolerance on z) and bounds every tangent's slope by e U0;
+* tangent rows are written as r_s - e^-rho w_s <= rho - 1, coefficients in [1/(e U0), 1].
 
 Many rewards often minimise the loss equally (for clean demonstrations, every reward that
 makes each demonstrated action the best reaches the floor L = number of demonstrated
@@ -56,7 +57,7 @@ import scipy.sparse as sp
 
 from irl_core.irl.lp import HighsLP
 from irl_core.irl.qmap import QMap
-from irl_core.irl.result import SolverError
+from irl_core.irl.result import InfeasibleError, SolverError
 
 # Relative agreement of the lower and upper bounds that ends the outer approximation
 # (HiGHS's own feasibility tolerance is 1e-7, so the LP value is good to about 1e-8).
@@ -406,6 +407,14 @@ def fit_loss(qmap: QMap, frequencies: np.ndarray, *, rmax: float, lam: float = 0
     constraints = loss_constraints(qmap, frequencies, rmax=rmax)
     if constraints.demonstrated.size == 0:
         raise ValueError("the loss needs at least one demonstrated state")
+    try:
+        return _minimise_loss(qmap, constraints, rmax=rmax, lam=lam)
+    except InfeasibleError:
+        # Some V is always feasible (play pi where demonstrated, optimally elsewhere): a numerical failure.
+        raise SolverError("HiGHS reported the loss problem infeasible, which it cannot be; please report this") from None
+
+
+def _minimise_loss(qmap: QMap, constraints: LossConstraints, *, rmax: float, lam: float) -> LossSolution:
     problem = _loss_lp(constraints)
     outer = _OuterApproximation(problem, lam=lam)
     k = qmap.k
@@ -415,7 +424,8 @@ def fit_loss(qmap: QMap, frequencies: np.ndarray, *, rmax: float, lam: float = 0
     objective[problem.u] = lam * qmap.unknowns.weight
     # The tangent at 0 alone: a feasible point whose loss bounds every ReLU(z_s) at the optimum.
     first, _ = outer.minimise(objective, level=np.inf)
-    outer.cap(float(np.log(outer.loss(first) * (1 + 1e-6))))
+    # log U0 + 1: a margin far above the LP's tolerance on z, and slopes still below e * U0.
+    outer.cap(float(np.log(outer.loss(first))) + 1.0)
     optimum, lower_bound = outer.minimise(objective)
 
     # The optimal set: objective <= level. Lexicographic stage: the smallest weighted ||R_S||_1 in it.

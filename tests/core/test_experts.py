@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from careful_tui.cli import main
-from irl_core.demonstrations import Demonstrations, read_recording
+from irl_core.demonstrations import read_recording
 from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.mdp import action_index, build_mdp
 from irl_core.world import BUILTIN_WORLDS
