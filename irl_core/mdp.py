@@ -124,6 +124,13 @@ class MDP:
         """(S - 1) layout symbol of each cell state."""
         return tuple(self.world.symbol(cell) for cell in self.cells)
 
+    def grid_of(self, per_state: np.ndarray, *, fill: float = np.nan) -> np.ndarray:
+        """(rows, cols) from a per-state array (S,) (the exit dropped), `fill` at walls."""
+        out = np.full((self.world.rows, self.world.cols), fill, dtype=float)
+        rc = np.array(self.cells).reshape(-1, 2)
+        out[rc[:, 0], rc[:, 1]] = np.asarray(per_state, dtype=float)[: len(self.cells)]
+        return out
+
     def reward_matrix(self, R_S: np.ndarray | None = None) -> np.ndarray:
         """(S, A) R(s, a) for state rewards R_S (S,), the world's own by default."""
         R_S = self.R_S if R_S is None else np.asarray(R_S, dtype=float)

@@ -54,19 +54,25 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
+from scipy.special import logsumexp
 
 from irl_core.irl.lp import HighsLP
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import InfeasibleError, SolverError
 
-# Relative agreement of the lower and upper bounds that ends the outer approximation
-# (HiGHS's own feasibility tolerance is 1e-7, so the LP value is good to about 1e-8).
+# Relative agreement of the lower and upper bounds that ends the outer approximation, and
+# HiGHS's feasibility tolerance for these LPs (its default 1e-7 would put the floor near 1e-7).
 GAP_TOLERANCE = 1e-8
+LP_TOLERANCE = 1e-9
 # A tangent is added where exp(r_s) exceeds w_s by more than this (relative).
 CUT_TOLERANCE = 1e-9
 # Once the LP value stops moving, a gap up to this is accepted as the LP's noise floor.
 STALL_TOLERANCE = 1e-6
 MAX_ROUNDS = 500
+# Tangents further than this (log units) from the LP's scale are left out; a fall of the
+# best loss by REBASE (log units) below the scale rebuilds the LP at the new scale.
+FAR = 30.0
+REBASE = 5.0
 # Two optimal rewards differing by more than this (relative to rmax) make the answer not unique.
 UNIQUE_TOLERANCE = 1e-4
 
@@ -270,14 +276,6 @@ class _LossLP:
     def size(self) -> int:
         return self.u.stop
 
-    def tangents(self, states: np.ndarray, rho: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
-        """Rows r_s - e^-rho w_s <= rho - 1, i.e. w_s >= e^rho (1 + r_s - rho), at positions `states`."""
-        states = np.asarray(states, dtype=np.int64)
-        rows = np.repeat(np.arange(states.size), 2)
-        cols = np.column_stack([self.r.start + states, self.w.start + states]).ravel()
-        data = np.column_stack([np.ones(states.size), -np.exp(-rho)]).ravel()
-        return sp.csr_matrix((data, (rows, cols)), shape=(states.size, self.size)), rho - 1.0
-
 
 def _loss_lp(constraints: LossConstraints) -> _LossLP:
     c = constraints
@@ -353,52 +351,118 @@ class LossSolution:
 
 
 class _OuterApproximation:
-    """The loss LP with tangent cuts, one HiGHS model kept across every stage."""
+    """The loss LP with tangent cuts, one HiGHS model for as long as its scale holds.
+
+    The LP holds w'_s = w_s e^-shift, where shift is the largest ReLU(z_s) at a recent
+    solution, so its numbers stay near 1 however large the loss (a demonstration that walks
+    into a wall at the highest level can make it e^200). A tangent at a point rho more than
+    FAR from the shift only bounds a term below e^-FAR of the largest and is left out; when
+    the largest term falls REBASE below the shift, the LP is rebuilt at the new shift with
+    every tangent so far.
+    """
 
     def __init__(self, problem: _LossLP, *, lam: float):
         self.problem, self.lam, self.rounds = problem, lam, 0
-        self.solver = HighsLP(problem.A, problem.row_lower, problem.row_upper, problem.lower, problem.upper)
+        self.shift, self.cap, self.log_level = 0.0, np.inf, None
         d = problem.constraints.demonstrated.size
-        self.add_tangents(np.arange(d), np.zeros(d))
+        self.points = (np.arange(d), np.zeros(d))  # every tangent so far: (positions, rho)
+        self._build()
 
-    def add_tangents(self, states: np.ndarray, rho: np.ndarray) -> None:
-        rows, upper = self.problem.tangents(states, rho)
-        self.solver.add_rows(rows, np.full(rows.shape[0], -np.inf), upper)
+    def _build(self) -> None:
+        p = self.problem
+        upper = p.upper.copy()
+        upper[p.r] = self.cap
+        self.solver = HighsLP(p.A, p.row_lower, p.row_upper, p.lower, upper, tolerance=LP_TOLERANCE)
+        self._add_tangents(*self.points)
+        if self.log_level is not None:
+            self._add_level_row()
 
-    def cap(self, r_max: float) -> None:
-        """Bound every r_s by r_max (see the module docstring: it removes no minimiser)."""
-        r = self.problem.r
-        cols = np.arange(r.start, r.stop, dtype=np.int32)
-        self.solver.highs.changeColsBounds(cols.size, cols, np.zeros(cols.size), np.full(cols.size, r_max))
+    def _add_tangents(self, states: np.ndarray, rho: np.ndarray) -> None:
+        """w'_s >= e^(rho - shift) (1 + r_s - rho), each row scaled so its largest coefficient is 1."""
+        near = np.abs(rho - self.shift) <= FAR
+        states, rho = states[near], rho[near]
+        if states.size == 0:
+            return
+        slope = np.exp(rho - self.shift)
+        scale = 1.0 / np.maximum(slope, 1.0)
+        r, w = self.problem.r, self.problem.w
+        rows = sp.csr_matrix(
+            (
+                np.column_stack([slope * scale, -scale]).ravel(),
+                (np.repeat(np.arange(states.size), 2), np.column_stack([r.start + states, w.start + states]).ravel()),
+            ),
+            shape=(states.size, self.problem.size),
+        )
+        self.solver.add_rows(rows, np.full(states.size, -np.inf), slope * scale * (rho - 1.0))
 
-    def loss(self, v: np.ndarray) -> float:
-        """The true objective L(R_S) + lambda ||R_S||_1 at the LP point v."""
+    def loss_cost(self) -> np.ndarray:
+        """The loss objective in the LP's units: sum w'_s + lambda e^-shift ||R_S||_1."""
+        cost = np.zeros(self.problem.size)
+        cost[self.problem.w] = 1.0
+        cost[self.problem.u] = self.lam * np.exp(-self.shift) * self.problem.constraints.qmap.unknowns.weight
+        return cost
+
+    def _add_level_row(self) -> None:
+        self.solver.add_rows(
+            sp.csr_matrix(self.loss_cost()), np.array([-np.inf]), np.array([np.exp(self.log_level - self.shift)])
+        )
+
+    def relu(self, v: np.ndarray) -> np.ndarray:
+        """(d,) ReLU(z_s) at the LP point v, from the exact rival maxima."""
         c = self.problem.constraints
-        return loss_value(c.qmap, c.frequencies, v[self.problem.x], lam=self.lam)
+        return np.maximum(relu_terms(c.qmap, c.frequencies, v[self.problem.x]), 0.0)
 
-    def minimise(self, cost: np.ndarray, *, level: float | None = None) -> tuple[np.ndarray, float]:
-        """Minimise cost @ v, adding tangents until the loss is pinned down; (v, LP value).
+    def log_loss(self, v: np.ndarray) -> float:
+        """log(L(R_S) + lambda ||R_S||_1) at the LP point v, without overflow."""
+        c = self.problem.constraints
+        log_l = float(logsumexp(self.relu(v)))
+        penalty = self.lam * float(c.qmap.unknowns.weight @ np.abs(v[: c.qmap.k]))
+        return float(np.logaddexp(log_l, np.log(penalty))) if penalty > 0 else log_l
 
-        Without `level` (cost is the objective itself): until the LP value, a lower bound
-        on the minimum, is within GAP_TOLERANCE of the true loss at its solution. With
-        `level`: until the solution's true loss is within GAP_TOLERANCE of `level`.
+    def rescale(self, v: np.ndarray, *, cap: float | None = None) -> None:
+        """Rebuild the LP with the shift at the largest term's exponent at v (and, if given, the cap on r).
+
+        The largest term then has w' = 1 and the LP's absolute tolerances stay relative.
+        """
+        self.shift = float(self.relu(v).max())
+        self.cap = self.cap if cap is None else cap
+        self._build()
+
+    def restrict(self, log_level: float) -> None:
+        """From now on keep the loss below e^log_level (the lexicographic stages)."""
+        self.log_level = log_level
+        self._add_level_row()
+
+    def minimise(self, cost: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+        """Minimise cost @ v (the loss itself if None), adding tangents; (v, log of a lower bound).
+
+        For the loss: until the LP value, a lower bound on the minimum, is within
+        GAP_TOLERANCE (relative) of the true loss at its solution. Under a level: until the
+        solution's true loss is within GAP_TOLERANCE of the level. The lower bound is only
+        meaningful for the loss.
         """
         r, w = self.problem.r, self.problem.w
         previous = None
         for _ in range(MAX_ROUNDS):
-            v, value = self.solver.minimise(cost)
+            v, value = self.solver.minimise(self.loss_cost() if cost is None else cost)
             self.rounds += 1
-            loss = self.loss(v)
-            excess = (loss - value) if level is None else (loss - level)
-            scale = max(abs(loss), 1.0)
-            loose = np.flatnonzero(np.exp(v[r]) > v[w] * (1 + CUT_TOLERANCE))
-            if excess <= GAP_TOLERANCE * scale or loose.size == 0:
-                return v, value
+            log_loss = self.log_loss(v)
+            log_bound = np.log(value) + self.shift if value > 0 else -np.inf
+            excess = log_loss - (log_bound if cost is None else self.log_level)
+            relevant = v[r] >= self.shift - FAR
+            loose = np.flatnonzero(relevant & (np.exp(v[r] - self.shift) > v[w] * (1 + CUT_TOLERANCE)))
+            if excess <= GAP_TOLERANCE or loose.size == 0:
+                return v, log_bound
             stalled = previous is not None and abs(value - previous) <= 1e-12 * max(abs(value), 1.0)
-            if stalled and excess <= STALL_TOLERANCE * scale:
-                return v, value
+            if stalled and excess <= STALL_TOLERANCE:
+                return v, log_bound
             previous = value
-            self.add_tangents(loose, v[r][loose])
+            self.points = (np.concatenate([self.points[0], loose]), np.concatenate([self.points[1], v[r][loose]]))
+            if cost is None and self.shift - float(self.relu(v).max()) > REBASE:
+                self.rescale(v)
+                previous = None
+            else:
+                self._add_tangents(loose, v[r][loose])
         raise SolverError(f"the loss did not converge in {MAX_ROUNDS} rounds of tangent cuts")
 
 
@@ -419,35 +483,33 @@ def _minimise_loss(qmap: QMap, constraints: LossConstraints, *, rmax: float, lam
     outer = _OuterApproximation(problem, lam=lam)
     k = qmap.k
 
-    objective = np.zeros(problem.size)
-    objective[problem.w] = 1.0
-    objective[problem.u] = lam * qmap.unknowns.weight
-    # The tangent at 0 alone: a feasible point whose loss bounds every ReLU(z_s) at the optimum.
-    first, _ = outer.minimise(objective, level=np.inf)
-    # log U0 + 1: a margin far above the LP's tolerance on z, and slopes still below e * U0.
-    outer.cap(float(np.log(outer.loss(first))) + 1.0)
-    optimum, lower_bound = outer.minimise(objective)
+    # The tangent at 0 alone (minimise sum ReLU(z_s)): a feasible point whose loss U0 bounds
+    # the minimum. Rescale to it and cap r at log U0 + 1 (a margin far above the LP's tolerance).
+    first = outer.solver.minimise(outer.loss_cost())[0]
+    outer.rescale(first, cap=outer.log_loss(first) + 1.0)
+    optimum, log_lower_bound = outer.minimise()
 
-    # The optimal set: objective <= level. Lexicographic stage: the smallest weighted ||R_S||_1 in it.
-    level = outer.loss(optimum) * (1 + GAP_TOLERANCE)
-    outer.solver.add_rows(sp.csr_matrix(objective), np.array([-np.inf]), np.array([level]))
+    # The optimal set: loss <= level. Lexicographic stage: the smallest weighted ||R_S||_1 in it.
+    outer.restrict(outer.log_loss(optimum) + GAP_TOLERANCE)
     l1 = np.zeros(problem.size)
     l1[problem.u] = qmap.unknowns.weight
-    chosen, _ = outer.minimise(l1, level=level)
+    chosen, _ = outer.minimise(l1)
 
     # Uniqueness: the range of a fixed generic linear function of theta over the optimal set.
     generic = np.zeros(problem.size)
     generic[:k] = 1.0 + (np.arange(k) * 0.6180339887498949) % 1.0
-    low, _ = outer.minimise(generic, level=level)
-    high, _ = outer.minimise(-generic, level=level)
+    low, _ = outer.minimise(generic)
+    high, _ = outer.minimise(-generic)
     unique = float(np.max(np.abs(high[:k] - low[:k]), initial=0.0)) <= UNIQUE_TOLERANCE * max(rmax, 1.0)
 
     notes = []
     if not unique:
         notes.append("not unique: many rewards minimise the loss equally; shown is the one with the smallest ||R_S||_1")
+    with np.errstate(over="ignore"):
+        loss, lower_bound = np.exp(outer.log_loss(chosen)), np.exp(log_lower_bound)
     return LossSolution(
         x=chosen[problem.x],
-        loss=outer.loss(chosen),
+        loss=float(loss),
         lower_bound=float(lower_bound),
         unique=unique,
         rounds=outer.rounds,

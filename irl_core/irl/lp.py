@@ -126,7 +126,10 @@ class HighsLP:
         lower: np.ndarray,
         upper: np.ndarray,
         cost: np.ndarray | None = None,
+        *,
+        tolerance: float | None = None,
     ):
+        """`tolerance`: HiGHS's primal and dual feasibility tolerances (default 1e-7)."""
         A = sp.csc_matrix(A)
         A.sort_indices()
         n_row, n_col = A.shape
@@ -142,6 +145,9 @@ class HighsLP:
         self.n_col = n_col
         self.highs = highspy.Highs()
         self.highs.setOptionValue("output_flag", False)
+        if tolerance is not None:
+            self.highs.setOptionValue("primal_feasibility_tolerance", tolerance)
+            self.highs.setOptionValue("dual_feasibility_tolerance", tolerance)
         self.highs.passModel(lp)
         self.iterations = 0
 

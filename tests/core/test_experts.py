@@ -99,3 +99,15 @@ def test_worlds_command_and_bad_usage_exit_codes(tmp_path):
     sim = subprocess.run([*run, "simulate", "--world", str(bad_world), "--policy", "optimal", "--episodes", "1",
                           "--seed", "0", "--out", str(tmp_path / "x.jsonl")], capture_output=True, text=True)
     assert sim.returncode == 2 and "ragged" in sim.stderr and "Traceback" not in sim.stderr
+
+
+def test_demonstrations_of_rollouts_equal_the_written_file(tmp_path):
+    from irl_core.demonstrations import Demonstrations
+    from irl_core.experts import demonstrations_of, write_rollouts
+
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    result = rollouts(mdp, boltzmann_policy(mdp, beta=1.0), episodes=25, seed=4)
+    direct = demonstrations_of(mdp, result)
+    read = Demonstrations.read([write_rollouts(tmp_path / "r.jsonl", mdp, result, player="x", seed=4)])
+    np.testing.assert_array_equal(direct.counts, read.counts)
+    assert (direct.episodes, direct.steps) == (read.episodes, read.steps)

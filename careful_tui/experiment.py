@@ -1,0 +1,112 @@
+"""`careful experiment`: the paper's experiments, printed, drawn and written to a folder.
+
+Writes into `--out`: one SVG per figure, `summary.json` and `report.md`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+from pathlib import Path
+
+from rich.console import Console, Group
+from rich.panel import Panel
+from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+from rich.text import Text
+
+from careful_tui.cli import UsageError
+from careful_tui.grid import WorldGrid, format_value, symbol_legend
+from irl_core.experiment import FULL, QUICK, ExperimentResult, Figure, run_experiment as run_stages
+
+
+def figure_panel(figure: Figure) -> Panel:
+    grid = WorldGrid(figure.world, values=figure.values, labels=figure.labels)
+    parts = [grid, symbol_legend(figure.world)]
+    if figure.caption:
+        parts.append(Text(figure.caption, style="italic"))
+    return Panel(Group(*parts), title=figure.title, expand=False)
+
+
+def estimates_table(result: ExperimentResult) -> Table:
+    table = Table(title="Cliff and goal: fitted against the truth")
+    for column in ("stage", "data", "cliff", "true", "error", "goal", "true", "error", "time"):
+        table.add_column(column, justify="right" if column not in ("stage", "data") else "left")
+    for e in result.estimates:
+        table.add_row(
+            e.stage, e.data,
+            format_value(e.cliff), format_value(e.true_cliff), f"{e.cliff_error:.0%}",
+            format_value(e.goal), format_value(e.true_goal), f"{e.goal_error:.0%}",
+            f"{e.seconds:.2f} s",
+        )
+    return table
+
+
+def intervals_table(result: ExperimentResult) -> Table:
+    table = Table(title="What carefulness buys: reward intervals over every reward the demonstrations allow")
+    for column in ("world", "cliff interval", "width", "mud interval", "width", "cliff vs mud", "time"):
+        table.add_column(column)
+    for s in result.separations:
+        table.add_row(
+            s.world, f"{s.cliff[0]:.0f} .. {s.cliff[1]:.0f}", f"{s.cliff_width:.0f}",
+            f"{s.mud[0]:.0f} .. {s.mud[1]:.0f}", f"{s.mud_width:.0f}",
+            "[green]separated[/]" if s.separated else "[red]overlap[/]", f"{s.seconds:.2f} s",
+        )
+    return table
+
+
+def save_figure(figure: Figure, path: Path) -> None:
+    console = Console(record=True, width=max(60, figure.world.cols * 7 + 4), file=io.StringIO())
+    console.print(figure_panel(figure))
+    console.save_svg(str(path), title=figure.title)
+
+
+def report_markdown(result: ExperimentResult) -> str:
+    lines = ["# careful experiment", "",
+             "The paper's experiments (Hanslope & Aitchison), rerun by `careful experiment`.", "",
+             "## Cliff and goal, fitted against the truth", "",
+             "| stage | data | cliff | true | error | goal | true | error | time |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for e in result.estimates:
+        lines.append(f"| {e.stage} | {e.data} | {e.cliff:.1f} | {e.true_cliff:.0f} | {e.cliff_error:.0%} | "
+                     f"{e.goal:.1f} | {e.true_goal:.0f} | {e.goal_error:.0%} | {e.seconds:.2f} s |")
+    lines += ["", "## Intervals: what carefulness buys", "",
+              "| world | cliff interval | mud interval | separated | time |", "|---|---|---|---|---|"]
+    for s in result.separations:
+        lines.append(f"| {s.world} | {s.cliff[0]:.0f} .. {s.cliff[1]:.0f} | {s.mud[0]:.0f} .. {s.mud[1]:.0f} | "
+                     f"{'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
+    lines += ["", "## Figures", ""]
+    for figure in result.figures:
+        lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.svg)", "", figure.caption, ""]
+    if result.notes:
+        lines += ["## Notes", "", *(f"- {note}" for note in result.notes), ""]
+    lines += [f"Total time: {result.seconds:.1f} s.", ""]
+    return "\n".join(lines)
+
+
+def run_experiment(args: argparse.Namespace) -> int:
+    out: Path = args.out
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"{out} is a file; --out needs a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create {out}: {exc.strerror}") from None
+    console = Console()
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                  console=Console(stderr=True), transient=True) as progress:
+        task = progress.add_task("starting", total=None)
+        result = run_stages(sizes=QUICK if args.quick else FULL, recordings=Path("recordings"),
+                            progress=lambda stage: progress.update(task, description=stage))
+    for figure in result.figures:
+        console.print(figure_panel(figure))
+        save_figure(figure, out / f"{figure.key}.svg")
+    console.print(estimates_table(result))
+    console.print(intervals_table(result))
+    for note in result.notes:
+        console.print(f"[dim]note: {note}[/]")
+    (out / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+    (out / "report.md").write_text(report_markdown(result))
+    console.print(f"done in {result.seconds:.1f} s; figures, summary.json and report.md are in {out}/")
+    return 0

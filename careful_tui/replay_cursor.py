@@ -1,0 +1,160 @@
+"""Where a replay is: a position in a recording's steps, with the episode ends in between.
+
+No Textual here: the replay screen draws whatever frame the cursor is on, and the tests
+drive the cursor directly.
+
+A recording is watched as a row of frames. Each step gives two, and each episode closes
+with one:
+
+==========  ============================================================================
+``before``  the player at the step's ``state``, about to move: the recorded direction
+            and carefulness (the arrow, the gauge)
+``after``   the player at the step's ``next_state``: where the move went (a slip shows)
+``end``     the episode's end: its outcome and score, or, for an episode the file does
+            not finish (a crash, a truncated file), that it is unfinished; the player
+            stays where its last step left it
+==========  ============================================================================
+
+Episodes are taken in the order they first appear in the file, steps in file order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+from irl_core.demonstrations import EpisodeEnd, Recording, Step
+
+Cell = tuple[int, int]
+Phase = Literal["before", "after", "end"]
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One episode of a recording: its number, its steps, and its end (None: unfinished)."""
+
+    number: int
+    steps: tuple[Step, ...]
+    end: EpisodeEnd | None
+
+
+@dataclass(frozen=True)
+class Frame:
+    """What the replay shows at one position.
+
+    Attributes:
+        index: the episode's position in the recording (0-based; `episode.number` is as recorded).
+        t: the step's position in the episode; at the end frame, the number of steps.
+        phase: "before" or "after" the step's move, or "end" of the episode.
+    """
+
+    episode: Episode
+    index: int
+    t: int
+    phase: Phase
+
+    @property
+    def step(self) -> Step | None:
+        """The step shown (None at an episode's end)."""
+        return None if self.phase == "end" else self.episode.steps[self.t]
+
+    @property
+    def player(self) -> Cell | None:
+        """The player's cell (None at the end of an episode without steps)."""
+        if self.phase == "before":
+            return self.episode.steps[self.t].state
+        if self.phase == "after":
+            return self.episode.steps[self.t].next_state
+        return self.episode.steps[-1].next_state if self.episode.steps else None
+
+
+def group_episodes(steps: Sequence[Step], ends: Sequence[EpisodeEnd]) -> list[Episode]:
+    """The episodes of a recording: those with steps in the order of their first step, then
+    those with only an end (as `Recording.episodes` orders them). Steps keep file order; an
+    episode with several ends keeps the first.
+    """
+    grouped: dict[int, list[Step]] = {}
+    for step in steps:
+        grouped.setdefault(step.episode, []).append(step)
+    end_of: dict[int, EpisodeEnd] = {}
+    for end in ends:
+        grouped.setdefault(end.episode, [])
+        end_of.setdefault(end.episode, end)
+    return [Episode(number, tuple(episode_steps), end_of.get(number)) for number, episode_steps in grouped.items()]
+
+
+class ReplayCursor:
+    """A position in a recording's frames, moved by step, by episode, or to either end.
+
+    Every move stays inside the frames (moving past either end stays at it) and returns
+    whether the position changed. A recording without steps or ends has no frames: `frame`
+    is None and every move returns False.
+    """
+
+    def __init__(self, episodes: Sequence[Episode]) -> None:
+        self.episodes = list(episodes)
+        self.frames: list[Frame] = []
+        self._episode_start: list[int] = []
+        for index, episode in enumerate(self.episodes):
+            self._episode_start.append(len(self.frames))
+            for t in range(len(episode.steps)):
+                self.frames.append(Frame(episode, index, t, "before"))
+                self.frames.append(Frame(episode, index, t, "after"))
+            self.frames.append(Frame(episode, index, len(episode.steps), "end"))
+        self.position = 0
+
+    @classmethod
+    def from_recording(cls, recording: Recording) -> ReplayCursor:
+        return cls(group_episodes(recording.steps, recording.episode_ends))
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    @property
+    def frame(self) -> Frame | None:
+        return self.frames[self.position] if self.frames else None
+
+    @property
+    def at_start(self) -> bool:
+        return self.position == 0
+
+    @property
+    def at_end(self) -> bool:
+        return self.position >= len(self.frames) - 1
+
+    def go_to(self, position: int) -> bool:
+        """Move to frame `position`, clamped to the frames; whether the position changed."""
+        new = max(0, min(position, len(self.frames) - 1))
+        changed = new != self.position
+        self.position = new
+        return changed
+
+    def forward(self) -> bool:
+        """One frame on: from before a move to after it, then to the next step (or the end)."""
+        return self.go_to(self.position + 1)
+
+    def back(self) -> bool:
+        return self.go_to(self.position - 1)
+
+    def next_episode(self) -> bool:
+        """To the first frame of the next episode; in the last episode, to its end."""
+        frame = self.frame
+        if frame is None:
+            return False
+        if frame.index + 1 < len(self.episodes):
+            return self.go_to(self._episode_start[frame.index + 1])
+        return self.to_end()
+
+    def previous_episode(self) -> bool:
+        """To the first frame of the previous episode; in the first episode, to its start."""
+        frame = self.frame
+        if frame is None:
+            return False
+        return self.go_to(self._episode_start[max(0, frame.index - 1)])
+
+    def to_start(self) -> bool:
+        return self.go_to(0)
+
+    def to_end(self) -> bool:
+        return self.go_to(len(self.frames) - 1)

@@ -1,0 +1,35 @@
+"""`careful experiment` on reduced sizes: the summary tells the paper's story."""
+
+import json
+
+from careful_tui.cli import main
+
+
+def test_quick_experiment_tells_the_papers_story(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no recordings/ here: stage 4 uses simulated noisy experts
+    out = tmp_path / "exp"
+    assert main(["experiment", "--quick", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    by_stage = {e["stage"]: e for e in summary["estimates"]}
+    lp, maxent, loss = by_stage["careful lp"], by_stage["maxent baseline"], by_stage["loss, noisy"]
+    # The careful LP recovers the cliff's severity; the MaxEnt baseline badly underestimates it.
+    assert lp["cliff_error"] < 0.10
+    assert maxent["cliff"] < 0 and maxent["cliff_error"] > 0.5
+    assert maxent["goal"] > 0
+    assert loss["cliff"] < loss["goal"]
+    intervals = {s["world"]: s for s in summary["intervals"]}
+    assert intervals["mud"]["separated"] and not intervals["mud-simple"]["separated"]
+    assert intervals["mud"]["cliff"][1] < intervals["mud"]["mud"][0]
+    for name in ("fig3-optimal-policy", "fig4-true-reward", "fig5-maxent", "fig6-lp",
+                 "fig7-demonstrated-policy", "fig8-loss", "intervals-mud", "intervals-mud-simple"):
+        assert (out / f"{name}.svg").read_text().startswith("<svg")
+    report = (out / "report.md").read_text()
+    assert "| careful lp |" in report and "![Figure 6" in report
+    assert "simulated noisy experts" in report
+
+
+def test_experiment_refuses_a_file_as_out(tmp_path, capsys):
+    target = tmp_path / "taken"
+    target.write_text("")
+    assert main(["experiment", "--quick", "--out", str(target)]) == 2
+    assert "is a file" in capsys.readouterr().err
