@@ -15,7 +15,7 @@ import numpy as np
 
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.loss import fit_loss
+from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp import lp_constraints, solve_margin_lp
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import RewardCells, build_qmap, build_unknowns
@@ -54,10 +54,10 @@ def fit(
     unknowns = build_unknowns(mdp, reward_cells=reward_cells, tie=tie)
     qmap = build_qmap(mdp, unknowns)
     notes: list[str] = []
+    status = "optimal"
     if unknowns.k == 0:
         notes.append("nothing to fit: every cell is ground, which --reward-cells special keeps at 0; "
                      "try --reward-cells all")
-    status = "optimal"
     constraints = None
 
     if method == "lp":
@@ -68,6 +68,8 @@ def fit(
         solution = fit_loss(qmap, demos.policy, rmax=rmax, lam=lam)
         theta, V = qmap.split(solution.x)
         notes += solution.notes
+        if solution.gap > STALL_TOLERANCE:
+            status = "optimal_inaccurate"
     else:
         solution = fit_maxent(mdp, unknowns, demos.counts, beta=beta, rmax=rmax)
         theta, V = solution.theta, solution.V

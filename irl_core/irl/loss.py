@@ -66,8 +66,10 @@ GAP_TOLERANCE = 1e-8
 LP_TOLERANCE = 1e-9
 # A tangent is added where exp(r_s) exceeds w_s by more than this (relative).
 CUT_TOLERANCE = 1e-9
-# Once the LP value stops moving, a gap up to this is accepted as the LP's noise floor.
+# Once the LP value has not moved for STALL_ROUNDS the LP's tolerance is the floor; a gap
+# above STALL_TOLERANCE is then reported with the answer.
 STALL_TOLERANCE = 1e-6
+STALL_ROUNDS = 3
 MAX_ROUNDS = 500
 # Tangents further than this (log units) from the LP's scale are left out; a fall of the
 # best loss by REBASE (log units) below the scale rebuilds the LP at the new scale.
@@ -337,7 +339,8 @@ class LossSolution:
         x: [theta; V] of the reported minimiser (smallest ||R_S||_1 among the minimisers).
         loss: L at x (lambda term included).
         lower_bound: a certified lower bound on the minimum.
-        unique: whether the minimiser is unique (up to UNIQUE_TOLERANCE).
+        unique: whether the minimiser is unique (up to UNIQUE_TOLERANCE); None if unchecked.
+        gap: the relative gap HiGHS's tolerance left between the bounds (normally below 1e-8).
         rounds: LP solves used.
         notes: sentences for the user.
     """
@@ -345,7 +348,8 @@ class LossSolution:
     x: np.ndarray
     loss: float
     lower_bound: float
-    unique: bool
+    unique: bool | None
+    gap: float
     rounds: int
     notes: list[str] = field(default_factory=list)
 
@@ -364,6 +368,10 @@ class _OuterApproximation:
     def __init__(self, problem: _LossLP, *, lam: float):
         self.problem, self.lam, self.rounds = problem, lam, 0
         self.shift, self.cap, self.log_level = 0.0, np.inf, None
+        self.excess = 0.0  # the largest gap any stage had to accept when the LP stopped improving
+        # HiGHS's tolerances are absolute: with huge bounds (values near vmax) ask for less.
+        vmax = float(np.max(np.abs(problem.upper[problem.x]), initial=1.0))
+        self.tolerance = min(max(LP_TOLERANCE, 1e-14 * vmax), 1e-7)
         d = problem.constraints.demonstrated.size
         self.points = (np.arange(d), np.zeros(d))  # every tangent so far: (positions, rho)
         self._build()
@@ -372,7 +380,7 @@ class _OuterApproximation:
         p = self.problem
         upper = p.upper.copy()
         upper[p.r] = self.cap
-        self.solver = HighsLP(p.A, p.row_lower, p.row_upper, p.lower, upper, tolerance=LP_TOLERANCE)
+        self.solver = HighsLP(p.A, p.row_lower, p.row_upper, p.lower, upper, tolerance=self.tolerance)
         self._add_tangents(*self.points)
         if self.log_level is not None:
             self._add_level_row()
@@ -423,9 +431,19 @@ class _OuterApproximation:
         """Rebuild the LP with the shift at the largest term's exponent at v (and, if given, the cap on r).
 
         The largest term then has w' = 1 and the LP's absolute tolerances stay relative.
+        With a new cap, every state also gets tangents every half unit from the shift - FAR
+        (or 0) to the cap: each tangent only binds above rho - 1, so without them the first
+        rounds would creep down one unit at a time.
         """
         self.shift = float(self.relu(v).max())
-        self.cap = self.cap if cap is None else cap
+        if cap is not None:
+            self.cap = cap
+            grid = np.arange(self.cap, max(self.shift - FAR, 0.0) - 0.5, -0.5)
+            d = self.problem.constraints.demonstrated.size
+            self.points = (
+                np.concatenate([self.points[0], np.repeat(np.arange(d), grid.size)]),
+                np.concatenate([self.points[1], np.tile(grid, d)]),
+            )
         self._build()
 
     def restrict(self, log_level: float) -> None:
@@ -442,7 +460,8 @@ class _OuterApproximation:
         meaningful for the loss.
         """
         r, w = self.problem.r, self.problem.w
-        previous = None
+        gap = max(GAP_TOLERANCE, 10 * self.tolerance)
+        best, stale = -np.inf, 0
         for _ in range(MAX_ROUNDS):
             v, value = self.solver.minimise(self.loss_cost() if cost is None else cost)
             self.rounds += 1
@@ -451,16 +470,20 @@ class _OuterApproximation:
             excess = log_loss - (log_bound if cost is None else self.log_level)
             relevant = v[r] >= self.shift - FAR
             loose = np.flatnonzero(relevant & (np.exp(v[r] - self.shift) > v[w] * (1 + CUT_TOLERANCE)))
-            if excess <= GAP_TOLERANCE or loose.size == 0:
+            if excess <= gap or loose.size == 0:
                 return v, log_bound
-            stalled = previous is not None and abs(value - previous) <= 1e-12 * max(abs(value), 1.0)
-            if stalled and excess <= STALL_TOLERANCE:
+            # The LP value only rises as tangents are added; once it stops, the LP's tolerance is the floor.
+            if value > best + 1e-12 * max(abs(value), 1.0):
+                best, stale = value, 0
+            else:
+                stale += 1
+            if stale >= STALL_ROUNDS:
+                self.excess = max(self.excess, excess)
                 return v, log_bound
-            previous = value
             self.points = (np.concatenate([self.points[0], loose]), np.concatenate([self.points[1], v[r][loose]]))
             if cost is None and self.shift - float(self.relu(v).max()) > REBASE:
                 self.rescale(v)
-                previous = None
+                best, stale = -np.inf, 0
             else:
                 self._add_tangents(loose, v[r][loose])
         raise SolverError(f"the loss did not converge in {MAX_ROUNDS} rounds of tangent cuts")
@@ -498,13 +521,19 @@ def _minimise_loss(qmap: QMap, constraints: LossConstraints, *, rmax: float, lam
     # Uniqueness: the range of a fixed generic linear function of theta over the optimal set.
     generic = np.zeros(problem.size)
     generic[:k] = 1.0 + (np.arange(k) * 0.6180339887498949) % 1.0
-    low, _ = outer.minimise(generic)
-    high, _ = outer.minimise(-generic)
-    unique = float(np.max(np.abs(high[:k] - low[:k]), initial=0.0)) <= UNIQUE_TOLERANCE * max(rmax, 1.0)
-
     notes = []
-    if not unique:
+    try:
+        low, _ = outer.minimise(generic)
+        high, _ = outer.minimise(-generic)
+    except SolverError:
+        unique = None
+        notes.append("the minimiser shown has the smallest ||R_S||_1; whether others exist could not be checked")
+    else:
+        unique = float(np.max(np.abs(high[:k] - low[:k]), initial=0.0)) <= UNIQUE_TOLERANCE * max(rmax, 1.0)
+    if unique is False:
         notes.append("not unique: many rewards minimise the loss equally; shown is the one with the smallest ||R_S||_1")
+    if outer.excess > STALL_TOLERANCE:
+        notes.append(f"inaccurate: the loss is pinned down only to a relative {outer.excess:.0e} (a very large --rmax?)")
     with np.errstate(over="ignore"):
         loss, lower_bound = np.exp(outer.log_loss(chosen)), np.exp(log_lower_bound)
     return LossSolution(
@@ -512,6 +541,7 @@ def _minimise_loss(qmap: QMap, constraints: LossConstraints, *, rmax: float, lam
         loss=float(loss),
         lower_bound=float(lower_bound),
         unique=unique,
+        gap=float(outer.excess),
         rounds=outer.rounds,
         notes=notes,
     )
