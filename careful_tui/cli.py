@@ -24,6 +24,12 @@ class UsageError(Exception):
     """Bad input found after parsing (a value out of range, a file that exists): exit 2."""
 
 
+def require_terminal(command: str) -> None:
+    """Raise `UsageError` unless standard input and output are a terminal (for the screens)."""
+    if not (sys.stdin.isatty() and sys.stdout.isatty()):
+        raise UsageError(f"careful {command} needs an interactive terminal")
+
+
 def positive_float(text: str) -> float:
     value = float(text)
     if not value > 0:

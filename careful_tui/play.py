@@ -27,7 +27,6 @@ import getpass
 import os
 import secrets
 import signal
-import sys
 import time
 from datetime import datetime
 from pathlib import Path
@@ -48,8 +47,9 @@ from careful_tui.widgets import Arrow, Board, Gauge, KeyBar
 from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
 from careful_tui.widgets.calibration import CalibrationScreen
 from careful_tui.widgets.gauge import level_colour
+from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import EpisodeEnd, SessionHeader
-from irl_core.game import Game, MoveResult, SessionRecorder, check_writable
+from irl_core.game import Game, MoveResult, SessionRecorder, check_writable, level_costs
 from irl_core.world import World, load_world
 
 FLASH_S = 0.8
@@ -85,7 +85,7 @@ def legend(world: World) -> Text:
 
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
-    gauge = Gauge([world.cost_per_level * c for c in range(1, world.levels + 1)])
+    gauge = Gauge(level_costs(world))
     gauge_width = gauge.get_content_width(None, None)
     cell_width, cell_height = MIN_CELL
     # Borders, padding and margins as in play.tcss; a title bar and a key bar; 3 status lines.
@@ -153,7 +153,7 @@ class PlayApp(App[None]):
                 board.border_subtitle = legend(self.world)
                 yield board
                 yield Static(id="status")
-        yield Static(id="too-small")
+        yield TooSmall(id="too-small")
         yield KeyBar(id="keys")
 
     def on_mount(self) -> None:
@@ -175,14 +175,8 @@ class PlayApp(App[None]):
         self._check_size(event.size.width, event.size.height)
 
     def _check_size(self, width: int, height: int) -> None:
-        need_w, need_h = minimum_size(self.world)
-        self._too_small = width < need_w or height < need_h
-        self.screen.set_class(self._too_small, "-too-small")
+        self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command="careful play")
         self.query_one(KeyBar).show(self._keys())
-        if self._too_small:
-            self.query_one("#too-small", Static).update(Text(
-                f"The terminal is {width}x{height}; careful play needs {need_w}x{need_h}.\n"
-                "Make the window larger (q quits).", justify="center"))
 
     # ------------------------------------------------------------------ input
 
@@ -449,7 +443,7 @@ def default_player() -> str:
 
 def run_play(args: argparse.Namespace) -> int:
     """`careful play`: check the world and the recordings folder, then play."""
-    from careful_tui.cli import UsageError
+    from careful_tui.cli import UsageError, require_terminal
 
     world = load_world(args.world)
     if args.out.exists() and not args.out.is_dir():
@@ -459,8 +453,7 @@ def run_play(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UsageError(f"cannot write recordings to {args.out} ({exc.strerror or exc}); "
                          "choose a writable folder with --out") from None
-    if not (sys.stdin.isatty() and sys.stdout.isatty()):
-        raise UsageError("careful play needs an interactive terminal")
+    require_terminal("play")
     seed = args.seed if args.seed is not None else secrets.randbelow(2**32)
     player = args.player or default_player()
     app = make_play_app(world, out=args.out, player=player, seed=seed, input_mode=args.input,

@@ -14,7 +14,6 @@ pass a `frame_seconds` long enough that the timer never fires on its own.
 from __future__ import annotations
 
 import argparse
-import sys
 
 from rich.console import Group
 from rich.table import Table
@@ -31,8 +30,10 @@ from careful_tui.play import BAD, GOOD, NOTE, legend
 from careful_tui.replay_cursor import Frame, ReplayCursor
 from careful_tui.widgets import Arrow, Board, Gauge, KeyBar, level_colour
 from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
+from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording, Step, read_recording
 from irl_core.mdp import DIRECTIONS, OFFSETS
+from irl_core.game import level_costs
 from irl_core.summary import SessionSummary, distance_to_terminal, outcome_label, summarise
 from irl_core.world import World
 
@@ -52,11 +53,6 @@ def speed_text(speed: float) -> str:
 
 def plural(n: int, word: str) -> str:
     return f"{n} {word}{'' if n == 1 else 's'}"
-
-
-def level_costs(world: World) -> list[float]:
-    """The action cost of each carefulness level 1..L (as `irl_core.game.Game.costs`)."""
-    return [world.cost_per_level * c for c in range(1, world.levels + 1)]
 
 
 def short_warning(recording: Recording, warning: str) -> str:
@@ -190,7 +186,7 @@ class ReplayApp(App[None]):
             panel = Static(id="summary")
             panel.border_title = "session"
             yield panel
-        yield Static(id="too-small")
+        yield TooSmall(id="too-small")
         yield KeyBar(id="keys")
 
     def on_mount(self) -> None:
@@ -208,13 +204,8 @@ class ReplayApp(App[None]):
         self._check_size(event.size.width, event.size.height)
 
     def _check_size(self, width: int, height: int) -> None:
-        need_w, need_h = minimum_size(self.world)
-        self._too_small = width < need_w or height < need_h
-        self.screen.set_class(self._too_small, "-too-small")
-        if self._too_small:
-            self.query_one("#too-small", Static).update(Text(
-                f"The terminal is {width}x{height}; careful replay needs {need_w}x{need_h}.\n"
-                "Make the window larger (q quits).", justify="center"))
+        self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world),
+                                                         command="careful replay")
         self.query_one(KeyBar).show(self._keys())
 
     def _start_timer(self) -> None:
@@ -384,10 +375,9 @@ class ReplayApp(App[None]):
 
 def run_replay(args: argparse.Namespace) -> int:
     """`careful replay FILE`: read the recording (bad files are reported without a terminal), then watch it."""
-    from careful_tui.cli import UsageError
+    from careful_tui.cli import require_terminal
 
     recording = read_recording(args.file)
-    if not (sys.stdin.isatty() and sys.stdout.isatty()):
-        raise UsageError("careful replay needs an interactive terminal")
+    require_terminal("replay")
     ReplayApp(recording, playing=True).run()
     return 0

@@ -69,6 +69,11 @@ class MoveResult:
         return self.step.slipped
 
 
+def level_costs(world: World) -> list[float]:
+    """The action cost of each carefulness level 1..L, as a positive number."""
+    return [world.cost_per_level * c for c in range(1, world.levels + 1)]
+
+
 class GameOver(RuntimeError):
     """A move was asked for when no episode is running (a programmer's error)."""
 
@@ -99,7 +104,7 @@ class Game:
 
     def costs(self) -> list[float]:
         """The action cost of each carefulness level 1..L, as a positive number."""
-        return [self.world.cost_per_level * c for c in range(1, self.world.levels + 1)]
+        return level_costs(self.world)
 
     def begin_episode(self) -> Cell:
         """Start the next episode at a start cell; returns that cell."""
