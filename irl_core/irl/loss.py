@@ -20,23 +20,23 @@ non-decreasing. `loss_problem` states exactly this in cvxpy, which accepts it as
 
 Solving it. cvxpy hands the exponential cones to an interior-point solver, and that is
 fragile here: Clarabel stops with "insufficient progress" on 17 of 20 noisy instances on
-the paper's world with the rival maxima written directly (14 carefulness levels make rows
-Q(s, (d, c)) nearly parallel), and still on 9 of 120 across the built-in worlds with the
-compact rows of `_rival_rows`; a lexicographic second stage has no interior at all. So `fit_loss` solves the same
-convex problem exactly by outer approximation with HiGHS, and `loss_problem` (the cvxpy
-model) is kept for what cvxpy is good at: stating the problem and checking it is DCP; the
-tests compare the two. With r_s >= z_s and r_s >= 0 the objective sum_s exp(r_s) is
-separable and one-dimensional per state; each exp is replaced by its tangents
+the paper's world with the rival maxima written directly (14 carefulness levels make the
+rows Q(s, (d, c)) nearly parallel), still on 9 of 120 across the built-in worlds with the
+compact rows of `_rival_rows`, and a lexicographic second stage has no interior at all.
+So `fit_loss` solves the same convex problem exactly by outer approximation with HiGHS;
+`loss_problem` (the cvxpy model) states it, cvxpy certifies it DCP, and the tests check
+both give the same minimum. With r_s >= z_s and r_s >= 0 the objective sum_s exp(r_s) is
+separable, one dimension per state, and each exp is replaced by tangents
 w_s >= e^rho (1 + r_s - rho). Every round solves the LP (from the previous basis), adds a
 tangent at each r_s where the cut is loose, and stops when the LP's value (a lower bound
-on the minimum) and the loss at its solution (an upper bound) agree to 1e-8. Nothing is
-exponentiated beyond the data's own scale:
+on the minimum) and the loss at its solution (an upper bound) agree to a relative 1e-8.
+Nothing overflows, however bad the demonstrations:
 
 * the first LP (the tangent at 0: minimise sum ReLU(z_s)) gives a feasible point whose
-  loss U0 bounds the minimum, so at any minimiser every ReLU(z_s) <= log U0; the cap
-  r_s <= log U0 + 1 is added to the LP (it removes no minimiser, and the 1 is far above
-  the LP's tolerance on z) and bounds every tangent's slope by e U0;
-* tangent rows are written as r_s - e^-rho w_s <= rho - 1, coefficients in [1/(e U0), 1].
+  loss U0 bounds the minimum, so at any minimiser every ReLU(z_s) <= log U0: the cap
+  r_s <= log U0 + 1 removes no minimiser (the 1 is far above the LP's tolerance on z);
+* the LP holds w_s e^-shift, with the shift at the largest ReLU(z_s) seen, so its numbers
+  stay near 1 even when the loss is e^200; losses are compared as logs.
 
 Many rewards often minimise the loss equally (for clean demonstrations, every reward that
 makes each demonstrated action the best reaches the floor L = number of demonstrated
@@ -50,8 +50,8 @@ the same optimal set; if the two differ, the result says "not unique".
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 from scipy.special import logsumexp
@@ -59,6 +59,9 @@ from scipy.special import logsumexp
 from irl_core.irl.lp import HighsLP
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import InfeasibleError, SolverError
+
+if TYPE_CHECKING:
+    import cvxpy as cp
 
 # Relative agreement of the lower and upper bounds that ends the outer approximation, and
 # HiGHS's feasibility tolerance for these LPs (its default 1e-7 would put the floor near 1e-7).
@@ -221,6 +224,8 @@ def loss_problem(constraints: LossConstraints, *, lam: float = 0.0) -> tuple[cp.
     minimise sum_s exp(ReLU(z_s)) + lambda ||R_S||_1 subject to the loss agent's
     constraints. cvxpy accepts it as DCP; `fit_loss` solves the same problem without cones.
     """
+    import cvxpy as cp  # only the model needs it; the solve path does not
+
     c = constraints
     y = cp.Variable(c.A.shape[1], name="y")
     eq = c.row_lower == c.row_upper

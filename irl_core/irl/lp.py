@@ -171,9 +171,16 @@ class HighsLP:
             highs.changeColsCost(self.n_col, np.arange(self.n_col, dtype=np.int32), np.asarray(cost, dtype=float))
         status = self._run()
         if status not in _ANSWERS:
-            # A warm start can occasionally fail inside HiGHS; the same LP from scratch does not.
+            # A warm start can occasionally fail inside HiGHS: solve from scratch, then with
+            # the primal simplex, which copes with the nearly parallel tangent rows of the loss.
             highs.clearSolver()
             status = self._run()
+        if status not in _ANSWERS:
+            _, strategy = highs.getOptionValue("simplex_strategy")
+            highs.setOptionValue("simplex_strategy", 4)
+            highs.clearSolver()
+            status = self._run()
+            highs.setOptionValue("simplex_strategy", strategy)
         if status == highspy.HighsModelStatus.kOptimal:
             return np.array(highs.getSolution().col_value), float(highs.getInfo().objective_function_value)
         # Every variable is bounded, so "unbounded or infeasible" can only mean infeasible.

@@ -11,7 +11,7 @@ from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.loss import fit_loss, loss_constraints, loss_problem, loss_value, relu_terms
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
+from irl_core.mdp import action_index, build_mdp
 from irl_core.world import BUILTIN_WORLDS
 
 
@@ -123,3 +123,18 @@ def test_huge_bounds_do_not_overflow():
 def test_every_unknown_layout_solves(reward_cells, tie):
     result = fit(demonstrations("mud", 1.0, 10, 0), method="loss", reward_cells=reward_cells, tie=tie)
     assert result.status == "optimal" and np.all(np.isfinite(result.R_S))
+
+
+@pytest.mark.parametrize("rmax", [1000.0, 1e6])
+def test_absurd_demonstrations_give_a_huge_loss_without_overflow(rmax):
+    # Walking into walls at the highest level: every reward leaves z_s in the hundreds (e^230).
+    mdp = build_mdp(BUILTIN_WORLDS["paper"])
+    counts = np.zeros((mdp.n_states, mdp.n_actions))
+    for cell, direction, level in (((0, 0), "up", 14), ((0, 1), "left", 14), ((2, 1), "down", 1), ((2, 3), "right", 3)):
+        counts[mdp.state_of[cell], action_index(direction, level, mdp.levels)] = 5.0
+    demos = Demonstrations(mdp=mdp, counts=counts, files=1, episodes=1, steps=20)
+    qmap = qmap_of(demos)
+    solution = fit_loss(qmap, demos.policy, rmax=rmax, lam=1.0)
+    z = relu_terms(qmap, demos.policy, solution.x)
+    assert z.max() > 200 and np.all(np.isfinite(solution.x))
+    assert solution.gap < 1e-4
