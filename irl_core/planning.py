@@ -163,9 +163,10 @@ def soft_value_iteration(
     """Soft-optimal values, V(s) = (1/beta) log sum_a exp(beta Q(s, a)), in log space.
 
     The policy is pi(a | s) = exp(beta (Q(s, a) - V(s))); as beta grows it tends to the
-    hard optimum. Only states where the agent acts get the soft backup: at a terminal
-    cell or the exit every action is the same event, so V = Q there (a soft backup
-    would add a spurious log(A)/beta to the outcome's value).
+    hard optimum. Every state gets the soft backup, terminal cells and the exit too, where
+    all actions are the same event and it adds log(A)/beta: the entropy bonus must accrue
+    in every state, or ending an episode would forfeit it and a soft-optimal expert with a
+    small beta would rather wander forever than reach the goal.
     """
     if beta <= 0:
         raise ValueError("beta must be positive")
@@ -176,11 +177,11 @@ def soft_value_iteration(
     residual, iterations = np.inf, 0
     while iterations < max_iter and residual >= threshold:
         Q = R + gamma * mdp.expected_next(V)
-        V_new = _soft_max(Q, beta, mdp.nonterminal)
+        V_new = logsumexp(beta * Q, axis=1) / beta
         residual = float(np.abs(V_new - V).max())
         V, iterations = V_new, iterations + 1
     Q = R + gamma * mdp.expected_next(V)
-    V = _soft_max(Q, beta, mdp.nonterminal)
+    V = logsumexp(beta * Q, axis=1) / beta
     return Plan(
         V=V,
         Q=Q,
@@ -190,7 +191,3 @@ def soft_value_iteration(
         residual=residual,
     )
 
-
-def _soft_max(Q: np.ndarray, beta: float, acting: np.ndarray) -> np.ndarray:
-    """(S,) (1/beta) logsumexp(beta Q) where the agent acts (acting: (S,) bool), max elsewhere."""
-    return np.where(acting, logsumexp(beta * Q, axis=1) / beta, Q.max(axis=1))

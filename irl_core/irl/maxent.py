@@ -4,7 +4,7 @@ The expert is modelled as soft-optimal, pi(a | s) = exp(beta (Q(s, a) - V(s))) w
 Bellman equations
 
     Q(s, a) = R_S(s) + R_A(a) + gamma sum_s' P(s' | s, a) V(s'),
-    V(s)    = (1/beta) log sum_a exp(beta Q(s, a))      (V = Q at terminal cells and the exit),
+    V(s)    = (1/beta) log sum_a exp(beta Q(s, a))      (in every state, as planning.soft_value_iteration),
 
 in the world's own transitions and with the known action cost (SPEC section 3). The fit
 maximises the log likelihood of the demonstrated actions,
@@ -79,27 +79,21 @@ def soft_bellman(
 
     Raises RuntimeError if max|V_k - V_{k-1}| is not below tol * max(1, |V|) after max_iter solves.
     """
-    acting = mdp.nonterminal
     R = mdp.reward_matrix(R_S)
     identity = sp.identity(mdp.n_states, format="csc")
     V = np.zeros(mdp.n_states) if V0 is None else np.asarray(V0, dtype=float)
     for iteration in range(1, max_iter + 1):
         Q = R + mdp.gamma * mdp.expected_next(V)
-        pi = _soft_policy(Q, beta, acting)
+        pi = softmax(beta * Q, axis=1)
         P_pi, _ = policy_matrix(mdp, pi)
-        entropy = np.where(acting, -(pi * np.log(np.where(pi > 0, pi, 1.0))).sum(axis=1), 0.0)
+        entropy = -(pi * np.log(np.where(pi > 0, pi, 1.0))).sum(axis=1)
         V_new = spla.spsolve(identity - mdp.gamma * P_pi.tocsc(), (pi * R).sum(axis=1) + entropy / beta)
         change = float(np.abs(V_new - V).max())
         V = V_new
         if change <= tol * max(1.0, float(np.abs(V).max())):
             Q = R + mdp.gamma * mdp.expected_next(V)
-            return SoftPlan(V=V, Q=Q, policy=_soft_policy(Q, beta, acting), iterations=iteration)
+            return SoftPlan(V=V, Q=Q, policy=softmax(beta * Q, axis=1), iterations=iteration)
     raise RuntimeError(f"soft policy iteration did not converge in {max_iter} solves")
-
-
-def _soft_policy(Q: np.ndarray, beta: float, acting: np.ndarray) -> np.ndarray:
-    """(S, A) softmax(beta Q) where the agent acts; uniform elsewhere (every action is the same event)."""
-    return np.where(acting[:, None], softmax(beta * Q, axis=1), 1.0 / Q.shape[1])
 
 
 def log_likelihood(

@@ -69,35 +69,20 @@ def paper_maxent():
     return build_mdp(BUILTIN_WORLDS["paper-maxent"])
 
 
-def test_many_boltzmann_episodes_find_the_goal_but_not_how_bad_the_cliff_is(paper_maxent):
-    demos, _ = boltzmann_demonstrations(paper_maxent, 1.0, 10_000, seed=0)
-    result = fit(demos, method="maxent", beta=1.0)
-    symbols = np.array(result.unknowns.symbols)
-    assert result.theta[symbols == "G"][0] == pytest.approx(100.0, rel=0.1)
-    cliff = result.theta[symbols == "C"]
-    assert np.all(cliff < 0) and np.all(cliff > -100.0)
-
-
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "At beta 0.1 the soft-optimal expert never ends an episode in paper-maxent: each step's "
-        "entropy bonus log(4)/beta = 13.9 outweighs its cost of 1, so wandering is worth about "
-        "250 and stepping into the goal (worth 100) is avoided like the cliff. No goal or cliff "
-        "entry is ever demonstrated, and the likelihood cannot place the goal near +100."
-    ),
-)
-def test_beta_0_1_boltzmann_episodes_find_the_goal_as_the_paper_reports(paper_maxent):
+def test_beta_0_1_boltzmann_episodes_find_the_goal_but_not_how_bad_the_cliff_is(paper_maxent):
+    # The paper's baseline (figure 5): 10,000 soft-optimal episodes at beta 0.1. The expert
+    # almost never steps off, so the likelihood goes flat long before the cliff reaches -1000.
     demos, result = boltzmann_demonstrations(paper_maxent, 0.1, 10_000, seed=0)
-    assert result.truncated.all()  # the premise of the failure, checked on the way
     fitted = fit(demos, method="maxent", beta=0.1)
     symbols = np.array(fitted.unknowns.symbols)
     assert fitted.theta[symbols == "G"][0] == pytest.approx(100.0, rel=0.2)
     cliff = fitted.theta[symbols == "C"]
     assert np.all(cliff < 0) and np.all(cliff > -500.0)
+    assert np.isin(result.final_state, [paper_maxent.state_of[(3, c)] for c in range(1, 5)]).mean() < 0.01
 
 
-def test_beta_0_1_expert_prefers_wandering_to_the_goal(paper_maxent):
-    plan = soft_value_iteration(paper_maxent, beta=0.1)
-    ground = paper_maxent.nonterminal
-    assert plan.V[ground].min() > 200.0 > 100.0
+def test_a_soft_optimal_expert_ends_its_episodes(paper_maxent):
+    # The entropy bonus accrues after the goal too (the exit is soft as well): otherwise a
+    # small-beta expert would wander until the step limit rather than give the bonus up.
+    _, result = boltzmann_demonstrations(paper_maxent, 0.1, 2_000, seed=1)
+    assert not result.truncated.any()
