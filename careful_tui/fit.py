@@ -1,24 +1,39 @@
-"""`careful fit`: read recordings, fit the state rewards, print them (and save JSON or SVG).
+"""`careful fit`: read recordings, fit the state rewards, show them (and save JSON or SVG).
 
-The work is split so that the interactive fit view can plug in later: `fit_from_args`
-reads and fits (a spinner on stderr while it runs), `print_fit` draws a result with Rich,
-and `run_fit` ties them to the command line. Bad input ends with exit 2 and one line on
-stderr; a solver that fails ends with exit 1 and one line.
+`fit_from_args` reads and fits (a spinner on stderr while it runs); `FitOptions` is one
+fit's settings, which the fit view changes to refit. `print_fit` draws a result with Rich
+from pieces the fit view shares (`reward_scale`, `policy_labels`, `IntervalChart`,
+`interval_readings`, `status_text`). `run_fit` ties them to the command line: with a
+terminal it opens the fit view (`careful_tui.fit_view`) on the first fit, without one (or
+with `--no-view`) it prints. The files are read and the first fit is made before the view
+opens, so bad input ends with exit 2 and one line on stderr, and a solver that fails with
+exit 1 and one line, with or without a terminal.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
+from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from rich.console import Console, Group
+from rich.console import Console, ConsoleOptions, Group, RenderResult
+from rich.style import Style
 from rich.table import Table
 from rich.text import Text
 
 from careful_tui.cli import EXIT_FAILURE, EXIT_OK, UsageError
-from careful_tui.grid import WorldGrid, format_value
+from careful_tui.grid import (
+    LINEAR_THRESHOLD,
+    SYMBOL_NAMES,
+    WorldGrid,
+    diverging_colour,
+    format_value,
+    signed_log_fraction,
+)
 from irl_core.demonstrations import Demonstrations, read_recording
 from irl_core.irl import BadInputError, FitResult, SolverError, fit
 
@@ -43,30 +58,53 @@ def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
     return demos
 
 
+@dataclass(frozen=True)
+class FitOptions:
+    """The settings of one fit, as `careful fit` names them (`lam` is `--lambda`)."""
+
+    method: str = "lp"
+    rmax: float = 1000.0
+    lam: float = 0.0
+    beta: float = 1.0
+    reward_cells: str = "special"
+    tie: bool = False
+    intervals: bool = False
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace) -> FitOptions:
+        return cls(method=args.method, rmax=args.rmax, lam=args.lam, beta=args.beta,
+                   reward_cells=args.reward_cells, tie=args.tie, intervals=args.intervals)
+
+    def describe(self) -> str:
+        """The method and whether intervals are on, for messages: "loss, with intervals"."""
+        return f"{self.method}{', with intervals' if self.intervals else ''}"
+
+    def run(self, demos: Demonstrations) -> FitResult:
+        """Fit `demos`; raises what `irl_core.irl.fit` raises."""
+        return fit(demos, method=self.method, rmax=self.rmax, lam=self.lam, beta=self.beta,
+                   reward_cells=self.reward_cells, tie=self.tie, intervals=self.intervals)
+
+
 def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tuple[Demonstrations, FitResult]:
     """The demonstrations and the fit that `careful fit` options ask for."""
     err = err or Console(stderr=True, highlight=False)
     demos = load_demonstrations(list(args.files), err)
-    label = f"fitting ({args.method}{', with intervals' if args.intervals else ''}) to {demos.steps} steps"
+    options = FitOptions.from_args(args)
     try:
-        with err.status(label, spinner="dots"):
-            result = fit(
-                demos,
-                method=args.method,
-                rmax=args.rmax,
-                lam=args.lam,
-                beta=args.beta,
-                reward_cells=args.reward_cells,
-                tie=args.tie,
-                intervals=args.intervals,
-            )
+        with err.status(f"fitting ({options.describe()}) to {demos.steps} steps", spinner="dots"):
+            result = options.run(demos)
     except BadInputError as exc:
         raise UsageError(str(exc)) from None
     return demos, result
 
 
+def wants_view(args: argparse.Namespace) -> bool:
+    """Open the fit view: standard input and output are a terminal and `--no-view` was not given."""
+    return not args.no_view and sys.stdin.isatty() and sys.stdout.isatty()
+
+
 def run_fit(args: argparse.Namespace) -> int:
-    """`careful fit`: always prints for now; the interactive fit view will take over with a terminal."""
+    """`careful fit`: fit, write --json, then open the fit view (a terminal) or print (--svg of the printout)."""
     err = Console(stderr=True, highlight=False)
     for option, path in (("--json", args.json), ("--svg", args.svg)):
         if path is not None and not path.parent.is_dir():
@@ -79,6 +117,14 @@ def run_fit(args: argparse.Namespace) -> int:
     if args.json is not None:
         text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
         _write("--json", args.json, lambda: args.json.write_text(text, encoding="utf-8"))
+    if wants_view(args):
+        from careful_tui.fit_view import FitApp
+
+        app = FitApp.from_args(args, demos, result)
+        app.run()
+        for path in dict.fromkeys(app.saved):
+            print(f"saved {path}")
+        return EXIT_OK
     console = Console(record=args.svg is not None, highlight=False)
     print_fit(console, demos, result)
     if args.svg is not None:
@@ -107,13 +153,21 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> Non
         )
     )
     console.print(reward_grids(result, width=console.width))
-    console.print(Text(_unknown_phrase(result), style="dim"))
+    console.print(Text(unknown_phrase(result), style="dim"))
     if result.intervals is not None and len(result.intervals):
         console.print(interval_table(result))
+        console.print(IntervalChart(result))
         for line in interval_readings(result):
             console.print(Text(line), soft_wrap=True)
     console.print(policy_grid(result))
     console.print(status_text(result), soft_wrap=True)
+
+
+def reward_scale(result: FitResult) -> float:
+    """The magnitude that gets the strongest colour: the largest |R_S|, fitted or true."""
+    values = np.concatenate([result.reward_grid.ravel(), result.true_reward_grid.ravel()])
+    scale = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 0.0
+    return scale if scale > 0 else 1.0
 
 
 def reward_grids(result: FitResult, *, width: int) -> Table:
@@ -122,13 +176,11 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
     Side by side when `width` allows, else one above the other.
     """
     world = result.world
-    fitted = result.reward_grid
-    true = result.true_reward_grid
-    scale = float(np.nanmax(np.abs(np.concatenate([fitted.ravel(), true.ravel()]))))
-    scale = scale if scale > 0 else 1.0
-    grids = [Group(Text("fitted R_S", style="bold"), WorldGrid(world, values=fitted, scale=scale))]
+    scale = reward_scale(result)
+    grids = [Group(Text("fitted R_S", style="bold"), WorldGrid(world, values=result.reward_grid, scale=scale))]
     if world.rewards:
-        grids.append(Group(Text("true R_S (world file)", style="bold"), WorldGrid(world, values=true, scale=scale)))
+        grids.append(Group(Text("true R_S (world file)", style="bold"),
+                           WorldGrid(world, values=result.true_reward_grid, scale=scale)))
     gap = 4
     grid_width = world.cols * WorldGrid(world).cell_width
     side_by_side = len(grids) * grid_width + (len(grids) - 1) * gap <= width
@@ -144,7 +196,8 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
     return table
 
 
-def _unknown_phrase(result: FitResult) -> str:
+def unknown_phrase(result: FitResult) -> str:
+    """Which rewards were fitted: "fitted: the non-ground cells (ground is 0); the action cost is known"."""
     options = result.options
     cells = "every cell" if options["reward_cells"] == "all" else "the non-ground cells (ground is 0)"
     return f"fitted: {cells}{', one value per symbol' if options['tie'] else ''}; the action cost is known"
@@ -167,9 +220,14 @@ def interval_table(result: FitResult) -> Table:
     return table
 
 
+def _open_ends(low: float, high: float, rmax: float) -> tuple[bool, bool]:
+    """Whether each end of an interval sits at the ±rmax bound (no bound from the demonstrations)."""
+    return low <= -rmax * (1 - 1e-9), high >= rmax * (1 - 1e-9)
+
+
 def interval_reading(low: float, high: float, rmax: float) -> str:
     """A plain sentence for one interval; an end at ±rmax is no bound at all."""
-    open_low, open_high = low <= -rmax * (1 - 1e-9), high >= rmax * (1 - 1e-9)
+    open_low, open_high = _open_ends(low, high, rmax)
     if open_low and open_high:
         return "not bounded by the demonstrations"
     if open_low:
@@ -179,33 +237,169 @@ def interval_reading(low: float, high: float, rmax: float) -> str:
     return f"between {format_value(low)} and {format_value(high)}"
 
 
+def interval_span(low: float, high: float, rmax: float) -> str:
+    """An interval in a few characters: "-49.3..-14.8", "≤ -661", "≥ 89.7", "any"."""
+    open_low, open_high = _open_ends(low, high, rmax)
+    if open_low and open_high:
+        return "any"
+    if open_low:
+        return f"≤ {format_value(high)}"
+    if open_high:
+        return f"≥ {format_value(low)}"
+    return f"{format_value(low)}..{format_value(high)}"
+
+
+def symbol_name(symbol: str) -> str:
+    return SYMBOL_NAMES.get(symbol, symbol)
+
+
+def symbol_intervals(result: FitResult) -> dict[str, tuple[float, float]]:
+    """Per symbol (in the order the unknowns first use it): the lowest low and highest high of its unknowns."""
+    hulls: dict[str, tuple[float, float]] = {}
+    for symbol, (low, high) in zip(result.unknowns.symbols, result.intervals):
+        old_low, old_high = hulls.get(symbol, (np.inf, -np.inf))
+        hulls[symbol] = (min(old_low, float(low)), max(old_high, float(high)))
+    return hulls
+
+
+def _low_to_high(hulls: dict[str, tuple[float, float]]) -> list[str]:
+    """Symbols by the top of their interval, then its bottom."""
+    return sorted(hulls, key=lambda symbol: (hulls[symbol][1], hulls[symbol][0]))
+
+
+# A symbol whose every allowed value is this many times below another's worst is "catastrophic next to" it.
+CATASTROPHIC_RATIO = 10.0
+
+
 def interval_readings(result: FitResult) -> list[str]:
-    """For each pair of symbols: whether every interval of one lies below every interval of the other."""
-    groups: dict[str, list[tuple[float, float]]] = {}
-    for symbol, interval in zip(result.unknowns.symbols, result.intervals):
-        groups.setdefault(symbol, []).append((float(interval[0]), float(interval[1])))
-    symbols = list(groups)
+    """One sentence per symbol, lowest first: its interval and how it stands against the next symbol up.
+
+    e.g. "cliff: at most -661; no lower bound; catastrophic next to mud's -49.3..-14.8 (at least
+    13× worse under every reward the demonstrations allow)". A symbol's interval spans those of
+    all its cells.
+    """
+    rmax = result.options["rmax"]
+    hulls = symbol_intervals(result)
+    order = _low_to_high(hulls)
     lines = []
-    for i, a in enumerate(symbols):
-        for b in symbols[i + 1 :]:
-            top_a, bottom_a = max(h for _, h in groups[a]), min(lo for lo, _ in groups[a])
-            top_b, bottom_b = max(h for _, h in groups[b]), min(lo for lo, _ in groups[b])
-            if top_a < bottom_b:
-                lines.append(f"{a} is worse than {b} under every reward the demonstrations allow.")
-            elif top_b < bottom_a:
-                lines.append(f"{b} is worse than {a} under every reward the demonstrations allow.")
+    for below, above in zip(order, [*order[1:], None]):
+        low, high = hulls[below]
+        line = f"{symbol_name(below)}: {interval_reading(low, high, rmax)}"
+        if above is not None:
+            above_low, above_high = hulls[above]
+            other = f"{symbol_name(above)}'s {interval_span(above_low, above_high, rmax)}"
+            ratio = high / above_low if high < above_low < 0 else 0.0
+            if high >= above_low:
+                line += f"; overlaps {other}: the demonstrations cannot tell which is worse"
+            elif ratio >= CATASTROPHIC_RATIO:
+                line += (f"; catastrophic next to {other} (at least {ratio:.0f}× worse under every reward "
+                         "the demonstrations allow)")
+            elif ratio > 0:
+                line += f"; at least {ratio:.1f}× worse than {other}"
             else:
-                lines.append(f"{a} and {b} overlap: the demonstrations cannot tell which is worse.")
+                line += f"; below {other}"
+        lines.append(line)
     return lines
+
+
+@dataclass
+class IntervalChart:
+    """Every unknown's interval as a bar on the reward colours' signed-log axis, from -rmax to rmax.
+
+    ● marks the fitted value, ○ the world's own (◉ both); ◀ or ▶ at an end of a bar means the
+    demonstrations do not bound it there (the bar runs into ±rmax). Rows are grouped by symbol,
+    lowest symbol first (as `interval_readings`). The bars take the width they are given.
+    """
+
+    result: FitResult
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        result = self.result
+        rmax = float(result.options["rmax"])
+        true = result.unknowns.true_theta(result.mdp) if result.world.rewards else None
+        symbols = _low_to_high(symbol_intervals(result))
+        rows = sorted(range(len(result.labels)), key=lambda j: (symbols.index(result.unknowns.symbols[j]), j))
+        spans = [interval_span(float(lo), float(hi), rmax) for lo, hi in result.intervals]
+        # Tied unknowns are named by their symbol: "cliff" reads better than "C".
+        labels = [symbol_name(s) for s in result.unknowns.symbols] if result.options["tie"] else result.labels
+        label_width = max(map(len, labels), default=0)
+        span_width = max(map(len, spans), default=0)
+        # An odd number of positions puts 0 in the middle.
+        room = options.max_width - label_width - span_width - 4
+        axis = max(21, room if room % 2 else room - 1)
+        for j in rows:
+            low, high = (float(v) for v in result.intervals[j])
+            line = Text(f"{labels[j]:<{label_width}}  ", no_wrap=True, overflow="crop")
+            line.append_text(self._bar(axis, rmax, low, high, float(result.theta[j]),
+                                       None if true is None else float(true[j])))
+            line.append(f"  {spans[j]:>{span_width}}", style="bold")
+            yield line
+        indent = " " * (label_width + 2)
+        yield Text(indent) + _axis_ticks(axis, rmax)
+        yield Text.assemble(indent, ("● fitted  ○ true  ◉ both  ", "dim"),
+                            ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
+                            (" allowed  ◀ ▶ no bound", "dim"))
+
+    @staticmethod
+    def _bar(axis: int, rmax: float, low: float, high: float, fitted: float, true: float | None) -> Text:
+        def at(value: float) -> int:
+            return round((signed_log_fraction(value, rmax) + 1) / 2 * (axis - 1))
+
+        chars = ["─"] * axis
+        styles = [Style(color="#3a4452")] * axis
+        chars[axis // 2] = "┼"
+        start, end = at(low), at(high)
+        for i in range(start, end + 1):
+            chars[i] = "━"
+            value = signed_log_value(i / (axis - 1) * 2 - 1, rmax)
+            styles[i] = Style(color=diverging_colour(value, rmax), bold=True)
+        open_low, open_high = _open_ends(low, high, rmax)
+        if open_low:
+            chars[start] = "◀"
+        if open_high:
+            chars[end] = "▶"
+        marks = {at(fitted): "●"}
+        if true is not None:
+            marks[at(true)] = "◉" if at(true) in marks else "○"
+        for i, glyph in marks.items():
+            chars[i] = glyph
+            styles[i] = Style(color="#ffffff", bold=True)
+        text = Text()
+        for char, style in zip(chars, styles):
+            text.append(char, style)
+        return text
+
+
+def signed_log_value(fraction: float, scale: float) -> float:
+    """The value that `careful_tui.grid.signed_log_fraction` maps to `fraction` in [-1, 1]."""
+    return float(np.sign(fraction) * LINEAR_THRESHOLD * np.expm1(abs(fraction) * np.log1p(scale / LINEAR_THRESHOLD)))
+
+
+def _axis_ticks(axis: int, rmax: float) -> Text:
+    """Labels under the axis: -rmax, the powers of ten between, 0 and up to rmax, where they fit."""
+    powers = [10.0**k for k in range(1, 16) if 10.0**k < rmax / 2]
+    values = [-rmax, *(-p for p in reversed(powers)), 0.0, *powers, rmax]
+    line = [" "] * axis
+    for value in values:
+        label = format_value(value)
+        centre = round((signed_log_fraction(value, rmax) + 1) / 2 * (axis - 1))
+        left = min(max(0, centre - len(label) // 2), axis - len(label))
+        span = range(max(0, left - 1), min(axis, left + len(label) + 1))
+        if all(line[i] == " " for i in span):
+            line[left : left + len(label)] = label
+    return Text("".join(line), style="dim")
+
+
+def policy_labels(result: FitResult) -> dict[tuple[int, int], str]:
+    """Per demonstrated cell, the most frequent action: "→8 ×38" (direction, carefulness level, count)."""
+    cells = result.policy_cells().items()
+    return {cell: f"{ARROWS[p.direction]}{p.carefulness} ×{_count(p.count)}" for cell, p in cells}
 
 
 def policy_grid(result: FitResult) -> Group:
     """The most frequent demonstrated action per cell: arrow, carefulness level and count."""
-    labels = {
-        cell: f"{ARROWS[p.direction]}{p.carefulness} ×{_count(p.count)}" for cell, p in result.policy_cells().items()
-    }
     title = Text.assemble(("demonstrated policy", "bold"), "  (most frequent action: direction, level ×count)")
-    return Group(title, WorldGrid(result.world, labels=labels))
+    return Group(title, WorldGrid(result.world, labels=policy_labels(result)))
 
 
 def _count(count: int) -> str:
@@ -213,12 +407,13 @@ def _count(count: int) -> str:
     return str(count) if count < 1000 else f"{count // 1000}k"
 
 
-def status_text(result: FitResult) -> Text:
+def status_text(result: FitResult, *, times: bool = True, notes: Iterable[str] | None = None) -> Text:
+    """"status: optimal in 0.07 s" and a line per note (`notes`: the result's, unless given)."""
     text = Text.assemble(
         "status: ",
         (result.status, "bold green" if result.status == "optimal" else "bold yellow"),
-        f" in {result.elapsed_s:.2f} s",
+        f" in {result.elapsed_s:.2f} s" if times else "",
     )
-    for note in result.notes:
+    for note in result.notes if notes is None else notes:
         text.append(f"\nnote: {note}", style="yellow")
     return text

@@ -130,3 +130,49 @@ def test_solver_failure_exits_1_with_one_line(capsys, mud_file, monkeypatch):
     assert code == 1
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and "HiGHS" in lines[0] and "Traceback" not in err
+
+
+
+class Terminal:
+    """Standard input or output that says it is a terminal."""
+
+    def isatty(self):
+        return True
+
+
+@pytest.fixture
+def opened(monkeypatch):
+    """`careful fit` sees a terminal on standard input and output; the fit views it runs are collected."""
+    from types import SimpleNamespace
+
+    from careful_tui.fit_view import FitApp
+
+    apps = []
+    monkeypatch.setattr(FitApp, "run", lambda app: apps.append(app))
+    monkeypatch.setattr(fit_command, "sys", SimpleNamespace(stdin=Terminal(), stdout=Terminal()))
+    return apps
+
+
+def test_a_terminal_opens_the_view_after_writing_json(tmp_path, capsys, opened, mud_file):
+    out_json, svg = tmp_path / "fit.json", tmp_path / "view.svg"
+    code, out, err = run(capsys, mud_file, "--method", "loss", "--json", out_json, "--svg", svg)
+    assert code == 0, err
+    [app] = opened
+    assert app.result.method == "loss" and app.options.method == "loss" and app.svg == svg
+    assert json.loads(out_json.read_text())["method"] == "loss"
+    assert not svg.exists()  # the view saves it once drawn; the printout is not made
+    assert "fitted R_S" not in out
+
+
+def test_no_view_prints_even_with_a_terminal(capsys, opened, mud_file):
+    code, out, err = run(capsys, mud_file, "--no-view")
+    assert code == 0, err
+    assert opened == [] and "fitted R_S" in out
+
+
+def test_bad_input_with_a_terminal_exits_2_before_the_view(tmp_path, capsys, opened):
+    a = simulate(tmp_path / "a.jsonl", BUILTIN_WORLDS["paper"], episodes=3)
+    b = simulate(tmp_path / "b.jsonl", BUILTIN_WORLDS["mud"], episodes=3)
+    code, _, err = run(capsys, a, b)
+    assert_one_line_error(code, err, "one world at a time")
+    assert opened == []

@@ -1,0 +1,399 @@
+"""The fit view: a fitted reward as a picture, refitted with a key (SPEC sections 3 and 4).
+
+`careful fit FILE...` in a terminal opens it on the first fit (`careful_tui.fit.run_fit`).
+It shows the fitted R_S coloured on the diverging log scale of `careful_tui.grid`, the
+world's own R_S beside it on the same scale, how far the demonstrations pin each reward
+(`IntervalChart` and a sentence per symbol), the demonstrated policy, the status and notes.
+
+Keys switch the method (l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
+view (s) and quit (q). A refit runs in a thread worker while the last result stays on screen,
+dimmed, under a "fitting…" status; the thread hands back a `Fitted` message, and only the
+answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
+demonstrations, a solver that gives up) is reported in the status line and the view keeps
+the last result.
+
+Everything drawn comes from `careful_tui.fit` and the shared `Board`; this module is layout
+and keys.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from rich.console import Group
+from rich.text import Text
+from textual import on, work
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.containers import Container, Horizontal, VerticalScroll
+from textual.message import Message
+from textual.widgets import Static
+
+from careful_tui.fit import (
+    FitOptions,
+    IntervalChart,
+    interval_readings,
+    policy_labels,
+    reward_scale,
+    signed_log_value,
+    status_text,
+    unknown_phrase,
+)
+from careful_tui.grid import diverging_colour, format_value
+from careful_tui.play import BAD, GOOD, NOTE, legend
+from careful_tui.widgets import Board, KeyBar
+from careful_tui.widgets.board import MIN_CELL
+from careful_tui.widgets.too_small import TooSmall
+from irl_core.demonstrations import Demonstrations
+from irl_core.irl import METHODS, FitError, FitResult, InfeasibleError
+
+METHOD_NAMES = {"lp": "the simple IRL agent", "loss": "the loss IRL agent", "maxent": "the MaxEnt baseline"}
+# Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.
+CELL_HEIGHT = MIN_CELL[1]
+MAX_CELL_WIDTH = 11
+GAP = 2
+POLICY_KEY_WIDTH = 34
+BUSY = "#ffd54f"
+
+
+def board_width(world_cols: int, room: int) -> int:
+    """The outer width of a board (border included) in `room` columns: cells 7 to 11 wide, odd."""
+    cell = min(MAX_CELL_WIDTH, max(MIN_CELL[0], (room - 2) // world_cols))
+    return world_cols * (cell if cell % 2 else cell - 1) + 2
+
+
+def scale_legend(scale: float, steps: int = 4) -> Text:
+    """The colour scale in a few characters: "-1000 ■■■■■■■■■ 1000" (signed-log, as the cells)."""
+    fractions = [i / steps for i in range(-steps, steps + 1)]
+    text = Text(f"{format_value(-scale)} ")
+    for f in fractions:
+        text.append("■", style=diverging_colour(signed_log_value(f, scale), scale))
+    text.append(f" {format_value(scale)}")
+    return text
+
+
+def error_message(error: Exception) -> str:
+    """What a failed fit says in the view: the fit's own sentence (with the key to try next), or
+    the unexpected exception."""
+    if isinstance(error, InfeasibleError):
+        return f"{error}; press o to fit with loss"
+    if isinstance(error, FitError):
+        return str(error)
+    return f"unexpected error: {type(error).__name__}: {error} (please report it)"
+
+
+def default_svg_name(world: str, method: str, folder: Path) -> Path:
+    """careful-fit-mud-lp.svg in `folder`, or -2, -3, ... when taken (a saved picture is never overwritten)."""
+    stem = f"careful-fit-{world}-{method}"
+    path, n = folder / f"{stem}.svg", 1
+    while path.exists():
+        n += 1
+        path = folder / f"{stem}-{n}.svg"
+    return path
+
+
+@dataclass
+class Fitted(Message):
+    """A fit has ended (sent from the fitting thread): its result, or the error it ended with."""
+
+    request: int
+    options: FitOptions
+    result: FitResult | None
+    error: Exception | None
+
+
+class FitApp(App[None]):
+    """The fit view of one set of demonstrations (the CLI and the tests build it the same way).
+
+    Args:
+        demos: the pooled demonstrations.
+        options: the fit's settings; the keys change `method` and `intervals`.
+        result: the fit of `options`, made before the view opened (the CLI's); without it the
+            view fits at once in its worker.
+        sources: the recordings' paths, for the title.
+        svg: where `s` saves the picture, and where it is saved as soon as the first fit is
+            drawn; without it `s` saves `careful-fit-WORLD-METHOD.svg` in the current folder.
+        show_times: show the fit's seconds (snapshot tests turn it off: times vary).
+    """
+
+    CSS_PATH = ["play.tcss", "fit_view.tcss"]
+    TITLE = "careful fit"
+    ENABLE_COMMAND_PALETTE = False
+    BINDINGS = [
+        Binding("l", "method('lp')", "lp", priority=True),
+        Binding("o", "method('loss')", "loss", priority=True),
+        Binding("m", "method('maxent')", "maxent", priority=True),
+        Binding("tab", "next_method", "next method", priority=True),
+        Binding("i", "toggle_intervals", "intervals", priority=True),
+        Binding("s", "save_svg", "save SVG", priority=True),
+        Binding("q,ctrl+c,ctrl+q", "quit", "quit", priority=True),
+    ]
+
+    def __init__(
+        self,
+        demos: Demonstrations,
+        options: FitOptions,
+        *,
+        result: FitResult | None = None,
+        sources: Sequence[Path] = (),
+        svg: Path | None = None,
+        show_times: bool = True,
+    ) -> None:
+        super().__init__()
+        self.demos = demos
+        self.world = demos.mdp.world
+        self.options = options
+        self.result = result
+        self.sources = list(sources)
+        self.svg = svg
+        self.show_times = show_times
+        self.error: str | None = None
+        self.saved: list[Path] = []
+        self._request = 0
+        self._fitting: FitOptions | None = None
+        self._too_small = False
+        self._save_first = svg is not None
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,
+                  *, show_times: bool = True) -> FitApp:
+        """The view `careful fit` opens for its parsed `args` (the CLI and the tests build it here)."""
+        return cls(demos, FitOptions.from_args(args), result=result, sources=args.files, svg=args.svg,
+                   show_times=show_times)
+
+    # ------------------------------------------------------------------ layout
+
+    def compose(self) -> ComposeResult:
+        yield Static(id="title")
+        yield Static(id="status")
+        with VerticalScroll(id="body"):
+            yield Static(id="notes")
+            with Container(id="rewards"):
+                yield Board(self.world, id="fitted")
+                true = Board(self.world, id="true")
+                true.border_title = "true R_S (world file)"
+                true.border_subtitle = legend(self.world)
+                yield true
+            yield Static(id="intervals")
+            with Horizontal(id="policy-row"):
+                policy = Board(self.world, id="policy")
+                policy.border_title = "demonstrated policy"
+                yield policy
+                yield Static(id="policy-key")
+        yield TooSmall(id="too-small")
+        yield KeyBar(id="keys")
+
+    def on_mount(self) -> None:
+        self.query_one("#true", Board).display = bool(self.world.rewards)
+        policy = self.query_one("#policy", Board)
+        self.query_one("#policy-key", Static).update(self._policy_key())
+        self._layout(*self.size)
+        self.query_one("#body").focus()
+        if self.result is None:
+            self._start(self.options)
+        else:
+            policy.labels = policy_labels(self.result)
+            self.show()
+            if self._save_first:
+                self.call_after_refresh(self._save_first_svg)
+
+    def on_resize(self) -> None:
+        self._layout(*self.size)
+
+    def _layout(self, width: int, height: int) -> None:
+        """Boards side by side when two fit, else stacked; the board sizes; the too-small check."""
+        world = self.world
+        smallest = board_width(world.cols, 0)
+        self._too_small = self.query_one(TooSmall).check(width, height, (smallest + 4, 12), command="careful fit")
+        room = width - 3  # the body's padding and scroll bar
+        two = bool(world.rewards) and room >= 2 * smallest + GAP
+        each = board_width(world.cols, (room - GAP) // 2 if two else room)
+        for board in self.query(Board):
+            board.styles.width = each
+            board.styles.height = world.rows * CELL_HEIGHT + 2
+        self.query_one("#rewards").set_class(not two, "-stacked")
+        self.query_one("#policy-row").set_class(room < each + GAP + POLICY_KEY_WIDTH, "-stacked")
+        self.query_one(KeyBar).show(self._keys())
+
+    # ------------------------------------------------------------------ fitting
+
+    def _start(self, options: FitOptions) -> None:
+        """Fit with `options` in the worker; the answer to an earlier request is then ignored."""
+        self._request += 1
+        self._fitting = options
+        self.error = None
+        self._fit(self._request, options)
+        self.show()
+
+    @work(thread=True, group="fit")
+    def _fit(self, request: int, options: FitOptions) -> None:
+        try:
+            result, error = options.run(self.demos), None
+        except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
+            result, error = None, exc
+        self.post_message(Fitted(request, options, result, error))
+
+    @on(Fitted)
+    def _fitted(self, message: Fitted) -> None:
+        if message.request != self._request:
+            return
+        self._fitting = None
+        self.options = message.options
+        if message.result is None:
+            self.error = error_message(message.error)
+            self.notify(self.error, title=f"{message.options.method} failed", severity="error", timeout=8)
+        else:
+            self.result = message.result
+            if not self.query_one("#policy", Board).labels:
+                self.query_one("#policy", Board).labels = policy_labels(message.result)
+        self.show()
+        if self._save_first and self.result is not None:
+            self.call_after_refresh(self._save_first_svg)
+
+    @property
+    def busy(self) -> bool:
+        return self._fitting is not None
+
+    def action_method(self, method: str) -> None:
+        """Refit with `method` (intervals as now); nothing to do if it is already shown."""
+        shown = self.result is not None and self.result.method == method and self.error is None
+        if (shown and not self.busy) or (self._fitting is not None and self._fitting.method == method):
+            return
+        self._start(dataclasses.replace(self._wanted(), method=method))
+
+    def action_next_method(self) -> None:
+        current = self._wanted().method
+        self.action_method(METHODS[(METHODS.index(current) + 1) % len(METHODS)])
+
+    def action_toggle_intervals(self) -> None:
+        """Show the intervals (computing them if the shown fit has none) or hide them."""
+        wanted = dataclasses.replace(self._wanted(), intervals=not self._wanted().intervals)
+        result = self.result
+        computed = result is not None and result.method == wanted.method and result.intervals is not None
+        if self.busy or (wanted.intervals and not computed):
+            self._start(wanted)
+            return
+        self.options = wanted
+        self.show()
+
+    def _wanted(self) -> FitOptions:
+        """The settings being fitted, else those of the view."""
+        return self._fitting or self.options
+
+    # ------------------------------------------------------------------ saving
+
+    def action_save_svg(self) -> None:
+        path = self.svg or default_svg_name(self.world.name, self._shown_method(), Path.cwd())
+        self._save(path)
+
+    def _save_first_svg(self) -> None:
+        self._save_first = False
+        self._save(self.svg)
+
+    def _save(self, path: Path) -> None:
+        try:
+            path.write_text(self.export_screenshot(title=self._svg_title()), encoding="utf-8")
+        except OSError as exc:
+            self.notify(f"cannot write {path} ({exc.strerror or exc})", title="save SVG", severity="error")
+            return
+        self.saved.append(path)
+        self.notify(f"saved {path}", title="save SVG")
+
+    def _svg_title(self) -> str:
+        return f"careful fit: {self._shown_method()} on {self.world.name}"
+
+    def _shown_method(self) -> str:
+        return self.result.method if self.result is not None else self.options.method
+
+    # ------------------------------------------------------------------ drawing
+
+    def show(self) -> None:
+        """Draw the current result, the busy state or error, and the keys."""
+        result = self.result
+        self.query_one("#title", Static).update(self._title())
+        self.query_one("#status", Static).update(self._status())
+        self.query_one("#body").set_class(self.busy, "-busy")
+        self.query_one(KeyBar).show(self._keys())
+        if result is None:
+            return
+        scale = reward_scale(result)
+        fitted, true = self.query_one("#fitted", Board), self.query_one("#true", Board)
+        fitted.border_title = f"fitted R_S · {result.method}, {METHOD_NAMES[result.method]}"
+        fitted.border_subtitle = scale_legend(scale)
+        fitted.values, fitted.scale = result.reward_grid, scale
+        true.values, true.scale = result.true_reward_grid, scale
+        for board in self.query(Board):
+            board.redraw()
+        self.query_one("#notes", Static).update(self._notes(result))
+        intervals = self.query_one("#intervals", Static)
+        intervals.border_title = "how far the demonstrations pin each reward"
+        intervals.update(self._intervals(result))
+
+    def _title(self) -> Text:
+        demos = self.demos
+        method = self._shown_method()
+        files = self.sources[0].name if len(self.sources) == 1 else f"{demos.files} files"
+        return Text.assemble(
+            ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (self.world.name, "bold"),
+            (f"  ·  {files}: {demos.episodes} episodes, {demos.steps} steps", "dim"),
+        )
+
+    def _status(self) -> Text:
+        if self._fitting is not None:
+            return Text(f"⟳ fitting {self._fitting.describe()}…", style=f"bold {BUSY}")
+        if self.error is not None:
+            shown = f" (showing {self.result.method})" if self.result is not None else ""
+            return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
+        if self.result is None:
+            return Text()
+        return Text.assemble(("✓ ", f"bold {GOOD}"), status_text(self.result, times=self.show_times, notes=()),
+                             (f"   {self._settings(self.result)}", "dim"))
+
+    @staticmethod
+    def _settings(result: FitResult) -> str:
+        """The fit's settings in a few words: "rmax 1000 · λ 0 · β 1 · special cells"."""
+        options = result.options
+        parts = [f"rmax {format_value(options['rmax'])}", f"λ {format_value(options['lambda'])}"]
+        if result.method == "maxent":
+            parts.append(f"β {format_value(options['beta'])}")
+        parts.append(f"{options['reward_cells']} cells{', tied' if options['tie'] else ''}")
+        return " · ".join(parts)
+
+    def _notes(self, result: FitResult) -> Group:
+        return Group(*(Text(f"• {note}", style=BUSY) for note in result.notes),
+                     Text(unknown_phrase(result), style="dim"))
+
+    def _intervals(self, result: FitResult) -> Group | Text:
+        if not self.options.intervals:
+            return Text.assemble(("press ", "dim"), ("i", "bold"),
+                                 (" to bound every fitted reward over the lp constraints", "dim"))
+        if result.intervals is None:
+            return Text("The intervals could not be computed: see the notes above.", style=BUSY)
+        if not len(result.intervals):
+            return Text("nothing was fitted, so there is nothing to bound", style="dim")
+        readings = [Text(f"{line[0].upper()}{line[1:]}.") for line in interval_readings(result)]
+        for line in readings:
+            line.stylize("bold", 0, line.plain.index(":"))
+        return Group(IntervalChart(result), Text(), *readings)
+
+    def _policy_key(self) -> Text:
+        world = self.world
+        level = f"the carefulness level (1-{world.levels})" if world.levels > 1 else "the level (one level)"
+        slip = ("a level-c move slips with probability 2^-c" if world.slip == "halving" else "moves never slip")
+        return Text.assemble(
+            ("The most frequent action in each cell\n", "bold"),
+            ("  →  ", "bold"), "the direction\n",
+            ("  8  ", "bold"), f"{level}\n",
+            (" ×38 ", "bold"), "how often it was taken there\n",
+            (f"Each level costs {format_value(world.cost_per_level)}; {slip}.", "dim"),
+        )
+
+    def _keys(self) -> list[tuple[str, str]]:
+        if self._too_small:
+            return [("q", "quit")]
+        return [("l/o/m", "lp/loss/maxent"), ("i", "intervals"), ("s", "save SVG"), ("↑↓", "scroll"),
+                ("q", "quit")]

@@ -1,0 +1,596 @@
+"""`careful play` and `careful replay` under abuse in a real terminal: nothing played is lost.
+
+Researchers collect demonstrations from people once, so a lost session is lost data. Each test
+runs the real command in a detached tmux session on a tmux server of its own (a unique socket),
+sends keys through one control-mode client (one write per key, so an autorepeat rhythm
+survives a busy machine; resizes go the same way, so they stay in order with the keys) and
+reads the screen with `capture-pane`, polling with timeouts rather than sleeping. The pane
+stays after the program ends (`remain-on-exit`), so its exit status, the signal that killed it
+and its last screen can still be read.
+
+| test                                        | what it proves                                       |
+|---------------------------------------------|------------------------------------------------------|
+| `test_sigkill_mid_episode_...`              | SIGKILL loses no committed step; the unfinished      |
+|                                             | episode still counts                                 |
+| `test_two_games_started_at_once_...`        | same second, player and folder: two files, no crash  |
+| `test_an_unwritable_recordings_folder_...`  | refused at start (exit 2, one line), before a screen |
+| `test_resizing_during_play_...`             | too-small message comes and goes; steps before,      |
+|                                             | during (a hold) and after the resize are recorded    |
+| `test_kitty_release_and_repeat_...`         | play reads them (exact holds), never crashes         |
+| `test_holding_two_arrows_at_once_...`       | two held arrows, L U L U: every committed move is    |
+|                                             | on screen and in the file                            |
+| `test_replay_survives_resizing_and_kitty_...` | replay: resizes and kitty sequences, no crash      |
+
+A move is "committed" when the screen shows it ("step N/200" with no hold being entered), and
+the game writes a step before it draws it, so the file must hold every step the screen showed.
+Under load a held key's autorepeat can stall past the release timeout and split one hold into
+two moves of the same direction; the tests then compare runs of directions, never fewer moves.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from datetime import datetime
+from itertools import groupby
+from pathlib import Path
+
+import pytest
+
+from irl_core.demonstrations import Demonstrations, Recording, SessionHeader, read_recording
+from irl_core.game import Game, SessionRecorder
+from irl_core.world import World
+
+needs_tmux = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed")
+
+# Start top-left; the cliff is the bottom row but its ends; the goal is bottom-right.
+WORLD_TOML = """\
+name = "abuse"
+layout = \"\"\"
+......
+......
+......
+.CCCCG
+\"\"\"
+levels = 14
+slip = "none"
+start = [0, 0]
+[rewards]
+C = -1000.0
+G = 100.0
+"""
+SIZE = (100, 35)
+SMALL = (60, 20)  # play needs 64x19 for this world, replay 80x21
+STEP = re.compile(r"step (\d+)/200")
+TIMEOUT_S = 20.0
+# The tmux server's environment, and so the program's. Textual takes the terminal's size from
+# COLUMNS and LINES when they are set, and would then never see a resize; they are often set
+# where nobody asked (importing readline, which pytest does, puts them in the C environment
+# that a subprocess inherits unless it is given `os.environ` explicitly).
+CLEAN_ENV = {name: value for name, value in os.environ.items() if name not in ("COLUMNS", "LINES")}
+
+
+# ---------------------------------------------------------------------------- a terminal
+
+
+class Terminal:
+    """A command running in a detached tmux session, on a tmux server of its own."""
+
+    def __init__(self, cwd: Path, args: list[str], *, size: tuple[int, int] = SIZE) -> None:
+        self.name = f"careful-abuse-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        self.socket: Path | None = None
+        self.control: subprocess.Popen | None = None
+        conf = cwd / f"{self.name}.conf"
+        # status off: the pane is the whole window, so a resize to 60x20 gives the app 60x20.
+        conf.write_text("set -g remain-on-exit on\nset -g status off\n")
+        # The shell writes the exit status to a file: tmux 3.3 does not report a status of 0, and
+        # a message on the screen would overwrite the last screen the program drew.
+        self.status_file = cwd / f"{self.name}.status"
+        command = (shlex.join([sys.executable, "-m", "careful_tui.cli", *args])
+                   + f"; echo $? > {shlex.quote(str(self.status_file))}")
+        width, height = size
+        self.tmux("-f", str(conf), "new-session", "-d", "-s", self.name, "-x", str(width), "-y", str(height),
+                  "-c", str(cwd), command)
+        self.socket = Path(self.tmux("display-message", "-p", "#{socket_path}").strip())
+        self.control = subprocess.Popen(["tmux", "-L", self.name, "-C", "attach", "-t", self.name],
+                                        stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=CLEAN_ENV)
+
+    def tmux(self, *args: str) -> str:
+        return subprocess.run(["tmux", "-L", self.name, *args], check=True, capture_output=True, text=True,
+                              env=CLEAN_ENV).stdout
+
+    def command(self, line: str) -> None:
+        """One tmux command through the control client (ordered with the keys sent before it)."""
+        assert self.control is not None and self.control.stdin is not None
+        self.control.stdin.write(line + "\n")
+        self.control.stdin.flush()
+
+    def send(self, *keys: str) -> None:
+        """Keys by tmux name ("Right", "Space", "q"), in one write."""
+        self.command(f"send-keys -t {self.name} {' '.join(keys)}")
+
+    def send_bytes(self, data: bytes) -> None:
+        """Raw bytes, as a terminal would send them (`send-keys -H`)."""
+        self.command(f"send-keys -t {self.name} -H {' '.join(f'{b:02x}' for b in data)}")
+
+    def resize(self, width: int, height: int) -> None:
+        self.command(f"resize-window -t {self.name} -x {width} -y {height}")
+
+    def repeat(self, key: str, seconds: float, *, period: float = 0.033) -> None:
+        """Autorepeats of `key` every `period` for `seconds` (each on time, not after the last)."""
+        start = time.monotonic()
+        n = 1
+        while (due := start + n * period) - start <= seconds:
+            time.sleep(max(0.0, due - time.monotonic()))
+            self.send(key)
+            n += 1
+
+    def hold(self, key: str, seconds: float, *, delay: float = 0.5) -> None:
+        """Hold `key` as a terminal reports it: a press, `delay` of silence, then autorepeats."""
+        self.send(key)
+        time.sleep(delay)
+        self.send(key)
+        self.repeat(key, seconds)
+
+    def screen(self) -> str:
+        return self.tmux("capture-pane", "-p", "-t", self.name)
+
+    def wait_for(self, want: str | Callable[[str], bool], timeout: float = TIMEOUT_S) -> str:
+        """The screen, once it contains `want` (or `want(screen)` is true)."""
+        check = want if callable(want) else (lambda screen: want in screen)
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if check(screen := self.screen()):
+                return screen
+            time.sleep(0.05)
+        size = self.tmux("display-message", "-p", "-t", self.name, "#{pane_width}x#{pane_height}").strip()
+        raise AssertionError(f"{want!r} never appeared; the {size} screen was:\n{self.screen()}")
+
+    def pid(self) -> int:
+        """The program's process id: the one child of the pane's shell."""
+        shell = int(self.tmux("display-message", "-p", "-t", self.name, "#{pane_pid}"))
+        (child,) = Path(f"/proc/{shell}/task/{shell}/children").read_text().split()
+        return int(child)
+
+    def wait_exit(self, timeout: float = TIMEOUT_S) -> int:
+        """The program's exit status once it has ended (128 + N when signal N killed it)."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if self.status_file.exists() and (status := self.status_file.read_text().strip()):
+                return int(status)
+            time.sleep(0.05)
+        raise AssertionError(f"the program never ended; the screen was:\n{self.screen()}")
+
+    def close(self) -> None:
+        """Kill the tmux server (and with it the program) and remove its socket."""
+        subprocess.run(["tmux", "-L", self.name, "kill-server"], capture_output=True, env=CLEAN_ENV)
+        if self.control is not None:
+            try:
+                self.control.stdin.close()
+            except BrokenPipeError:
+                pass
+            try:
+                self.control.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.control.kill()
+                self.control.wait()
+        if self.socket is not None:
+            self.socket.unlink(missing_ok=True)
+
+
+@contextmanager
+def terminal(cwd: Path, args: list[str], *, size: tuple[int, int] = SIZE) -> Iterator[Terminal]:
+    term = None
+    try:
+        term = Terminal(cwd, args, size=size)
+        yield term
+    finally:
+        if term is not None:
+            term.close()
+
+
+# ---------------------------------------------------------------------------- the play screen
+
+
+def play_args(tmp_path: Path, *extra: str) -> list[str]:
+    world = tmp_path / "abuse.toml"
+    world.write_text(WORLD_TOML)
+    return ["play", "--world", str(world), "--out", str(tmp_path / "rec"), "--player", "abuse", "--seed", "3", *extra]
+
+
+def shown_step(screen: str) -> int | None:
+    """The "step N/200" of the running episode, or None (between episodes, too small)."""
+    match = STEP.search(screen)
+    return None if match is None else int(match.group(1))
+
+
+def settle(term: Terminal, at_least: int) -> int:
+    """The step count once at least `at_least` moves are shown and no hold is being entered.
+
+    "last move" is the idle panel; while a hold is being entered it shows the live level. The
+    count must hold still for a moment, so no key is still on its way.
+    """
+    def idle(screen: str) -> bool:
+        return "last move" in screen and (shown_step(screen) or 0) >= at_least
+
+    while True:
+        count = shown_step(term.wait_for(idle))
+        time.sleep(0.3)
+        screen = term.screen()
+        if idle(screen) and shown_step(screen) == count:
+            return count
+
+
+def quit_game(term: Terminal) -> str:
+    """Press q and wait for a clean exit; the screen after it ("recorded to ...")."""
+    term.send("q")
+    assert term.wait_exit() == 0
+    return term.tmux("capture-pane", "-p", "-S", "-", "-t", term.name)
+
+
+def the_recording(out: Path) -> Recording:
+    (path,) = out.glob("*.jsonl")
+    return read_recording(path)
+
+
+def runs(directions: list[str]) -> list[str]:
+    """Directions with repeats merged: a hold split in two still reads as one run."""
+    return [direction for direction, _ in groupby(directions)]
+
+
+def episode_steps(rec: Recording, episode: int) -> list:
+    return [s for s in rec.steps if s.episode == episode]
+
+
+def assert_consistent(rec: Recording) -> None:
+    """No line is missing: steps count from t=0, each starts where the last ended, scores add up."""
+    ends = {end.episode: end for end in rec.episode_ends}
+    for episode in rec.episodes:
+        steps = episode_steps(rec, episode)
+        assert [s.t for s in steps] == list(range(len(steps)))
+        score = rec.world.initial_score
+        for before, step in zip([None, *steps], steps):
+            if before is not None:
+                assert step.state == before.next_state
+            score += step.reward
+            assert step.score == pytest.approx(score)
+        if episode in ends:
+            assert ends[episode].steps == len(steps)
+
+
+# ---------------------------------------------------------------------------- the tests
+
+
+@needs_tmux
+def test_sigkill_mid_episode_keeps_every_committed_step(tmp_path: Path) -> None:
+    out = tmp_path / "rec"
+    with terminal(tmp_path, play_args(tmp_path)) as term:
+        term.wait_for("carefulness")
+        # Episode 1: taps of alternating arrows (each press ends the last hold) into the cliff.
+        term.send("Down", "Right", "Down", "Right", "Down")
+        term.wait_for("fell off the cliff")
+        term.send("Space")
+        term.wait_for("Episode 2 ")
+        # Episode 2: a held arrow, then taps; then a hold still being entered when the kill comes.
+        term.hold("Right", 0.6)
+        term.send("Down", "Right", "Down")
+        committed = settle(term, 4)
+        term.send("Up")
+        term.wait_for("held")
+        os.kill(term.pid(), signal.SIGKILL)
+        assert term.wait_exit() == 128 + signal.SIGKILL
+        # The screen as the game last drew it: the game writes a step before it shows it.
+        last_shown = shown_step(term.screen())
+    assert last_shown is not None and committed <= last_shown <= committed + 1
+
+    rec = the_recording(out)
+    assert rec.warnings == []
+    assert_consistent(rec)
+    assert rec.episodes == [0, 1]
+    first, second = episode_steps(rec, 0), episode_steps(rec, 1)
+    assert [s.direction for s in first] == ["down", "right", "down", "right", "down"]
+    (end,) = rec.episode_ends
+    assert end.episode == 0 and end.outcome == "terminal" and end.terminal_symbol == "C"
+    # The killed episode has every step the screen showed, and no end; it still counts.
+    assert len(second) == last_shown
+    assert runs([s.direction for s in second[:committed]]) == ["right", "down", "right", "down"]
+    assert second[0].carefulness >= 2
+    demos = Demonstrations.from_recordings([rec])
+    assert demos.episodes == 2 and demos.steps == 5 + last_shown
+
+
+@needs_tmux
+def test_two_games_started_at_once_write_two_files(tmp_path: Path) -> None:
+    out = tmp_path / "rec"
+    with terminal(tmp_path, play_args(tmp_path)) as one, terminal(tmp_path, play_args(tmp_path)) as two:
+        one.wait_for("carefulness")
+        two.wait_for("carefulness")
+        # A session file is created at its first move: make both first moves early in one second.
+        while not 0.02 < time.time() % 1 < 0.3:
+            time.sleep(0.01)
+        for term in (one, two):
+            term.send("Down", "Right")
+        for term in (one, two):
+            assert settle(term, 2) == 2
+        for term in (one, two):
+            assert "recorded to" in quit_game(term)
+
+    paths = sorted(out.glob("*.jsonl"), key=lambda path: len(path.name))
+    assert len(paths) == 2, paths
+    recs = [read_recording(path) for path in paths]
+    created = {rec.header.created.replace(microsecond=0) for rec in recs}
+    assert len(created) == 1, f"the first moves fell in different seconds: {created}"
+    stem = paths[0].stem
+    assert [path.name for path in paths] == [f"{stem}.jsonl", f"{stem}-2.jsonl"]
+    for rec in recs:
+        assert rec.header.player == "abuse" and rec.warnings == []
+        assert [s.direction for s in rec.steps] == ["down", "right"]
+        assert [e.outcome for e in rec.episode_ends] == ["quit"]
+
+
+def run_play_in_a_terminal(cwd: Path, out: str) -> tuple[int, str, bytes]:
+    """`careful play --out OUT` with a pseudo-terminal for input and output: status, stderr, screen."""
+    master, slave = os.openpty()
+    try:
+        process = subprocess.Popen([sys.executable, "-m", "careful_tui.cli", "play", "--out", out], cwd=cwd,
+                                   stdin=slave, stdout=slave, stderr=subprocess.PIPE, text=True)
+        os.close(slave)
+        slave = -1
+        try:
+            _, err = process.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.communicate()
+            pytest.fail(f"careful play --out {out} started instead of refusing the folder")
+        os.set_blocking(master, False)
+        screen = b""
+        while True:
+            try:
+                chunk = os.read(master, 65536)
+            except (BlockingIOError, OSError):
+                break
+            if not chunk:
+                break
+            screen += chunk
+        return process.returncode, err, screen
+    finally:
+        os.close(master)
+        if slave != -1:
+            os.close(slave)
+
+
+def make_read_only(folder: Path) -> None:
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        (folder / "probe").touch()
+    except PermissionError:
+        return
+    (folder / "probe").unlink()
+    folder.chmod(0o755)
+    pytest.skip("this user writes into a chmod 555 folder anyway (root, or CAP_DAC_OVERRIDE), so no folder "
+                "here is read-only; the file and parent-file cases cover the refusal")
+
+
+@pytest.mark.parametrize(("case", "problem"), [
+    ("a file", "is a file, not a folder"),
+    ("under a file", "Not a directory"),
+    ("deep under a file", "Not a directory"),
+    ("a dangling link", "cannot write recordings"),
+    ("read-only", "Permission denied"),
+    ("under read-only", "Permission denied"),
+])
+def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, case: str, problem: str) -> None:
+    blocker = tmp_path / "file.txt"
+    blocker.write_text("not a folder")
+    (tmp_path / "link").symlink_to(tmp_path / "unmounted" / "drive")
+    if "read-only" in case:
+        make_read_only(tmp_path / "ro")
+    out = {"a file": "file.txt", "under a file": "file.txt/sub", "deep under a file": "file.txt/a/b",
+           "a dangling link": "link", "read-only": "ro", "under read-only": "ro/sub"}[case]
+    try:
+        status, err, screen = run_play_in_a_terminal(tmp_path, out)
+    finally:
+        if (tmp_path / "ro").exists():
+            (tmp_path / "ro").chmod(0o755)
+    assert status == 2
+    assert len(err.strip().splitlines()) == 1, err
+    assert err.startswith("careful play: ") and out in err and problem in err and "--out" in err
+    assert "Traceback" not in err
+    # Refused before the game drew anything: no alternate screen, nothing written anywhere.
+    assert b"\x1b[?1049h" not in screen and screen == b""
+    assert blocker.read_text() == "not a folder"
+    assert not (tmp_path / "unmounted").exists()
+    assert not (tmp_path / "ro").exists() or list((tmp_path / "ro").iterdir()) == []
+
+
+@needs_tmux
+def test_resizing_during_play_loses_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "rec"
+    too_small = "careful play needs 64x19"
+    with terminal(tmp_path, play_args(tmp_path)) as term:
+        term.wait_for("carefulness")
+        term.send("Down", "Right")
+        assert settle(term, 2) == 2
+        # Shrink in the middle of a hold: the hold entered so far is still a move.
+        term.send("Down")
+        time.sleep(0.5)
+        term.repeat("Down", 0.3)
+        term.resize(*SMALL)
+        term.repeat("Down", 0.3)
+        term.wait_for(too_small)
+        # Arrows while the window is too small move nobody.
+        term.send("Left")
+        term.send("Up")
+        time.sleep(0.8)
+        term.resize(*SIZE)
+        screen = term.wait_for("Episode 1 ")
+        assert "Make the window larger" not in screen
+        during = settle(term, 3)
+        # A storm of resizes, down to a single cell and back, none waited for.
+        for size in [SMALL, SIZE, (1, 1), (30, 10), SIZE, (64, 19), (63, 19), (64, 18), SMALL, SIZE]:
+            term.resize(*size)
+        term.wait_for(lambda s: "Episode 1 " in s and "Make the window larger" not in s)
+        assert settle(term, during) == during
+        term.send("Right", "Up")
+        after = settle(term, during + 2)
+        quit_game(term)
+
+    rec = the_recording(out)
+    assert_consistent(rec)
+    assert len(rec.steps) == after and rec.episode_ends[0].steps == after
+    directions = [s.direction for s in rec.steps]
+    assert directions[:2] == ["down", "right"]
+    assert runs(directions[2:during]) == ["down"] and directions[during:] == ["right", "up"]
+    assert rec.steps[2].carefulness >= 2  # the hold across the resize
+
+
+KITTY_JUNK = [
+    b"\x1b[1;1:3A",  # release of up, never pressed
+    b"\x1b[97;1:3u",  # release of a
+    b"\x1b[1;1:2D",  # a repeat of left with no hold: the tail of a hold already committed
+    b"\x1b[1;1:9C",  # an unknown event type
+    b"\x1b[99999999u",  # a code point outside Unicode
+    b"\x1b[1;1:1:1C",  # too many sub-fields
+    b"\x1b[97:65;2:3u",  # release of shift+a with an alternate key
+    b"\x1b[113;1:3u",  # release of q: must not quit
+]
+
+
+def kitty(key: str, event: int) -> bytes:
+    """An arrow key event in kitty's protocol: 1 press, 2 repeat, 3 release."""
+    final = {"up": "A", "down": "B", "right": "C", "left": "D"}[key]
+    return f"\x1b[1;1:{event}{final}".encode()
+
+
+@needs_tmux
+def test_kitty_release_and_repeat_sequences_never_crash_play(tmp_path: Path) -> None:
+    out = tmp_path / "rec"
+    with terminal(tmp_path, play_args(tmp_path)) as term:
+        term.wait_for("carefulness")
+        for junk in KITTY_JUNK:
+            term.send_bytes(junk)
+        term.send("Left")  # a plain tap behind the junk: the parser still reads keys
+        assert settle(term, 1) == 1
+        # Press, a pause shorter than the first-repeat timeout, release: an exact hold.
+        term.send_bytes(kitty("right", 1))
+        time.sleep(0.3)
+        term.send_bytes(kitty("right", 3))
+        screen = term.wait_for("(exact)")
+        assert shown_step(screen) == 2
+        # A repeat and a release after the hold ended start nothing.
+        term.send_bytes(kitty("right", 2) + kitty("right", 3))
+        # Two arrows, kitty style: down held, right pressed over it, down released, then right.
+        term.send_bytes(kitty("down", 1))
+        time.sleep(0.3)
+        for _ in range(4):
+            term.send_bytes(kitty("down", 2))
+            time.sleep(0.03)
+        term.send_bytes(kitty("right", 1))
+        for _ in range(4):
+            term.send_bytes(kitty("right", 2))
+            time.sleep(0.03)
+        term.send_bytes(kitty("down", 3) + kitty("right", 3))
+        for junk in KITTY_JUNK:
+            term.send_bytes(junk)
+        shown = settle(term, 4)
+        quit_game(term)
+
+    rec = the_recording(out)
+    assert_consistent(rec)
+    assert len(rec.steps) == shown == 4
+    assert [s.direction for s in rec.steps] == ["left", "right", "down", "right"]
+    assert [s.hold_exact for s in rec.steps[:3]] == [False, True, False]
+    assert 250 <= rec.steps[1].hold_ms <= 650
+
+
+@needs_tmux
+def test_holding_two_arrows_at_once_records_every_move(tmp_path: Path) -> None:
+    out = tmp_path / "rec"
+    with terminal(tmp_path, play_args(tmp_path)) as term:
+        term.wait_for("carefulness")
+        # Right held; Down pressed while Right is still down: autorepeat follows Down.
+        term.hold("Right", 0.4)
+        term.hold("Down", 0.4)
+        first = settle(term, 2)
+        # Fast interleaved presses: each ends the one before at once.
+        term.send("Left", "Up", "Left", "Up")
+        shown = settle(term, first + 4)
+        quit_game(term)
+
+    rec = the_recording(out)
+    assert_consistent(rec)
+    assert len(rec.steps) == shown
+    directions = [s.direction for s in rec.steps]
+    assert runs(directions[:first]) == ["right", "down"]
+    assert directions[first:] == ["left", "up", "left", "up"]
+    assert all(s.carefulness == 1 and s.hold_ms == 0 for s in rec.steps[first:])
+    assert rec.steps[0].carefulness >= 2
+
+
+def write_replay_recording(tmp_path: Path) -> Path:
+    world = World(name="abuse", layout="......\n......\n......\n.CCCCG\n", levels=14, slip="none", start=(0, 0),
+                  rewards={"C": -1000.0, "G": 100.0})
+    header = SessionHeader(world=world, player="abuse", created=datetime.now().astimezone(), seed=0)
+    recorder = SessionRecorder(tmp_path / "rec", header)
+    game = Game(world, seed=0, sink=recorder)
+    for moves in (["down", "down", "down", "right"], ["right", "right", "down"]):
+        game.begin_episode()
+        for level, direction in enumerate(moves, start=1):
+            game.move(direction, level, hold_ms=100.0 * level)
+    game.quit()
+    recorder.close()
+    (path,) = recorder.paths
+    return path
+
+
+@needs_tmux
+def test_replay_survives_resizing_and_kitty_sequences(tmp_path: Path) -> None:
+    path = write_replay_recording(tmp_path)
+    before = path.read_bytes()
+    too_small = "careful replay needs 80x21"
+    with terminal(tmp_path, ["replay", str(path)]) as term:
+        term.wait_for("Episode 1/2")
+        term.send("Space")
+        term.wait_for("paused")
+        term.send("Home")
+        term.wait_for("step 1/4")
+        term.resize(*SMALL)
+        term.wait_for(too_small)
+        term.resize(*SIZE)
+        screen = term.wait_for("step 1/4")
+        assert "Make the window larger" not in screen
+        # Playing through a storm of resizes.
+        term.send("Space")
+        for size in [SMALL, SIZE, (1, 1), (30, 10), SIZE, (80, 21), (79, 21), SMALL, SIZE]:
+            term.resize(*size)
+        term.wait_for(lambda s: "Episode" in s and "Make the window larger" not in s)
+        term.send("Space")
+        term.wait_for("paused")
+        term.send("Home")
+        term.wait_for("step 1/4")
+        # Kitty sequences: junk and releases are dropped, a repeat or a press steps like a key.
+        for junk in KITTY_JUNK:
+            term.send_bytes(junk)
+        term.send_bytes(kitty("right", 3))
+        term.send_bytes(kitty("right", 2) + kitty("right", 2))
+        term.wait_for("step 2/4")
+        term.send_bytes(kitty("right", 1) + kitty("right", 3) + kitty("right", 1) + kitty("right", 3))
+        term.wait_for("step 3/4")
+        term.resize(*SMALL)
+        term.wait_for(too_small)
+        term.send_bytes(kitty("up", 1) + kitty("up", 3))
+        term.resize(*SIZE)
+        term.wait_for("Episode 2/2")
+        term.send("q")
+        assert term.wait_exit() == 0
+    assert path.read_bytes() == before

@@ -1,0 +1,268 @@
+"""The fit view: the numbers of `--json`, refits in a worker, intervals, errors and saving SVG."""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import json
+import re
+import threading
+
+import numpy as np
+import pytest
+from rich.console import Console
+
+import careful_tui.fit as fit_command
+from careful_tui.cli import build_parser, main
+from careful_tui.fit import fit_from_args, interval_span
+from careful_tui.fit_view import FitApp, board_width
+from careful_tui.grid import format_value
+from careful_tui.widgets import Board, KeyBar
+from irl_core.demonstrations import Demonstrations
+from irl_core.irl import fit
+
+NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
+
+
+def simulate(folder, *options):
+    path = folder / "recording.jsonl"
+    assert main(["simulate", "--world", "mud", *options, "--seed", "0", "--out", str(path)]) == 0
+    return path
+
+
+@pytest.fixture(scope="module")
+def mud_file(tmp_path_factory):
+    return simulate(tmp_path_factory.mktemp("mud"), "--policy", "optimal", "--episodes", "100")
+
+
+@pytest.fixture(scope="module")
+def noisy_file(tmp_path_factory):
+    """A Boltzmann expert's recording: its most frequent actions are optimal for no reward (lp fails)."""
+    return simulate(tmp_path_factory.mktemp("noisy"), "--policy", "boltzmann", "--beta", "0.5", "--episodes", "30")
+
+
+def make_app(*argv, fitted=True, **kwargs) -> FitApp:
+    """The view as `careful fit ARGV` opens it (the first fit made before, as the CLI does)."""
+    args = build_parser().parse_args(["fit", *map(str, argv)])
+    if fitted:
+        demos, result = fit_from_args(args, err=Console(file=io.StringIO()))
+    else:
+        demos, result = Demonstrations.read(args.files), None
+    return FitApp.from_args(args, demos, result, **kwargs)
+
+
+def text_of(widget) -> str:
+    """What a widget shows, as plain text."""
+    if isinstance(widget, Board):
+        return "\n".join(widget.render_line(y).text for y in range(widget.content_size.height))
+    console = Console(width=widget.content_size.width, file=io.StringIO(), record=True)
+    console.print(widget.content)
+    return console.export_text()
+
+
+def shown(app: FitApp, selector: str) -> str:
+    return text_of(app.query_one(selector))
+
+
+def drive(app: FitApp, body, size=(100, 40)) -> None:
+    """Run the view in a `size` terminal and hand it to `body(pilot)`."""
+
+    async def go() -> None:
+        async with app.run_test(size=size) as pilot:
+            await pilot.pause()
+            await body(pilot)
+
+    asyncio.run(go())
+
+
+async def settle(app, pilot) -> None:
+    await app.workers.wait_for_complete()
+    await pilot.pause()
+
+
+def as_grid(rows) -> np.ndarray:
+    return np.array([[np.nan if v is None else v for v in row] for row in rows], dtype=float)
+
+
+def test_the_view_shows_the_numbers_of_json(tmp_path, mud_file, capsys):
+    out = tmp_path / "fit.json"
+    assert main(["fit", str(mud_file), "--intervals", "--no-view", "--json", str(out)]) == 0
+    capsys.readouterr()
+    data = json.loads(out.read_text())
+    app = make_app(mud_file, "--intervals")
+
+    async def body(pilot):
+        fitted, true = app.query_one("#fitted", Board), app.query_one("#true", Board)
+        np.testing.assert_allclose(fitted.values, as_grid(data["reward"]), atol=1e-6)
+        # Every cell's printed value, row by row, is the JSON's.
+        assert NUMBER.findall(shown(app, "#fitted")) == [format_value(v) for row in data["reward"] for v in row]
+        assert NUMBER.findall(shown(app, "#true")) == [format_value(v) for v in true.values.ravel()]
+        assert true.values[3, 1] == -1000 and true.values[1, 1] == -30
+        assert fitted.scale == true.scale
+        intervals = shown(app, "#intervals")
+        for row in data["interval"]:
+            for cell in row:
+                if cell is not None:
+                    assert interval_span(*cell, data["options"]["rmax"]) in intervals
+        policy = shown(app, "#policy")
+        for row in data["policy"]:
+            for cell in row:
+                if cell is not None:
+                    assert f"{cell['carefulness']} ×{cell['count']}" in policy
+        title = shown(app, "#title")
+        assert "lp on mud" in title and "100 episodes" in title and f"{data['demonstrations']['steps']} steps" in title
+        assert "status: optimal in" in shown(app, "#status")
+    drive(app, body, size=(100, 40))
+
+
+def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
+    release = threading.Event()
+
+    def slow_fit(*args, **kwargs):
+        assert release.wait(10)
+        return fit(*args, **kwargs)
+
+    app = make_app(mud_file)
+
+    async def body(pilot):
+        lp_values = app.query_one("#fitted", Board).values.copy()
+        monkeypatch.setattr(fit_command, "fit", slow_fit)
+        await pilot.press("o")
+        # Busy: the last result stays, dimmed, under a "fitting" status.
+        assert app.busy and "fitting loss" in shown(app, "#status")
+        assert app.query_one("#body").has_class("-busy") and app.result.method == "lp"
+        release.set()
+        await settle(app, pilot)
+        assert not app.busy and app.result.method == "loss"
+        assert "loss on mud" in shown(app, "#title") and "fitted R_S · loss" in app.query_one("#fitted").border_title
+        loss_values = app.query_one("#fitted", Board).values
+        np.testing.assert_allclose(loss_values, app.result.reward_grid)
+        assert not np.allclose(loss_values, lp_values)
+        assert NUMBER.findall(shown(app, "#fitted")) == [format_value(v) for v in loss_values.ravel()]
+        await pilot.press("tab")
+        await settle(app, pilot)
+        assert app.result.method == "maxent" and "β 1" in shown(app, "#status")
+        await pilot.press("tab")
+        await settle(app, pilot)
+        assert app.result.method == "lp"
+        np.testing.assert_allclose(app.query_one("#fitted", Board).values, lp_values)
+    drive(app, body, size=(100, 40))
+
+
+def test_intervals_toggle(mud_file):
+    app = make_app(mud_file)
+
+    async def body(pilot):
+        assert app.result.intervals is None and "press i" in shown(app, "#intervals")
+        await pilot.press("i")
+        await settle(app, pilot)
+        assert app.result.intervals is not None and app.result.method == "lp"
+        intervals = shown(app, "#intervals")
+        assert "Cliff: at most" in intervals and "catastrophic next to mud's" in intervals
+        assert "Goal: between" in intervals and "● fitted" in intervals
+        await pilot.press("i")
+        await pilot.pause()
+        assert not app.busy and "press i" in shown(app, "#intervals")
+        # Back on: the intervals are there already; nothing to refit.
+        await pilot.press("i")
+        assert not app.busy and "Cliff:" in shown(app, "#intervals")
+        await pilot.press("o")
+        await settle(app, pilot)
+        assert app.result.method == "loss" and app.result.intervals is not None
+    drive(app, body, size=(100, 40))
+
+
+def test_an_infeasible_refit_is_shown_and_the_view_keeps_running(noisy_file):
+    app = make_app(noisy_file, "--method", "loss")
+
+    async def body(pilot):
+        loss_values = app.query_one("#fitted", Board).values.copy()
+        await pilot.press("l")
+        await settle(app, pilot)
+        assert app.is_running and app.result.method == "loss"
+        status = shown(app, "#status")
+        assert "✗ lp" in status and "not optimal for any reward" in status and "press o" in status
+        assert "showing loss" in status
+        np.testing.assert_allclose(app.query_one("#fitted", Board).values, loss_values)
+        await pilot.press("o")
+        await settle(app, pilot)
+        assert app.error is None and "✓" in shown(app, "#status")
+    drive(app, body, size=(100, 40))
+
+
+def test_a_first_fit_in_the_worker(mud_file):
+    app = make_app(mud_file, "--method", "maxent", fitted=False)
+
+    async def body(pilot):
+        await settle(app, pilot)
+        assert app.result.method == "maxent" and "maxent on mud" in shown(app, "#title")
+        assert app.query_one("#policy", Board).labels
+    drive(app, body, size=(100, 40))
+
+
+def test_s_saves_an_svg(tmp_path, mud_file, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    app = make_app(mud_file)
+
+    async def body(pilot):
+        await pilot.press("s")
+        await pilot.press("s")
+        assert app.saved == [tmp_path / "careful-fit-mud-lp.svg", tmp_path / "careful-fit-mud-lp-2.svg"]
+        svg = app.saved[0].read_text().replace("&#160;", " ")
+        assert svg.startswith("<svg") and "careful fit: lp on mud" in svg
+    drive(app, body, size=(100, 40))
+
+
+def test_svg_option_saves_once_the_first_fit_is_drawn(tmp_path, mud_file):
+    path = tmp_path / "view.svg"
+    app = make_app(mud_file, "--intervals", "--svg", path)
+
+    async def body(pilot):
+        await pilot.pause()
+        assert app.saved == [path]
+        svg = path.read_text().replace("&#160;", " ")
+        assert "fitted R_S" in svg and "catastrophic" in svg
+        # `s` saves to the same path.
+        await pilot.press("s")
+        assert app.saved == [path, path]
+    drive(app, body, size=(100, 40))
+
+
+def test_80x24_stacks_the_boards_and_scrolls(mud_file):
+    app = make_app(mud_file, "--intervals")
+
+    async def body(pilot):
+        assert app.query_one("#rewards").has_class("-stacked")
+        assert not app.screen.has_class("-too-small")
+        body = app.query_one("#body")
+        assert body.max_scroll_y > 0
+        await pilot.press("end")
+        await pilot.pause()
+        assert body.scroll_y > 0
+    drive(app, body, size=(80, 24))
+    wide = make_app(mud_file)
+
+    async def body_wide(pilot):
+        assert not wide.query_one("#rewards").has_class("-stacked")
+        fitted, true = wide.query_one("#fitted"), wide.query_one("#true")
+        assert fitted.region.y == true.region.y and fitted.region.right <= true.region.x
+    drive(wide, body_wide, size=(100, 30))
+
+
+def test_a_tiny_terminal_says_so(mud_file):
+    app = make_app(mud_file)
+
+    async def body(pilot):
+        assert app.screen.has_class("-too-small")
+        message = shown(app, "#too-small")
+        assert "The terminal is 40x10" in message and "48x12" in message
+        assert app.query_one(KeyBar).keys == (("q", "quit"),)
+        await pilot.press("q")
+        assert not app.is_running
+    drive(app, body, size=(40, 10))
+
+
+def test_board_width():
+    assert board_width(6, 0) == 6 * 7 + 2
+    assert board_width(6, 100) == 6 * 11 + 2
+    assert board_width(6, 6 * 8 + 2) == 6 * 7 + 2
