@@ -14,7 +14,10 @@ and the app panics. This module adds:
 - `KittyDriver`: the Linux/macOS driver using that parser and also asking for event types.
   Use it as `App(driver_class=KittyDriver)`. Terminals without the protocol ignore the request
   and keep sending plain presses and autorepeats. It subclasses Textual's POSIX driver, so this
-  module does not import on Windows (there, leave `driver_class` unset).
+  module does not import on Windows (there, leave `driver_class` unset). It also asks the
+  terminal for its size, where Textual would believe COLUMNS and LINES.
+- `PassiveKittyDriver`: the same, without asking for event types, for screens that have no use
+  for releases (replay) but must not die when a terminal sends them anyway.
 
 Private Textual APIs touched (hence the exact pin `textual==8.2.8`):
 - `textual._xterm_parser.XTermParser._sequence_to_key_events`, overridden: the parse loop calls
@@ -25,6 +28,7 @@ Private Textual APIs touched (hence the exact pin `textual==8.2.8`):
   hard-wired there), with what it uses: `fileno`, `exit_event`, `_debug`,
   `textual._loop.loop_last`, `textual._parser.ParseError`; and `_writer_thread`, to skip the
   flag when Textual did not start its writer.
+- `LinuxDriver._get_terminal_size`, overridden, and `_file`, the stream Textual draws on.
 
 `App.run_test()` always uses Textual's headless driver, whatever `driver_class` says, so tests
 feed byte strings to `KittyParser` directly and post the events it yields to a running app; a
@@ -247,6 +251,19 @@ class KittyDriver(LinuxDriver):
     def _requests_event_types(self) -> bool:
         return self.report_event_types and not constants.DISABLE_KITTY_KEY
 
+    def _get_terminal_size(self) -> tuple[int, int]:
+        """The size of the terminal Textual draws on, asked of the terminal itself.
+
+        Textual's driver asks `shutil.get_terminal_size`, which prefers COLUMNS and LINES when
+        they are in the environment (a launcher that imported readline exports them, for one):
+        the screen is then drawn at that size whatever the window's, and no resize is ever seen.
+        """
+        try:
+            width, height = os.get_terminal_size(self._file.fileno())
+        except (AttributeError, ValueError, OSError):
+            width = height = 0
+        return (width, height) if width and height else super()._get_terminal_size()
+
     def start_application_mode(self) -> None:
         super().start_application_mode()
         # Textual returns early, before creating its writer, when the terminal is not ours.
@@ -302,3 +319,14 @@ class KittyDriver(LinuxDriver):
                     pass
             except (EOFError, ParseError):
                 pass
+
+
+class PassiveKittyDriver(KittyDriver):
+    """`KittyDriver` that reads kitty release and repeat sequences without asking for them.
+
+    A terminal may send them unasked (for one, after a `careful play` killed before it could
+    withdraw its request), and Textual's own driver dies on the first. Here a repeat is a key
+    like any other and a release is an event nobody needs to handle.
+    """
+
+    report_event_types = False

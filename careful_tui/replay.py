@@ -27,7 +27,7 @@ from textual.timer import Timer
 from textual.widgets import Static
 
 from careful_tui.grid import format_value
-from careful_tui.kitty import KittyDriver
+from careful_tui.kitty import PassiveKittyDriver
 from careful_tui.play import BAD, GOOD, NOTE, legend
 from careful_tui.replay_cursor import Frame, ReplayCursor
 from careful_tui.widgets import Arrow, Board, Gauge, KeyBar, level_colour
@@ -125,18 +125,6 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     return Group(*parts)
 
 
-class ReplayDriver(KittyDriver):
-    """Reads kitty release and repeat sequences without asking for them.
-
-    Textual's own parser raises on them and the app dies, and a terminal may send them unasked
-    (for instance after a `careful play` killed before it could withdraw its request). A replay
-    has no use for releases, so it does not ask: a repeat is a key like any other, a release is
-    dropped.
-    """
-
-    report_event_types = False
-
-
 class ReplayApp(App[None]):
     """The replay screen for one recording (the CLI and the tests build it the same way).
 
@@ -144,7 +132,8 @@ class ReplayApp(App[None]):
         recording: the session to watch.
         playing: start playing at once (the CLI does; the tests start paused).
         frame_seconds: seconds a frame stays on screen at speed ×1.
-        driver_class: the terminal driver (the CLI passes `ReplayDriver`).
+        driver_class: the terminal driver (the CLI passes `PassiveKittyDriver`: a replay has
+            no use for key releases, but must survive a terminal that sends them).
     """
 
     CSS_PATH = ["play.tcss", "replay.tcss"]
@@ -395,5 +384,5 @@ def run_replay(args: argparse.Namespace) -> int:
 
     recording = read_recording(args.file)
     require_terminal("replay")
-    ReplayApp(recording, playing=True, driver_class=ReplayDriver).run()
+    ReplayApp(recording, playing=True, driver_class=PassiveKittyDriver).run()
     return 0
