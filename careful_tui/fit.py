@@ -119,8 +119,10 @@ def run_fit(args: argparse.Namespace) -> int:
         _write("--json", args.json, lambda: args.json.write_text(text, encoding="utf-8"))
     if wants_view(args):
         from careful_tui.fit_view import FitApp
+        from careful_tui.kitty import PassiveKittyDriver
 
-        app = FitApp.from_args(args, demos, result)
+        # The kitty-aware driver: Textual's own crashes on key-event sequences some terminals send.
+        app = FitApp.from_args(args, demos, result, driver_class=PassiveKittyDriver)
         app.run()
         for path in dict.fromkeys(app.saved):
             print(f"saved {path}")

@@ -28,6 +28,7 @@ from rich.console import Group
 from rich.text import Text
 from textual import on, work
 from textual.app import App, ComposeResult
+from textual.driver import Driver
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
@@ -142,8 +143,9 @@ class FitApp(App[None]):
         sources: Sequence[Path] = (),
         svg: Path | None = None,
         show_times: bool = True,
+        driver_class: type[Driver] | None = None,
     ) -> None:
-        super().__init__()
+        super().__init__(driver_class=driver_class)
         self.demos = demos
         self.world = demos.mdp.world
         self.options = options
@@ -160,10 +162,10 @@ class FitApp(App[None]):
 
     @classmethod
     def from_args(cls, args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,
-                  *, show_times: bool = True) -> FitApp:
+                  *, show_times: bool = True, driver_class: type[Driver] | None = None) -> FitApp:
         """The view `careful fit` opens for its parsed `args` (the CLI and the tests build it here)."""
         return cls(demos, FitOptions.from_args(args), result=result, sources=args.files, svg=args.svg,
-                   show_times=show_times)
+                   show_times=show_times, driver_class=driver_class)
 
     # ------------------------------------------------------------------ layout
 
