@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from irl_core.irl.lp import HighsLP, LPConstraints
+from irl_core.irl.lp import LPConstraints, highs_lp
 
 
 def reward_intervals(constraints: LPConstraints) -> tuple[np.ndarray, int]:
@@ -27,7 +27,7 @@ def reward_intervals(constraints: LPConstraints) -> tuple[np.ndarray, int]:
     Raises `InfeasibleError` when the set is empty, `SolverError` if HiGHS fails.
     """
     k, n = constraints.qmap.k, constraints.qmap.n
-    solver = HighsLP(constraints.A, constraints.row_lower, constraints.row_upper, constraints.lower, constraints.upper)
+    solver = highs_lp(constraints.A, constraints.row_lower, constraints.row_upper, constraints.lower, constraints.upper)
     intervals = np.empty((k, 2))
     cost = np.zeros(n)
     for j in range(k):

@@ -202,6 +202,82 @@ _ANSWERS = (
 )
 
 
+# A model with more rows than this is solved by row generation (`LazyRowsLP`).
+LAZY_ROWS = 50_000
+
+
+class LazyRowsLP:
+    """The LP of `HighsLP` solved by row generation: HiGHS sees the equalities first, then
+    each round adds the inequalities the last answer breaks, until it breaks none.
+
+    In a large world almost every V(s) >= Q(s, a) row is slack at the optimum: a 64x64 world
+    with 14 levels has 230,000 of them, and simplex on all of them at once takes minutes.
+    Every variable must be bounded, so that each round's LP has an answer.
+    """
+
+    def __init__(
+        self,
+        A: sp.spmatrix,
+        row_lower: np.ndarray,
+        row_upper: np.ndarray,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        cost: np.ndarray | None = None,
+        *,
+        tolerance: float = 1e-7,
+    ):
+        if not (np.isfinite(lower).all() and np.isfinite(upper).all()):
+            raise ValueError("row generation needs every variable bounded")
+        self.A = sp.csr_matrix(A)
+        self.row_lower, self.row_upper = np.asarray(row_lower, float), np.asarray(row_upper, float)
+        self.tolerance = tolerance
+        self.active = self.row_lower == self.row_upper
+        rows = np.flatnonzero(self.active)
+        self.lp = HighsLP(self.A[rows], self.row_lower[rows], self.row_upper[rows], lower, upper, cost)
+        # Each round re-solves from the last basis; presolving the grown model again costs more
+        # than the few simplex iterations a round needs.
+        self.lp.highs.setOptionValue("presolve", "off")
+        self.rounds = 0
+
+    @property
+    def iterations(self) -> int:
+        return self.lp.iterations
+
+    def minimise(self, cost: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+        """As `HighsLP.minimise`, over all the rows."""
+        z, objective = self.lp.minimise(cost)
+        while True:
+            Az = self.A @ z
+            slack = self.tolerance * np.maximum(1.0, np.abs(Az))
+            broken = ((Az > self.row_upper + slack) | (Az < self.row_lower - slack)) & ~self.active
+            if not broken.any():
+                return z, objective
+            rows = np.flatnonzero(broken)
+            if rows.size > self.lp.n_col:
+                # The most broken first: the first answers break most rows by a lot, and a
+                # model that only grows as far as needed re-solves fast.
+                excess = np.maximum(Az[rows] - self.row_upper[rows], self.row_lower[rows] - Az[rows])
+                rows = np.sort(rows[np.argpartition(-excess, self.lp.n_col)[: self.lp.n_col]])
+            self.active[rows] = True
+            self.lp.add_rows(self.A[rows], self.row_lower[rows], self.row_upper[rows])
+            self.rounds += 1
+            z, objective = self.lp.minimise()
+
+
+def highs_lp(
+    A: sp.spmatrix,
+    row_lower: np.ndarray,
+    row_upper: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    cost: np.ndarray | None = None,
+) -> HighsLP | LazyRowsLP:
+    """A live HiGHS model of the LP: all rows at once, or by row generation past `LAZY_ROWS`."""
+    if A.shape[0] > LAZY_ROWS and np.isfinite(lower).all() and np.isfinite(upper).all():
+        return LazyRowsLP(A, row_lower, row_upper, lower, upper, cost)
+    return HighsLP(A, row_lower, row_upper, lower, upper, cost)
+
+
 def _finite(bound: np.ndarray) -> np.ndarray:
     """HiGHS writes infinity as +-inf too, but only as its own constant."""
     return np.clip(np.asarray(bound, dtype=float), -highspy.kHighsInf, highspy.kHighsInf)
@@ -258,8 +334,10 @@ def margin_lp(constraints: LPConstraints, *, lam: float = 0.0) -> MarginLP:
     cost[n : n + n_d] = 1.0  # ... - sum t_s
     cost[n + n_d :] = lam * qmap.unknowns.weight[:n_u]
     rmax = constraints.upper[:k].max(initial=0.0)
-    lower = np.concatenate([constraints.lower, np.full(n_d, -np.inf), np.zeros(n_u)])
-    upper = np.concatenate([constraints.upper, np.full(n_d, np.inf), np.full(n_u, rmax)])
+    # t_s is a Q value, so |t_s| <= vmax, the value bound (it keeps every variable bounded).
+    vmax = constraints.upper[k:n].max(initial=0.0)
+    lower = np.concatenate([constraints.lower, np.full(n_d, -vmax), np.zeros(n_u)])
+    upper = np.concatenate([constraints.upper, np.full(n_d, vmax), np.full(n_u, rmax)])
     return MarginLP(
         constraints=constraints,
         A=sp.vstack(blocks, format="csr"),
@@ -283,7 +361,7 @@ class LPSolution:
 def solve_margin_lp(constraints: LPConstraints, *, lam: float = 0.0) -> LPSolution:
     """Solve the margin LP with HiGHS. Raises `InfeasibleError` or `SolverError`."""
     problem = margin_lp(constraints, lam=lam)
-    solver = HighsLP(problem.A, problem.row_lower, problem.row_upper, problem.lower, problem.upper, problem.cost)
+    solver = highs_lp(problem.A, problem.row_lower, problem.row_upper, problem.lower, problem.upper, problem.cost)
     z, _ = solver.minimise()
     n, n_d = constraints.qmap.n, constraints.demonstrated.size
     margin = float(z[constraints.qmap.k + constraints.demonstrated].sum() - z[n : n + n_d].sum())
