@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 SIZES = ("4x6", "16x16", "32x32", "64x64")
-STAGES = ("value_iteration", "rollouts_10k", "lp_fit", "intervals")
+STAGES = ("value_iteration", "rollouts_10k", "lp_fit", "intervals_tied")
 
 
 def _setup(size: str):
@@ -35,11 +35,11 @@ def run_stage(size: str, stage: str) -> dict:
 
     mdp = _setup(size)
     work = None
-    if stage in ("lp_fit", "intervals"):
+    if stage in ("lp_fit", "intervals_tied"):
         from bench.fit_stage import demonstrations_for, fit_stage
 
         demos = demonstrations_for(mdp, episodes=100, seed=0)
-        work = lambda: fit_stage(demos, intervals=stage == "intervals")  # noqa: E731
+        work = lambda: fit_stage(demos, intervals=stage == "intervals_tied")  # noqa: E731
     elif stage == "rollouts_10k":
         policy = optimal_policy(mdp)
         work = lambda: rollouts(mdp, policy, episodes=10_000, seed=0)  # noqa: E731

@@ -14,4 +14,6 @@ def demonstrations_for(mdp: MDP, *, episodes: int, seed: int) -> Demonstrations:
 
 
 def fit_stage(demos: Demonstrations, *, intervals: bool) -> None:
-    fit(demos, method="lp", reward_cells="special", intervals=intervals)
+    """The lp fit with special cells; with `intervals`, tied per symbol (cliff, goal), so that the
+    number of interval LPs (4) stays the same at every size and the table shows the LP's growth."""
+    fit(demos, method="lp", reward_cells="special", tie=intervals, intervals=intervals)
