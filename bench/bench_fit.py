@@ -14,13 +14,13 @@ Run: .venv/bin/python bench/bench_fit.py
 
 from __future__ import annotations
 
-import time
 import warnings
 
 import cvxpy as cp
 import numpy as np
 from scipy.optimize import linprog
 
+from bench.timing import best_of
 from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
@@ -30,15 +30,6 @@ from irl_core.irl.lp import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
-
-
-def best_of(repeats: int, fn) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def demonstrations(name: str, *, episodes: int, seed: int, beta: float | None = None) -> Demonstrations:

@@ -6,10 +6,9 @@ textbook implementation would. Run: .venv/bin/python -m bench.bench_planning
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
+from bench.timing import best_of
 from bench.worlds import cliff_world
 from irl_core.mdp import build_mdp
 from irl_core.planning import value_iteration
@@ -26,15 +25,6 @@ def dense_value_iteration(P: np.ndarray, R: np.ndarray, gamma: float, *, tol: fl
             return V_new
         V = V_new
     return V
-
-
-def best_of(repeats: int, fn) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def main() -> None:

@@ -5,10 +5,9 @@ Run: .venv/bin/python -m bench.bench_rollouts  (or `make bench` for every benchm
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
+from bench.timing import best_of
 from irl_core.experts import optimal_policy, rollouts
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
@@ -28,15 +27,6 @@ def per_episode_loop(mdp, policy, *, episodes: int, seed: int) -> int:
             if not mdp.nonterminal[s]:
                 break
     return steps
-
-
-def best_of(repeats: int, fn) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def main(episodes: int = 10_000) -> None:

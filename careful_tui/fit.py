@@ -36,8 +36,7 @@ from careful_tui.grid import (
 )
 from irl_core.demonstrations import Demonstrations, read_recording
 from irl_core.irl import BadInputError, FitResult, SolverError, fit
-
-ARROWS = {"up": "↑", "right": "→", "down": "↓", "left": "←"}
+from irl_core.mdp import ARROWS
 
 
 def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:

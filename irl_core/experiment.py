@@ -19,14 +19,18 @@ from pathlib import Path
 import numpy as np
 
 from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
-from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
+from irl_core.experts import (
+    boltzmann_policy,
+    demonstrations_of,
+    optimal_policy,
+    rollouts,
+)
 from irl_core.irl.fit import fit
 from irl_core.irl.result import FitResult
-from irl_core.mdp import MDP, action_parts, build_mdp
+from irl_core.mdp import ARROWS, MDP, action_parts, build_mdp
 from irl_core.planning import value_iteration
 from irl_core.world import BUILTIN_WORLDS, World
 
-ARROWS = {"up": "↑", "right": "→", "down": "↓", "left": "←"}
 Cell = tuple[int, int]
 
 

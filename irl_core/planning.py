@@ -7,6 +7,7 @@ soft value iteration as in Ziebart et al. 2008).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,23 +75,14 @@ def value_iteration(
     Stops when max |V_k - V_{k-1}| < tol * (1 - gamma) / gamma (so V is within tol of V*)
     or after max_iter sweeps; `Plan.converged` says which.
     """
-    gamma = mdp.gamma if gamma is None else gamma
-    R = mdp.reward_matrix(R_S)
-    threshold = tol * (1 - gamma) / gamma if gamma > 0 else tol
-    V = np.zeros(mdp.n_states)
-    residual, iterations = np.inf, 0
-    while iterations < max_iter and residual >= threshold:
-        Q = R + gamma * mdp.expected_next(V)
-        V_new = Q.max(axis=1)
-        residual = float(np.abs(V_new - V).max())
-        V, iterations = V_new, iterations + 1
-    Q = R + gamma * mdp.expected_next(V)
+    Q, iterations, residual, converged = _backups(mdp, lambda Q: Q.max(axis=1), R_S=R_S, gamma=gamma,
+                                                  tol=tol, max_iter=max_iter)
     return Plan(
         V=Q.max(axis=1),
         Q=Q,
         policy=one_hot(greedy_actions(Q), mdp.n_actions),
         iterations=iterations,
-        converged=residual < threshold,
+        converged=converged,
         residual=residual,
     )
 
@@ -170,24 +162,40 @@ def soft_value_iteration(
     """
     if beta <= 0:
         raise ValueError("beta must be positive")
+    Q, iterations, residual, converged = _backups(mdp, lambda Q: logsumexp(beta * Q, axis=1) / beta, R_S=R_S,
+                                                  gamma=gamma, tol=tol, max_iter=max_iter)
+    return Plan(
+        V=logsumexp(beta * Q, axis=1) / beta,
+        Q=Q,
+        policy=softmax(beta * Q, axis=1),
+        iterations=iterations,
+        converged=converged,
+        residual=residual,
+    )
+
+
+def _backups(
+    mdp: MDP,
+    backup: Callable[[np.ndarray], np.ndarray],
+    *,
+    R_S: np.ndarray | None,
+    gamma: float | None,
+    tol: float,
+    max_iter: int,
+) -> tuple[np.ndarray, int, float, bool]:
+    """Iterate V <- backup(Q), Q = R + gamma P V, from V = 0; return (Q, sweeps, residual, converged).
+
+    Stops when max |V_k - V_{k-1}| < tol * (1 - gamma) / gamma, which puts V within tol of the
+    fixed point, or after max_iter sweeps.
+    """
     gamma = mdp.gamma if gamma is None else gamma
     R = mdp.reward_matrix(R_S)
     threshold = tol * (1 - gamma) / gamma if gamma > 0 else tol
     V = np.zeros(mdp.n_states)
     residual, iterations = np.inf, 0
     while iterations < max_iter and residual >= threshold:
-        Q = R + gamma * mdp.expected_next(V)
-        V_new = logsumexp(beta * Q, axis=1) / beta
+        V_new = backup(R + gamma * mdp.expected_next(V))
         residual = float(np.abs(V_new - V).max())
         V, iterations = V_new, iterations + 1
-    Q = R + gamma * mdp.expected_next(V)
-    V = logsumexp(beta * Q, axis=1) / beta
-    return Plan(
-        V=V,
-        Q=Q,
-        policy=softmax(beta * Q, axis=1),
-        iterations=iterations,
-        converged=residual < threshold,
-        residual=residual,
-    )
+    return R + gamma * mdp.expected_next(V), iterations, residual, residual < threshold
 
