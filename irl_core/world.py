@@ -45,16 +45,17 @@ class World(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    name: str = "custom"
-    layout: str
-    levels: int = Field(14, ge=1, le=MAX_LEVELS)
-    cost_per_level: float = Field(1.0, ge=0)
-    gamma: float = Field(0.95, ge=0, lt=1)
+    # Numbers are strict: `levels = true` or `gamma = "0.9"` is a mistake to report, not to guess.
+    name: str = Field("custom", strict=True)
+    layout: str = Field(strict=True)
+    levels: int = Field(14, ge=1, le=MAX_LEVELS, strict=True)
+    cost_per_level: float = Field(1.0, ge=0, strict=True)
+    gamma: float = Field(0.95, ge=0, lt=1, strict=True)
     slip: Literal["halving", "none"] = "halving"
     terminal: tuple[str, ...] = ("C", "G")
     start: Literal["random"] | tuple[int, int] = "random"
-    initial_score: float = 200.0
-    max_steps: int = Field(200, ge=1)
+    initial_score: float = Field(200.0, strict=True)
+    max_steps: int = Field(200, ge=1, strict=True)
     rewards: dict[str, float] = Field(default_factory=dict)
 
     @field_validator("layout")

@@ -67,3 +67,10 @@ def test_unknown_name_lists_the_builtins():
 def test_world_files_may_use_other_letters():
     world = World(layout="..X\n.LG\n", terminal=("L", "G"), rewards={"L": -50.0, "X": -1.0})
     assert world.reward_of("X") == -1.0 and world.reward_of(".") == 0.0
+
+
+@pytest.mark.parametrize(("line", "field"), [("levels = true", "levels"), ('gamma = "0.9"', "gamma"),
+                                             ('max_steps = 2.5', "max_steps")])
+def test_numbers_of_the_wrong_type_are_reported_not_guessed(tmp_path, line, field):
+    with pytest.raises(WorldError, match=f"{field}: Input should be a valid"):
+        load_world(_toml(tmp_path, f'layout = """\n..\n"""\n{line}\n'))
