@@ -448,6 +448,8 @@ def run_play(args: argparse.Namespace) -> int:
     world = load_world(args.world)
     if args.out.exists() and not args.out.is_dir():
         raise UsageError(f"{args.out} is a file, not a folder; choose a folder for recordings with --out")
+    if args.out.is_symlink() and not args.out.exists():
+        raise UsageError(f"{args.out} is a link to nothing; choose a folder for recordings with --out")
     try:
         check_writable(args.out)
     except OSError as exc:

@@ -399,7 +399,7 @@ def make_read_only(folder: Path) -> None:
     ("a file", "is a file, not a folder"),
     ("under a file", "Not a directory"),
     ("deep under a file", "Not a directory"),
-    ("a dangling link", "cannot write recordings"),
+    ("a dangling link", "is a link to nothing"),
     ("read-only", "Permission denied"),
     ("under read-only", "Permission denied"),
 ])
