@@ -6,6 +6,7 @@ ratios, not absolute times, are what to compare across these shared machines.
 
 import argparse
 import importlib
+import sys
 
 BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "bench_scaling")
 
@@ -20,10 +21,8 @@ def main() -> None:
     for name in names:
         print(f"\n=== {name} ===", flush=True)
         module = importlib.import_module(f"bench.{name}")
-        if name == "bench_scaling":
-            module.main([])
-        else:
-            module.main()
+        sys.argv = [f"bench.{name}"]  # each benchmark's own defaults, not this command's arguments
+        module.main()
 
 
 if __name__ == "__main__":
