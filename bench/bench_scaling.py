@@ -63,7 +63,8 @@ def measure(sizes=SIZES, stages=STAGES, *, timeout: float = 600) -> list[dict]:
                 )
                 rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
             except subprocess.TimeoutExpired:
-                rows.append({"size": size, "stage": stage, "seconds": float("nan"), "peak_mib": float("nan"), "error": "timeout"})
+                rows.append({"size": size, "stage": stage, "seconds": float("nan"), "peak_mib": float("nan"),
+                             "error": f"over {timeout:.0f} s"})
             except subprocess.CalledProcessError as exc:
                 rows.append({"size": size, "stage": stage, "seconds": float("nan"), "peak_mib": float("nan"),
                              "error": (exc.stderr.strip().splitlines() or ["failed"])[-1]})
@@ -88,13 +89,13 @@ def _format_row(row: dict) -> str:
 def table(rows: list[dict]) -> str:
     """A Markdown table: stage, then time and peak memory for each size, and the exponent."""
     sizes = list(dict.fromkeys(r["size"] for r in rows))
-    lines = ["| stage | " + " | ".join(sizes) + " | growth k (time ~ cells^k) |",
+    lines = ["| stage | " + " | ".join(sizes) + " | growth k (time ~ states^k, sizes that finished) |",
              "|---|" + "---|" * len(sizes) + "---|"]
     for stage in dict.fromkeys(r["stage"] for r in rows):
         cells = []
         for size in sizes:
             r = next(r for r in rows if r["stage"] == stage and r["size"] == size)
-            cells.append("failed" if "error" in r else f"{r['seconds']:.3g} s, {r['peak_mib']:.0f} MiB")
+            cells.append(f"{r['error']}" if "error" in r else f"{r['seconds']:.3g} s, {r['peak_mib']:.0f} MiB")
         lines.append(f"| {stage} | " + " | ".join(cells) + f" | {growth_exponent(rows, stage):.2f} |")
     return "\n".join(lines)
 
