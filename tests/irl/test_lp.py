@@ -120,9 +120,9 @@ def test_demonstrations_optimal_for_no_reward_are_infeasible():
         fit(demonstrations(mdp, counts), rmax=10_000.0)
 
 
-def test_row_generation_finds_the_same_answer_as_all_rows_at_once(monkeypatch):
-    # Large worlds are solved by adding violated V >= Q rows round by round; force it on a
-    # small world and compare with the LP that sees every row from the start.
+def test_the_interior_point_method_finds_the_same_answer_as_simplex(monkeypatch):
+    # Large worlds are solved by HiGHS's interior point method without crossover; force it on
+    # a small world and compare with simplex.
     import irl_core.irl.lp as lp
     from irl_core.experts import demonstrations_of
 
@@ -130,9 +130,10 @@ def test_row_generation_finds_the_same_answer_as_all_rows_at_once(monkeypatch):
     mdp = build_mdp(world)
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=40, seed=3))
     full = fit(demos, method="lp", intervals=True)
-    monkeypatch.setattr(lp, "LAZY_ROWS", 10)
-    lazy = fit(demos, method="lp", intervals=True)
-    np.testing.assert_allclose(lazy.theta, full.theta, atol=1e-5 * 1000)
-    np.testing.assert_allclose(lazy.intervals, full.intervals, atol=1e-5 * 1000)
-    constraints = lp_constraints(build_qmap(mdp, lazy.unknowns), demos.most_frequent, rmax=1000.0)
-    assert constraints.violation(np.concatenate([lazy.theta, lazy.V])) < 1e-4
+    monkeypatch.setattr(lp, "INTERIOR_ROWS", 10)
+    interior = fit(demos, method="lp", intervals=True)
+    assert interior.status == "optimal"
+    np.testing.assert_allclose(interior.theta, full.theta, atol=1e-5 * 1000)
+    np.testing.assert_allclose(interior.intervals, full.intervals, atol=1e-5 * 1000)
+    constraints = lp_constraints(build_qmap(mdp, interior.unknowns), demos.most_frequent, rmax=1000.0)
+    assert constraints.violation(np.concatenate([interior.theta, interior.V])) < 1e-4
