@@ -11,7 +11,8 @@ reward far below the mud's.
 
 All 2k LPs share one HiGHS model: only the cost vector changes between them, so each
 solve starts from the previous optimal basis (still primal feasible) instead of from
-scratch.
+scratch. (A large world's model is solved by the interior point method instead, which has no
+basis to reuse: `lp.highs_lp`.)
 """
 
 from __future__ import annotations
