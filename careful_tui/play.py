@@ -83,6 +83,21 @@ def legend(world: World) -> Text:
     return text
 
 
+def carefulness_gauge(world: World) -> Gauge:
+    """The gauge of the play and replay screens: one step per level, each with its cost."""
+    gauge = Gauge(level_costs(world), id="gauge")
+    gauge.border_title = "carefulness"
+    return gauge
+
+
+def world_board(world: World) -> Board:
+    """The board of the play and replay screens, titled with the world and its legend."""
+    board = Board(world, id="board")
+    board.border_title = f"{world.name} · {world.levels} levels · slip {world.slip}"
+    board.border_subtitle = legend(world)
+    return board
+
+
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
     gauge = Gauge(level_costs(world))
@@ -143,15 +158,10 @@ class PlayApp(App[None]):
         yield Static(id="title")
         with Horizontal(id="main"):
             with Vertical(id="side"):
-                gauge = Gauge(self.game.costs(), id="gauge")
-                gauge.border_title = "carefulness"
-                yield gauge
+                yield carefulness_gauge(self.world)
                 yield Static(id="hold-info")
             with Vertical(id="right"):
-                board = Board(self.world, id="board")
-                board.border_title = f"{self.world.name} · {self.world.levels} levels · slip {self.world.slip}"
-                board.border_subtitle = legend(self.world)
-                yield board
+                yield world_board(self.world)
                 yield Static(id="status")
         yield TooSmall(id="too-small")
         yield KeyBar(id="keys")

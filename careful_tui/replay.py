@@ -28,7 +28,7 @@ from textual.widgets import Static
 
 from careful_tui.grid import format_value
 from careful_tui.kitty import PassiveKittyDriver
-from careful_tui.play import BAD, GOOD, NOTE, legend
+from careful_tui.play import BAD, GOOD, NOTE, carefulness_gauge, world_board
 from careful_tui.replay_cursor import Frame, ReplayCursor
 from careful_tui.widgets import Arrow, Board, Gauge, KeyBar, level_colour
 from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
@@ -178,15 +178,10 @@ class ReplayApp(App[None]):
         yield Static(id="title")
         with Horizontal(id="main"):
             with Vertical(id="side"):
-                gauge = Gauge(level_costs(self.world), id="gauge")
-                gauge.border_title = "carefulness"
-                yield gauge
+                yield carefulness_gauge(self.world)
                 yield Static(id="hold-info")
             with Vertical(id="right"):
-                board = Board(self.world, id="board")
-                board.border_title = f"{self.world.name} · {self.world.levels} levels · slip {self.world.slip}"
-                board.border_subtitle = legend(self.world)
-                yield board
+                yield world_board(self.world)
                 yield Static(id="status")
             panel = Static(id="summary")
             panel.border_title = "session"
