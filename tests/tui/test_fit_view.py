@@ -150,7 +150,8 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
 
 
 def test_intervals_toggle(mud_file):
-    app = make_app(mud_file)
+    # loss's intervals are bootstrap confidence intervals: 20 resamples keep the test quick.
+    app = make_app(mud_file, "--resamples", "20")
 
     async def body(pilot):
         assert app.result.intervals is None and "press i" in shown(app, "#intervals")
@@ -169,6 +170,7 @@ def test_intervals_toggle(mud_file):
         await pilot.press("o")
         await settle(app, pilot)
         assert app.result.method == "loss" and app.result.intervals is not None
+        assert app.result.interval_kind == "confidence" and "95% confidence" in shown(app, "#intervals")
     drive(app, body, size=(100, 40))
 
 
