@@ -230,9 +230,9 @@ def interval_title(result: FitResult) -> str:
     """What the intervals are: identified by the demonstrations (lp) or a confidence interval."""
     if result.interval_kind == "confidence":
         options = result.options
-        return (f"{options.confidence:.0%} confidence intervals (the {result.method} fit of {options.resamples} "
-                f"resamples of the {result.demos.episodes} episodes)")
-    return "Identified by the demonstrations: every value each reward can take (min and max over the lp constraints)"
+        return (f"{options.confidence:.0%} confidence intervals ({options.resamples} resamples of "
+                f"{result.demos.episodes} episodes)")
+    return "identified by the demonstrations: every value each reward can take"
 
 
 def _open_ends(low: float, high: float, rmax: float) -> tuple[bool, bool]:
@@ -355,7 +355,12 @@ class IntervalChart:
         yield Text(indent) + _axis_ticks(axis, rmax)
         yield Text.assemble(indent, ("● fitted  ○ true  ◉ both  ", "dim"),
                             ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
-                            (" allowed  ◀ ▶ no bound", "dim"))
+                            (f" {self._what()}  ◀ ▶ no bound", "dim"))
+
+    def _what(self) -> str:
+        if self.result.interval_kind == "confidence":
+            return f"{self.result.options.confidence:.0%} confidence"
+        return "allowed"
 
     @staticmethod
     def _bar(axis: int, rmax: float, low: float, high: float, fitted: float, true: float | None) -> Text:

@@ -39,7 +39,6 @@ from careful_tui.fit import (
     evaluation_line,
     interval_readings,
     interval_title,
-    method_phrase,
     options_from_args,
     policy_labels,
     refit,
@@ -345,7 +344,7 @@ class FitApp(App[None]):
             return
         scale = reward_scale(result)
         fitted, true = self.query_one("#fitted", Board), self.query_one("#true", Board)
-        fitted.border_title = f"fitted R_S · {method_phrase(result)}, {METHOD_NAMES[result.method]}"
+        fitted.border_title = f"fitted R_S · {result.method}, {METHOD_NAMES[result.method]}"
         fitted.border_subtitle = scale_legend(scale)
         fitted.values, fitted.scale = result.reward_grid, scale
         true.values, true.scale = result.true_reward_grid, scale

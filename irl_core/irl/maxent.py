@@ -39,8 +39,10 @@ G(s, a) = dLL_1/dR(s, a) = N(s, a) + y(s) pi(s, a) (y = (I - gamma P^pi)^-T (m -
     dLL/dR_S(s) = beta sum_a G(s, a),        dLL/d log beta = sum_{s, a} G(s, a) beta R(s, a).
 
 The fit runs over (theta, log beta). With carefulness levels the known action costs R_A fix
-the reward's scale, so beta is identified; with one level only a constant step cost does,
-and without any action cost nothing does (`identification`).
+the reward's scale, so beta is identified. With one level every action costs the same: that
+constant step cost can be traded against the (unknown) terminal rewards, and on `mud-simple`
+the likelihood is the same, to 1e-15, at scales five times apart: beta is not identified
+(`identification`).
 """
 
 from __future__ import annotations
@@ -177,8 +179,9 @@ def identification(mdp: MDP) -> str | None:
         return ("beta is not identified: the actions cost nothing, so nothing fixes the reward's scale "
                 "and only beta times R_S is estimated")
     if mdp.levels == 1:
-        return ("beta is only weakly identified: with one carefulness level only the constant step cost "
-                "fixes the reward's scale; read the rewards' ratios rather than their size")
+        return ("beta is not identified with one carefulness level: every action costs the same, and a "
+                "constant step cost can be traded against the terminal rewards, so the data do not fix the "
+                "reward's scale; read the rewards' signs and ratios, not their size")
     return None
 
 
