@@ -456,12 +456,13 @@ ENDING_VERBS = {"C": "falls off the cliff", "G": "reaches the goal"}
 
 
 def percent(p: float) -> str:
-    """A probability as a percentage with the digits it needs: 0%, 0.04%, 0.4%, 99.1%, 100%."""
+    """A probability as a percentage, two decimals near 0 and 1 where rare events live:
+    0%, 0.04%, 0.40%, 12.5%, 99.60%, 100%."""
     if p <= 0:
         return "0%"
     if p >= 1:
         return "100%"
-    if p < 0.001 or p > 0.999:
+    if p < 0.01 or p > 0.99:
         return f"{p:.2%}"
     return f"{p:.1%}"
 
