@@ -44,7 +44,8 @@ def estimates_table(result: ExperimentResult) -> Table:
 
 
 def intervals_table(result: ExperimentResult) -> Table:
-    table = Table(title="What carefulness buys: reward intervals over every reward the demonstrations allow")
+    table = Table(title="What carefulness buys: identified sets (every reward the demonstrations allow) and "
+                        "95% confidence intervals (noisy experts)")
     for column in ("world", "kind", "cliff interval", "width", "mud interval", "width", "cliff vs mud", "time"):
         table.add_column(column)
     for s in result.separations:
