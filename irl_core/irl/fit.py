@@ -149,7 +149,9 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
     if not solution.converged:
         fitted.status = "not_converged"
         fitted.notes.append(f"maxent stopped before converging: {solution.message.lower()}")
-    if beta == "auto":
+    if beta != "auto":
+        fitted.notes.append(f"beta fixed at {solution.beta:g}, not estimated (--beta auto estimates it from the data)")
+    else:
         fitted.notes.append(f"beta estimated by maximum likelihood: {solution.beta:.3g}")
         reason = identification(qmap.mdp)
         if solution.beta_at_bound:

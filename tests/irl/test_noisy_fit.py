@@ -6,35 +6,15 @@ import pytest
 from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, fit
 from irl_core.irl.bootstrap import interval, resample_weights
-from irl_core.irl.maxent import fit_maxent, log_likelihood, log_likelihood_beta
+from irl_core.irl.maxent import fit_maxent, log_likelihood
 from irl_core.irl.qmap import build_unknowns
 from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.world import BUILTIN_WORLDS
 
 
 def boltzmann(name, beta, episodes, seed):
     mdp = build_mdp(BUILTIN_WORLDS[name])
     return demonstrations_of(mdp, rollouts(mdp, boltzmann_policy(mdp, beta=beta), episodes=episodes, seed=seed))
-
-
-@pytest.mark.parametrize("gamma", [0.0, 0.9])
-def test_beta_gradient_matches_finite_differences(gamma):
-    world = World(layout="...\n.UG\nC..\n", levels=3, gamma=gamma, rewards={"C": -20.0, "G": 10.0, "U": -3.0})
-    mdp = build_mdp(world)
-    rng = np.random.default_rng(1)
-    counts = rng.integers(0, 4, size=(mdp.n_states, mdp.n_actions)).astype(float)
-    counts[~mdp.nonterminal] = 0.0
-    R_S = mdp.R_S + rng.normal(scale=2.0, size=mdp.n_states)
-    R_S[mdp.exit_state] = 0.0
-    beta = 0.7
-    ll, grad, grad_log_beta, _ = log_likelihood_beta(mdp, counts, R_S, beta=beta)
-    h = 1e-6
-    up, _, _ = log_likelihood(mdp, counts, R_S, beta=beta * np.exp(h))
-    down, _, _ = log_likelihood(mdp, counts, R_S, beta=beta * np.exp(-h))
-    assert grad_log_beta == pytest.approx((up - down) / (2 * h), rel=1e-5, abs=1e-6)
-    # The R_S part is the fixed-beta gradient.
-    same_ll, same_grad, _ = log_likelihood(mdp, counts, R_S, beta=beta)
-    assert ll == pytest.approx(same_ll) and np.allclose(grad, same_grad)
 
 
 def test_beta_auto_recovers_beta_and_the_rewards_at_2000_episodes():
