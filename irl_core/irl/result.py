@@ -95,6 +95,11 @@ class FitResult:
         return self.demos.counts
 
     @property
+    def demonstrations(self) -> dict[str, int]:
+        """Files, episodes and steps read (the JSON's ``demonstrations``)."""
+        return {"files": self.demos.files, "episodes": self.demos.episodes, "steps": self.demos.steps}
+
+    @property
     def rmax(self) -> float:
         return self.options.rmax
 
@@ -205,7 +210,7 @@ class FitResult:
                 ]
                 for r in range(world.rows)
             ],
-            "demonstrations": {"files": self.demos.files, "episodes": self.demos.episodes, "steps": self.demos.steps},
+            "demonstrations": self.demonstrations,
             "evaluation": self.evaluation.to_json(),
             "status": self.status,
             "elapsed_s": round(float(self.elapsed_s), 4),
