@@ -189,7 +189,7 @@ class CarefulEnv(gym.Env):
             cell = (int(start[0]), int(start[1]))
             if len(start) != 2:
                 raise ValueError
-        except (TypeError, ValueError, IndexError):
+        except (TypeError, ValueError, IndexError, KeyError):
             raise ValueError(f"options['start'] must be a cell [row, col], got {start!r}") from None
         state = self.mdp.state_of.get(cell)
         if state is None or not self.mdp.nonterminal[state]:

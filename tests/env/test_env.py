@@ -188,7 +188,7 @@ def test_the_environment_replays_the_game_and_its_return_is_the_score_change():
     assert {e.outcome for e in sink.ends} >= {"terminal"}
 
 
-@pytest.mark.parametrize("start", [[3, 1], [3, 5], [4, 0], [0, 6], [-1, 0], [1], "a", None])
+@pytest.mark.parametrize("start", [[3, 1], [3, 5], [4, 0], [0, 6], [-1, 0], [1], [1, 2, 3], "a", {"row": 1}, None])
 def test_a_start_option_must_be_a_non_terminal_cell(start):
     env = CarefulEnv("paper")
     if start is None:  # no start given: the world's own start distribution
