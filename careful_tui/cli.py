@@ -115,8 +115,9 @@ def build_parser() -> argparse.ArgumentParser:
         "Export recordings for other tools: a CSV table with one row per step, or a local Minari "
         "dataset (under $MINARI_DATASETS_PATH, or ~/.minari/datasets) of one world, one Minari episode "
         "per recorded episode, with the environment careful/Careful-v0 to recover. Never overwrites."))
-    export.add_argument("files", type=Path, nargs="+", metavar="FILE")
-    export.add_argument("--format", choices=["csv", "minari"], required=True)
+    export.add_argument("files", type=Path, nargs="+", metavar="FILE", help="recordings (JSONL) to export")
+    export.add_argument("--format", choices=["csv", "minari"], required=True,
+                        help="csv: one row per step; minari: a Minari dataset, one episode per recorded episode")
     export.add_argument("--out", required=True, metavar="PATH|DATASET_ID",
                         help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0")
     return parser
