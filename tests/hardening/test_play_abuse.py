@@ -48,7 +48,8 @@ from pathlib import Path
 import pytest
 
 from irl_core.demonstrations import Demonstrations, Recording, SessionHeader, read_recording
-from irl_core.game import Game, SessionRecorder
+from irl_core.demonstrations import SessionRecorder
+from irl_core.game import Game
 from irl_core.world import World
 
 needs_tmux = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed")
