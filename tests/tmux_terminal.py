@@ -92,6 +92,10 @@ class Terminal:
     def screen(self) -> str:
         return self.tmux("capture-pane", "-p", "-t", self.name)
 
+    def history(self) -> str:
+        """Everything the pane printed, scrolled-off lines included, wrapped lines joined."""
+        return self.tmux("capture-pane", "-p", "-J", "-S", "-", "-t", self.name)
+
     def wait_for(self, want: str | Callable[[str], bool], timeout: float = TIMEOUT_S) -> str:
         """The screen, once it contains `want` (or `want(screen)` is true)."""
         check = want if callable(want) else (lambda screen: want in screen)
