@@ -140,6 +140,10 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
     return Demonstrations(mdp=mdp, counts=counts, files=0, episodes=int(result.length.size), steps=int(result.state.size))
 
 
+# The most steps one block of `simulate_to_file` may hold (about 60 bytes each while rolled out).
+STEPS_PER_BLOCK = 2_000_000
+
+
 def session_header(mdp: MDP, *, player: str, seed: int) -> SessionHeader:
     """The header of a simulated session: fixed time, digits input (an expert states its level)."""
     return SessionHeader(
@@ -192,6 +196,8 @@ def simulate_to_file(
         OSError: the file cannot be written (it is removed again).
     """
     rng = np.random.default_rng(seed)
+    # A block's steps are held in memory: at most STEPS_PER_BLOCK of them, however long episodes may be.
+    block = max(1, min(block, STEPS_PER_BLOCK // mdp.world.max_steps))
     ended: Counter[str] = Counter()
     try:
         with RecordingWriter(path, session_header(mdp, player=player, seed=seed), sync_episodes=False) as writer:
@@ -215,7 +221,7 @@ def _write_block(
     first_episode: int,
     progress: Callable[[int], None] | None,
 ) -> None:
-    """Write the episodes of `result`, numbered from `first_episode`, a few hundred per write."""
+    """Write the episodes of `result`, numbered from `first_episode`, a few thousand lines per write."""
     world = mdp.world
     order = np.lexsort((result.t, result.episode))
     cells = mdp.cells
@@ -225,6 +231,9 @@ def _write_block(
     for episode, n_steps in enumerate(steps_of.tolist()):
         score = world.initial_score
         for j in order[i : i + n_steps].tolist():
+            if len(lines) >= 5000:
+                writer.write_many(lines)
+                lines = []
             s, a, s_next = int(result.state[j]), int(result.action[j]), int(result.next_state[j])
             score += float(result.reward[j])
             direction, realised = DIRECTIONS[int(mdp.direction[a])], DIRECTIONS[int(result.direction[j])]
@@ -258,11 +267,8 @@ def _write_block(
                 score=score,
             )
         )
-        if (episode + 1) % 500 == 0:
-            writer.write_many(lines)
-            lines = []
-            if progress is not None:
-                progress(episode + 1)
+        if progress is not None and (episode + 1) % 500 == 0:
+            progress(episode + 1)
     writer.write_many(lines)
     if progress is not None:
         progress(result.length.size)

@@ -111,3 +111,13 @@ def test_no_step_line_holds_a_number_json_cannot(tmp_path):
     text = recording(tmp_path / "a.jsonl", world="mud", episodes=50).read_text()
     assert "NaN" not in text and "Infinity" not in text and not RAW_CONTROL.search(text)
     assert all(math.isfinite(s.score) for s in read_recording(tmp_path / "a.jsonl").steps)
+
+
+def test_long_episodes_make_smaller_blocks(tmp_path, monkeypatch):
+    # 1,000,000 steps allowed per episode: a block of 10,000 episodes could hold 1e10 steps.
+    mdp = build_mdp(World(layout="...\n.CG\n", max_steps=1_000_000, start=(0, 0)))
+    sizes = []
+    real = experts.rollouts
+    monkeypatch.setattr(experts, "rollouts", lambda *a, **k: sizes.append(k["episodes"]) or real(*a, **k))
+    simulate_to_file(tmp_path / "b.jsonl", mdp, optimal_policy(mdp), episodes=5, seed=0, player="x")
+    assert sizes == [2, 2, 1]

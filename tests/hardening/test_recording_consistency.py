@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from hardening_checks import RAW_CONTROL, assert_refused, careful, careful_process, digest
-from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step, read_recording, to_json_line
+from irl_core.demonstrations import EpisodeEnd, SessionHeader, Step, read_recording, to_json_line
 from irl_core.world import World
 
 # Start top-left, no slip: right, right, down reaches the goal; right, down falls off the cliff.

@@ -166,3 +166,28 @@ def test_player_names_that_are_not_utf8_are_refused_before_anything_is_written(t
     out = tmp_path / "rec"
     line = assert_refused(*careful(capsys, "play", "--out", out, "--player", "a\udcff"), "--player", "UTF-8")
     assert not out.exists() and len(line) < 200
+
+
+def test_the_fit_view_shows_a_hostile_world_name_as_text_and_saves_beside_it(tmp_path, monkeypatch):
+    from careful_tui.fit import FitOptions
+    from careful_tui.fit_view import FitApp
+    from irl_core.demonstrations import Demonstrations
+
+    path = evil_recording(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    app = FitApp(Demonstrations.read([path]), FitOptions(), sources=[path])
+
+    async def main() -> str:
+        async with app.run_test(size=(140, 45)) as pilot:
+            for _ in range(100):
+                await pilot.pause(0.05)
+                if app.result is not None:
+                    break
+            await pilot.press("s")
+            await pilot.pause()
+            return app.export_screenshot()
+
+    svg = asyncio.run(main())
+    assert "pwned" in svg and "\x1b" not in svg and "\x07" not in svg
+    (saved,) = app.saved
+    assert saved.parent == tmp_path and saved.exists() and "\x1b" not in saved.read_text()
