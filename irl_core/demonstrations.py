@@ -398,23 +398,30 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
         text = data.rstrip(b"\n").rstrip(b"\r")
         if not text.strip():
             continue
-        try:
-            obj = json.loads(text.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-            if not ends_cleanly and recording is not None:
-                recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
-                break
-            raise RecordingError(path, number, None, _json_problem(exc)) from None
-        if not isinstance(obj, dict):
-            raise RecordingError(path, number, None, "a line must be a JSON object")
-        if recording is None:
-            recording = Recording(path=path, header=_read_header(obj, path, number))
-            checker = _LineChecker(build_mdp(recording.world), path)
-            continue
-        try:
-            line = _BODY.validate_python(obj)
-        except ValidationError as exc:
-            raise _line_error(path, number, exc, obj) from None
+        if recording is not None:
+            # The common case, parsed and validated in one pass; any problem is re-read below to name it.
+            try:
+                line = _BODY.validate_json(text)
+            except ValidationError:
+                line = None
+        if recording is None or line is None:
+            try:
+                obj = json.loads(text.decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+                if not ends_cleanly and recording is not None:
+                    recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
+                    break
+                raise RecordingError(path, number, None, _json_problem(exc)) from None
+            if not isinstance(obj, dict):
+                raise RecordingError(path, number, None, "a line must be a JSON object")
+            if recording is None:
+                recording = Recording(path=path, header=_read_header(obj, path, number))
+                checker = _LineChecker(build_mdp(recording.world), path)
+                continue
+            try:
+                line = _BODY.validate_python(obj)
+            except ValidationError as exc:
+                raise _line_error(path, number, exc, obj) from None
         if isinstance(line, Step):
             checker.step(line, number)
             recording.steps.append(line)

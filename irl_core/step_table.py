@@ -21,35 +21,48 @@ _COLUMNS = {
     "carefulness": np.int16, "hold_ms": np.float64, "hold_exact": np.bool_, "next_row": np.int32,
     "next_col": np.int32, "slipped": np.bool_, "reward": np.float64, "score": np.float64, "realised": np.int8,
 }
+_DIRECTION = {name: i for i, name in enumerate(DIRECTIONS)}
 
 
 class StepTable(Sequence):
-    """Steps in file order, stored column by column (`hold_ms` NaN and `realised` -1 mean absent)."""
+    """Steps in file order, stored column by column (`hold_ms` NaN and `realised` -1 mean absent).
+
+    Appended steps wait as tuples until a block is full, then join the columns in one go.
+    """
 
     def __init__(self) -> None:
         self._size = 0
         self._columns = {name: np.empty(0, dtype) for name, dtype in _COLUMNS.items()}
+        self._blocks: list[dict[str, np.ndarray]] = []
+        self._pending: list[tuple] = []
 
     def append(self, step: Any) -> None:
-        if self._size == len(self._columns["t"]):
-            grow = max(_BLOCK, self._size // 2)
-            for name, column in self._columns.items():
-                self._columns[name] = np.concatenate([column, np.empty(grow, column.dtype)])
-        i, columns = self._size, self._columns
-        columns["episode"][i], columns["t"][i] = step.episode, step.t
-        columns["row"][i], columns["col"][i] = step.state
-        columns["direction"][i] = DIRECTIONS.index(step.direction)
-        columns["carefulness"][i] = step.carefulness
-        columns["hold_ms"][i] = np.nan if step.hold_ms is None else step.hold_ms
-        columns["hold_exact"][i] = step.hold_exact
-        columns["next_row"][i], columns["next_col"][i] = step.next_state
-        columns["slipped"][i], columns["reward"][i], columns["score"][i] = step.slipped, step.reward, step.score
-        columns["realised"][i] = -1 if step.realised is None else DIRECTIONS.index(step.realised)
+        self._pending.append((
+            step.episode, step.t, *step.state, _DIRECTION[step.direction], step.carefulness,
+            np.nan if step.hold_ms is None else step.hold_ms, step.hold_exact, *step.next_state, step.slipped,
+            step.reward, step.score, -1 if step.realised is None else _DIRECTION[step.realised],
+        ))
         self._size += 1
+        if len(self._pending) == _BLOCK:
+            self._close_block()
+
+    def _close_block(self) -> None:
+        if self._pending:
+            rows = list(zip(*self._pending))
+            self._blocks.append({name: np.array(rows[i], dtype) for i, (name, dtype) in enumerate(_COLUMNS.items())})
+            self._pending = []
+
+    def _consolidated(self) -> dict[str, np.ndarray]:
+        self._close_block()
+        if self._blocks:
+            self._columns = {name: np.concatenate([self._columns[name], *(b[name] for b in self._blocks)])
+                             for name in _COLUMNS}
+            self._blocks = []
+        return self._columns
 
     def column(self, name: str) -> np.ndarray:
-        """(n,) one field for every step (a view: do not write to it)."""
-        return self._columns[name][: self._size]
+        """(n,) one field for every step (do not write to it)."""
+        return self._consolidated()[name]
 
     def __len__(self) -> int:
         return self._size
@@ -68,7 +81,7 @@ class StepTable(Sequence):
             raise IndexError("step index out of range")
         from irl_core.demonstrations import Step
 
-        c = {name: column[index].item() for name, column in self._columns.items()}
+        c = {name: column[index].item() for name, column in self._consolidated().items()}
         return Step.model_construct(
             episode=c["episode"], t=c["t"], state=(c["row"], c["col"]), direction=DIRECTIONS[c["direction"]],
             carefulness=c["carefulness"], hold_ms=None if np.isnan(c["hold_ms"]) else c["hold_ms"],
@@ -77,6 +90,7 @@ class StepTable(Sequence):
         )
 
     def __iter__(self) -> Iterator[Any]:
+        self._consolidated()
         for i in range(self._size):
             yield self[i]
 
