@@ -31,6 +31,8 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager, nullcontext
 from datetime import datetime
 from itertools import groupby
 from pathlib import Path
@@ -40,6 +42,7 @@ import pytest
 from irl_core.demonstrations import Demonstrations, Recording, SessionHeader, SessionRecorder, read_recording
 from irl_core.game import Game
 from irl_core.world import World
+from hardening_checks import tiny_filesystem
 from tmux_terminal import SIZE, TIMEOUT_S, Terminal, needs_tmux, terminal
 
 # Start top-left; the cliff is the bottom row but its ends; the goal is bottom-right.
@@ -243,17 +246,24 @@ def run_play_in_a_terminal(cwd: Path, out: str) -> tuple[int, str, bytes]:
             os.close(slave)
 
 
-def make_read_only(folder: Path) -> None:
+@contextmanager
+def read_only_folder(folder: Path) -> Iterator[str]:
+    """`folder` made read-only: by chmod 555, or (for root, who writes there anyway) as a read-only
+    tmpfs. Yields the problem the refusal names."""
     folder.mkdir()
     folder.chmod(0o555)
     try:
         (folder / "probe").touch()
     except PermissionError:
+        try:
+            yield "Permission denied"
+        finally:
+            folder.chmod(0o755)
         return
     (folder / "probe").unlink()
     folder.chmod(0o755)
-    pytest.skip("this user writes into a chmod 555 folder anyway (root, or CAP_DAC_OVERRIDE), so no folder "
-                "here is read-only; the file and parent-file cases cover the refusal")
+    with tiny_filesystem(folder, read_only=True):
+        yield "Read-only file system"
 
 
 @pytest.mark.parametrize(("case", "problem"), [
@@ -261,22 +271,23 @@ def make_read_only(folder: Path) -> None:
     ("under a file", "Not a directory"),
     ("deep under a file", "Not a directory"),
     ("a dangling link", "is a link to nothing"),
-    ("read-only", "Permission denied"),
-    ("under read-only", "Permission denied"),
+    ("read-only", None),
+    ("under read-only", None),
 ])
-def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, case: str, problem: str) -> None:
+def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, case: str, problem: str | None) -> None:
     blocker = tmp_path / "file.txt"
     blocker.write_text("not a folder")
     (tmp_path / "link").symlink_to(tmp_path / "unmounted" / "drive")
-    if "read-only" in case:
-        make_read_only(tmp_path / "ro")
     out = {"a file": "file.txt", "under a file": "file.txt/sub", "deep under a file": "file.txt/a/b",
            "a dangling link": "link", "read-only": "ro", "under read-only": "ro/sub"}[case]
-    try:
+    if problem is None:
+        context = read_only_folder(tmp_path / "ro")
+    else:
+        (tmp_path / "ro").mkdir()
+        context = nullcontext(problem)
+    with context as problem:
         status, err, screen = run_play_in_a_terminal(tmp_path, out)
-    finally:
-        if (tmp_path / "ro").exists():
-            (tmp_path / "ro").chmod(0o755)
+        left_in_ro = list((tmp_path / "ro").iterdir())
     assert status == 2
     assert len(err.strip().splitlines()) == 1, err
     assert err.startswith("careful play: ") and out in err and problem in err and "--out" in err
@@ -285,7 +296,7 @@ def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, cas
     assert b"\x1b[?1049h" not in screen and screen == b""
     assert blocker.read_text() == "not a folder"
     assert not (tmp_path / "unmounted").exists()
-    assert not (tmp_path / "ro").exists() or list((tmp_path / "ro").iterdir()) == []
+    assert left_in_ro == []
 
 
 @needs_tmux

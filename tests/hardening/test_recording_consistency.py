@@ -184,3 +184,15 @@ def test_worlds_show_of_a_100k_character_name_is_quick(tmp_path):
     status, out, err = careful_process("worlds", "--show", world, timeout=20)
     assert status == 0, err
     assert "(100,000 characters)" in out.splitlines()[0]
+
+
+def test_reading_reports_progress_in_bytes(tmp_path):
+    from irl_core.demonstrations import read_recordings
+
+    objects = walk_lines()
+    objects += [dict(obj, episode=obj["episode"] + 2 * k) for k in range(1, 3000) for obj in objects[1:]]
+    path = write_lines(tmp_path / "long.jsonl", objects)
+    seen = []
+    (rec,), warnings = read_recordings([path], progress=seen.append)
+    assert len(seen) > 2 and sum(seen) == path.stat().st_size and not warnings
+    assert len(rec.steps) == 5 * 3000 and rec.episodes == list(range(6000))
