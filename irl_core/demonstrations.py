@@ -286,12 +286,13 @@ class SessionRecorder:
 
     def _recover(self) -> None:
         """The file was deleted: write everything it held to a new file in a recreated folder."""
-        assert self._writer is not None
-        lost = self._writer.path
-        self._writer.abandon()
-        self._writer = None
-        self.lost.append(lost)
-        self.paths.remove(lost)
+        lost: Path | str = "the recording"
+        if self._writer is not None:
+            lost = self._writer.path
+            self._writer.abandon()
+            self._writer = None
+            self.lost.append(lost)
+            self.paths.remove(lost)
         writer = self._open()
         writer.write_many(self._lines)
         writer.sync()
