@@ -138,6 +138,16 @@ def build_parser() -> argparse.ArgumentParser:
         "Run the paper's experiments end to end: figures as SVG, summary.json and report.md."))
     experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR", help="output folder (default: experiment/)")
     experiment.add_argument("--quick", action="store_true", help="reduced sizes, for a fast check")
+
+    export = commands.add_parser("export", help="recordings as CSV or a Minari dataset", description=(
+        "Export recordings for other tools: a CSV table with one row per step, or a local Minari "
+        "dataset (under $MINARI_DATASETS_PATH, or ~/.minari/datasets) of one world, one Minari episode "
+        "per recorded episode, with the environment careful/Careful-v0 to recover. Never overwrites."))
+    export.add_argument("files", type=Path, nargs="+", metavar="FILE", help="recordings (JSONL) to export")
+    export.add_argument("--format", choices=["csv", "minari"], required=True,
+                        help="csv: one row per step; minari: a Minari dataset, one episode per recorded episode")
+    export.add_argument("--out", required=True, metavar="PATH|DATASET_ID",
+                        help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0")
     return parser
 
 
@@ -244,6 +254,7 @@ COMMANDS = {
     "simulate": run_simulate,
     "worlds": run_worlds,
     "experiment": _lazy("careful_tui.experiment", "run_experiment"),
+    "export": _lazy("careful_tui.export", "run_export"),
 }
 
 

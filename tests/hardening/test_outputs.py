@@ -120,3 +120,13 @@ def test_the_guard_itself(tmp_path, rec):
     out = write_output(tmp_path / "new.txt", "text", option="--json", inputs=[rec])
     assert out.read_text() == "text" and oct(out.stat().st_mode & 0o777) != "0o600"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.jsonl", "dangling", "new.txt"]
+
+
+@pytest.mark.parametrize(("target", "problem"), [("a.jsonl", "a file this command reads"),
+                                                 ("b.jsonl", "is a recording"), ("fifo", "FIFO")])
+def test_export_refuses_inputs_recordings_and_fifos(tmp_path, capsys, rec, target, problem):
+    other = recording(tmp_path / "b.jsonl", seed=1)
+    os.mkfifo(tmp_path / "fifo")
+    before = digest(rec, other)
+    assert_refused(*careful(capsys, "export", rec, "--format", "csv", "--out", tmp_path / target), "--out", problem)
+    assert digest(rec, other) == before
