@@ -286,7 +286,6 @@ class SessionRecorder:
 
     def _recover(self) -> None:
         """The file was deleted: write everything it held to a new file in a recreated folder."""
-        lost: Path | str = "the recording"
         if self._writer is not None:
             lost = self._writer.path
             self._writer.abandon()
@@ -296,7 +295,7 @@ class SessionRecorder:
         writer = self._open()
         writer.write_many(self._lines)
         writer.sync()
-        self.notices.append(f"{lost} was deleted while you played; every step so far is now in {writer.path}")
+        self.notices.append(f"recording deleted: every step so far is saved again in {writer.path.name}")
 
     def _open(self) -> RecordingWriter:
         if self._writer is None:

@@ -44,7 +44,7 @@ def test_a_folder_deleted_mid_episode_is_recreated_with_every_step(tmp_path):
     shutil.rmtree(folder)
     game.move("right", 2)
     assert recorder.lost == [first]  # (the new file may take the same name: the old one is gone)
-    assert recorder.notices and "was deleted while you played" in recorder.notices[0]
+    assert recorder.notices == [f"recording deleted: every step so far is saved again in {recorder.path.name}"]
     game.quit()
     recorder.close()
     (path,) = recorder.paths
@@ -113,7 +113,7 @@ def test_play_recreates_a_deleted_folder_and_says_so(tmp_path):
         term.wait_for("step 1/")
         shutil.rmtree(out)
         term.send("Right")
-        screen = term.wait_for("was deleted")
+        screen = term.wait_for("recording deleted")
         term.wait_for("step 2/")
         term.send("q")
         assert term.wait_exit() == 0
