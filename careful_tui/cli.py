@@ -8,13 +8,16 @@ need them, so `careful worlds` and `careful --help` answer at once.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 from rich.console import Console
-from rich.markup import escape
+from rich.text import Text
 
 from irl_core.demonstrations import RecordingError
+from irl_core.safe_files import OutputError
+from irl_core.safe_text import one_line
 from irl_core.world import WorldError
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
@@ -30,15 +33,23 @@ def require_terminal(command: str) -> None:
         raise UsageError(f"careful {command} needs an interactive terminal")
 
 
-def positive_float(text: str) -> float:
+def finite_float(text: str) -> float:
+    """A number JSON can hold: "inf" and "nan" are refused (exit 2), as is anything beyond 1e300."""
     value = float(text)
+    if not (math.isfinite(value) and abs(value) <= 1e300):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    value = finite_float(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be positive, got {text}")
     return value
 
 
 def non_negative_float(text: str) -> float:
-    value = float(text)
+    value = finite_float(text)
     if not value >= 0:
         raise argparse.ArgumentTypeError(f"must be zero or more, got {text}")
     return value
@@ -54,6 +65,23 @@ def beta_value(text: str) -> float | str:
         raise argparse.ArgumentTypeError(f"must be a positive number or auto, got {text}") from None
 
 
+def seed_int(text: str) -> int:
+    """A seed numpy takes: a whole number from 0 to 2**64 - 1."""
+    value = int(text)
+    if not 0 <= value < 2**64:
+        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to 2**64 - 1, got {text}")
+    return value
+
+
+def text_argument(text: str) -> str:
+    """Text from the command line that a recording can hold: undecodable bytes are refused."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise argparse.ArgumentTypeError("is not valid UTF-8 text") from None
+    return text
+
+
 def positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -62,7 +90,7 @@ def positive_int(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="careful",
         description="Play the careful cliff game, record demonstrations, and fit rewards to them "
         "with inverse RL that reads carefulness.",
@@ -75,12 +103,12 @@ def build_parser() -> argparse.ArgumentParser:
         "Play the cliff gridworld. Arrow keys move; hold a key longer to be more careful "
         "(careful moves cost more and slip less). Every step is saved as JSONL."))
     play.add_argument("--world", default="paper", metavar="NAME|FILE", help="built-in world or TOML file (default: paper)")
-    play.add_argument("--player", default=None, help="name recorded in the session (default: your user name)")
+    play.add_argument("--player", type=text_argument, default=None, help="name recorded in the session (default: your user name)")
     play.add_argument("--out", type=Path, default=Path("recordings"), metavar="DIR", help="folder for recordings (default: recordings/)")
     play.add_argument("--input", choices=["hold", "tap", "digits"], default="hold",
                       help="hold: hold an arrow longer to be more careful (default); "
                       "tap: tap an arrow k times for level k; digits: type the level, then the arrow")
-    play.add_argument("--seed", type=int, default=None, help="seed for the world's randomness (default: random)")
+    play.add_argument("--seed", type=seed_int, default=None, help="seed for the world's randomness (default: random)")
     play.add_argument("--calibrate", action="store_true", help="measure your keyboard's autorepeat before playing")
 
     replay = commands.add_parser("replay", help="watch a recorded session", description="Watch a recorded session step by step or animated.")
@@ -109,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="confidence level of maxent's and loss's intervals, between 0 and 1 (default 0.95)")
     fit.add_argument("--resamples", type=int, default=200, metavar="N",
                      help="bootstrap resamples for those intervals, at least 20 (default 200)")
-    fit.add_argument("--seed", type=int, default=0, help="seed of the resampling (default 0)")
+    fit.add_argument("--seed", type=seed_int, default=0, help="seed of the resampling (default 0)")
     fit.add_argument("--json", type=Path, metavar="PATH", help="write the result as JSON")
     fit.add_argument("--svg", type=Path, metavar="PATH", help="save a picture of the result as SVG")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
@@ -120,7 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--policy", choices=["optimal", "boltzmann"], required=True)
     simulate.add_argument("--beta", type=positive_float, default=1.0, help="Boltzmann inverse temperature (default 1.0)")
     simulate.add_argument("--episodes", type=positive_int, required=True)
-    simulate.add_argument("--seed", type=int, required=True)
+    simulate.add_argument("--seed", type=seed_int, required=True)
     simulate.add_argument("--out", type=Path, required=True, metavar="FILE", help="the new recording (never overwritten)")
 
     worlds = commands.add_parser("worlds", help="list the built-in worlds", description="List the built-in worlds, or show one.")
@@ -133,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--recordings", type=Path, default=None, metavar="DIR",
                             help="people's recordings of paper for the human stage (default: simulated noisy "
                             "experts, labelled so)")
-    experiment.add_argument("--seed", type=int, default=0, help="seed of every simulated expert and resampling (default 0)")
+    experiment.add_argument("--seed", type=seed_int, default=0, help="seed of every simulated expert and resampling (default 0)")
 
     export = commands.add_parser("export", help="recordings as CSV or a Minari dataset", description=(
         "Export recordings for other tools: a CSV table with one row per step, or a local Minari "
@@ -147,20 +175,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with its error on one line (not the usage too) and made safe: a bad value can
+    hold control characters."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {one_line(message)} (see {self.prog} --help)\n")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     err = Console(stderr=True, highlight=False)
+
+    def say(prefix: str, message: str) -> None:
+        # Text, never markup; one line, control characters escaped (names come from files).
+        err.print(Text.assemble((f"careful {args.command}: {prefix}", "bold red"), one_line(message)), soft_wrap=True)
+
     try:
         return COMMANDS[args.command](args) or EXIT_OK
-    except (UsageError, WorldError, RecordingError) as exc:
-        err.print(f"[bold red]careful {args.command}:[/] {escape(str(exc))}", soft_wrap=True)
+    except (UsageError, WorldError, RecordingError, OutputError) as exc:
+        say("", str(exc))
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         err.print(f"careful {args.command}: interrupted")
         return EXIT_FAILURE
     except Exception as exc:  # noqa: BLE001 - the last line of defence: no traceback reaches a user
-        err.print(f"[bold red]careful {args.command}: unexpected error:[/] {type(exc).__name__}: {escape(str(exc))}",
-                  soft_wrap=True)
+        say("unexpected error: ", f"{type(exc).__name__}: {exc}")
         err.print("Please report this with the command you ran.")
         return EXIT_FAILURE
 
@@ -177,7 +217,7 @@ def app_version() -> str:
 def run_worlds(args: argparse.Namespace) -> int:
     from careful_tui.worlds import print_world, print_world_table
 
-    console = Console()
+    console = Console(highlight=False)
     if args.show:
         from irl_core.world import load_world
 
@@ -190,29 +230,34 @@ def run_worlds(args: argparse.Namespace) -> int:
 def run_simulate(args: argparse.Namespace) -> int:
     from rich.progress import Progress
 
-    from irl_core.experts import boltzmann_policy, expert_name, optimal_policy, rollouts, write_rollouts
+    from irl_core.experts import NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
     from irl_core.mdp import build_mdp
+    from irl_core.safe_files import check_output
     from irl_core.world import load_world
 
+    world_file = [args.world] if Path(args.world).exists() else []
+    check_output(args.out, option="--out", inputs=world_file)
     if args.out.exists():
         raise UsageError(f"{args.out} already exists; recordings are never overwritten, choose another --out")
-    if not args.out.parent.is_dir():
-        raise UsageError(f"{args.out.parent} is not a folder; create it first")
     mdp = build_mdp(load_world(args.world))
-    if args.policy == "optimal":
-        policy, player = optimal_policy(mdp), expert_name("optimal")
-    else:
-        policy, player = boltzmann_policy(mdp, beta=args.beta), expert_name("boltzmann", args.beta)
-    result = rollouts(mdp, policy, episodes=args.episodes, seed=args.seed)
+    try:
+        if args.policy == "optimal":
+            policy, player = optimal_policy(mdp), expert_name("optimal")
+        else:
+            policy, player = boltzmann_policy(mdp, beta=args.beta), expert_name("boltzmann", args.beta)
+    except NotConverged as exc:
+        raise UsageError(str(exc)) from None
     with Progress(console=Console(stderr=True), transient=True, disable=args.episodes < 2000) as progress:
-        task = progress.add_task("writing episodes", total=args.episodes)
-        write_rollouts(args.out, mdp, result, player=player, seed=args.seed,
-                       progress=lambda done: progress.update(task, completed=done))
-    outcomes = mdp.symbols
-    reached = [outcomes[s] if not t else "step limit" for s, t in zip(result.final_state, result.truncated)]
-    summary = ", ".join(f"{reached.count(k)} {k}" for k in sorted(set(reached)))
+        task = progress.add_task("simulating and writing episodes", total=args.episodes)
+        try:
+            ended = simulate_to_file(args.out, mdp, policy, episodes=args.episodes, seed=args.seed, player=player,
+                                     progress=lambda done: progress.update(task, completed=done))
+        except OSError as exc:
+            raise UsageError(f"--out {args.out}: cannot write the recording ({exc.strerror or exc}); "
+                             "nothing was kept") from None
+    summary = ", ".join(f"{ended[k]} {k}" for k in sorted(ended))
     Console(stderr=True, highlight=False).print(
-        f"wrote {args.episodes} episodes ({result.state.size} steps; ended: {summary}) to {args.out}"
+        Text(one_line(f"wrote {args.episodes} episodes (ended: {summary}) to {args.out}")), soft_wrap=True
     )
     return EXIT_OK
 

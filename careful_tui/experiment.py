@@ -16,6 +16,7 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
 
+from irl_core.safe_files import check_output_folder
 from careful_tui.cli import UsageError
 from careful_tui.grid import WorldGrid, format_value, symbol_legend
 from irl_core.experiment import FULL, QUICK, ExperimentResult, Figure, run_experiment as run_stages
@@ -98,7 +99,7 @@ def _verdict(s) -> str:
 
 
 def run_experiment(args: argparse.Namespace) -> int:
-    out: Path = args.out
+    out: Path = check_output_folder(args.out, option="--out")
     if out.exists() and not out.is_dir():
         raise UsageError(f"{out} is a file; --out needs a folder")
     try:

@@ -17,6 +17,8 @@ from rich.text import Text
 
 from careful_tui.cli import UsageError, app_version
 from irl_core.demonstrations import Recording, read_recording
+from irl_core.safe_files import check_output
+from irl_core.safe_text import printable
 from irl_core.export import check_dataset_id, minari_dataset_path, one_world, recorded_episodes, write_csv, write_minari
 
 # Inputs at least this large (in bytes, all files together) get progress bars.
@@ -26,7 +28,7 @@ PROGRESS_FROM_BYTES = 1_000_000
 def run_export(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     if args.format == "csv":
-        out = Path(args.out)
+        out = check_output(Path(args.out), option="--out", inputs=args.files)
         if out.exists():
             raise UsageError(f"{out} already exists; export never overwrites a file, choose another --out")
         if not out.parent.is_dir():
@@ -49,7 +51,7 @@ def run_export(args: argparse.Namespace) -> int:
             progress.advance(reading, size)
         for recording in recordings:
             for warning in recording.warnings:
-                err.print(Text(f"warning: {warning}", style="yellow"), soft_wrap=True)
+                err.print(Text(f"warning: {printable(warning, limit=400)}", style="yellow"), soft_wrap=True)
         if args.format == "csv":
             summary = _export_csv(Path(args.out), recordings, progress)
         else:

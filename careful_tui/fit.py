@@ -36,8 +36,11 @@ from careful_tui.grid import (
     format_value,
     signed_log_fraction,
 )
-from irl_core.demonstrations import Demonstrations, read_recording
+from careful_tui.reading import read_with_progress
+from irl_core.demonstrations import Demonstrations
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
+from irl_core.safe_files import check_output, write_output
+from irl_core.safe_text import printable
 from irl_core.mdp import ARROWS
 
 
@@ -47,10 +50,7 @@ def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
     Raises `RecordingError` for a bad file or recordings of different worlds, and
     `UsageError` when they hold no steps.
     """
-    recordings = [read_recording(path) for path in paths]
-    for recording in recordings:
-        for warning in recording.warnings:
-            err.print(Text(f"warning: {warning}", style="yellow"), soft_wrap=True)
+    recordings = read_with_progress(paths, err)
     demos = Demonstrations.from_recordings(recordings)
     if demos.steps == 0:
         names = ", ".join(str(path) for path in paths)
@@ -110,8 +110,8 @@ def run_fit(args: argparse.Namespace) -> int:
     """`careful fit`: fit, write --json, then open the fit view (a terminal) or print (--svg of the printout)."""
     err = Console(stderr=True, highlight=False)
     for option, path in (("--json", args.json), ("--svg", args.svg)):
-        if path is not None and not path.parent.is_dir():
-            raise UsageError(f"{option} {path}: the folder {path.parent} does not exist; create it first")
+        if path is not None:
+            check_output(path, option=option, inputs=args.files)
     try:
         demos, result = fit_from_args(args, err=err)
     except SolverError as exc:
@@ -119,7 +119,7 @@ def run_fit(args: argparse.Namespace) -> int:
         return EXIT_FAILURE
     if args.json is not None:
         text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
-        _write("--json", args.json, lambda: args.json.write_text(text, encoding="utf-8"))
+        write_output(args.json, text, option="--json", inputs=args.files)
     if wants_view(args):
         from careful_tui.fit_view import FitApp
         from careful_tui.kitty import PassiveKittyDriver
@@ -128,21 +128,14 @@ def run_fit(args: argparse.Namespace) -> int:
         app = FitApp.from_args(args, demos, result, driver_class=PassiveKittyDriver)
         app.run()
         for path in dict.fromkeys(app.saved):
-            print(f"saved {path}")
+            print(f"saved {printable(str(path))}")
         return EXIT_OK
     console = Console(record=args.svg is not None, highlight=False)
     print_fit(console, demos, result)
     if args.svg is not None:
-        title = f"careful fit: {result.method} on {result.world.name}"
-        _write("--svg", args.svg, lambda: console.save_svg(str(args.svg), title=title))
+        title = f"careful fit: {result.method} on {printable(result.world.name, limit=80)}"
+        write_output(args.svg, console.export_svg(title=title), option="--svg", inputs=args.files)
     return EXIT_OK
-
-
-def _write(option: str, path: Path, write) -> None:
-    try:
-        write()
-    except OSError as exc:
-        raise UsageError(f"{option} {path}: cannot write the file ({exc.strerror or exc})") from None
 
 
 def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> None:
@@ -153,7 +146,7 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> Non
         Text.assemble(
             ("careful fit", "bold"),
             f": {method_phrase(result)} on ",
-            (world.name, "bold"),
+            (printable(world.name, limit=80), "bold"),
             f" from {files}, {demos.episodes} episodes, {demos.steps} steps",
         )
     )

@@ -52,8 +52,10 @@ from careful_tui.play import BAD, GOOD, NOTE, legend
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import Demonstrations
+from irl_core.demonstrations import Demonstrations, slug
 from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError
+from irl_core.safe_files import OutputError, write_output
+from irl_core.safe_text import printable
 
 METHOD_NAMES = {"lp": "the simple IRL agent", "loss": "the loss IRL agent", "maxent": "the MaxEnt baseline"}
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.
@@ -92,7 +94,7 @@ def error_message(error: Exception) -> str:
 
 def default_svg_name(world: str, method: str, folder: Path) -> Path:
     """careful-fit-mud-lp.svg in `folder`, or -2, -3, ... when taken (a saved picture is never overwritten)."""
-    stem = f"careful-fit-{world}-{method}"
+    stem = f"careful-fit-{slug(world, default='world')}-{method}"
     path, n = folder / f"{stem}.svg", 1
     while path.exists():
         n += 1
@@ -260,7 +262,8 @@ class FitApp(App[None]):
         self.options = message.options
         if message.result is None:
             self.error = error_message(message.error)
-            self.notify(self.error, title=f"{message.options.method} failed", severity="error", timeout=8)
+            self.notify(printable(self.error), title=f"{message.options.method} failed", severity="error", timeout=8,
+                        markup=False)
         else:
             self.result = message.result
             if not self.query_one("#policy", Board).labels:
@@ -311,15 +314,15 @@ class FitApp(App[None]):
 
     def _save(self, path: Path) -> None:
         try:
-            path.write_text(self.export_screenshot(title=self._svg_title()), encoding="utf-8")
-        except OSError as exc:
-            self.notify(f"cannot write {path} ({exc.strerror or exc})", title="save SVG", severity="error")
+            write_output(path, self.export_screenshot(title=self._svg_title()), option="--svg", inputs=self.sources)
+        except OutputError as exc:
+            self.notify(printable(str(exc)), title="save SVG", severity="error", markup=False)
             return
         self.saved.append(path)
-        self.notify(f"saved {path}", title="save SVG")
+        self.notify(f"saved {printable(str(path))}", title="save SVG", markup=False)
 
     def _svg_title(self) -> str:
-        return f"careful fit: {self._shown_method()} on {self.world.name}"
+        return f"careful fit: {self._shown_method()} on {printable(self.world.name, limit=80)}"
 
     def _shown_method(self) -> str:
         """The method of the shown fit (the one auto chose), else the options'."""
@@ -359,9 +362,9 @@ class FitApp(App[None]):
     def _title(self) -> Text:
         demos = self.demos
         method = self._shown_method()
-        files = self.sources[0].name if len(self.sources) == 1 else f"{demos.files} files"
+        files = printable(self.sources[0].name, limit=80) if len(self.sources) == 1 else f"{demos.files} files"
         return Text.assemble(
-            ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (self.world.name, "bold"),
+            ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
             (f"  ·  {files}: {demos.episodes} episodes, {demos.steps} steps", "dim"),
         )
 

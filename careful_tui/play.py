@@ -17,6 +17,11 @@ if the file already holds steps, the calibrated profile starts a new session fil
 episodes continue the numbering. Quitting (`q`, Ctrl+C, Ctrl+Q, closing the terminal) records
 a running episode that has steps as `quit`; a hold still being entered is not a move and is
 dropped.
+
+Failures: a recordings folder deleted mid-session is recreated and the session goes on in a
+new file holding every step so far (`SessionRecorder`), and the player is told. A file that
+cannot be written (a full disk, a folder made read-only) ends the game at once: nothing more
+can be recorded, so nothing more is played; `careful play` then exits 2 with one line.
 """
 
 from __future__ import annotations
@@ -48,8 +53,9 @@ from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
 from careful_tui.widgets.calibration import CalibrationScreen
 from careful_tui.widgets.gauge import level_colour
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import EpisodeEnd, SessionHeader
-from irl_core.game import Game, MoveResult, SessionRecorder, check_writable, level_costs
+from irl_core.demonstrations import EpisodeEnd, SessionHeader, SessionRecorder, check_writable
+from irl_core.game import Game, MoveResult, level_costs
+from irl_core.safe_text import printable
 from irl_core.world import World, load_world
 
 FLASH_S = 0.8
@@ -93,7 +99,7 @@ def carefulness_gauge(world: World) -> Gauge:
 def world_board(world: World) -> Board:
     """The board of the play and replay screens, titled with the world and its legend."""
     board = Board(world, id="board")
-    board.border_title = f"{world.name} · {world.levels} levels · slip {world.slip}"
+    board.border_title = Text(f"{printable(world.name, limit=40)} · {world.levels} levels · slip {world.slip}")
     board.border_subtitle = legend(world)
     return board
 
@@ -151,6 +157,7 @@ class PlayApp(App[None]):
         self._too_small = False
         self._flash: Timer | None = None
         self._title_shows: str | None = None
+        self.write_error: OSError | ValueError | None = None
 
     # ------------------------------------------------------------------ layout
 
@@ -227,13 +234,32 @@ class PlayApp(App[None]):
         for hold in holds:
             if not self.game.live:
                 break
-            result = self.game.move(hold.key, hold.level, hold_ms=hold.hold_ms, exact=hold.exact)
+            try:
+                result = self.game.move(hold.key, hold.level, hold_ms=hold.hold_ms, exact=hold.exact)
+            except (OSError, ValueError) as exc:
+                self.stop_on_write_error(exc)
+                return
             self.last_move = result
             self._show_move(result)
             if result.end is not None:
                 self.input.reset()
         if holds:
+            self._show_notices()
             self._refresh_all()
+
+    def stop_on_write_error(self, error: OSError | ValueError) -> None:
+        """The recording cannot be written: play no further (`run_play` reports it)."""
+        self.write_error = error
+        self.input.reset()
+        self.game.live = False
+        self.exit()
+
+    def _show_notices(self) -> None:
+        """Tell the player what the recorder did on its own (a deleted folder recreated)."""
+        while self.recorder.notices:
+            notice = printable(self.recorder.notices.pop(0), limit=300)
+            self.message = Text(notice, style=NOTE)
+            self.notify(notice, title="recording", severity="warning", timeout=15, markup=False)
 
     # ------------------------------------------------------------------ actions
 
@@ -257,8 +283,11 @@ class PlayApp(App[None]):
     def record_quit(self) -> None:
         """End a running episode as `quit` and close the file (safe to call more than once)."""
         self.input.reset()
-        self.game.quit()
-        self.recorder.close()
+        try:
+            self.game.quit()
+            self.recorder.close()
+        except (OSError, ValueError) as exc:
+            self.write_error = self.write_error or exc
 
     def action_calibrate(self) -> None:
         if self.game.live and self.game.t > 0:
@@ -368,8 +397,8 @@ class PlayApp(App[None]):
         if where != self._title_shows:
             self._title_shows = where
             self.query_one("#title", Static).update(Text.assemble(
-                ("careful play", f"bold {NOTE}"), " · player ", (self.player, "bold"),
-                f" · {self.input_mode} input", (f" · recording → {where}", "dim"),
+                ("careful play", f"bold {NOTE}"), " · player ", (printable(self.player, limit=40), "bold"),
+                f" · {self.input_mode} input", (f" · recording → {printable(where, limit=200)}", "dim"),
             ), layout=False)
 
         status = Text()
@@ -474,8 +503,15 @@ def run_play(args: argparse.Namespace) -> int:
         app.run()
     finally:
         app.record_quit()
-    for path in app.recorder.paths:
-        print(f"recorded to {path}")
-    if not app.recorder.paths:
+    recorder = app.recorder
+    for path in recorder.lost:
+        print(f"{printable(str(path))} was deleted during the session; its steps were written again below")
+    for path in recorder.paths:
+        print(f"recorded to {printable(str(path))}")
+    if app.write_error is not None:
+        kept = "the steps before it are kept" if recorder.paths else "nothing was recorded"
+        problem = getattr(app.write_error, "strerror", None) or app.write_error
+        raise UsageError(f"cannot write the recording in {args.out} ({problem}); the game stopped and {kept}")
+    if not recorder.paths:
         print("nothing was played, so nothing was recorded")
     return 0

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import argparse
 
-from rich.console import Group
+from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
 from textual import events
@@ -28,12 +28,14 @@ from textual.widgets import Static
 
 from careful_tui.grid import format_value
 from careful_tui.kitty import PassiveKittyDriver
+from careful_tui.reading import read_with_progress
 from careful_tui.play import BAD, GOOD, NOTE, carefulness_gauge, world_board
 from careful_tui.replay_cursor import Frame, ReplayCursor
 from careful_tui.widgets import Arrow, Board, Gauge, KeyBar, level_colour
 from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import Recording, Step, read_recording
+from irl_core.demonstrations import Recording, Step
+from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.game import level_costs
 from irl_core.summary import SessionSummary, distance_to_terminal, outcome_label, summarise
@@ -88,9 +90,9 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     about = Table.grid(padding=(0, 1))
     about.add_column(style="dim", no_wrap=True)
     about.add_column(overflow="fold")
-    about.add_row("world", Text(world.name, style="bold"))
-    about.add_row("input", str(header.input.get("mode", "?")))
-    player = Text(header.player, style="bold", overflow="fold")
+    about.add_row("world", Text(printable(world.name, limit=VALUE_LIMIT), style="bold"))
+    about.add_row("input", Text(printable(str(header.input.get("mode", "?")), limit=20)))
+    player = Text(printable(header.player, limit=VALUE_LIMIT), style="bold", overflow="fold")
     created = Text(f"{header.created:%Y-%m-%d %H:%M}", style="dim")
 
     session = Table.grid(padding=(0, 1))
@@ -118,7 +120,8 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
         careful.add_row(str(d), Text(f"{mean:.1f}", style=f"bold {colour}"), Text(f" {bar}", style=colour),
                         str(n), style=HERE if d == distance else "")
     # Warnings first: the panel is cut at the bottom in a small terminal.
-    warnings = [Text(f"⚠ {short_warning(recording, warning)}\n", style=f"bold {WARN}") for warning in recording.warnings]
+    warnings = [Text(f"⚠ {printable(short_warning(recording, warning), limit=200)}\n", style=f"bold {WARN}")
+                for warning in recording.warnings]
     parts = [*warnings, player, about, created, Text(), session, Text(), careful]
     if not summary.carefulness_by_distance:
         parts.append(Text("(no steps)", style="dim"))
@@ -191,12 +194,12 @@ class ReplayApp(App[None]):
 
     def on_mount(self) -> None:
         self.query_one("#title", Static).update(Text.assemble(
-            ("careful replay", f"bold {NOTE}"), " · ", (self.recording.path.name, "bold"),
+            ("careful replay", f"bold {NOTE}"), " · ", (printable(self.recording.path.name, limit=VALUE_LIMIT), "bold"),
             (f" · {plural(self.summary.episodes, 'episode')}, {plural(self.summary.steps, 'step')}", "dim"),
         ))
         self._start_timer()
         for warning in self.recording.warnings:
-            self.notify(warning, title="recording", severity="warning", timeout=10)
+            self.notify(printable(warning, limit=400), title="recording", severity="warning", timeout=10, markup=False)
         self._check_size(*self.size)
         self.show()
 
@@ -362,8 +365,15 @@ class ReplayApp(App[None]):
                                  (f"   reward {format_value(step.reward)}", "dim"))
         if not step.slipped:
             return Text.assemble(("went ", "dim"), (step.direction, "bold"))
-        went = realised_direction(step)
-        where = f"went {went} instead of {step.direction}" if went else f"stayed put instead of going {step.direction}"
+        # Newer recordings say which way the move went; for older ones it is read off the cells,
+        # where a slip into a wall or off the grid leaves no direction to read.
+        went = step.realised or realised_direction(step)
+        if went is None:
+            where = f"stayed put instead of going {step.direction}"
+        elif step.next_state == step.state:
+            where = f"went {went} into the edge instead of {step.direction}, and stayed put"
+        else:
+            where = f"went {went} instead of {step.direction}"
         return Text.assemble(("slipped! ", f"bold {SLIP_COLOUR}"), where)
 
     def _keys(self) -> list[tuple[str, str]]:
@@ -377,7 +387,7 @@ def run_replay(args: argparse.Namespace) -> int:
     """`careful replay FILE`: read the recording (bad files are reported without a terminal), then watch it."""
     from careful_tui.cli import require_terminal
 
-    recording = read_recording(args.file)
+    (recording,) = read_with_progress([args.file], Console(stderr=True, highlight=False))
     require_terminal("replay")
     ReplayApp(recording, playing=True, driver_class=PassiveKittyDriver).run()
     return 0

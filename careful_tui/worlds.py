@@ -5,8 +5,10 @@ from __future__ import annotations
 from rich.console import Console
 from rich.syntax import Syntax
 from rich.table import Table
+from rich.text import Text
 
 from careful_tui.grid import WorldGrid, format_value, symbol_legend
+from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.world import BUILTIN_WORLDS, WORLD_PURPOSES, World
 
 
@@ -21,8 +23,10 @@ def print_world_table(console: Console) -> None:
 
 
 def print_world(console: Console, world: World) -> None:
-    console.print(f"[bold]{world.name}[/]: {world.rows}x{world.cols} cells, {world.levels} carefulness "
-                  f"levels, slip {world.slip}, gamma {world.gamma}")
+    # The name is text from a file: shown escaped and cut, never as markup.
+    console.print(Text.assemble((printable(world.name, limit=VALUE_LIMIT), "bold"),
+                                f": {world.rows}x{world.cols} cells, {world.levels} carefulness "
+                                f"levels, slip {world.slip}, gamma {world.gamma}"), soft_wrap=True)
     console.print(WorldGrid(world))
     console.print(symbol_legend(world))
     console.print(Syntax(world.to_toml(), "toml", theme="ansi_dark", background_color="default"))

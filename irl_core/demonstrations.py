@@ -1,10 +1,14 @@
 """Demonstrations as JSONL files (SPEC section 2): models, a crash-safe writer, a strict reader.
 
 A file is one play session: a ``session`` header line, then ``step`` lines and
-``episode_end`` lines as they happen. The writer never overwrites, flushes every line
-and fsyncs at each episode end, so a crash loses at most the line in flight. The reader
-validates every line and reports ``file:line: field: problem``; a truncated last line
-(the crash case) is skipped with a warning.
+``episode_end`` lines as they happen. The writer (`RecordingWriter`, and `SessionRecorder`
+for a game) never overwrites, flushes every line and fsyncs at each episode end, so a crash
+loses at most the line in flight; it never leaves an empty file, and never writes a number
+JSON cannot hold. The reader streams the file, validates every line and that the lines
+agree with each other (episodes in order, ``t`` counting up, each step starting where the
+last one ended) and reports ``file:line: field: problem``; a truncated last line (the crash
+case) is skipped with a warning. A step may say which way the move really went
+(``realised``, optional: older files without it still read).
 """
 
 from __future__ import annotations
@@ -12,6 +16,8 @@ from __future__ import annotations
 import json
 import os
 import re
+import tempfile
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -21,7 +27,10 @@ import numpy as np
 import scipy.sparse as sp
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
-from irl_core.mdp import DIRECTIONS, MDP, action_index, build_mdp
+from irl_core.mdp import DIRECTIONS, MDP, build_mdp
+from irl_core.safe_files import open_regular
+from irl_core.safe_text import VALUE_LIMIT, cut, printable
+from irl_core.step_table import StepTable
 from irl_core.world import World, field_path
 
 SCHEMA_VERSION = 1
@@ -33,12 +42,14 @@ class RecordingError(ValueError):
 
     def __init__(self, path: str | Path, line: int | None, field: str | None, problem: str):
         self.path, self.line, self.field, self.problem = str(path), line, field, problem
-        where = self.path if line is None else f"{self.path}:{line}"
+        where = cut(self.path, 200) if line is None else f"{cut(self.path, 200)}:{line}"
+        field = None if field is None else cut(field, VALUE_LIMIT)
         super().__init__(f"{where}: {field}: {problem}" if field else f"{where}: {problem}")
 
 
 class _Line(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=True)
+    # Every number must be one JSON can hold: NaN and Infinity are refused when read and never written.
+    model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=True, allow_inf_nan=False)
 
 
 class SessionHeader(_Line):
@@ -46,7 +57,7 @@ class SessionHeader(_Line):
     schema_version: int = Field(SCHEMA_VERSION, alias="schema")
     world: World
     player: str
-    created: datetime
+    created: datetime = Field(strict=False)
     seed: int | None = None
     input: dict[str, Any] = Field(default_factory=lambda: {"mode": "hold"})
     app_version: str = ""
@@ -66,6 +77,8 @@ class Step(_Line):
     slipped: bool
     reward: float
     score: float
+    # The direction the move really went (differs from `direction` on a slip); optional, newer files have it.
+    realised: Direction | None = None
 
 
 class EpisodeEnd(_Line):
@@ -82,38 +95,72 @@ _BODY = TypeAdapter(Annotated[Step | EpisodeEnd, Field(discriminator="kind")])
 
 
 def to_json_line(line: _Line) -> str:
-    """One JSONL line (with its newline) in SPEC field names."""
-    return json.dumps(line.model_dump(mode="json", by_alias=True), ensure_ascii=False) + "\n"
+    """One JSONL line (with its newline) in SPEC field names.
+
+    Raises:
+        ValueError: a number JSON cannot hold (NaN, Infinity); nothing is written for it.
+    """
+    data = line.model_dump(mode="json", by_alias=True)
+    if data.get("realised", "") is None:
+        del data["realised"]
+    return json.dumps(data, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def _encoded(line: _Line) -> bytes:
+    """`to_json_line` as UTF-8; a name holding undecodable bytes is a `ValueError`, raised before any write."""
+    try:
+        return to_json_line(line).encode("utf-8")
+    except UnicodeEncodeError:
+        raise ValueError("a name holds bytes that are not UTF-8 text") from None
 
 
 # ---------------------------------------------------------------------------- writing
 
 
+class RecordingLost(OSError):
+    """The file being written was deleted (or its folder was): what is written now goes nowhere."""
+
+
 class RecordingWriter:
     """Appends a session's lines to a new file as they happen.
 
-    The file is created exclusively (an existing file is never overwritten); each line
-    is flushed at once, and the file is fsynced at every episode end and on close.
-    `sync_episodes=False` skips the per-episode fsync, for bulk output that can simply be
-    written again (simulated experts).
+    The file is created exclusively (an existing file is never overwritten) and only once its
+    header is known to be writable: a header that cannot be encoded is refused before the file
+    exists, and a header that cannot be written (a full disk) removes the file again, so no
+    empty recording is left behind. Each line is written at once (unbuffered), and the file is
+    fsynced at every episode end and on close. After each write the writer checks that the file
+    is still linked into a folder; if not it raises `RecordingLost`. `sync_episodes=False` skips
+    the per-episode fsync, for bulk output that can simply be written again (simulated experts).
+
+    Raises (from the constructor and every write):
+        FileExistsError: the path exists.
+        OSError: the file cannot be created or written (full disk, read-only folder, long name).
+        RecordingLost: the file was deleted while being written.
+        ValueError: a line holds a number JSON cannot hold, or a name that is not UTF-8 text.
     """
 
     def __init__(self, path: str | Path, header: SessionHeader, *, sync_episodes: bool = True):
         self.path = Path(path)
         self._sync_episodes = sync_episodes
-        self._file = open(self.path, "x", encoding="utf-8")
-        self._write(header)
-        self._sync()
+        first = _encoded(header)
+        flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND | getattr(os, "O_CLOEXEC", 0)
+        self._fd: int | None = os.open(self.path, flags, 0o666)
+        try:
+            self._write_bytes(first)
+            self.sync()
+        except BaseException:
+            self._discard()
+            raise
 
     @classmethod
     def create_in(cls, folder: str | Path, header: SessionHeader) -> RecordingWriter:
-        """A writer for a new file in `folder`, named by the time and player.
+        """A writer for a new file in `folder` (created if missing), named by the time and player.
 
         Two sessions started in the same second get distinct names (`-2`, `-3`, ...).
         """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        stem = f"{header.created:%Y%m%d-%H%M%S}-{_slug(header.player)}"
+        stem = f"{header.created:%Y%m%d-%H%M%S}-{slug(header.player)}"
         for n in range(1, 1000):
             path = folder / (f"{stem}.jsonl" if n == 1 else f"{stem}-{n}.jsonl")
             try:
@@ -123,17 +170,33 @@ class RecordingWriter:
         raise FileExistsError(f"{folder}: too many sessions named {stem}")
 
     def write_step(self, step: Step) -> None:
-        self._write(step)
+        self._write_bytes(_encoded(step))
 
     def end_episode(self, end: EpisodeEnd) -> None:
-        self._write(end)
+        self._write_bytes(_encoded(end))
         if self._sync_episodes:
-            self._sync()
+            self.sync()
+
+    def write_many(self, lines: Iterable[Step | EpisodeEnd]) -> None:
+        """Several lines in one write (bulk output): encoded first, so a bad one writes nothing."""
+        self._write_bytes(b"".join(_encoded(line) for line in lines))
 
     def close(self) -> None:
-        if not self._file.closed:
-            self._sync()
-            self._file.close()
+        if self._fd is not None:
+            try:
+                self.sync()
+            finally:
+                os.close(self._fd)
+                self._fd = None
+
+    def abandon(self) -> None:
+        """Close without syncing (the file is gone or cannot be written)."""
+        if self._fd is not None:
+            try:
+                os.close(self._fd)
+            except OSError:
+                pass
+            self._fd = None
 
     def __enter__(self) -> RecordingWriter:
         return self
@@ -141,29 +204,151 @@ class RecordingWriter:
     def __exit__(self, *exc_info: object) -> None:
         self.close()
 
-    def _write(self, line: _Line) -> None:
-        self._file.write(to_json_line(line))
-        self._file.flush()
+    def _write_bytes(self, data: bytes) -> None:
+        if self._fd is None:
+            raise ValueError(f"{self.path} is closed")
+        view = memoryview(data)
+        while view:
+            view = view[os.write(self._fd, view):]
+        if os.fstat(self._fd).st_nlink == 0:
+            raise RecordingLost(f"{self.path} was deleted while it was being written")
 
-    def _sync(self) -> None:
-        self._file.flush()
-        os.fsync(self._file.fileno())
+    def sync(self) -> None:
+        """Flush the file to disk."""
+        os.fsync(self._fd)
+        if os.fstat(self._fd).st_nlink == 0:
+            raise RecordingLost(f"{self.path} was deleted while it was being written")
+
+    def _discard(self) -> None:
+        self.abandon()
+        try:
+            os.unlink(self.path)
+        except OSError:
+            pass
 
 
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.=-]+", "_", text).strip("_") or "player"
+class SessionRecorder:
+    """A game's session file in `folder`, created (named by time and player) at its first line.
+
+    `header` is the session header without its time; `created` is filled in when the file is
+    created. `set_header` before anything was written replaces the header; after, it closes the
+    file and the next line starts a new session file with the new header.
+
+    Nothing played is lost to a folder deleted mid-session: the recorder keeps the lines of
+    the file it writes (a person's session is small), and when the file turns out to be
+    deleted it recreates the folder, writes them all to a new session file and goes on there;
+    `notices` tells the player. A file that cannot be written at all raises `OSError`.
+    """
+
+    def __init__(self, folder: str | Path, header: SessionHeader) -> None:
+        self.folder = Path(folder)
+        self.header = header
+        self.paths: list[Path] = []
+        self.lost: list[Path] = []
+        self.notices: list[str] = []
+        self._writer: RecordingWriter | None = None
+        self._lines: list[Step | EpisodeEnd] = []
+
+    @property
+    def path(self) -> Path | None:
+        """The file being written, or None before the first line (or after a header change)."""
+        return None if self._writer is None else self._writer.path
+
+    def set_header(self, header: SessionHeader) -> None:
+        self.close()
+        self.header = header
+
+    def write_step(self, step: Step) -> None:
+        self._record(step, lambda writer: writer.write_step(step))
+
+    def end_episode(self, end: EpisodeEnd) -> None:
+        self._record(end, lambda writer: writer.end_episode(end))
+
+    def close(self) -> None:
+        if self._writer is None:
+            return
+        try:
+            self._writer.close()
+        except RecordingLost:
+            self._recover()
+            self._writer.close()
+        self._writer = None
+        self._lines = []
+
+    def _record(self, line: Step | EpisodeEnd, write: Callable[[RecordingWriter], None]) -> None:
+        self._lines.append(line)
+        try:
+            write(self._open())
+        except RecordingLost:
+            self._recover()
+        except BaseException:
+            self._lines.pop()
+            raise
+
+    def _recover(self) -> None:
+        """The file was deleted: write everything it held to a new file in a recreated folder."""
+        if self._writer is not None:
+            lost = self._writer.path
+            self._writer.abandon()
+            self._writer = None
+            self.lost.append(lost)
+            self.paths.remove(lost)
+        writer = self._open()
+        writer.write_many(self._lines)
+        writer.sync()
+        self.notices.append(f"recording deleted: every step so far is saved again in {writer.path.name}")
+
+    def _open(self) -> RecordingWriter:
+        if self._writer is None:
+            header = self.header.model_copy(update={"created": datetime.now().astimezone()})
+            self._writer = RecordingWriter.create_in(self.folder, header)
+            self.paths.append(self._writer.path)
+        return self._writer
+
+
+def check_writable(folder: str | Path) -> None:
+    """Create `folder` if needed and prove a file can be written in it.
+
+    Raises:
+        OSError: the folder cannot be created or written to.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, probe = tempfile.mkstemp(dir=folder, prefix=".careful-probe-")
+    os.close(fd)
+    os.unlink(probe)
+
+
+def slug(text: str, *, default: str = "player") -> str:
+    """A file-name piece from a name: anything but letters, digits and `_.=-` becomes `_`.
+
+    Used for every file name made from a name (recordings, the fit view's SVG), so a `/` or a
+    control character in a name never points a file elsewhere or reaches a terminal.
+    """
+    return re.sub(r"[^A-Za-z0-9_.=-]+", "_", text).strip("_")[:80] or default
 
 
 # ---------------------------------------------------------------------------- reading
 
+# A longer line is refused before it is parsed (a header with the largest allowed world is far shorter).
+MAX_LINE_BYTES = 64 << 20
+_BOM = b"\xef\xbb\xbf"
+
+
+class EmptyRecording(RecordingError):
+    """A recording without a single line (what a failed first write used to leave)."""
+
 
 @dataclass
 class Recording:
-    """One session file as read: its header, steps, episode ends and any warnings."""
+    """One session file as read: its header, steps, episode ends and any warnings.
+
+    `steps` is a `StepTable`: a sequence of `Step` stored as columns.
+    """
 
     path: Path
     header: SessionHeader
-    steps: list[Step] = field(default_factory=list)
+    steps: StepTable = field(default_factory=StepTable)
     episode_ends: list[EpisodeEnd] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
@@ -173,62 +358,125 @@ class Recording:
 
     @property
     def episodes(self) -> list[int]:
-        """Episode numbers that have a step or an end, in order of first appearance."""
-        seen = dict.fromkeys(s.episode for s in self.steps)
-        seen.update(dict.fromkeys(e.episode for e in self.episode_ends))
-        return list(seen)
+        """Episode numbers that have a step or an end, in order (the reader checks that order)."""
+        return sorted({*self.steps.column("episode").tolist(), *(e.episode for e in self.episode_ends)})
 
 
-def read_recording(path: str | Path) -> Recording:
-    """Read and validate one JSONL session file.
+def read_recording(path: str | Path, *, progress: Callable[[int], None] | None = None) -> Recording:
+    """Read and validate one JSONL session file, a line at a time.
 
-    Raises `RecordingError` naming the file, line and field of the first problem. A last
-    line cut off without its newline (a crash mid-write) is skipped with a warning.
+    Raises `RecordingError` naming the file, line and field of the first problem (an
+    `EmptyRecording` for a file without lines), and for anything that is not a regular file
+    (a FIFO is refused, not waited on). A last line cut off without its newline (a crash
+    mid-write) is skipped with a warning. `progress` is called with the bytes read since
+    its last call, every few thousand lines.
     """
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        file = open_regular(path)
     except OSError as exc:
         raise RecordingError(path, None, None, f"cannot read the file ({exc.strerror or exc})") from None
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    lines = raw.split(b"\n")
-    ends_cleanly = lines[-1] == b""
-    if ends_cleanly:
-        lines.pop()
-    if not any(line.strip() for line in lines):
-        raise RecordingError(path, None, None, "the file is empty: no session header")
+    except ValueError as exc:
+        raise RecordingError(path, None, None, f"is {exc}; a recording is a file") from None
+    with file:
+        return _read_lines(path, file, progress)
 
+
+def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -> Recording:
     recording: Recording | None = None
-    for number, data in enumerate(lines, start=1):
-        is_last = number == len(lines)
-        text = data.rstrip(b"\r")
+    number = unreported = 0
+    while data := file.readline(MAX_LINE_BYTES + 1):
+        number += 1
+        unreported += len(data)
+        if progress is not None and number % 4096 == 0:
+            progress(unreported)
+            unreported = 0
+        ends_cleanly = data.endswith(b"\n")
+        if not ends_cleanly and len(data) > MAX_LINE_BYTES:
+            raise RecordingError(path, number, None, f"the line is longer than {MAX_LINE_BYTES >> 20} MB")
+        if number == 1 and data.startswith(_BOM):
+            data = data[len(_BOM):]
+        text = data.rstrip(b"\n").rstrip(b"\r")
         if not text.strip():
             continue
-        try:
-            obj = json.loads(text.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-            if is_last and not ends_cleanly and recording is not None:
-                recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
-                break
-            raise RecordingError(path, number, None, _json_problem(exc)) from None
-        if not isinstance(obj, dict):
-            raise RecordingError(path, number, None, "a line must be a JSON object")
-        if recording is None:
-            recording = Recording(path=path, header=_read_header(obj, path, number))
-            checker = _StepChecker(build_mdp(recording.world), path)
-            continue
-        try:
-            line = _BODY.validate_python(obj)
-        except ValidationError as exc:
-            raise _line_error(path, number, exc, obj) from None
+        if recording is not None:
+            # The common case, parsed and validated in one pass; any problem is re-read below to name it.
+            try:
+                line = _BODY.validate_json(text)
+            except ValidationError:
+                line = None
+        if recording is None or line is None:
+            try:
+                obj = json.loads(text.decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+                if not ends_cleanly and recording is not None:
+                    recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
+                    break
+                raise RecordingError(path, number, None, _json_problem(exc)) from None
+            if not isinstance(obj, dict):
+                raise RecordingError(path, number, None, "a line must be a JSON object")
+            if recording is None:
+                recording = Recording(path=path, header=_read_header(obj, path, number))
+                checker = _LineChecker(build_mdp(recording.world), path)
+                continue
+            try:
+                line = _BODY.validate_python(obj)
+            except ValidationError as exc:
+                raise _line_error(path, number, exc, obj) from None
         if isinstance(line, Step):
-            checker.check(line, number)
+            checker.step(line, number)
             recording.steps.append(line)
         else:
+            checker.end(line, number)
             recording.episode_ends.append(line)
-    assert recording is not None
+    if progress is not None:
+        progress(unreported)
+    if recording is None:
+        raise EmptyRecording(path, None, None, "the file is empty: no session header")
     return recording
+
+
+def read_recordings(
+    paths: Iterable[str | Path], *, progress: Callable[[int], None] | None = None
+) -> tuple[list[Recording], list[str]]:
+    """Read several recordings for one use (a fit); returns them and every warning, in order.
+
+    A file given twice (by the same or another path: same device and inode) is read once, and
+    an empty file is skipped, each with a warning; if every file is empty, that is an error.
+
+    Raises:
+        RecordingError: the first bad file (see `read_recording`).
+    """
+    recordings: list[Recording] = []
+    warnings: list[str] = []
+    seen: dict[tuple[int, int], Path] = {}
+    empty: list[Path] = []
+    for path in map(Path, paths):
+        try:
+            info = os.stat(path)
+            key = (info.st_dev, info.st_ino)
+        except OSError:
+            key = None
+        if key is not None and key in seen:
+            same = "given twice" if seen[key] == path else f"the same file as {seen[key]}"
+            warnings.append(f"{path}: {same}; read once")
+            continue
+        if key is not None:
+            seen[key] = path
+        try:
+            recording = read_recording(path, progress=progress)
+        except EmptyRecording:
+            empty.append(path)
+            warnings.append(f"{path}: the file is empty (no session header); skipped")
+            continue
+        warnings.extend(recording.warnings)
+        recordings.append(recording)
+    if not recordings and len(empty) == 1:
+        raise EmptyRecording(empty[0], None, None, "the file is empty: no session header")
+    if not recordings and empty:
+        names = ", ".join(str(p) for p in empty)
+        raise EmptyRecording(names, None, None, "every file given is empty: no session header")
+    return recordings, warnings
 
 
 def _json_problem(exc: Exception) -> str:
@@ -253,14 +501,15 @@ def _read_header(obj: dict, path: Path, number: int) -> SessionHeader:
     if "schema" not in obj:
         raise RecordingError(path, number, "schema", "missing")
     schema = obj["schema"]
-    if schema != SCHEMA_VERSION:
+    # `true == 1` in Python: the type is checked too.
+    if type(schema) is not int or schema != SCHEMA_VERSION:
         raise RecordingError(
             path, number, "schema",
             f"schema version {_brief(schema)} is not supported (this careful reads version {SCHEMA_VERSION}); "
             "a newer careful may read it",
         )
     try:
-        return SessionHeader.model_validate(obj, strict=False)
+        return SessionHeader.model_validate(obj)
     except ValidationError as exc:
         raise _line_error(path, number, exc, obj) from None
 
@@ -280,37 +529,81 @@ def _line_error(path: Path, number: int, exc: ValidationError, obj: dict) -> Rec
     return RecordingError(path, number, name, problem)
 
 
-class _StepChecker:
-    """Checks that a step is a move the header's world can make."""
+class _LineChecker:
+    """Checks that a step is a move the header's world can make, and that lines agree.
+
+    Episodes come in increasing order; within one, `t` counts 0, 1, 2, ...; each step starts
+    where the previous one ended; nothing of an episode follows its `episode_end`.
+    """
 
     def __init__(self, mdp: MDP, path: Path):
         self.mdp, self.path = mdp, path
         self._neighbours = mdp.neighbour.tolist()
+        self._episode: int | None = None
+        self._next_t = 0
+        self._cell: tuple[int, int] | None = None
+        self._ended_on: int | None = None
 
-    def check(self, step: Step, number: int) -> None:
+    def _error(self, number: int, field: str, problem: str) -> RecordingError:
+        return RecordingError(self.path, number, field, problem)
+
+    def _enter(self, episode: int, number: int) -> None:
+        """Move on to `episode` if it is a new one; refuse one that comes back or has ended."""
+        if episode == self._episode:
+            if self._ended_on is not None:
+                raise self._error(number, "episode", f"episode {episode} already ended on line {self._ended_on}")
+            return
+        if self._episode is not None and episode < self._episode:
+            raise self._error(number, "episode", f"episode {episode} comes after episode {self._episode}: "
+                              "episodes must be in order")
+        self._episode, self._next_t, self._cell, self._ended_on = episode, 0, None, None
+
+    def step(self, step: Step, number: int) -> None:
+        self._check_move(step, number)
+        self._enter(step.episode, number)
+        if step.t != self._next_t:
+            what = "repeats" if step.t < self._next_t else "skips"
+            raise self._error(number, "t", f"{step.t} {what} a step: episode {step.episode}'s next step is "
+                              f"t = {self._next_t}")
+        if self._cell is not None and step.state != self._cell:
+            raise self._error(number, "state", f"{list(step.state)} is not where the previous step ended "
+                              f"({list(self._cell)})")
+        self._next_t += 1
+        self._cell = step.next_state
+
+    def end(self, end: EpisodeEnd, number: int) -> None:
+        self._enter(end.episode, number)
+        self._ended_on = number
+
+    def _check_move(self, step: Step, number: int) -> None:
         world, mdp = self.mdp.world, self.mdp
         if step.carefulness > world.levels:
-            raise RecordingError(
-                self.path, number, "carefulness", f"{step.carefulness} is above the world's {world.levels} levels"
-            )
+            raise self._error(number, "carefulness", f"{step.carefulness} is above the world's {world.levels} levels")
         for name in ("state", "next_state"):
             cell = getattr(step, name)
             if cell not in mdp.state_of:
                 what = "a wall" if 0 <= cell[0] < world.rows and 0 <= cell[1] < world.cols else "outside the grid"
-                raise RecordingError(self.path, number, name, f"{list(cell)} is {what} ({world.rows}x{world.cols})")
+                raise self._error(number, name, f"{list(cell)} is {what} ({world.rows}x{world.cols})")
         s = mdp.state_of[step.state]
         if not mdp.nonterminal[s]:
-            raise RecordingError(self.path, number, "state", f"{list(step.state)} is a terminal cell: no move starts there")
+            raise self._error(number, "state", f"{list(step.state)} is a terminal cell: no move starts there")
         # A halving world may slip in any direction; a world without slip only goes the chosen way.
         reachable = self._neighbours[s]
         if world.slip == "none":
             reachable = [reachable[DIRECTIONS.index(step.direction)]]
         if mdp.state_of[step.next_state] not in reachable:
-            raise RecordingError(
-                self.path, number, "next_state",
-                f"the world cannot move from {list(step.state)} to {list(step.next_state)} "
-                f"going {step.direction} in one step",
-            )
+            raise self._error(number, "next_state", f"the world cannot move from {list(step.state)} to "
+                              f"{list(step.next_state)} going {step.direction} in one step")
+        if step.realised is not None:
+            if world.slip == "none" and step.realised != step.direction:
+                raise self._error(number, "realised", f"{step.realised}, but this world never slips "
+                                  f"(the move was {step.direction})")
+            if mdp.state_of[step.next_state] != self._neighbours[s][DIRECTIONS.index(step.realised)]:
+                raise self._error(number, "next_state", f"{list(step.next_state)} is not where going "
+                                  f"{step.realised} from {list(step.state)} leads")
+            if step.slipped != (step.realised != step.direction):
+                raise self._error(number, "slipped", f"{str(step.slipped).lower()}, but the move went "
+                                  f"{step.realised} for {step.direction}")
 
 
 # ---------------------------------------------------------------------------- using
@@ -346,29 +639,36 @@ class Demonstrations:
                 differ = ", ".join(k for k in World.model_fields if getattr(other.world, k) != getattr(world, k))
                 raise RecordingError(
                     other.path, None, "world",
-                    f"recorded in world {other.world.name!r}, but {recordings[0].path} is from "
-                    f"{world.name!r} (they differ in {differ}): fit recordings of one world at a time",
+                    f"recorded in world {printable(other.world.name, limit=VALUE_LIMIT)!r}, but {recordings[0].path} is from "
+                    f"{printable(world.name, limit=VALUE_LIMIT)!r} (they differ in {differ}): fit recordings of one world at a time",
                 )
         mdp = build_mdp(world)
         counts = np.zeros((mdp.n_states, mdp.n_actions))
-        states = [mdp.state_of[s.state] for r in recordings for s in r.steps]
-        actions = [action_index(s.direction, s.carefulness, world.levels) for r in recordings for s in r.steps]
-        if states:
+        index = np.full((world.rows, world.cols), -1, dtype=np.int64)
+        for cell, s in mdp.state_of.items():
+            index[cell] = s
+
+        def column(name: str) -> np.ndarray:
+            return np.concatenate([np.empty(0, np.int64)] + [r.steps.column(name) for r in recordings]).astype(np.int64)
+
+        states = index[column("row"), column("col")]
+        actions = column("direction") * world.levels + column("carefulness") - 1
+        if states.size:
             np.add.at(counts, (states, actions), 1.0)
-        episode_keys = [(i, s.episode) for i, r in enumerate(recordings) for s in r.steps]
+        files = np.concatenate([np.empty(0, np.int64)] + [np.full(len(r.steps), i) for i, r in enumerate(recordings)])
+        episode_keys = list(zip(files.tolist(), column("episode").tolist()))
         return cls(
             mdp=mdp,
             counts=counts,
             files=len(recordings),
             episodes=sum(len(r.episodes) for r in recordings),
             steps=sum(len(r.steps) for r in recordings),
-            by_episode=episode_matrix(episode_keys, np.asarray(states, dtype=np.int64) * mdp.n_actions
-                                      + np.asarray(actions, dtype=np.int64), mdp.n_states * mdp.n_actions),
+            by_episode=episode_matrix(episode_keys, states * mdp.n_actions + actions, mdp.n_states * mdp.n_actions),
         )
 
     @classmethod
     def read(cls, paths: list[str | Path]) -> Demonstrations:
-        return cls.from_recordings([read_recording(p) for p in paths])
+        return cls.from_recordings(read_recordings(paths)[0])
 
     @property
     def demonstrated(self) -> np.ndarray:

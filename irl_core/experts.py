@@ -2,11 +2,15 @@
 
 Rollouts are vectorised across episodes: every live episode takes its step together,
 so 10,000 episodes cost a few hundred array operations instead of 10,000 Python loops.
-The same seed gives the same episodes and, written out, the same bytes.
+The same seed gives the same episodes and, written out, the same bytes. `simulate_to_file`
+rolls out and writes a block of episodes at a time, so memory stays flat however many
+episodes are asked for. A plan that stopped at its iteration cap is not an expert:
+`optimal_policy` and `boltzmann_policy` raise `NotConverged` rather than return it.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -16,21 +20,43 @@ import numpy as np
 
 from irl_core.demonstrations import Demonstrations, EpisodeEnd, RecordingWriter, SessionHeader, Step, episode_matrix
 from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
-from irl_core.planning import soft_value_iteration, value_iteration
+from irl_core.planning import Plan, soft_value_iteration, value_iteration
 
 # Simulated sessions are a function of (world, policy, seed): their header carries this
 # fixed time so that the same seed writes the same bytes.
 SIMULATED_AT = datetime(2000, 1, 1, tzinfo=timezone.utc)
 
 
+class NotConverged(ValueError):
+    """Value iteration stopped at its cap before converging: its policy is not the expert asked for."""
+
+
+def _converged(plan: Plan, what: str, gamma: float) -> np.ndarray:
+    if not plan.converged:
+        raise NotConverged(
+            f"value iteration for the {what} policy did not converge in {plan.iterations:,} sweeps "
+            f"(last change {plan.residual:.3g}); with gamma = {gamma} it needs more, so no {what} expert "
+            "can be recorded (a smaller gamma converges faster)"
+        )
+    return plan.policy
+
+
 def optimal_policy(mdp: MDP) -> np.ndarray:
-    """(S, A) the deterministic optimal policy (ties to the lowest action index)."""
-    return value_iteration(mdp).policy
+    """(S, A) the deterministic optimal policy (ties to the lowest action index).
+
+    Raises:
+        NotConverged: value iteration stopped at its cap.
+    """
+    return _converged(value_iteration(mdp), "optimal", mdp.gamma)
 
 
 def boltzmann_policy(mdp: MDP, *, beta: float) -> np.ndarray:
-    """(S, A) the soft-optimal policy pi(a | s) = exp(beta (Q(s, a) - V(s)))."""
-    return soft_value_iteration(mdp, beta=beta).policy
+    """(S, A) the soft-optimal policy pi(a | s) = exp(beta (Q(s, a) - V(s))).
+
+    Raises:
+        NotConverged: soft value iteration stopped at its cap.
+    """
+    return _converged(soft_value_iteration(mdp, beta=beta), "Boltzmann", mdp.gamma)
 
 
 def expert_name(policy: str, beta: float | None = None) -> str:
@@ -64,13 +90,17 @@ def rollouts(
     policy: np.ndarray,
     *,
     episodes: int,
-    seed: int,
+    seed: int | None = None,
+    rng: np.random.Generator | None = None,
     max_steps: int | None = None,
 ) -> Rollouts:
-    """Roll out `policy` (S, A) from the world's start cells for `episodes` episodes."""
+    """Roll out `policy` (S, A) from the world's start cells for `episodes` episodes.
+
+    Randomness comes from `rng` when given (to continue a stream block by block), else from `seed`.
+    """
     world = mdp.world
     max_steps = world.max_steps if max_steps is None else max_steps
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(seed) if rng is None else rng
     starts = np.array([mdp.state_of[cell] for cell in world.start_cells])
     policy_cdf = np.cumsum(policy, axis=1)
     slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, slip=world.slip), axis=1)  # (A, 4)
@@ -113,6 +143,22 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
                           steps=int(result.state.size), by_episode=by_episode)
 
 
+# The most steps one block of `simulate_to_file` may hold (about 60 bytes each while rolled out).
+STEPS_PER_BLOCK = 2_000_000
+
+
+def session_header(mdp: MDP, *, player: str, seed: int) -> SessionHeader:
+    """The header of a simulated session: fixed time, digits input (an expert states its level)."""
+    return SessionHeader(
+        world=mdp.world,
+        player=player,
+        created=SIMULATED_AT,
+        seed=seed,
+        input={"mode": "digits", "expert": player},
+        app_version=_app_version(),
+    )
+
+
 def write_rollouts(
     path: str | Path,
     mdp: MDP,
@@ -127,61 +173,108 @@ def write_rollouts(
     Args:
         progress: called with the number of episodes written so far, now and then.
     """
+    with RecordingWriter(path, session_header(mdp, player=player, seed=seed), sync_episodes=False) as writer:
+        _write_block(writer, mdp, result, first_episode=0, progress=progress)
+    return Path(path)
+
+
+def simulate_to_file(
+    path: str | Path,
+    mdp: MDP,
+    policy: np.ndarray,
+    *,
+    episodes: int,
+    seed: int,
+    player: str,
+    block: int = 10_000,
+    progress: Callable[[int], None] | None = None,
+) -> Counter[str]:
+    """Roll out and write `episodes` episodes, `block` at a time (memory does not grow with `episodes`).
+
+    The episodes are those of one `rollouts` call with `seed` when `episodes <= block`, and the
+    same seed always writes the same bytes. A file that cannot be finished is removed: it
+    would be an expert's session cut short. Returns how the episodes ended ("G", "C", "step limit").
+
+    Raises:
+        OSError: the file cannot be written (it is removed again).
+    """
+    rng = np.random.default_rng(seed)
+    # A block's steps are held in memory: at most STEPS_PER_BLOCK of them, however long episodes may be.
+    block = max(1, min(block, STEPS_PER_BLOCK // mdp.world.max_steps))
+    ended: Counter[str] = Counter()
+    try:
+        with RecordingWriter(path, session_header(mdp, player=player, seed=seed), sync_episodes=False) as writer:
+            for first in range(0, episodes, block):
+                result = rollouts(mdp, policy, episodes=min(block, episodes - first), rng=rng)
+                _write_block(writer, mdp, result, first_episode=first,
+                             progress=None if progress is None else lambda done, first=first: progress(first + done))
+                ended.update(mdp.symbols[s] if not t else "step limit"
+                             for s, t in zip(result.final_state.tolist(), result.truncated.tolist()))
+    except BaseException:
+        Path(path).unlink(missing_ok=True)
+        raise
+    return ended
+
+
+def _write_block(
+    writer: RecordingWriter,
+    mdp: MDP,
+    result: Rollouts,
+    *,
+    first_episode: int,
+    progress: Callable[[int], None] | None,
+) -> None:
+    """Write the episodes of `result`, numbered from `first_episode`, a few thousand lines per write."""
     world = mdp.world
-    header = SessionHeader(
-        world=world,
-        player=player,
-        created=SIMULATED_AT,
-        seed=seed,
-        # A computer expert states its level directly, as a digits-mode player does.
-        input={"mode": "digits", "expert": player},
-        app_version=_app_version(),
-    )
     order = np.lexsort((result.t, result.episode))
     cells = mdp.cells
     steps_of = np.bincount(result.episode, minlength=result.length.size)
-    with RecordingWriter(path, header, sync_episodes=False) as writer:
-        i = 0
-        for episode, n_steps in enumerate(steps_of):
-            score = world.initial_score
-            for j in order[i : i + n_steps]:
-                s, a, s_next = int(result.state[j]), int(result.action[j]), int(result.next_state[j])
-                score += float(result.reward[j])
-                writer.write_step(
-                    Step.model_construct(
-                        episode=episode,
-                        t=int(result.t[j]),
-                        state=cells[s],
-                        direction=DIRECTIONS[int(mdp.direction[a])],
-                        carefulness=int(mdp.carefulness[a]),
-                        hold_ms=0.0,
-                        hold_exact=False,
-                        next_state=cells[s_next],
-                        slipped=bool(result.direction[j] != mdp.direction[a]),
-                        reward=float(result.reward[j]),
-                        score=score,
-                    )
-                )
-            i += n_steps
-            final = int(result.final_state[episode])
-            truncated = bool(result.truncated[episode])
-            terminal_reward = 0.0 if truncated else float(mdp.R_S[final])
-            score += terminal_reward
-            writer.end_episode(
-                EpisodeEnd(
-                    episode=episode,
-                    outcome="step_limit" if truncated else "terminal",
-                    terminal_symbol=None if truncated else mdp.symbols[final],
-                    steps=int(n_steps),
-                    return_=score - world.initial_score,
+    lines: list[Step | EpisodeEnd] = []
+    i = 0
+    for episode, n_steps in enumerate(steps_of.tolist()):
+        score = world.initial_score
+        for j in order[i : i + n_steps].tolist():
+            if len(lines) >= 5000:
+                writer.write_many(lines)
+                lines = []
+            s, a, s_next = int(result.state[j]), int(result.action[j]), int(result.next_state[j])
+            score += float(result.reward[j])
+            direction, realised = DIRECTIONS[int(mdp.direction[a])], DIRECTIONS[int(result.direction[j])]
+            lines.append(
+                Step.model_construct(
+                    episode=first_episode + episode,
+                    t=int(result.t[j]),
+                    state=cells[s],
+                    direction=direction,
+                    carefulness=int(mdp.carefulness[a]),
+                    hold_ms=0.0,
+                    hold_exact=False,
+                    next_state=cells[s_next],
+                    slipped=realised != direction,
+                    reward=float(result.reward[j]),
                     score=score,
+                    realised=realised,
                 )
             )
-            if progress is not None and (episode + 1) % 500 == 0:
-                progress(episode + 1)
+        i += n_steps
+        final = int(result.final_state[episode])
+        truncated = bool(result.truncated[episode])
+        score += 0.0 if truncated else float(mdp.R_S[final])
+        lines.append(
+            EpisodeEnd(
+                episode=first_episode + episode,
+                outcome="step_limit" if truncated else "terminal",
+                terminal_symbol=None if truncated else mdp.symbols[final],
+                steps=int(n_steps),
+                return_=score - world.initial_score,
+                score=score,
+            )
+        )
+        if progress is not None and (episode + 1) % 500 == 0:
+            progress(episode + 1)
+    writer.write_many(lines)
     if progress is not None:
         progress(result.length.size)
-    return Path(path)
 
 
 def _app_version() -> str:

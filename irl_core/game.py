@@ -19,23 +19,18 @@ episode end     ``terminal`` (entered a terminal cell), ``step_limit`` (after
                 recorded)
 ==============  ==============================================================
 
-`SessionRecorder` is the sink `careful play` uses: the session file is created at the first
-line, so a header can still change (a calibration) until something was played; a header
-change after that closes the file and starts a new session file at the next line.
+The sink `careful play` uses is `irl_core.demonstrations.SessionRecorder` (all file IO lives
+with the reader, in `irl_core.demonstrations`).
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
-from datetime import datetime
-from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
-from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step
+from irl_core.demonstrations import EpisodeEnd, Step
 from irl_core.mdp import DIRECTIONS, action_index, build_mdp
 from irl_core.world import World
 
@@ -43,7 +38,10 @@ Cell = tuple[int, int]
 
 
 class RecordingSink(Protocol):
-    """Where a game's lines go (a `RecordingWriter`, a `SessionRecorder`, a list in tests)."""
+    """Where a game's lines go (a `RecordingWriter`, a `SessionRecorder`, a list in tests).
+
+    A sink may raise `OSError` (the file cannot be written); the move is then not played.
+    """
 
     def write_step(self, step: Step) -> None: ...
 
@@ -134,7 +132,6 @@ class Game:
         a = action_index(direction, carefulness, self.world.levels)
         s_next, realised = self.mdp.move(s, a, self._rng)
         reward = float(self._reward[s, a])
-        self.score += reward
         step = Step(
             episode=self.episode,
             t=self.t,
@@ -146,9 +143,11 @@ class Game:
             next_state=self.mdp.cells[s_next],
             slipped=DIRECTIONS[realised] != direction,
             reward=reward,
-            score=self.score,
+            score=self.score + reward,
+            realised=DIRECTIONS[realised],
         )
         self.sink.write_step(step)
+        self.score = step.score
         self.t += 1
         self.cell = step.next_state
         end = None
@@ -183,58 +182,3 @@ class Game:
         self.live = False
         self.last_end = end
         return end
-
-
-class SessionRecorder:
-    """A session file in `folder`, created (named by time and player) at its first line.
-
-    `header` is the session header without its time; `created` is filled in when the file is
-    created. `set_header` before anything was written replaces the header; after, it closes the
-    file and the next line starts a new session file with the new header.
-    """
-
-    def __init__(self, folder: str | Path, header: SessionHeader) -> None:
-        self.folder = Path(folder)
-        self.header = header
-        self.paths: list[Path] = []
-        self._writer: RecordingWriter | None = None
-
-    @property
-    def path(self) -> Path | None:
-        """The file being written, or None before the first line (or after a header change)."""
-        return None if self._writer is None else self._writer.path
-
-    def set_header(self, header: SessionHeader) -> None:
-        self.close()
-        self.header = header
-
-    def write_step(self, step: Step) -> None:
-        self._open().write_step(step)
-
-    def end_episode(self, end: EpisodeEnd) -> None:
-        self._open().end_episode(end)
-
-    def close(self) -> None:
-        if self._writer is not None:
-            self._writer.close()
-            self._writer = None
-
-    def _open(self) -> RecordingWriter:
-        if self._writer is None:
-            header = self.header.model_copy(update={"created": datetime.now().astimezone()})
-            self._writer = RecordingWriter.create_in(self.folder, header)
-            self.paths.append(self._writer.path)
-        return self._writer
-
-
-def check_writable(folder: str | Path) -> None:
-    """Create `folder` if needed and prove a file can be written in it.
-
-    Raises:
-        OSError: the folder cannot be created or written to.
-    """
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    fd, probe = tempfile.mkstemp(dir=folder, prefix=".careful-probe-")
-    os.close(fd)
-    os.unlink(probe)

@@ -160,18 +160,28 @@ def soft_value_iteration(
     in every state, or ending an episode would forfeit it and a soft-optimal expert with a
     small beta would rather wander forever than reach the goal.
     """
-    if beta <= 0:
-        raise ValueError("beta must be positive")
-    Q, iterations, residual, converged = _backups(mdp, lambda Q: logsumexp(beta * Q, axis=1) / beta, R_S=R_S,
+    if not (0 < beta < np.inf):
+        raise ValueError("beta must be positive and finite")
+    Q, iterations, residual, converged = _backups(mdp, lambda Q: soft_max(Q, beta), R_S=R_S,
                                                   gamma=gamma, tol=tol, max_iter=max_iter)
     return Plan(
-        V=logsumexp(beta * Q, axis=1) / beta,
+        V=soft_max(Q, beta),
         Q=Q,
-        policy=softmax(beta * Q, axis=1),
+        policy=softmax(beta * (Q - Q.max(axis=1, keepdims=True)), axis=1),
         iterations=iterations,
         converged=converged,
         residual=residual,
     )
+
+
+def soft_max(Q: np.ndarray, beta: float) -> np.ndarray:
+    """(S,) (1/beta) log sum_a exp(beta Q(s, a)) from Q (S, A), finite for every finite beta.
+
+    Written as max_a Q + (1/beta) log sum_a exp(beta (Q - max_a Q)): beta Q alone overflows
+    for a large beta (1e308 x -1000 is -inf), the differences from the maximum never do.
+    """
+    top = Q.max(axis=1)
+    return top + logsumexp(beta * (Q - top[:, None]), axis=1) / beta
 
 
 def _backups(

@@ -29,11 +29,24 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from irl_core.safe_files import open_regular
+from irl_core.safe_text import VALUE_LIMIT, cut, printable
+
 WALL = "#"
 GROUND = "."
 # With halving slip, 1 - 2^-c rounds to exactly 1 in double precision above c = 53, so more
 # levels add nothing but cost; the bound also keeps a typo from building an MDP with 4e9 actions.
 MAX_LEVELS = 53
+# The largest world careful builds: its arrays grow with cells x actions, and a 2000x2000 layout
+# in a 4 MB recording header would otherwise ask for tens of gigabytes. Checked on the layout,
+# before anything is allocated. 128x128 with 14 levels fits (917,504 state-actions, a few
+# hundred MB at most for a fit).
+MAX_CELLS = 16_384
+MAX_STATE_ACTIONS = 1_000_000
+# Rewards, the cost of the most careful move and the initial score are at most this large, and an
+# episode at most MAX_STEPS long, so every score, return and value stays a finite number JSON holds.
+MAX_MAGNITUDE = 1e12
+MAX_STEPS = 1_000_000
 
 
 class WorldError(ValueError):
@@ -54,8 +67,8 @@ class World(BaseModel):
     slip: Literal["halving", "none"] = "halving"
     terminal: tuple[str, ...] = ("C", "G")
     start: Literal["random"] | tuple[int, int] = "random"
-    initial_score: float = Field(200.0, strict=True)
-    max_steps: int = Field(200, ge=1, strict=True)
+    initial_score: float = Field(200.0, strict=True, ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE)
+    max_steps: int = Field(200, ge=1, le=MAX_STEPS, strict=True)
     rewards: dict[str, float] = Field(default_factory=dict)
 
     @field_validator("layout")
@@ -64,6 +77,11 @@ class World(BaseModel):
         rows = _layout_rows(layout)
         if not rows:
             raise ValueError("the layout has no rows")
+        if len(rows) * len(rows[0]) > MAX_CELLS:
+            raise ValueError(
+                f"the layout has {len(rows)}x{len(rows[0])} = {len(rows) * len(rows[0]):,} cells; careful handles "
+                f"at most {MAX_CELLS:,} (128x128)"
+            )
         widths = {len(row) for row in rows}
         if len(widths) != 1:
             ragged = next(i for i, row in enumerate(rows) if len(row) != len(rows[0]))
@@ -72,6 +90,8 @@ class World(BaseModel):
             )
         if any(ch.isspace() for row in rows for ch in row):
             raise ValueError("the layout contains a space inside a row; use '.' for ground")
+        if not all(row.isprintable() for row in rows):
+            raise ValueError("the layout contains a control or invisible character; cells are printable symbols")
         return "\n".join(rows) + "\n"
 
     @field_validator("start", mode="before")
@@ -94,17 +114,36 @@ class World(BaseModel):
                 raise ValueError(f"terminal symbol {symbol!r} is not one character")
         return terminal
 
+    @field_validator("rewards")
+    @classmethod
+    def _rewards_are_bounded(cls, rewards: dict[str, float]) -> dict[str, float]:
+        for symbol, reward in rewards.items():
+            if not abs(reward) <= MAX_MAGNITUDE:
+                raise ValueError(f"the reward of {symbol!r} is {reward:g}; rewards are at most {MAX_MAGNITUDE:g} in size")
+        return rewards
+
     @model_validator(mode="after")
     def _consistent(self) -> World:
+        state_actions = (self.rows * self.cols + 1) * 4 * self.levels
+        if state_actions > MAX_STATE_ACTIONS:
+            raise ValueError(
+                f"{self.rows}x{self.cols} cells with {self.levels} levels make {state_actions:,} state-actions; "
+                f"careful handles at most {MAX_STATE_ACTIONS:,} (fewer cells or fewer levels)"
+            )
+        if not self.cost_per_level * self.levels <= MAX_MAGNITUDE:
+            raise ValueError(
+                f"cost_per_level {self.cost_per_level:g} x {self.levels} levels is {self.cost_per_level * self.levels:g}; "
+                f"the most careful move may cost at most {MAX_MAGNITUDE:g}"
+            )
         symbols = {ch for row in self.grid for ch in row}
         for symbol in self.rewards:
             if len(symbol) != 1:
                 raise ValueError(f"reward symbol {symbol!r} is not one character")
             if symbol not in symbols:
-                raise ValueError(f"a reward is given for {symbol!r}, which the layout does not use")
+                raise ValueError(f"a reward is given for {printable(symbol)!r}, which the layout does not use")
             if symbol == WALL:
                 raise ValueError("a wall '#' is not a state and cannot have a reward")
-        if not self.start_cells:
+        if self.start == "random" and not any(ch != WALL and ch not in self.terminal for row in self.grid for ch in row):
             raise ValueError("there is no cell to start from: every cell is a wall or terminal")
         if self.start != "random":
             r, c = self.start
@@ -236,17 +275,36 @@ def load_world(name_or_path: str | Path) -> World:
     path = Path(key)
     if not path.exists():
         known = ", ".join(BUILTIN_WORLDS)
-        raise WorldError(f"no world named {key!r} and no such file (built-in worlds: {known})")
+        raise WorldError(f"no world named {printable(key, limit=VALUE_LIMIT)!r} and no such file (built-in worlds: {known})")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise WorldError(f"{path}: cannot read the world file ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise WorldError(f"{path}: not valid TOML ({exc})") from None
+        with open_regular(path) as file:
+            # A world file bigger than this cannot hold a world within MAX_CELLS.
+            raw = file.read(_MAX_WORLD_FILE_BYTES + 1)
+        if len(raw) > _MAX_WORLD_FILE_BYTES:
+            raise WorldError(f"{path}: the world file is over {_MAX_WORLD_FILE_BYTES >> 20} MB; a world has at most "
+                             f"{MAX_CELLS:,} cells")
+        data = tomllib.loads(raw.decode("utf-8-sig"))
+    except ValueError as exc:
+        if isinstance(exc, WorldError | UnicodeDecodeError | tomllib.TOMLDecodeError):
+            raise _world_read_error(path, exc) from None
+        raise WorldError(f"{path}: is {exc}; a world is a TOML file") from None
+    except OSError as exc:
+        raise WorldError(f"{path}: cannot read the world file ({exc.strerror or exc})") from None
     except RecursionError:
         raise WorldError(f"{path}: not valid TOML (arrays or tables nested too deeply)") from None
     data.setdefault("name", path.stem)
     return world_from_dict(data, source=str(path))
+
+
+_MAX_WORLD_FILE_BYTES = 16 << 20
+
+
+def _world_read_error(path: Path, exc: ValueError) -> WorldError:
+    if isinstance(exc, WorldError):
+        return exc
+    if isinstance(exc, UnicodeDecodeError):
+        return WorldError(f"{path}: cannot read the world file (not UTF-8 text)")
+    return WorldError(f"{path}: not valid TOML ({exc})")
 
 
 def describe_validation_error(exc: ValidationError) -> str:
@@ -260,4 +318,5 @@ def describe_validation_error(exc: ValidationError) -> str:
 
 def field_path(loc: tuple[str | int, ...] | list[str | int]) -> str:
     """A pydantic error location as `world.rewards.C`; a key that would break the line is quoted."""
-    return ".".join(str(part) if str(part).isprintable() else repr(part) for part in loc)
+    return ".".join(cut(str(part), VALUE_LIMIT) if str(part).isprintable() else cut(repr(part), VALUE_LIMIT)
+                    for part in loc)

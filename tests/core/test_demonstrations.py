@@ -101,7 +101,7 @@ def test_wrong_type_names_the_line_and_the_field(tmp_path):
     path = tmp_path / "s.jsonl"
     with RecordingWriter(path, header()) as writer:
         for t in range(8):
-            writer.write_step(step(t, (0, 0), "right", 1, (0, 1)))
+            writer.write_step(step(0, (0, 0), "right", 1, (0, 1), episode=t))
     _replace_line(path, 7, carefulness="five")
     with pytest.raises(RecordingError) as info:
         read_recording(path)

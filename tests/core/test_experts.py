@@ -60,7 +60,7 @@ def test_simulate_refuses_to_overwrite(tmp_path, capsys):
     out = simulate(tmp_path, "a.jsonl", "--world", "paper", "--policy", "optimal", "--episodes", "1", "--seed", "0")
     assert main(["simulate", "--world", "paper", "--policy", "optimal", "--episodes", "1", "--seed", "0",
                  "--out", str(out)]) == 2
-    assert "already exists" in capsys.readouterr().err
+    assert "never overwritten" in capsys.readouterr().err
 
 
 def test_optimal_expert_follows_the_optimal_policy():

@@ -227,11 +227,10 @@ def test_ansi_render_draws_the_board_and_the_last_move():
     assert CarefulEnv("paper").render() is None
 
 
-def test_render_shows_control_characters_as_text():
-    world = World(name="odd", layout="..\x1b\n..G\n", rewards={"G": 1.0}, start=(0, 0))
-    env = CarefulEnv(world, render_mode="ansi")
-    env.reset(seed=0)
-    assert "\x1b" not in env.render() and env.render().startswith("@.?\n")
+def test_a_layout_with_control_characters_is_not_a_world():
+    # Cells are printable symbols, so no rendering of a world can send a control sequence.
+    with pytest.raises(ValueError, match="control or invisible character"):
+        World(name="odd", layout="..\x1b\n..G\n", rewards={"G": 1.0}, start=(0, 0))
 
 
 def test_an_action_outside_the_space_is_refused():

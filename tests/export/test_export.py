@@ -163,7 +163,8 @@ def test_an_episode_whose_steps_do_not_join_up_is_an_error(tmp_path):
         broken.append(json.dumps(step))
     path = tmp_path / "jump.jsonl"
     path.write_text("\n".join(broken) + "\n")
-    with pytest.raises(RecordingError, match=r"episode 0, t 1: starts at \[2, 2\] but the step before ended at \[0, 0\]"):
+    # The reader refuses it (file:line: field), before export sees it.
+    with pytest.raises(RecordingError, match=r"jump.jsonl:3: state: \[2, 2\] is not where the previous step ended \(\[0, 0\]\)"):
         recorded_episodes(read_recording(path))
 
 

@@ -1,12 +1,7 @@
 """`careful play` and `careful replay` under abuse in a real terminal: nothing played is lost.
 
 Researchers collect demonstrations from people once, so a lost session is lost data. Each test
-runs the real command in a detached tmux session on a tmux server of its own (a unique socket),
-sends keys through one control-mode client (one write per key, so an autorepeat rhythm
-survives a busy machine; resizes go the same way, so they stay in order with the keys) and
-reads the screen with `capture-pane`, polling with timeouts rather than sleeping. The pane
-stays after the program ends (`remain-on-exit`), so its last screen can still be read; the
-shell that runs it writes its exit status to a file.
+runs the real command in a terminal of its own (`tests/tmux_terminal.py`).
 
 | test                                          | what it proves                                     |
 |-----------------------------------------------|----------------------------------------------------|
@@ -32,26 +27,23 @@ from __future__ import annotations
 
 import os
 import re
-import shlex
-import shutil
 import signal
 import subprocess
 import sys
 import time
-import uuid
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Iterator
+from contextlib import contextmanager, nullcontext
 from datetime import datetime
 from itertools import groupby
 from pathlib import Path
 
 import pytest
 
-from irl_core.demonstrations import Demonstrations, Recording, SessionHeader, read_recording
-from irl_core.game import Game, SessionRecorder
+from irl_core.demonstrations import Demonstrations, Recording, SessionHeader, SessionRecorder, read_recording
+from irl_core.game import Game
 from irl_core.world import World
-
-needs_tmux = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed")
+from hardening_checks import tiny_filesystem
+from tmux_terminal import SIZE, TIMEOUT_S, Terminal, needs_tmux, terminal
 
 # Start top-left; the cliff is the bottom row but its ends; the goal is bottom-right.
 WORLD_TOML = """\
@@ -69,140 +61,12 @@ start = [0, 0]
 C = -1000.0
 G = 100.0
 """
-SIZE = (100, 35)
 SMALL = (60, 20)  # play needs 64x19 for this world, replay 80x21
 STEP = re.compile(r"step (\d+)/200")
-TIMEOUT_S = 20.0
 # Stale sizes in the environment, as a launcher leaves them (pytest imports readline, which
 # puts COLUMNS and LINES in the environment its subprocesses inherit): the game must ask the
 # terminal instead, or it draws at 80x24 and never sees a resize.
 STALE_SIZE = {"COLUMNS": "80", "LINES": "24"}
-
-
-# ---------------------------------------------------------------------------- a terminal
-
-
-class Terminal:
-    """A command running in a detached tmux session, on a tmux server of its own."""
-
-    def __init__(self, cwd: Path, args: list[str], *, size: tuple[int, int] = SIZE,
-                 env: dict[str, str] | None = None) -> None:
-        self.name = f"careful-abuse-{os.getpid()}-{uuid.uuid4().hex[:8]}"
-        self.socket: Path | None = None
-        self.control: subprocess.Popen | None = None
-        conf = cwd / f"{self.name}.conf"
-        # status off: the pane is the whole window, so a resize to 60x20 gives the app 60x20.
-        conf.write_text("set -g remain-on-exit on\nset -g status off\n")
-        # The shell writes the exit status to a file: tmux 3.3 does not report a status of 0, and
-        # a message on the screen would overwrite the last screen the program drew.
-        self.status_file = cwd / f"{self.name}.status"
-        assignments = [f"{name}={shlex.quote(value)}" for name, value in (env or {}).items()]
-        command = (" ".join([*assignments, shlex.join([sys.executable, "-m", "careful_tui.cli", *args])])
-                   + f"; echo $? > {shlex.quote(str(self.status_file))}")
-        width, height = size
-        self.tmux("-f", str(conf), "new-session", "-d", "-s", self.name, "-x", str(width), "-y", str(height),
-                  "-c", str(cwd), command)
-        self.socket = Path(self.tmux("display-message", "-p", "#{socket_path}").strip())
-        self.control = subprocess.Popen(["tmux", "-L", self.name, "-C", "attach", "-t", self.name],
-                                        stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
-
-    def tmux(self, *args: str) -> str:
-        return subprocess.run(["tmux", "-L", self.name, *args], check=True, capture_output=True, text=True).stdout
-
-    def command(self, line: str) -> None:
-        """One tmux command through the control client (ordered with the keys sent before it)."""
-        assert self.control is not None and self.control.stdin is not None
-        self.control.stdin.write(line + "\n")
-        self.control.stdin.flush()
-
-    def send(self, *keys: str) -> None:
-        """Keys by tmux name ("Right", "Space", "q"), in one write."""
-        self.command(f"send-keys -t {self.name} {' '.join(keys)}")
-
-    def send_bytes(self, data: bytes) -> None:
-        """Raw bytes, as a terminal would send them (`send-keys -H`)."""
-        self.command(f"send-keys -t {self.name} -H {' '.join(f'{b:02x}' for b in data)}")
-
-    def resize(self, width: int, height: int) -> None:
-        self.command(f"resize-window -t {self.name} -x {width} -y {height}")
-
-    def repeat(self, key: str, seconds: float, *, period: float = 0.033) -> None:
-        """Autorepeats of `key` every `period` for `seconds` (each on time, not after the last)."""
-        start = time.monotonic()
-        n = 1
-        while (due := start + n * period) - start <= seconds:
-            time.sleep(max(0.0, due - time.monotonic()))
-            self.send(key)
-            n += 1
-
-    def hold(self, key: str, seconds: float, *, delay: float = 0.5) -> None:
-        """Hold `key` as a terminal reports it: a press, `delay` of silence, then autorepeats."""
-        self.send(key)
-        time.sleep(delay)
-        self.send(key)
-        self.repeat(key, seconds)
-
-    def screen(self) -> str:
-        return self.tmux("capture-pane", "-p", "-t", self.name)
-
-    def wait_for(self, want: str | Callable[[str], bool], timeout: float = TIMEOUT_S) -> str:
-        """The screen, once it contains `want` (or `want(screen)` is true)."""
-        check = want if callable(want) else (lambda screen: want in screen)
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if check(screen := self.screen()):
-                return screen
-            time.sleep(0.05)
-        size = self.tmux("display-message", "-p", "-t", self.name, "#{pane_width}x#{pane_height}").strip()
-        raise AssertionError(f"{want!r} never appeared; the {size} screen was:\n{self.screen()}")
-
-    def pid(self) -> int:
-        """The program's process id: the one child of the pane's shell."""
-        shell = int(self.tmux("display-message", "-p", "-t", self.name, "#{pane_pid}"))
-        children = Path(f"/proc/{shell}/task/{shell}/children")
-        if children.exists():
-            (child,) = children.read_text().split()
-        else:
-            (child,) = subprocess.run(["pgrep", "-P", str(shell)], check=True, capture_output=True,
-                                      text=True).stdout.split()
-        return int(child)
-
-    def wait_exit(self, timeout: float = TIMEOUT_S) -> int:
-        """The program's exit status once it has ended (128 + N when signal N killed it)."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            if self.status_file.exists() and (status := self.status_file.read_text().strip()):
-                return int(status)
-            time.sleep(0.05)
-        raise AssertionError(f"the program never ended; the screen was:\n{self.screen()}")
-
-    def close(self) -> None:
-        """Kill the tmux server (and with it the program) and remove its socket."""
-        subprocess.run(["tmux", "-L", self.name, "kill-server"], capture_output=True, check=False)
-        if self.control is not None:
-            try:
-                self.control.stdin.close()
-            except BrokenPipeError:
-                pass
-            try:
-                self.control.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.control.kill()
-                self.control.wait()
-        if self.socket is not None:
-            self.socket.unlink(missing_ok=True)
-
-
-@contextmanager
-def terminal(cwd: Path, args: list[str], *, size: tuple[int, int] = SIZE,
-             env: dict[str, str] | None = None) -> Iterator[Terminal]:
-    term = None
-    try:
-        term = Terminal(cwd, args, size=size, env=env)
-        yield term
-    finally:
-        if term is not None:
-            term.close()
 
 
 # ---------------------------------------------------------------------------- the play screen
@@ -382,17 +246,24 @@ def run_play_in_a_terminal(cwd: Path, out: str) -> tuple[int, str, bytes]:
             os.close(slave)
 
 
-def make_read_only(folder: Path) -> None:
+@contextmanager
+def read_only_folder(folder: Path) -> Iterator[str]:
+    """`folder` made read-only: by chmod 555, or (for root, who writes there anyway) as a read-only
+    tmpfs. Yields the problem the refusal names."""
     folder.mkdir()
     folder.chmod(0o555)
     try:
         (folder / "probe").touch()
     except PermissionError:
+        try:
+            yield "Permission denied"
+        finally:
+            folder.chmod(0o755)
         return
     (folder / "probe").unlink()
     folder.chmod(0o755)
-    pytest.skip("this user writes into a chmod 555 folder anyway (root, or CAP_DAC_OVERRIDE), so no folder "
-                "here is read-only; the file and parent-file cases cover the refusal")
+    with tiny_filesystem(folder, read_only=True):
+        yield "Read-only file system"
 
 
 @pytest.mark.parametrize(("case", "problem"), [
@@ -400,22 +271,23 @@ def make_read_only(folder: Path) -> None:
     ("under a file", "Not a directory"),
     ("deep under a file", "Not a directory"),
     ("a dangling link", "is a link to nothing"),
-    ("read-only", "Permission denied"),
-    ("under read-only", "Permission denied"),
+    ("read-only", None),
+    ("under read-only", None),
 ])
-def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, case: str, problem: str) -> None:
+def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, case: str, problem: str | None) -> None:
     blocker = tmp_path / "file.txt"
     blocker.write_text("not a folder")
     (tmp_path / "link").symlink_to(tmp_path / "unmounted" / "drive")
-    if "read-only" in case:
-        make_read_only(tmp_path / "ro")
     out = {"a file": "file.txt", "under a file": "file.txt/sub", "deep under a file": "file.txt/a/b",
            "a dangling link": "link", "read-only": "ro", "under read-only": "ro/sub"}[case]
-    try:
+    if problem is None:
+        context = read_only_folder(tmp_path / "ro")
+    else:
+        (tmp_path / "ro").mkdir()
+        context = nullcontext(problem)
+    with context as problem:
         status, err, screen = run_play_in_a_terminal(tmp_path, out)
-    finally:
-        if (tmp_path / "ro").exists():
-            (tmp_path / "ro").chmod(0o755)
+        left_in_ro = list((tmp_path / "ro").iterdir())
     assert status == 2
     assert len(err.strip().splitlines()) == 1, err
     assert err.startswith("careful play: ") and out in err and problem in err and "--out" in err
@@ -424,7 +296,7 @@ def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, cas
     assert b"\x1b[?1049h" not in screen and screen == b""
     assert blocker.read_text() == "not a folder"
     assert not (tmp_path / "unmounted").exists()
-    assert not (tmp_path / "ro").exists() or list((tmp_path / "ro").iterdir()) == []
+    assert left_in_ro == []
 
 
 @needs_tmux

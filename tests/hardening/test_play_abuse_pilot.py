@@ -44,14 +44,15 @@ import pytest
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-import irl_core.game
+import irl_core.demonstrations
 from careful_tui.hold import HoldProfile
 from careful_tui.kitty import KeyRelease, KittyParser
 from careful_tui.play import PlayApp, make_play_app
 from careful_tui.replay import ReplayApp
 from careful_tui.widgets.calibration import CalibrationScreen
 from irl_core.demonstrations import Recording, SessionHeader, read_recording
-from irl_core.game import Game, MoveResult, SessionRecorder
+from irl_core.demonstrations import SessionRecorder
+from irl_core.game import Game, MoveResult
 from irl_core.world import World
 
 # Start top-left; the cliff is the bottom row but its ends; the goal is bottom-right.
@@ -460,7 +461,7 @@ def test_two_games_in_the_same_second_write_two_files(tmp_path: Path, monkeypatc
         def now(cls, tz=None):
             return instant
 
-    monkeypatch.setattr(irl_core.game, "datetime", Frozen)
+    monkeypatch.setattr(irl_core.demonstrations, "datetime", Frozen)
     one, one_clock, one_moves = new_app(tmp_path)
     two, two_clock, two_moves = new_app(tmp_path)
 

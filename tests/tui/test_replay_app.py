@@ -279,3 +279,22 @@ def test_a_missing_file_exits_2(tmp_path: Path, capsys) -> None:
 def test_a_good_recording_without_a_terminal_exits_2(tmp_path: Path, capsys) -> None:
     assert main(["replay", str(write_walk(tmp_path / "walk.jsonl"))]) == 2
     assert "careful replay needs an interactive terminal" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("realised", "shown"), [
+    ("up", "slipped! went up into the edge instead of right, and stayed put"),
+    (None, "slipped! stayed put instead of going right"),  # an older file: no direction to read
+])
+def test_a_slip_into_the_edge_is_shown_with_the_way_it_went(tmp_path: Path, realised, shown) -> None:
+    path = tmp_path / "edge.jsonl"
+    with RecordingWriter(path, HEADER) as writer:
+        writer.write_step(Step(episode=0, t=0, state=(0, 0), direction="right", carefulness=1, hold_ms=100.0,
+                               next_state=(0, 0), slipped=True, reward=-1.0, score=199.0, realised=realised))
+    app = new_app(path)
+
+    async def body(pilot: Pilot) -> None:
+        await pilot.press("right")
+        assert view(app)[0] == (0, 0)
+        assert shown in text(app, "#status")
+
+    run(app, body)
