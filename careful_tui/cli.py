@@ -92,6 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--intervals", action="store_true", help="the range each unknown can take (2 LPs per unknown)")
     fit.add_argument("--json", type=Path, metavar="PATH", help="write the result as JSON")
     fit.add_argument("--svg", type=Path, metavar="PATH", help="save a picture of the result as SVG")
+    fit.add_argument("--figure", type=Path, metavar="PATH", help="save the result as a figure for a paper "
+                     "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
 
     simulate = commands.add_parser("simulate", help="record a computer expert", description=(

@@ -26,6 +26,7 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.cli import EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.figures import figure_suffix_problem
 from careful_tui.grid import (
     LINEAR_THRESHOLD,
     SYMBOL_NAMES,
@@ -103,9 +104,11 @@ def wants_view(args: argparse.Namespace) -> bool:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    """`careful fit`: fit, write --json, then open the fit view (a terminal) or print (--svg of the printout)."""
+    """`careful fit`: fit, write --json and --figure, then open the fit view (a terminal) or print (--svg of the printout)."""
     err = Console(stderr=True, highlight=False)
-    for option, path in (("--json", args.json), ("--svg", args.svg)):
+    if args.figure is not None and (problem := figure_suffix_problem(args.figure)):
+        raise UsageError(problem)
+    for option, path in (("--json", args.json), ("--svg", args.svg), ("--figure", args.figure)):
         if path is not None and not path.parent.is_dir():
             raise UsageError(f"{option} {path}: the folder {path.parent} does not exist; create it first")
     try:
@@ -116,6 +119,11 @@ def run_fit(args: argparse.Namespace) -> int:
     if args.json is not None:
         text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
         _write("--json", args.json, lambda: args.json.write_text(text, encoding="utf-8"))
+    if args.figure is not None:
+        from careful_tui.figures.fit_figure import fit_figure
+        from careful_tui.figures.style import save_figure
+
+        _write("--figure", args.figure, lambda: save_figure(fit_figure(result), args.figure))
     if wants_view(args):
         from careful_tui.fit_view import FitApp
         from careful_tui.kitty import PassiveKittyDriver
