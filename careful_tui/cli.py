@@ -109,7 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
     worlds.add_argument("--show", metavar="NAME|FILE", help="draw one world and print it as TOML")
 
     experiment = commands.add_parser("experiment", help="the paper's experiments, end to end", description=(
-        "Run the paper's experiments end to end: figures as SVG, summary.json and report.md."))
+        "Run the paper's experiments end to end: figures as PDF and PNG (300 dpi), summary.json and report.md."))
     experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR", help="output folder (default: experiment/)")
     experiment.add_argument("--quick", action="store_true", help="reduced sizes, for a fast check")
     return parser

@@ -1,13 +1,16 @@
 """`careful experiment`: the paper's experiments, printed, drawn and written to a folder.
 
-Writes into `--out`: one SVG per figure, `summary.json` and `report.md`.
+Writes into `--out`: every figure as PDF and as PNG (300 dpi), drawn with matplotlib for a
+paper (`careful_tui.figures`), `summary.json` and `report.md`, which shows the PNGs.
 """
 
 from __future__ import annotations
 
 import argparse
-import io
 import json
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 from pathlib import Path
 
 from rich.console import Console, Group
@@ -17,6 +20,7 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.cli import UsageError
+from careful_tui.fit import FitOptions
 from careful_tui.grid import WorldGrid, format_value, symbol_legend
 from irl_core.experiment import FULL, QUICK, ExperimentResult, Figure, run_experiment as run_stages
 
@@ -56,10 +60,35 @@ def intervals_table(result: ExperimentResult) -> Table:
     return table
 
 
-def save_figure(figure: Figure, path: Path) -> None:
-    console = Console(record=True, width=max(60, figure.world.cols * 7 + 4), file=io.StringIO())
-    console.print(figure_panel(figure))
-    console.save_svg(str(path), title=figure.title)
+FIGURE_FORMATS = (".pdf", ".png")
+
+
+def write_figures(result: ExperimentResult, out: Path) -> None:
+    """Every figure of `result` as `<key>.pdf` and `<key>.png` in `out`.
+
+    Embedding the font in each PDF takes most of the time, so the figures are written by two
+    forked processes where the system can fork (one at a time otherwise). matplotlib is
+    imported first, so that the processes inherit it.
+    """
+    import careful_tui.figures.experiment_figures  # noqa: F401 - imported once, before forking
+
+    write = partial(write_figure, result=result, out=out, rmax=FitOptions().rmax)
+    if "fork" not in multiprocessing.get_all_start_methods() or len(result.figures) < 4:
+        for figure in result.figures:
+            write(figure)
+        return
+    with ProcessPoolExecutor(max_workers=2, mp_context=multiprocessing.get_context("fork")) as pool:
+        list(pool.map(write, result.figures))
+
+
+def write_figure(figure: Figure, *, result: ExperimentResult, out: Path, rmax: float) -> None:
+    """One figure as `<key>.pdf` and `<key>.png` in `out`."""
+    from careful_tui.figures.experiment_figures import draw_experiment_figure
+    from careful_tui.figures.style import save_figure
+
+    drawn = draw_experiment_figure(figure, result, rmax=rmax)
+    for suffix in FIGURE_FORMATS:
+        save_figure(drawn, out / f"{figure.key}{suffix}")
 
 
 def report_markdown(result: ExperimentResult) -> str:
@@ -78,7 +107,8 @@ def report_markdown(result: ExperimentResult) -> str:
                      f"{'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
     lines += ["", "## Figures", ""]
     for figure in result.figures:
-        lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.svg)", "", figure.caption, ""]
+        lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.png)", "",
+                  f"{figure.caption} ([PDF]({figure.key}.pdf))".lstrip(), ""]
     if result.notes:
         lines += ["## Notes", "", *(f"- {note}" for note in result.notes), ""]
     lines += [f"Total time: {result.seconds:.1f} s.", ""]
@@ -101,7 +131,7 @@ def run_experiment(args: argparse.Namespace) -> int:
                             progress=lambda stage: progress.update(task, description=stage))
     for figure in result.figures:
         console.print(figure_panel(figure))
-        save_figure(figure, out / f"{figure.key}.svg")
+    write_figures(result, out)
     console.print(estimates_table(result))
     console.print(intervals_table(result))
     for note in result.notes:

@@ -33,3 +33,8 @@ class Board:
     def of(cls, world: World) -> Board:
         symbols = np.array([list(row) for row in world.grid], dtype="<U1")
         return cls(symbols=symbols, wall=symbols == WALL, terminal=np.isin(symbols, list(world.terminal)))
+
+    def rewards(self, world: World) -> np.ndarray:
+        """(rows, cols) the world's own R_S per cell, NaN at walls."""
+        values = np.vectorize(world.reward_of, otypes=[float])(self.symbols)
+        return np.where(self.wall, np.nan, values)

@@ -78,9 +78,9 @@ def fit_figure(result: FitResult) -> Figure:
     world, mdp = result.world, result.mdp
     board = Board.of(world)
     rows, cols = board.shape
-    rewards = [("fitted $R_S$", result.reward_grid)]
+    rewards = [("fitted reward", result.reward_grid)]
     if world.rewards:
-        rewards.append(("true $R_S$ (world file)", result.true_reward_grid))
+        rewards.append(("true reward (world file)", result.true_reward_grid))
     vmax = reward_limit(*(grid for _, grid in rewards))
     demonstrated = result.counts.sum(axis=1) > 0
     policy = policy_panel(mdp, result.counts.argmax(axis=1), title="demonstrated policy", where=demonstrated,

@@ -128,7 +128,7 @@ def draw_reward(ax: Axes, values: np.ndarray, board: Board, *, norm: SymLogNorm,
 
 
 def add_colour_bar(figure: Figure, image: AxesImage, axes: Sequence[Axes], *, vmax: float,
-                   linthresh: float = LINTHRESH, label: str = "reward $R_S$") -> None:
+                   linthresh: float = LINTHRESH, label: str = "state reward") -> None:
     bar = figure.colorbar(image, ax=list(axes), fraction=0.08, pad=0.03, aspect=14)
     bar.set_ticks(symlog_ticks(vmax, linthresh=linthresh))
     bar.set_ticklabels([value_label(t) for t in symlog_ticks(vmax, linthresh=linthresh)])

@@ -76,7 +76,8 @@ def new_figure(width: float, height: float) -> Figure:
 def save_figure(figure: Figure, path: Path) -> None:
     """Write `figure` to `path` as PDF, PNG (300 dpi) or SVG, by the suffix.
 
-    Raises ValueError for another suffix (`careful_tui.figures.figure_suffix_problem` says it
+    Text is plain (no mathtext): every PDF then embeds one font, DejaVu Sans, and embedding
+    (subsetting with fontTools) is most of the time a PDF takes. Raises ValueError for another suffix (`careful_tui.figures.figure_suffix_problem` says it
     in a sentence first). No creation date is stored, so the same figure gives the same file.
     """
     fmt = path.suffix.lower()
@@ -86,3 +87,5 @@ def save_figure(figure: Figure, path: Path) -> None:
                 "png": {"Software": "careful"}, "svg": {"Creator": "careful", "Date": None}}[fmt[1:]]
     with figure_style():
         figure.savefig(path, format=fmt[1:], dpi=DPI, metadata=metadata)
+    # The layout is done: keep it for the next format instead of solving it again (it is in inches).
+    figure.set_layout_engine("none")
