@@ -12,6 +12,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.colors import SymLogNorm
 from matplotlib.figure import Figure
@@ -109,8 +110,8 @@ def draw_reward(ax: Axes, values: np.ndarray, board: Board, *, norm: SymLogNorm,
         text_size: points for the symbol (other than ground) and value in each cell; None writes none.
     """
     shown = np.ma.masked_invalid(np.where(board.wall, np.nan, np.asarray(values, dtype=float)))
-    image = ax.imshow(shown, cmap=REWARD_CMAP, norm=norm, interpolation="nearest", zorder=1)
-    image.cmap.set_bad("#f0f0f0")
+    cmap = colormaps[REWARD_CMAP].with_extremes(bad="#f0f0f0")
+    image = ax.imshow(shown, cmap=cmap, norm=norm, interpolation="nearest", zorder=1)
     draw_board(ax, board)
     if title:
         ax.set_title(title, pad=3)

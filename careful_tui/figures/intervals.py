@@ -25,7 +25,7 @@ SYMBOL_COLOURS = {"C": OKABE_ITO[0], "G": OKABE_ITO[1], "U": OKABE_ITO[2]}
 ROW_HEIGHT = 0.17  # inches per row
 FRAME_HEIGHT = 0.95  # inches for title, axis and ticks
 LEGEND_HEIGHT = 0.3  # inches for the legend's title and row
-OPEN_END = 1.4  # an end at ±rmax is marked at ±rmax * OPEN_END, in the axis' margin
+OPEN_END = 1.35  # an end at ±rmax is marked at ±rmax * OPEN_END, in the axis' margin
 
 
 @dataclass(frozen=True)
@@ -92,7 +92,7 @@ def draw_intervals(ax: Axes, rows: Sequence[IntervalRow], *, rmax: float, linthr
     ticks = symlog_ticks(rmax, linthresh=linthresh)
     ax.set_xticks(ticks, [value_label(t) for t in ticks])
     ax.xaxis.set_minor_locator(_no_minor())
-    ax.set_xlim(-rmax * 2, rmax * 2)
+    ax.set_xlim(-rmax * 2.5, rmax * 2.5)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_yticks(range(len(rows)), [row.label for row in rows])
     ax.tick_params(axis="y", length=0)

@@ -107,7 +107,8 @@ def draw_policy(ax: Axes, panel: PolicyPanel, board: Board, *, levels: int,
                 ax.text(c, r, board.symbols[r, c], ha="center", va="center", fontsize=text_size, color=INK, zorder=5)
             continue
         level = int(panel.carefulness[r, c])
-        ink = INK if panel.count is None else faded(INK, 0.2 + 0.8 * float(panel.count[r, c]) / most)
+        strength = 1.0 if panel.count is None else 0.2 + 0.8 * float(panel.count[r, c]) / most
+        ink = faded(INK, strength)
         dx, dy = STEP[d] * 0.32
         ax.add_patch(FancyArrowPatch((c - dx, r - dy), (c + dx, r + dy), arrowstyle="-|>",
                                      mutation_scale=4 + 2.2 * arrow_width(level, levels),
@@ -116,7 +117,8 @@ def draw_policy(ax: Axes, panel: PolicyPanel, board: Board, *, levels: int,
         if text_size is not None and levels > 1:
             # The level beside the shaft: left of a vertical arrow, above a horizontal one.
             nx, ny = (0.3, 0.0) if d in (0, 2) else (0.0, -0.28)
-            ax.text(c - nx, r + ny, str(level), ha="center", va="center", fontsize=text_size - 0.5, color=ink, zorder=5)
+            ax.text(c - nx, r + ny, str(level), ha="center", va="center", fontsize=text_size - 0.5,
+                    color=faded(INK, max(strength, 0.6)), zorder=5)  # faint arrows, readable numbers
 
 
 def policy_figure(panels: Sequence[PolicyPanel], board: Board, *, levels: int,
