@@ -1,9 +1,9 @@
 """One `careful fit` result as one figure: what `careful fit --figure PATH` writes.
 
-Top row: the fitted reward, the world's own reward beside it on the same colour scale (when
-the world file gives rewards), and the demonstrated policy. With intervals, a second row:
-the interval of every unknown (or of every symbol, when there are too many cells to read),
-and, with carefulness levels, mean carefulness against distance to danger.
+First row: the fitted reward, and the world's own reward beside it on the same colour scale
+(when the world file gives rewards). Second row: the demonstrated policy and, with carefulness
+levels, mean carefulness against distance to danger. With intervals, a third row: the
+interval of every unknown (or of every symbol, when there are too many cells to read).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from careful_tui.figures.heatmap import (
     COLOUR_BAR_WIDTH,
     TITLE_HEIGHT,
     add_colour_bar,
-    cell_text_size,
+    cell_width,
     draw_reward,
     reward_limit,
     reward_norm,
@@ -60,7 +60,8 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     for symbol in dict.fromkeys(row.symbol for row in rows):
         mine = [row for row in rows if row.symbol == symbol]
         truths = {row.truth for row in mine}
-        hulls.append(IntervalRow(f"{SYMBOL_NAMES.get(symbol, symbol)} ({len(mine)} cells)", symbol,
+        cells = f"{len(mine)} cell{'s' * (len(mine) != 1)}"
+        hulls.append(IntervalRow(f"{SYMBOL_NAMES.get(symbol, symbol)} ({cells})", symbol,
                                  min(r.low for r in mine), max(r.high for r in mine),
                                  float(np.mean([r.estimate for r in mine])),
                                  truths.pop() if len(truths) == 1 else float("nan")))
@@ -74,7 +75,7 @@ def interval_kind(result: FitResult) -> tuple[str, float | None]:
 
 
 def fit_figure(result: FitResult) -> Figure:
-    """The fitted reward (beside the true one), the demonstrated policy, and with intervals a second row."""
+    """The fitted reward beside the true one; the demonstrated policy and carefulness; the intervals."""
     world, mdp = result.world, result.mdp
     board = Board.of(world)
     rows, cols = board.shape
@@ -85,45 +86,46 @@ def fit_figure(result: FitResult) -> Figure:
     demonstrated = result.counts.sum(axis=1) > 0
     policy = policy_panel(mdp, result.counts.argmax(axis=1), title="demonstrated policy", where=demonstrated,
                           counts=result.counts.max(axis=1))
-    panels = len(rewards) + 1
-    grid_width = (PAGE_WIDTH - COLOUR_BAR_WIDTH) / panels * 0.92
-    top_height = grid_width * rows / cols + TITLE_HEIGHT + NOTE_HEIGHT
+    # Two grids and the colour bar fill the page's width; the policy is as wide as one grid.
+    grid_width = (PAGE_WIDTH - COLOUR_BAR_WIDTH) / 2 * 0.92
+    grid_height = grid_width * rows / cols + TITLE_HEIGHT
+    heights = [grid_height, grid_height + NOTE_HEIGHT]
     has_intervals = result.intervals is not None and len(result.intervals) > 0
     if has_intervals:
         interval_data, hulls = interval_rows(result)
         kind, confidence = interval_kind(result)
         rmax = float(result.options["rmax"])
-        bottom_height = FRAME_HEIGHT + LEGEND_HEIGHT + ROW_HEIGHT * len(interval_data)
-    text_size = cell_text_size(grid_width, cols)
+        heights.append(FRAME_HEIGHT + LEGEND_HEIGHT + ROW_HEIGHT * len(interval_data))
+    width = cell_width(grid_width, cols)
     with figure_style():
-        figure = new_figure(PAGE_WIDTH, top_height + (bottom_height if has_intervals else 0))
-        top, bottom = (figure.subfigures(2, 1, height_ratios=[top_height, bottom_height])
-                       if has_intervals else (figure, None))
-        axes = top.subplots(1, panels, gridspec_kw={"width_ratios": [1] * panels})
+        figure = new_figure(PAGE_WIDTH, sum(heights))
+        reward_row, middle_row, *interval_row = figure.subfigures(len(heights), 1, height_ratios=heights)
+        axes = reward_row.subplots(1, 2, squeeze=False)[0]
         norm = reward_norm(vmax)
         image = None
         for ax, (title, grid), name in zip(axes, rewards, ("fitted", "true")):
-            image = draw_reward(ax, grid, board, norm=norm, title=title, text_size=text_size)
+            image = draw_reward(ax, grid, board, norm=norm, title=title, width=width)
             ax.set_label(name)
-        # One bar for the whole row: the policy's cells are tinted on the same scale.
-        add_colour_bar(top, image, axes, vmax=vmax)
-        draw_policy(axes[-1], policy, board, levels=world.levels,
-                    background=result.true_reward_grid if world.rewards else None, vmax=vmax, text_size=text_size)
-        axes[-1].set_xlabel(policy_note(policy), labelpad=2)
-        axes[-1].set_label("policy")
-        if bottom is not None:
-            careful = world.levels > 1
-            ax_int, *rest = bottom.subplots(1, 2 if careful else 1, squeeze=False,
-                                             gridspec_kw={"width_ratios": [3, 2] if careful else [1]})[0]
+        if len(rewards) == 1:
+            axes[1].set_visible(False)  # keeps the fitted grid the same size as with a true one
+        add_colour_bar(reward_row, image, axes, vmax=vmax)
+        careful = world.levels > 1
+        ax_policy, *ax_careful = middle_row.subplots(1, 2 if careful else 1, squeeze=False)[0]
+        draw_policy(ax_policy, policy, board, levels=world.levels,
+                    background=result.true_reward_grid if world.rewards else None, vmax=vmax, width=width)
+        ax_policy.set_xlabel(policy_note(policy), labelpad=2)
+        ax_policy.set_label("policy")
+        if careful:
+            series = carefulness_by_distance(result.counts, state_distances(mdp), levels=world.levels)
+            draw_carefulness(ax_careful[0], [(f"{result.demonstrations['steps']} steps", series)],
+                             levels=world.levels, title="carefulness by distance to danger")
+            ax_careful[0].set_label("carefulness")
+        if interval_row:
+            ax_int = interval_row[0].subplots()
             title = f"reward intervals: {kind_label(kind, confidence)}{' (hull per symbol)' if hulls else ''}"
             draw_intervals(ax_int, worst_first(interval_data), rmax=rmax, title=title)
             ax_int.set_label("intervals")
             legend = interval_legend(interval_data, kind=kind, confidence=confidence, rmax=rmax)
-            bottom.legend(handles=legend, loc="outside lower center", ncol=len(legend), handlelength=1.2,
-                          columnspacing=0.9, handletextpad=0.3)
-            if careful:
-                series = carefulness_by_distance(result.counts, state_distances(mdp), levels=world.levels)
-                draw_carefulness(rest[0], [(f"{result.demonstrations['steps']} steps", series)],
-                                 levels=world.levels, title="carefulness by distance to danger")
-                rest[0].set_label("carefulness")
+            interval_row[0].legend(handles=legend, loc="outside lower center", ncol=len(legend),
+                                   handlelength=1.2, columnspacing=0.9, handletextpad=0.3)
     return figure

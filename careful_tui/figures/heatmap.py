@@ -29,6 +29,7 @@ COLOUR_BAR_WIDTH = 0.55  # inches, with its labels
 TITLE_HEIGHT = 0.25  # inches
 # Text in a cell: "−1000" must fit its width; below the smallest size cells get no text.
 CELL_TEXT_SIZES = (4.5, 6.0)  # points, smallest and largest
+FULL_CELL = 24.0  # points: cells at least this wide get full-size arrows and outlines
 
 
 def reward_limit(*grids: np.ndarray, linthresh: float = LINTHRESH) -> float:
@@ -69,19 +70,28 @@ def text_colour(rgba: Sequence[float]) -> str:
     return INK if 0.299 * r + 0.587 * g + 0.114 * b > 0.55 else "white"
 
 
-def cell_text_size(grid_width: float, cols: int) -> float | None:
-    """The font size (points) for text in cells when `cols` cells share `grid_width` inches; None if too small.
+def cell_width(grid_width: float, cols: int) -> float:
+    """Points per cell when `cols` cells share `grid_width` inches."""
+    return grid_width * 72.0 / max(cols, 1)
+
+
+def cell_text_size(width: float) -> float | None:
+    """The font size (points) for text in a cell `width` points wide; None if it would be too small.
 
     Five characters ("−1000") of DejaVu Sans take 3.4 times the font size, and the axes end up a
     little narrower than asked for once the layout is done: hence 3.8.
     """
-    size = grid_width * 72.0 / max(cols, 1) / 3.8
+    size = width / 3.8
     smallest, largest = CELL_TEXT_SIZES
     return None if size < smallest else min(size, largest)
 
 
-def draw_board(ax: Axes, board: Board) -> None:
-    """The frame every grid figure shares: cells in rows and columns, walls hatched, terminal cells outlined."""
+def draw_board(ax: Axes, board: Board, *, width: float = FULL_CELL) -> None:
+    """The frame every grid figure shares: cells in rows and columns, walls hatched, terminal cells outlined.
+
+    `width`: points per cell; outlines thin out in smaller cells, and lines between cells go below 8 points.
+    """
+    scale = min(1.0, width / FULL_CELL)
     rows, cols = board.shape
     ax.set_xlim(-0.5, cols - 0.5)
     ax.set_ylim(rows - 0.5, -0.5)
@@ -93,7 +103,9 @@ def draw_board(ax: Axes, board: Board) -> None:
                                hatch="////", linewidth=0, zorder=2))
     for r, c in zip(*np.nonzero(board.terminal)):
         ax.add_patch(Rectangle((c - 0.44, r - 0.44), 0.88, 0.88, fill=False, edgecolor=INK,
-                               linewidth=0.9, zorder=4))
+                               linewidth=0.9 * scale, zorder=4))
+    if width < 8:
+        return
     # Thin white lines between cells.
     for x in range(1, cols):
         ax.axvline(x - 0.5, color="white", linewidth=0.6, zorder=3)
@@ -102,17 +114,19 @@ def draw_board(ax: Axes, board: Board) -> None:
 
 
 def draw_reward(ax: Axes, values: np.ndarray, board: Board, *, norm: SymLogNorm, title: str | None = None,
-                text_size: float | None = CELL_TEXT_SIZES[1]) -> AxesImage:
+                width: float = FULL_CELL) -> AxesImage:
     """One reward grid on `ax`: colour by value, and symbol and value in each cell.
 
     Args:
         values: (rows, cols) R_S per cell; NaN where there is none (walls).
-        text_size: points for the symbol (other than ground) and value in each cell; None writes none.
+        width: points per cell: the symbol (other than ground) and value are written in each
+            cell when they can be read at that size.
     """
+    text_size = cell_text_size(width)
     shown = np.ma.masked_invalid(np.where(board.wall, np.nan, np.asarray(values, dtype=float)))
     cmap = colormaps[REWARD_CMAP].with_extremes(bad="#f0f0f0")
     image = ax.imshow(shown, cmap=cmap, norm=norm, interpolation="nearest", zorder=1)
-    draw_board(ax, board)
+    draw_board(ax, board, width=width)
     if title:
         ax.set_title(title, pad=3)
     if text_size is not None:
@@ -153,10 +167,11 @@ def reward_figure(panels: Sequence[tuple[str, np.ndarray]], board: Board, *, vma
     with figure_style():
         figure = new_figure(grid_width * len(panels) + COLOUR_BAR_WIDTH, grid_width * rows / cols + TITLE_HEIGHT)
         axes = figure.subplots(1, len(panels), squeeze=False)[0]
-        text_size = cell_text_size(grid_width, cols)
+
         norm = reward_norm(vmax, linthresh=linthresh)
         image = None
         for ax, (title, values) in zip(axes, panels):
-            image = draw_reward(ax, values, board, norm=norm, title=title, text_size=text_size)
+            image = draw_reward(ax, values, board, norm=norm, title=title,
+                                width=cell_width(grid_width, cols))
         add_colour_bar(figure, image, axes, vmax=vmax, linthresh=linthresh)
     return figure

@@ -19,10 +19,11 @@ from matplotlib.patches import FancyArrowPatch
 
 from careful_tui.figures.board import GROUND, Board
 from careful_tui.figures.heatmap import (
-    CELL_TEXT_SIZES,
+    FULL_CELL,
     REWARD_CMAP,
     TITLE_HEIGHT,
     cell_text_size,
+    cell_width,
     draw_board,
     reward_limit,
     reward_norm,
@@ -82,23 +83,26 @@ def faded(colour: str, strength: float) -> tuple[float, float, float]:
     return tuple(1.0 - strength * (1.0 - rgb))
 
 
-def arrow_width(carefulness: int, levels: int) -> float:
-    """Line width in points: 0.6 at level 1 up to 2.6 at level L."""
-    return 0.6 + 2.0 * (carefulness - 1) / max(levels - 1, 1)
+def arrow_width(carefulness: int, levels: int, *, scale: float = 1.0) -> float:
+    """Line width in points: 0.6 at level 1 up to 2.6 at level L, times `scale` for small cells."""
+    return (0.6 + 2.0 * (carefulness - 1) / max(levels - 1, 1)) * scale
 
 
 def draw_policy(ax: Axes, panel: PolicyPanel, board: Board, *, levels: int,
                 background: np.ndarray | None = None, vmax: float | None = None,
-                text_size: float | None = CELL_TEXT_SIZES[1]) -> None:
+                width: float = FULL_CELL) -> None:
     """Arrows on `ax`, over the board tinted by `background` (rows, cols) rewards when given.
 
-    `text_size`: points for each arrow's level (and terminal cells' symbols); None for cells too small to read.
+    `width`: points per cell: arrows shrink in cells narrower than `FULL_CELL`, and levels (and
+    terminal cells' symbols) are written only where they can be read.
     """
+    text_size = cell_text_size(width)
+    scale = min(1.0, width / FULL_CELL)
     if background is not None:
         shown = np.ma.masked_invalid(np.where(board.wall, np.nan, background))
         norm = reward_norm(vmax or reward_limit(background))
         ax.imshow(shown, cmap=REWARD_CMAP, norm=norm, alpha=0.45, interpolation="nearest", zorder=1)
-    draw_board(ax, board)
+    draw_board(ax, board, width=width)
     ax.set_title(panel.title, pad=3)
     most = float(panel.count.max()) if panel.count is not None and panel.count.max() > 0 else 1.0
     for (r, c), d in np.ndenumerate(panel.direction):
@@ -111,8 +115,8 @@ def draw_policy(ax: Axes, panel: PolicyPanel, board: Board, *, levels: int,
         ink = faded(INK, strength)
         dx, dy = STEP[d] * 0.32
         ax.add_patch(FancyArrowPatch((c - dx, r - dy), (c + dx, r + dy), arrowstyle="-|>",
-                                     mutation_scale=4 + 2.2 * arrow_width(level, levels),
-                                     linewidth=arrow_width(level, levels), color=ink,
+                                     mutation_scale=(4 + 2.2 * arrow_width(level, levels)) * scale,
+                                     linewidth=arrow_width(level, levels, scale=scale), color=ink,
                                      shrinkA=0, shrinkB=0, zorder=5))
         if text_size is not None and levels > 1:
             # The level beside the shaft: left of a vertical arrow, above a horizontal one.
@@ -136,9 +140,9 @@ def policy_figure(panels: Sequence[PolicyPanel], board: Board, *, levels: int,
         height = panel_width * rows / cols + TITLE_HEIGHT + (NOTE_HEIGHT if demonstrated else 0)
         figure = new_figure(panel_width * len(panels), height)
         axes = figure.subplots(1, len(panels), squeeze=False)[0]
-        text_size = cell_text_size(panel_width, cols)
         for ax, panel in zip(axes, panels):
-            draw_policy(ax, panel, board, levels=levels, background=background, vmax=vmax, text_size=text_size)
+            draw_policy(ax, panel, board, levels=levels, background=background, vmax=vmax,
+                        width=cell_width(panel_width, cols))
             if panel.count is not None:
                 ax.set_xlabel(policy_note(panel), labelpad=2)
     return figure

@@ -99,7 +99,7 @@ def test_the_cliff_cell_has_the_colour_bars_colour_for_minus_1000(mud_world, mud
         figure = new_figure(3.0, 2.0)
         ax = figure.subplots()
         norm = reward_norm(reward_limit(mud_fitted))
-        image = draw_reward(ax, mud_fitted, board, norm=norm, text_size=None)
+        image = draw_reward(ax, mud_fitted, board, norm=norm, width=10.0)  # too small for text
         add_colour_bar(figure, image, [ax], vmax=norm.vmax)
     pixels = rendered(figure)
     bar = figure.axes[1]
