@@ -68,6 +68,12 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     return hulls, True
 
 
+def fitted_cells(result: FitResult) -> str:
+    """Which cells the fit estimated: "ground fixed at 0; the rest fitted", "every cell fitted, one value per symbol"."""
+    cells = "every cell fitted" if result.options["reward_cells"] == "all" else "ground fixed at 0, the rest fitted"
+    return f"{cells}{', one value per symbol' if result.options['tie'] else ''}"
+
+
 def interval_kind(result: FitResult) -> tuple[str, float | None]:
     """What the result's intervals are: SPEC's JSON `interval_kind` ("identified" when absent) and its level."""
     kind = result.to_json().get("interval_kind") or "identified"
@@ -79,7 +85,7 @@ def fit_figure(result: FitResult) -> Figure:
     world, mdp = result.world, result.mdp
     board = Board.of(world)
     rows, cols = board.shape
-    rewards = [("fitted reward", result.reward_grid)]
+    rewards = [(f"fitted reward ({result.method})", result.reward_grid)]
     if world.rewards:
         rewards.append(("true reward (world file)", result.true_reward_grid))
     vmax = reward_limit(*(grid for _, grid in rewards))
@@ -89,7 +95,7 @@ def fit_figure(result: FitResult) -> Figure:
     # Two grids and the colour bar fill the page's width; the policy is as wide as one grid.
     grid_width = (PAGE_WIDTH - COLOUR_BAR_WIDTH) / 2 * 0.92
     grid_height = grid_width * rows / cols + TITLE_HEIGHT
-    heights = [grid_height, grid_height + NOTE_HEIGHT]
+    heights = [grid_height + NOTE_HEIGHT, grid_height + NOTE_HEIGHT]
     has_intervals = result.intervals is not None and len(result.intervals) > 0
     if has_intervals:
         interval_data, hulls = interval_rows(result)
@@ -106,6 +112,7 @@ def fit_figure(result: FitResult) -> Figure:
         for ax, (title, grid), name in zip(axes, rewards, ("fitted", "true")):
             image = draw_reward(ax, grid, board, norm=norm, title=title, width=width)
             ax.set_label(name)
+        axes[0].set_xlabel(fitted_cells(result), labelpad=2)
         if len(rewards) == 1:
             axes[1].set_visible(False)  # keeps the fitted grid the same size as with a true one
         add_colour_bar(reward_row, image, axes, vmax=vmax)
