@@ -8,7 +8,7 @@ import argparse
 import importlib
 import sys
 
-BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "bench_scaling")
+BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "bench_scaling", "bench_figures")
 
 
 def main() -> None:

@@ -8,9 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
-from functools import partial
 from pathlib import Path
 
 from rich.console import Console, Group
@@ -64,21 +61,9 @@ FIGURE_FORMATS = (".pdf", ".png")
 
 
 def write_figures(result: ExperimentResult, out: Path) -> None:
-    """Every figure of `result` as `<key>.pdf` and `<key>.png` in `out`.
-
-    Embedding the font in each PDF takes most of the time, so the figures are written by two
-    forked processes where the system can fork (one at a time otherwise). matplotlib is
-    imported first, so that the processes inherit it.
-    """
-    import careful_tui.figures.experiment_figures  # noqa: F401 - imported once, before forking
-
-    write = partial(write_figure, result=result, out=out, rmax=FitOptions().rmax)
-    if "fork" not in multiprocessing.get_all_start_methods() or len(result.figures) < 4:
-        for figure in result.figures:
-            write(figure)
-        return
-    with ProcessPoolExecutor(max_workers=2, mp_context=multiprocessing.get_context("fork")) as pool:
-        list(pool.map(write, result.figures))
+    """Every figure of `result` as `<key>.pdf` and `<key>.png` in `out`."""
+    for figure in result.figures:
+        write_figure(figure, result=result, out=out, rmax=FitOptions().rmax)
 
 
 def write_figure(figure: Figure, *, result: ExperimentResult, out: Path, rmax: float) -> None:
