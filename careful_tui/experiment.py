@@ -76,6 +76,22 @@ def write_figure(figure: Figure, *, result: ExperimentResult, out: Path, rmax: f
         save_figure(drawn, out / f"{figure.key}{suffix}")
 
 
+def how_to_read(result: ExperimentResult) -> list[str]:
+    """A paragraph on what the figures' marks mean, with this run's scale and bound."""
+    from careful_tui.figures.experiment_figures import shared_scale
+
+    vmax, rmax = shared_scale(result), FitOptions().rmax
+    lines = ["Each figure is a PDF (fonts embedded) and a PNG (300 dpi), a third of a page wide. "
+             f"Rewards share one colour scale, symmetric-log from -{vmax:.0f} to {vmax:.0f} (white is 0, "
+             "red worse, blue better); terminal cells are outlined, walls hatched. "
+             "A policy is an arrow per cell whose width and number give the carefulness level."]
+    if result.separations:
+        lines[0] += (" In an interval plot the bar is every value the demonstrations allow (the lp's "
+                     "identified set), the dot the lp's estimate (mean over the symbol's cells), the tick "
+                     f"the world's value, and a triangle an end at ±{rmax:.0f}: no bound from the data.")
+    return lines
+
+
 def report_markdown(result: ExperimentResult) -> str:
     lines = ["# careful experiment", "",
              "The paper's experiments (Hanslope & Aitchison), rerun by `careful experiment`.", "",
@@ -90,7 +106,7 @@ def report_markdown(result: ExperimentResult) -> str:
     for s in result.separations:
         lines.append(f"| {s.world} | {s.cliff[0]:.0f} .. {s.cliff[1]:.0f} | {s.mud[0]:.0f} .. {s.mud[1]:.0f} | "
                      f"{'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
-    lines += ["", "## Figures", ""]
+    lines += ["", "## Figures", "", *how_to_read(result), ""]
     for figure in result.figures:
         lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.png)", "",
                   f"{figure.caption} ([PDF]({figure.key}.pdf))".lstrip(), ""]
