@@ -140,6 +140,8 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--seed", type=seed_int, default=0, help="seed of the resampling (default 0)")
     fit.add_argument("--json", type=Path, metavar="PATH", help="write the result as JSON")
     fit.add_argument("--svg", type=Path, metavar="PATH", help="save a picture of the result as SVG")
+    fit.add_argument("--figure", type=Path, metavar="PATH", help="save the result as a figure for a paper "
+                     "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
 
     simulate = commands.add_parser("simulate", help="record a computer expert", description=(
@@ -155,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     worlds.add_argument("--show", metavar="NAME|FILE", help="draw one world and print it as TOML")
 
     experiment = commands.add_parser("experiment", help="the paper's experiments, end to end", description=(
-        "Run the paper's experiments end to end: figures as SVG, summary.json and report.md."))
+        "Run the paper's experiments end to end: figures as PDF and PNG (300 dpi), summary.json and report.md."))
     experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR", help="output folder (default: experiment/)")
     experiment.add_argument("--quick", action="store_true", help="reduced sizes, for a fast check")
     experiment.add_argument("--recordings", type=Path, default=None, metavar="DIR",

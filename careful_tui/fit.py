@@ -28,6 +28,7 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.cli import EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.figures import figure_suffix_problem
 from careful_tui.grid import (
     LINEAR_THRESHOLD,
     SYMBOL_NAMES,
@@ -107,9 +108,11 @@ def wants_view(args: argparse.Namespace) -> bool:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    """`careful fit`: fit, write --json, then open the fit view (a terminal) or print (--svg of the printout)."""
+    """`careful fit`: fit, write --json and --figure, then open the fit view (a terminal) or print (--svg of the printout)."""
     err = Console(stderr=True, highlight=False)
-    for option, path in (("--json", args.json), ("--svg", args.svg)):
+    if args.figure is not None and (problem := figure_suffix_problem(args.figure)):
+        raise UsageError(problem)
+    for option, path in (("--json", args.json), ("--svg", args.svg), ("--figure", args.figure)):
         if path is not None:
             check_output(path, option=option, inputs=args.files)
     try:
@@ -120,6 +123,11 @@ def run_fit(args: argparse.Namespace) -> int:
     if args.json is not None:
         text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
         write_output(args.json, text, option="--json", inputs=args.files)
+    if args.figure is not None:
+        from careful_tui.figures.fit_figure import fit_figure
+        from careful_tui.figures.style import save_figure
+
+        save_figure(fit_figure(result), args.figure, option="--figure", inputs=args.files)
     if wants_view(args):
         from careful_tui.fit_view import FitApp
         from careful_tui.kitty import PassiveKittyDriver
