@@ -16,7 +16,7 @@ import numpy as np
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
-from irl_core.irl.lp import lp_constraints, solve_margin_lp
+from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import RewardCells, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError
@@ -35,9 +35,11 @@ def fit(
     reward_cells: RewardCells = "special",
     tie: bool = False,
     intervals: bool = False,
+    progress: Progress | None = None,
 ) -> FitResult:
     """Fit the state rewards that explain `demos` with `method`.
 
+    `progress(stage, done, total)` hears of the lp's rounds and the interval LPs done.
     Raises `BadInputError` (no demonstrated steps; `InfeasibleError` when the lp has no
     solution) or `SolverError`.
     """
@@ -62,7 +64,7 @@ def fit(
 
     if method == "lp":
         constraints = lp_constraints(qmap, demos.most_frequent, rmax=rmax)
-        solution = solve_margin_lp(constraints, lam=lam)
+        solution = solve_margin_lp(constraints, lam=lam, progress=progress)
         theta, V = qmap.split(solution.x)
     elif method == "loss":
         solution = fit_loss(qmap, demos.policy, rmax=rmax, lam=lam)
@@ -81,7 +83,7 @@ def fit(
     if intervals:
         constraints = constraints or lp_constraints(qmap, demos.most_frequent, rmax=rmax)
         try:
-            bounds, _ = reward_intervals(constraints)
+            bounds, _ = reward_intervals(constraints, progress=progress)
         except InfeasibleError:
             notes.append(
                 "intervals not computed: the most frequent actions are not optimal for any reward "
