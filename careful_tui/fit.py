@@ -36,6 +36,7 @@ from careful_tui.grid import (
 )
 from irl_core.demonstrations import Demonstrations, read_recording
 from irl_core.irl import BadInputError, FitResult, SolverError, fit
+from irl_core.irl.lp import Progress
 from irl_core.mdp import ARROWS
 
 
@@ -78,10 +79,15 @@ class FitOptions:
         """The method and whether intervals are on, for messages: "loss, with intervals"."""
         return f"{self.method}{', with intervals' if self.intervals else ''}"
 
-    def run(self, demos: Demonstrations) -> FitResult:
+    def run(self, demos: Demonstrations, *, progress: Progress | None = None) -> FitResult:
         """Fit `demos`; raises what `irl_core.irl.fit` raises."""
         return fit(demos, method=self.method, rmax=self.rmax, lam=self.lam, beta=self.beta,
-                   reward_cells=self.reward_cells, tie=self.tie, intervals=self.intervals)
+                   reward_cells=self.reward_cells, tie=self.tie, intervals=self.intervals, progress=progress)
+
+
+def progress_phrase(stage: str, done: int, total: int | None) -> str:
+    """What a long fit is doing, from its progress callback: "round 3", "interval LP 12 of 62"."""
+    return f"round {done}" if stage == "rounds" else f"interval LP {done} of {total}"
 
 
 def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tuple[Demonstrations, FitResult]:
@@ -90,8 +96,9 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tu
     demos = load_demonstrations(list(args.files), err)
     options = FitOptions.from_args(args)
     try:
-        with err.status(f"fitting ({options.describe()}) to {demos.steps} steps", spinner="dots"):
-            result = options.run(demos)
+        label = f"fitting ({options.describe()}) to {demos.steps} steps"
+        with err.status(label, spinner="dots") as spinner:
+            result = options.run(demos, progress=lambda *done: spinner.update(f"{label}: {progress_phrase(*done)}"))
     except BadInputError as exc:
         raise UsageError(str(exc)) from None
     return demos, result

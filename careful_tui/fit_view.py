@@ -37,6 +37,7 @@ from textual.widgets import Static
 from careful_tui.fit import (
     FitOptions,
     IntervalChart,
+    progress_phrase,
     interval_readings,
     policy_labels,
     reward_scale,
@@ -107,6 +108,14 @@ class Fitted(Message):
     error: Exception | None
 
 
+@dataclass
+class FitProgress(Message):
+    """How far a fit has got (sent from the fitting thread): "round 3", "interval LP 12 of 62"."""
+
+    request: int
+    phrase: str
+
+
 class FitApp(App[None]):
     """The fit view of one set of demonstrations (the CLI and the tests build it the same way).
 
@@ -157,6 +166,7 @@ class FitApp(App[None]):
         self.saved: list[Path] = []
         self._request = 0
         self._fitting: FitOptions | None = None
+        self._progress = ""
         self._too_small = False
         self._save_first = svg is not None
 
@@ -227,6 +237,7 @@ class FitApp(App[None]):
         """Fit with `options` in the worker; the answer to an earlier request is then ignored."""
         self._request += 1
         self._fitting = options
+        self._progress = ""
         self.error = None
         self._fit(self._request, options)
         self.show()
@@ -234,10 +245,17 @@ class FitApp(App[None]):
     @work(thread=True, group="fit")
     def _fit(self, request: int, options: FitOptions) -> None:
         try:
-            result, error = options.run(self.demos), None
+            heard = lambda *done: self.post_message(FitProgress(request, progress_phrase(*done)))  # noqa: E731
+            result, error = options.run(self.demos, progress=heard), None
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
         self.post_message(Fitted(request, options, result, error))
+
+    @on(FitProgress)
+    def _progressed(self, message: FitProgress) -> None:
+        if message.request == self._request and self._fitting is not None:
+            self._progress = f" {message.phrase}"
+            self.query_one("#status", Static).update(self._status())
 
     @on(Fitted)
     def _fitted(self, message: Fitted) -> None:
@@ -346,7 +364,7 @@ class FitApp(App[None]):
 
     def _status(self) -> Text:
         if self._fitting is not None:
-            return Text(f"⟳ fitting {self._fitting.describe()}…", style=f"bold {BUSY}")
+            return Text(f"⟳ fitting {self._fitting.describe()}…{self._progress}", style=f"bold {BUSY}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
             return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))

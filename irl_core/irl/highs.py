@@ -51,6 +51,7 @@ OUTCOMES: dict[highspy.HighsModelStatus, tuple[str, Kind]] = {
     _Status.kPostsolveError: ("postsolve_error", "failure"),
     _Status.kMemoryLimit: ("memory_limit", "failure"),
     _Status.kInterrupt: ("interrupted", "failure"),
+    _Status.kHighsInterrupt: ("interrupted", "failure"),
     _Status.kNotset: ("not_solved", "failure"),
     _Status.kModelEmpty: ("optimal", "answer"),
     _Status.kObjectiveBound: ("objective_bound", "failure"),

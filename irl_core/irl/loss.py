@@ -57,6 +57,7 @@ import scipy.sparse as sp
 from scipy.special import logsumexp
 
 from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
+from irl_core.irl.lp import check_bounds
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import InfeasibleError, SolverError
 
@@ -107,6 +108,7 @@ class LossConstraints:
 
 def loss_constraints(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> LossConstraints:
     """The constraints for demonstrated frequencies pi (S, A) (rows of 0: not demonstrated)."""
+    check_bounds(rmax=rmax)
     mdp = qmap.mdp
     S, A, k = mdp.n_states, mdp.n_actions, qmap.k
     pi = np.asarray(frequencies, dtype=float)
@@ -497,6 +499,7 @@ class _OuterApproximation:
 
 def fit_loss(qmap: QMap, frequencies: np.ndarray, *, rmax: float, lam: float = 0.0) -> LossSolution:
     """Minimise the loss exactly, then pick the smallest-||R_S||_1 minimiser and test uniqueness."""
+    check_bounds(rmax=rmax, lam=lam)
     constraints = loss_constraints(qmap, frequencies, rmax=rmax)
     if constraints.demonstrated.size == 0:
         raise ValueError("the loss needs at least one demonstrated state")
