@@ -182,10 +182,12 @@ _banner_shown = False
 class HighsModel:
     """A live HiGHS model of a `LinearProgram`, solved by the dual simplex unless told otherwise.
 
-    `tolerance` sets HiGHS's primal and dual feasibility tolerances (default 1e-7).
+    `tolerance` sets HiGHS's primal and dual feasibility tolerances (default 1e-7); `options`
+    are further HiGHS options, kept for every solve.
     """
 
-    def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE):
+    def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE,
+                 options: dict[str, object] | None = None):
         A = sp.csc_matrix(problem.A)
         A.sort_indices()
         n_row, n_col = A.shape
@@ -202,6 +204,8 @@ class HighsModel:
         self.highs = _new_highs()
         self.highs.setOptionValue("primal_feasibility_tolerance", tolerance)
         self.highs.setOptionValue("dual_feasibility_tolerance", tolerance)
+        self.options = {"solver": "simplex", "simplex_strategy": 1, "run_crossover": "on", **(options or {})}
+        self._set(self.options)
         self.highs.passModel(lp)
         self.iterations = 0
         self.solves = 0
@@ -228,8 +232,7 @@ class HighsModel:
         highs = self.highs
         iterations = 0
         for solver, setup in _ATTEMPTS:
-            for option, value in setup:
-                highs.setOptionValue(option, value)
+            self._set(setup)
             if solver != "simplex":
                 highs.clearSolver()
             highs.run()
@@ -245,12 +248,16 @@ class HighsModel:
             word, kind = OUTCOMES.get(status, ("unknown", "failure"))
             if kind != "failure":
                 break
-        for option, value in _RESET:
-            highs.setOptionValue(option, value)
+        if solver != "simplex":
+            self._set(self.options)
         self.iterations += iterations
         self.solves += 1
         objective = float(highs.getInfo().objective_function_value) if kind == "answer" else float("nan")
         return np.array(highs.getSolution().col_value), SolveReport(word, kind, objective, iterations, solver)
+
+    def _set(self, options: dict[str, object]) -> None:
+        for option, value in options.items():
+            self.highs.setOptionValue(option, value)
 
     def minimise(self, cost: np.ndarray | None = None, *, infeasible_message: str) -> tuple[np.ndarray, float]:
         """Solve (with a new cost if given) and return (z, cost @ z).
@@ -264,16 +271,15 @@ class HighsModel:
         return z, report.objective
 
 
-# The solver attempts, in order: the dual simplex from the current basis, the same from
-# scratch ("simplex" again after clearSolver), the primal simplex, which copes with the
-# nearly parallel tangent rows of the loss, and IPX with crossover.
-_ATTEMPTS: tuple[tuple[str, tuple[tuple[str, object], ...]], ...] = (
-    ("simplex", (("solver", "simplex"), ("simplex_strategy", 1))),
-    ("simplex from scratch", ()),
-    ("primal simplex", (("simplex_strategy", 4),)),
-    ("ipx", (("solver", "ipx"), ("run_crossover", "on"))),
+# The solver attempts, in order: the model's own simplex from the current basis, the same from
+# scratch (after clearSolver), the primal simplex, which copes with the nearly parallel
+# tangent rows of the loss, and IPX with crossover.
+_ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
+    ("simplex", {}),
+    ("simplex from scratch", {}),
+    ("primal simplex", {"simplex_strategy": 4}),
+    ("ipx", {"solver": "ipx"}),
 )
-_RESET: tuple[tuple[str, object], ...] = (("solver", "simplex"), ("simplex_strategy", 1))
 
 
 def _highs_bound(bound: np.ndarray) -> np.ndarray:

@@ -272,30 +272,58 @@ def solve_margin_lp(
         model = HighsModel(problem.full())
         z, _ = model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
         return _solution(problem, z, model, rounds=1)
-
-    in_model = seed_pairs(problem)
-    model = HighsModel(problem.base)
-    model.add_rows(*_family_rows(problem, in_model))
-    rounds = 0
-    while True:  # each round adds rows of a finite family, so it ends
-        z, _ = model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
-        rounds += 1
-        if progress is not None:
-            progress("rounds", rounds, None)
-        slack = np.where(problem.rivals & ~in_model, problem.slacks(z), np.inf)
-        worst = slack.argmin(axis=1)
-        states = np.flatnonzero(slack[np.arange(slack.shape[0]), worst] < -CUT_TOLERANCE)
-        if states.size == 0:
-            return _solution(problem, z, model, rounds=rounds)
-        add = np.zeros_like(in_model)
-        add[states, worst[states]] = True
-        model.add_rows(*_family_rows(problem, add))
-        in_model |= add
+    run = RowGeneration(problem, options=MARGIN_OPTIONS)
+    z = run.solve(progress=progress)
+    return _solution(problem, z, run.model, rounds=run.rounds)
 
 
-def _family_rows(problem: MarginLP, pairs: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
-    rows, q0 = problem.rows(*np.nonzero(pairs))
-    return rows, q0, np.full(q0.size, np.inf)
+# Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
+# on its weights than it saves here (a 64x64 world's first round: 23 s against over 150 s;
+# devex: over 6 minutes).
+MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
+
+
+class RowGeneration:
+    """The margin LP solved by row generation in one live HiGHS model (see the module docstring).
+
+    Attributes:
+        model: the HiGHS model, holding the base rows and the family rows in `in_model`.
+        in_model: (S, A) the family rows added so far.
+        pairs: (r, 2) the (state, action) of each family row, in the model's order (after the base rows).
+        rounds: LPs solved.
+    """
+
+    def __init__(self, problem: MarginLP, *, options: dict[str, object]):
+        self.problem = problem
+        self.in_model = np.zeros_like(problem.rivals)
+        self.pairs = np.zeros((0, 2), dtype=np.int64)
+        self.model = HighsModel(problem.base, options=options)
+        self._add(seed_pairs(problem))
+        self.rounds = 0
+
+    def _add(self, pairs: np.ndarray) -> None:
+        states, actions = np.nonzero(pairs)
+        rows, q0 = self.problem.rows(states, actions)
+        self.model.add_rows(rows, q0, np.full(q0.size, np.inf))
+        self.in_model |= pairs
+        self.pairs = np.concatenate([self.pairs, np.column_stack([states, actions])])
+
+    def solve(self, *, progress: Progress | None = None) -> np.ndarray:
+        """z at the full LP's optimum for the model's current cost. Raises `InfeasibleError` or `SolverError`."""
+        problem = self.problem
+        while True:  # each round adds rows of a finite family, so it ends
+            z, _ = self.model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
+            self.rounds += 1
+            if progress is not None:
+                progress("rounds", self.rounds, None)
+            slack = np.where(problem.rivals & ~self.in_model, problem.slacks(z), np.inf)
+            worst = slack.argmin(axis=1)
+            states = np.flatnonzero(slack[np.arange(slack.shape[0]), worst] < -CUT_TOLERANCE)
+            if states.size == 0:
+                return z
+            add = np.zeros_like(self.in_model)
+            add[states, worst[states]] = True
+            self._add(add)
 
 
 def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: int) -> LPSolution:
