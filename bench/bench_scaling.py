@@ -7,6 +7,7 @@ The growth exponent k fits time ~ states^k over the sizes.
 
 Run: .venv/bin/python -m bench.bench_scaling [--sizes 4x6,16x16,32x32,64x64] [--stages ...]
      .venv/bin/python -m bench.bench_scaling --check 32x32   (row generation against the whole LP)
+     .venv/bin/python -m bench.bench_scaling --conditioning 64x64 [--whole ipx,ipx-no-crossover]
 """
 
 from __future__ import annotations
@@ -61,7 +62,8 @@ def run_stage(size: str, stage: str) -> dict:
 
 
 def check(size: str) -> None:
-    """Row generation against HiGHS's simplex on the whole slack-form LP: the same optimum?"""
+    """Row generation against HiGHS's simplex on the whole slack-form LP: the same optimum? And
+    the per-cell intervals: every LP answered, each interval holding the true and the fitted reward."""
     from bench.fit_stage import demonstrations_for
     from irl_core.irl.lp import lp_constraints, solve_margin_lp
     from irl_core.irl.qmap import build_qmap, build_unknowns
@@ -79,6 +81,67 @@ def check(size: str) -> None:
               f"violation {constraints.violation(solution.x):.1e}")
     print(f"  relative difference {abs(margins[True] - margins[False]) / abs(margins[False]):.1e}; "
           f"row generation / whole LP time {times[True] / times[False]:.3f}")
+    # Every per-cell interval LP answered (on the landed main 4 of 62 at 32x32 ended "unknown"),
+    # each interval holding the true reward and the fitted one.
+    from irl_core.irl.intervals import reward_intervals
+
+    start = time.perf_counter()
+    intervals, _ = reward_intervals(constraints)
+    truth = constraints.qmap.unknowns.true_theta(mdp)
+    theta = solution.x[: constraints.qmap.k]
+    holds = (intervals[:, 0] <= truth + 1e-6) & (truth <= intervals[:, 1] + 1e-6)
+    fitted = (intervals[:, 0] <= theta + 1e-6) & (theta <= intervals[:, 1] + 1e-6)
+    print(f"  per-cell intervals: {2 * len(intervals)} LPs answered in {time.perf_counter() - start:.1f} s; "
+          f"true reward inside {holds.sum()} of {len(intervals)}, fitted reward inside {fitted.sum()}")
+
+
+WHOLE_ROUTES = {"simplex": {}, "ipx": {"solver": "ipx"}, "ipx-no-crossover": {"solver": "ipx", "run_crossover": "off"}}
+
+
+def conditioning(size: str, *, whole: list[str]) -> None:
+    """Where the margin LP's large row duals sit, and whether the whole LP by other `whole` routes agrees.
+
+    The duals are those of the row-generation model's final optimum; each family row belongs to
+    a state, whose distance from the goal (steps, Manhattan on these wall-less worlds) is given.
+    """
+    from bench.fit_stage import demonstrations_for
+    from irl_core.irl.highs import HighsModel
+    from irl_core.irl.lp import MARGIN_OPTIONS, RowGeneration, lp_constraints, margin_lp
+    from irl_core.irl.qmap import build_qmap, build_unknowns
+
+    mdp = _setup(size)
+    demos = demonstrations_for(mdp, episodes=100, seed=0)
+    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
+    problem = margin_lp(constraints)
+    start = time.perf_counter()
+    run = RowGeneration(problem, options=MARGIN_OPTIONS)
+    z = run.solve()
+    seconds = time.perf_counter() - start
+    margin = float(-problem.base.cost @ z)
+    duals = np.abs(np.array(run.model.highs.getSolution().row_dual)[problem.base.shape[0]:])
+    states = run.pairs[:, 0]
+    goal = np.array(mdp.cells[mdp.symbols.index("G")])
+    distance = np.abs(np.array([mdp.cells[s] for s in states]) - goal).sum(axis=1)
+    V = z[problem.qmap.k : problem.qmap.n]
+    floor = -float(np.abs(mdp.R_A).min()) / (1 - mdp.gamma)
+    print(f"  {size}: margin {margin:.10g}, {run.rounds} rounds, {seconds:.1f} s; "
+          f"{np.count_nonzero(duals > 1e-9)} of {duals.size} family rows tight")
+    print(f"  largest row dual {duals.max():.3g} at a state {distance[duals.argmax()]} steps from the goal "
+          f"(V there {V[states[duals.argmax()]]:.4f}; -min|R_A|/(1 - gamma) = {floor:.1f})")
+    for low, high in ((0, 10), (10, 20), (20, 30), (30, 60), (60, 1000)):
+        band = (distance >= low) & (distance < high)
+        if band.any():
+            print(f"    {low:>3}-{high:<4} steps: {band.sum():>6} rows, largest dual {duals[band].max():.3g}, "
+                  f"median V {np.median(V[states[band]]):.3f}")
+    for name in whole:
+        # HiGHS's own answer, without the retries of HighsModel.solve.
+        start = time.perf_counter()
+        highs = HighsModel(problem.full(), options=WHOLE_ROUTES[name]).highs
+        highs.run()
+        objective = -highs.getInfo().objective_function_value
+        print(f"  whole LP by {name}: {highs.modelStatusToString(highs.getModelStatus())}, objective {objective:.10g}, "
+              f"relative difference {abs(objective - margin) / abs(margin):.1e}, "
+              f"{time.perf_counter() - start:.0f} s", flush=True)
 
 
 def measure(sizes=SIZES, stages=STAGES, *, timeout: float = 1800) -> list[dict]:
@@ -146,10 +209,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sizes", default=",".join(SIZES))
     parser.add_argument("--stages", default=",".join(STAGES))
     parser.add_argument("--check", metavar="SIZE", help="compare row generation with the whole LP on one size")
+    parser.add_argument("--conditioning", metavar="SIZE", help="where the margin LP's large duals sit")
+    parser.add_argument("--whole", default="", help="with --conditioning: also solve the whole LP by these "
+                        f"HiGHS routes ({', '.join(WHOLE_ROUTES)}), comma-separated")
     parser.add_argument("--one", nargs=2, metavar=("SIZE", "STAGE"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one:
         print(json.dumps(run_stage(*args.one)))
+        return
+    if args.conditioning:
+        print(f"conditioning of the margin LP on the {args.conditioning} cliff world:")
+        conditioning(args.conditioning, whole=[r for r in args.whole.split(",") if r])
         return
     if args.check:
         print(f"row generation against the whole slack-form LP on the {args.check} cliff world:")

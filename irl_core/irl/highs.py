@@ -233,7 +233,7 @@ class HighsModel:
         iterations = 0
         for solver, setup in _ATTEMPTS:
             self._set(setup)
-            if solver != "simplex":
+            if solver != "as set":
                 highs.clearSolver()
             highs.run()
             info = highs.getInfo()
@@ -248,11 +248,13 @@ class HighsModel:
             word, kind = OUTCOMES.get(status, ("unknown", "failure"))
             if kind != "failure":
                 break
-        if solver != "simplex":
+        if solver != "as set":
             self._set(self.options)
         self.iterations += iterations
         self.solves += 1
         objective = float(highs.getInfo().objective_function_value) if kind == "answer" else float("nan")
+        if solver in ("as set", "from scratch"):
+            solver = f"{self.options['solver']}{' from scratch' if solver == 'from scratch' else ''}"
         return np.array(highs.getSolution().col_value), SolveReport(word, kind, objective, iterations, solver)
 
     def _set(self, options: dict[str, object]) -> None:
@@ -275,10 +277,10 @@ class HighsModel:
 # scratch (after clearSolver), the primal simplex, which copes with the nearly parallel
 # tangent rows of the loss, and IPX with crossover.
 _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
-    ("simplex", {}),
-    ("simplex from scratch", {}),
-    ("primal simplex", {"simplex_strategy": 4}),
-    ("ipx", {"solver": "ipx"}),
+    ("as set", {}),
+    ("from scratch", {}),
+    ("primal simplex", {"solver": "simplex", "simplex_strategy": 4}),
+    ("ipx", {"solver": "ipx", "run_crossover": "on"}),
 )
 
 

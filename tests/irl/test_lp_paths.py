@@ -192,19 +192,16 @@ def test_progress_hears_of_rounds_and_interval_lps():
     assert lps == [(i, 2 * result.unknowns.k) for i in range(1, 2 * result.unknowns.k + 1)]
 
 
-def test_every_interval_lp_of_a_32x32_world_is_answered():
-    # Regression: with the primal re-solved for each new cost, 4 of these 62 LPs ended "unknown"
-    # and 1 of the 4 tied ones gave an infeasible answer.
+def test_every_tied_interval_lp_of_a_32x32_world_is_answered():
+    # Regression: the interior point method gave an infeasible answer (by 39) to 1 of these 4 LPs.
+    # The 62 per-cell LPs, 4 of which ended "unknown", take too long for a test: they are
+    # `python -m bench.bench_scaling --check 32x32`.
     mdp = build_mdp(cliff_world(32, 32))
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=100, seed=0))
-    per_cell = fit(demos, intervals=True)
-    truth = per_cell.unknowns.true_theta(mdp)
-    low, high = per_cell.intervals.T
-    assert per_cell.intervals.shape == (31, 2) and np.all(np.isfinite(per_cell.intervals))
-    assert np.all(low <= truth + 1e-6) and np.all(truth <= high + 1e-6)
-    assert np.all(low <= per_cell.theta + 1e-6) and np.all(per_cell.theta <= high + 1e-6)
     tied = fit(demos, tie=True, intervals=True)
-    # One reward per symbol can only narrow what per-cell rewards allow.
-    for j, symbol in enumerate(tied.unknowns.symbols):
-        cells = per_cell.intervals[np.array(per_cell.unknowns.symbols) == symbol]
-        assert cells[:, 0].min() <= tied.intervals[j, 0] + 1e-6 and tied.intervals[j, 1] <= cells[:, 1].max() + 1e-6
+    truth = tied.unknowns.true_theta(mdp)
+    low, high = tied.intervals.T
+    assert tied.labels == ("C", "G") and np.all(np.isfinite(tied.intervals))
+    assert np.all(low <= truth + 1e-6) and np.all(truth <= high + 1e-6)
+    assert np.all(low <= tied.theta + 1e-6) and np.all(tied.theta <= high + 1e-6)
+    assert high[0] < low[1]  # carefulness separates the cliff from the goal
