@@ -255,7 +255,8 @@ class FitApp(App[None]):
     def _progressed(self, message: FitProgress) -> None:
         if message.request == self._request and self._fitting is not None:
             self._progress = f" {message.phrase}"
-            self.query_one("#status", Static).update(self._status())
+            for status in self.query("#status").results(Static):  # none once the view is closing
+                status.update(self._status())
 
     @on(Fitted)
     def _fitted(self, message: Fitted) -> None:
