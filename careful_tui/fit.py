@@ -72,6 +72,13 @@ def refit(demos: Demonstrations, options: FitOptions, *, progress=None) -> FitRe
     return fit(demos, options, progress=progress)
 
 
+def progress_phrase(stage: str, done: int, total: int | None) -> str:
+    """What a long fit is doing, from its progress callback: "round 3", "interval LP 12 of 62"."""
+    if stage == "rounds":
+        return f"round {done}"
+    return f"{'resample' if stage == 'resamples' else 'interval LP'} {done} of {total}"
+
+
 def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tuple[Demonstrations, FitResult]:
     """The demonstrations and the fit that `careful fit` options ask for.
 
@@ -88,11 +95,12 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tu
     with Progress(*columns, console=err, transient=True) as progress:
         task = progress.add_task(f"fitting ({options.describe()}) to {demos.steps} steps", total=None)
 
-        def resampled(done: int, total: int) -> None:
-            progress.update(task, description="resampling episodes", completed=done, total=total)
+        def heard(stage: str, done: int, total: int | None) -> None:
+            what = {"rounds": "lp rounds", "intervals": "interval LPs", "resamples": "resampling episodes"}[stage]
+            progress.update(task, description=what, completed=done, total=total)
 
         try:
-            result = fit(demos, options, progress=resampled)
+            result = fit(demos, options, progress=heard)
         except BadInputError as exc:
             raise UsageError(str(exc)) from None
     if options.intervals and result.intervals is None:
