@@ -60,8 +60,9 @@ def symlog_ticks(vmax: float, *, linthresh: float = LINTHRESH) -> list[float]:
 
 
 def value_label(value: float) -> str:
-    """A reward as a cell shows it: "−1000", "−31.5", "0", with a true minus sign."""
-    return format_value(float(value)).replace("-", "\N{MINUS SIGN}")
+    """A reward as a cell shows it: "−1000", "−31.5", "0", with a true minus sign (and no "−0.0")."""
+    value = float(value)
+    return "0" if abs(value) < 0.05 else format_value(value).replace("-", "\N{MINUS SIGN}")
 
 
 def text_colour(rgba: Sequence[float]) -> str:
