@@ -1,8 +1,9 @@
 """The experiment's figures (`irl_core.experiment.Figure`) drawn for a paper.
 
 What a figure holds decides how it is drawn, so new stages need no new code here:
-- a figure of a world whose interval results are in `ExperimentResult.separations`: the
-  interval plot of that world (cliff and mud rows, the figure's values as the estimates);
+- an `intervals-...` figure of a world whose interval results are in
+  `ExperimentResult.separations`: the interval plot of that world (cliff and mud rows, the
+  figure's values as the estimates);
 - a figure with values: a reward heatmap, on one colour scale shared by every figure of the
   run, so the same colour is the same reward in figure 4 (true) and figures 5, 6 and 8 (fitted);
 - a figure with labels ("→8" per cell): a policy, arrows sized by carefulness.
@@ -34,14 +35,21 @@ def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: fl
         rmax: the bound the experiment's fits used: the interval axis runs to it.
     """
     board = Board.of(figure.world)
-    separation = next((s for s in result.separations if s.world == figure.world.name), None)
-    if separation is not None and figure.values is not None:
+    separation = interval_result(figure, result)
+    if separation is not None:
         rows = separation_rows(separation, figure, board)
         return interval_figure([("", rows)], kind="identified", rmax=rmax)
     if figure.values is not None:
         return reward_figure([("", figure.values)], board, vmax=shared_scale(result))
     return policy_figure([policy_from_labels(figure, board)], board, levels=figure.world.levels,
                          background=board.rewards(figure.world), vmax=shared_scale(result))
+
+
+def interval_result(figure: Figure, result: ExperimentResult) -> Separation | None:
+    """The interval results an `intervals-...` figure with values shows: those of its world, if any."""
+    if not figure.key.startswith("intervals-") or figure.values is None:
+        return None
+    return next((s for s in result.separations if s.world == figure.world.name), None)
 
 
 def shared_scale(result: ExperimentResult) -> float:
