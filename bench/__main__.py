@@ -8,7 +8,8 @@ import argparse
 import importlib
 import sys
 
-BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "bench_scaling", "bench_figures")
+BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "bench_scaling", "bench_export",
+              "bench_noisy", "bench_calibration", "bench_figures")
 
 
 def main() -> None:

@@ -122,6 +122,8 @@ def test_colour_scale_is_symmetric_log_centred_on_zero():
     # Each power of ten beyond the linear part takes the same share of the bar.
     assert norm(-100.0) - norm(-1000.0) == pytest.approx(norm(-10.0) - norm(-100.0))
     assert symlog_ticks(1000.0) == [-1000, -100, -10, 0, 10, 100, 1000]
+    assert symlog_ticks(2000.0) == [-2000, -1000, -100, -10, 0, 10, 100, 1000, 2000]
+    assert symlog_ticks(2000.0, ends=False) == [-1000, -100, -10, 0, 10, 100, 1000]
     assert reward_limit(np.array([-30.0, 100.0, np.nan])) == 100.0
     assert reward_limit(np.array([-1565.3, 2.0])) == 2000.0
 

@@ -1,0 +1,99 @@
+"""`careful export FILE... --format csv|minari --out PATH|DATASET_ID` (SPEC section 7).
+
+The files are read and checked with the recording reader before anything is written, so a
+bad file ends the command (exit 2, one line) with no output left behind. Gymnasium and
+Minari are imported only here and in `irl_core.export`'s Minari writer, never by the game.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import Progress
+from rich.text import Text
+
+from careful_tui.cli import UsageError, app_version
+from irl_core.demonstrations import Recording, read_recording
+from irl_core.export import check_dataset_id, minari_dataset_path, one_world, recorded_episodes, write_csv, write_minari
+
+# Inputs at least this large (in bytes, all files together) get progress bars.
+PROGRESS_FROM_BYTES = 1_000_000
+
+
+def run_export(args: argparse.Namespace) -> int:
+    err = Console(stderr=True, highlight=False)
+    if args.format == "csv":
+        out = Path(args.out)
+        if out.exists():
+            raise UsageError(f"{out} already exists; export never overwrites a file, choose another --out")
+        if not out.parent.is_dir():
+            raise UsageError(f"{out.parent} is not a folder; create it first")
+    else:
+        problem = check_dataset_id(args.out)
+        if problem:
+            raise UsageError(problem)
+        if minari_dataset_path(args.out).exists():
+            raise UsageError(f"a Minari dataset {args.out!r} already exists at {minari_dataset_path(args.out)}; "
+                             "choose another id (or a new version, -v1, -v2, ...)")
+
+    sizes = [_size(path) for path in args.files]
+    with Progress(console=err, transient=True, disable=sum(sizes) < PROGRESS_FROM_BYTES) as progress:
+        reading = progress.add_task("reading", total=sum(sizes))
+        recordings: list[Recording] = []
+        for path, size in zip(args.files, sizes):
+            progress.update(reading, description=f"reading {escape(path.name)}")
+            recordings.append(read_recording(path))
+            progress.advance(reading, size)
+        for recording in recordings:
+            for warning in recording.warnings:
+                err.print(Text(f"warning: {warning}", style="yellow"), soft_wrap=True)
+        if args.format == "csv":
+            summary = _export_csv(Path(args.out), recordings, progress)
+        else:
+            summary = _export_minari(args.out, recordings, progress)
+    err.print(Text(summary), soft_wrap=True)
+    return 0
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0  # the reader reports the file properly
+
+
+def _export_csv(out: Path, recordings: list[Recording], progress: Progress) -> str:
+    writing = progress.add_task("writing rows", total=sum(len(r.steps) for r in recordings))
+    try:
+        rows = write_csv(out, recordings, progress=lambda done: progress.update(writing, completed=done))
+    except FileExistsError:
+        raise UsageError(f"{out} already exists; export never overwrites a file, choose another --out") from None
+    except OSError as exc:
+        raise UsageError(f"{out}: cannot write the CSV file ({exc.strerror or exc})") from None
+    files = len(recordings)
+    return f"wrote {rows} rows (one per step) from {files} file{'s' * (files != 1)} to {out}"
+
+
+def _export_minari(dataset_id: str, recordings: list[Recording], progress: Progress) -> str:
+    world = one_world(recordings)
+    episodes = sum(len(recorded_episodes(r)) for r in recordings)
+    steps = sum(len(r.steps) for r in recordings)
+    names = ", ".join(r.path.name for r in recordings[:3]) + (f" and {len(recordings) - 3} more" if len(recordings) > 3 else "")
+    description = (
+        f"{episodes} episodes ({steps} steps) recorded in the careful world {world.name!r} by "
+        f"{', '.join(sorted({r.header.player for r in recordings}))}; exported from {names} by careful {app_version()}. "
+        "Observations are cells (row * cols + col), actions d * L + c - 1; infos hold the hold time of each move."
+    )
+    if episodes == 0:
+        raise UsageError("the recordings hold no steps: there is nothing to export")
+    writing = progress.add_task("writing episodes", total=episodes)
+    try:
+        dataset = write_minari(dataset_id, recordings, description=description,
+                               progress=lambda done: progress.update(writing, completed=done))
+    except FileExistsError as exc:
+        raise UsageError(str(exc)) from None
+    return (f"wrote Minari dataset {dataset_id}: {dataset.total_episodes} episodes, {dataset.total_steps} steps of "
+            f"world {world.name!r}, at {minari_dataset_path(dataset_id)}; load it with minari.load_dataset({dataset_id!r})")
