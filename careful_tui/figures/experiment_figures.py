@@ -1,8 +1,9 @@
 """The experiment's figures (`irl_core.experiment.Figure`) drawn for a paper.
 
 What a figure holds decides how it is drawn, so new stages need no new code here:
-- a figure of a world whose interval results are in `ExperimentResult.separations`: the
-  interval plot of that world (cliff and mud rows, the figure's values as the estimates);
+- an `intervals-...` figure: the interval plot of the interval result added with it to
+  `ExperimentResult.separations` (cliff and mud rows, the figure's values as the estimates,
+  labelled identified set or confidence interval as the result's `kind` says);
 - a figure with values: a reward heatmap, on one colour scale shared by every figure of the
   run, so the same colour is the same reward in figure 4 (true) and figures 5, 6 and 8 (fitted);
 - a figure with labels ("→8" per cell): a policy, arrows sized by carefulness.
@@ -21,7 +22,7 @@ from careful_tui.figures.heatmap import reward_figure, reward_limit
 from careful_tui.figures.intervals import IntervalRow, interval_figure
 from careful_tui.figures.policy import PolicyPanel, policy_figure
 from careful_tui.grid import SYMBOL_NAMES
-from irl_core.experiment import ExperimentResult, Figure, Separation
+from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
 from irl_core.mdp import ARROWS, DIRECTIONS
 
 DIRECTION_OF_ARROW = {arrow: DIRECTIONS.index(direction) for direction, arrow in ARROWS.items()}
@@ -31,17 +32,33 @@ def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: fl
     """The paper figure for one of the experiment's figures (see the module docstring).
 
     Args:
-        rmax: the bound the experiment's fits used: the interval axis runs to it.
+        rmax: the bound the experiment's lp fits used: an identified set's axis runs to it.
     """
     board = Board.of(figure.world)
-    separation = next((s for s in result.separations if s.world == figure.world.name), None)
-    if separation is not None and figure.values is not None:
+    separation = interval_result(figure, result)
+    if separation is not None:
         rows = separation_rows(separation, figure, board)
-        return interval_figure([("", rows)], kind="identified", rmax=rmax)
+        if separation.kind == "confidence":
+            # The stage's own bound is not part of its result: the axis follows the values instead.
+            return interval_figure([("", rows)], kind="confidence", confidence=NOISY_CONFIDENCE, rmax=None)
+        return interval_figure([("", rows)], kind=separation.kind, rmax=rmax)
     if figure.values is not None:
         return reward_figure([("", figure.values)], board, vmax=shared_scale(result))
     return policy_figure([policy_from_labels(figure, board)], board, levels=figure.world.levels,
                          background=board.rewards(figure.world), vmax=shared_scale(result))
+
+
+def interval_result(figure: Figure, result: ExperimentResult) -> Separation | None:
+    """The interval results an `intervals-...` figure shows, or None for any other figure.
+
+    The experiment adds one `intervals-...` figure with each of its interval results, in the same
+    order, so the k-th such figure shows the k-th result (of the figure's own world).
+    """
+    keyed = [f.key for f in result.figures if f.key.startswith("intervals-") and f.values is not None]
+    if figure.key not in keyed or len(keyed) != len(result.separations):
+        return None
+    separation = result.separations[keyed.index(figure.key)]
+    return separation if separation.world == figure.world.name else None
 
 
 def shared_scale(result: ExperimentResult) -> float:

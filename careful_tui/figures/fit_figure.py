@@ -51,7 +51,7 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     rows = []
     for j, symbol in enumerate(result.unknowns.symbols):
         name = SYMBOL_NAMES.get(symbol, symbol)
-        label = name if result.options["tie"] else f"{name} {result.mdp.cells[first_state[j]]}"
+        label = name if result.options.tie else f"{name} {result.mdp.cells[first_state[j]]}"
         low, high = (float(v) for v in result.intervals[j])
         rows.append(IntervalRow(label, symbol, low, high, float(result.theta[j]), float(truth[j])))
     if len(rows) <= MAX_INTERVAL_ROWS:
@@ -69,15 +69,16 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
 
 
 def fitted_cells(result: FitResult) -> str:
-    """Which cells the fit estimated: "ground fixed at 0; the rest fitted", "every cell fitted, one value per symbol"."""
-    cells = "every cell fitted" if result.options["reward_cells"] == "all" else "ground fixed at 0, the rest fitted"
-    return f"{cells}{', one value per symbol' if result.options['tie'] else ''}"
+    """Which cells the fit estimated: "ground fixed at 0, the rest fitted", "every cell fitted, one value per symbol"."""
+    options = result.options
+    cells = "every cell fitted" if options.reward_cells == "all" else "ground fixed at 0, the rest fitted"
+    return f"{cells}{', one value per symbol' if options.tie else ''}"
 
 
 def interval_kind(result: FitResult) -> tuple[str, float | None]:
-    """What the result's intervals are: SPEC's JSON `interval_kind` ("identified" when absent) and its level."""
-    kind = result.to_json().get("interval_kind") or "identified"
-    return kind, result.options.get("confidence") if kind == "confidence" else None
+    """What the result's intervals are ("identified" or "confidence") and, for a confidence interval, its level."""
+    kind = result.interval_kind or "identified"
+    return kind, result.options.confidence if kind == "confidence" else None
 
 
 def fit_figure(result: FitResult) -> Figure:
@@ -100,7 +101,7 @@ def fit_figure(result: FitResult) -> Figure:
     if has_intervals:
         interval_data, hulls = interval_rows(result)
         kind, confidence = interval_kind(result)
-        rmax = float(result.options["rmax"])
+        rmax = float(result.rmax)
         heights.append(FRAME_HEIGHT + LEGEND_HEIGHT + ROW_HEIGHT * len(interval_data))
     width = cell_width(grid_width, cols)
     with figure_style():

@@ -52,16 +52,20 @@ def reward_norm(vmax: float, *, linthresh: float = LINTHRESH) -> SymLogNorm:
     return SymLogNorm(linthresh=linthresh, linscale=0.5, vmin=-vmax, vmax=vmax, base=10)
 
 
-def symlog_ticks(vmax: float, *, linthresh: float = LINTHRESH) -> list[float]:
-    """0, ±linthresh and every power of ten up to vmax, with ±vmax itself."""
-    powers = [10.0**k for k in range(math.ceil(math.log10(linthresh)), 16) if 10.0**k < vmax * (1 - 1e-9)]
-    positive = [*powers, vmax]
+def symlog_ticks(vmax: float, *, linthresh: float = LINTHRESH, ends: bool = True) -> list[float]:
+    """0, ±linthresh and every power of ten up to vmax, and (with `ends`) ±vmax itself.
+
+    Without `ends` a horizontal axis keeps its labels apart: ±2000 would sit on ±1000's.
+    """
+    powers = [10.0**k for k in range(math.ceil(math.log10(linthresh)), 16) if 10.0**k <= vmax * (1 + 1e-9)]
+    positive = sorted({*powers, vmax}) if ends else powers
     return [*(-p for p in reversed(positive)), 0.0, *positive]
 
 
 def value_label(value: float) -> str:
-    """A reward as a cell shows it: "−1000", "−31.5", "0", with a true minus sign."""
-    return format_value(float(value)).replace("-", "\N{MINUS SIGN}")
+    """A reward as a cell shows it: "−1000", "−31.5", "0", with a true minus sign (and no "−0.0")."""
+    value = float(value)
+    return "0" if abs(value) < 0.05 else format_value(value).replace("-", "\N{MINUS SIGN}")
 
 
 def text_colour(rgba: Sequence[float]) -> str:

@@ -17,7 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from careful_tui.figures.heatmap import LINTHRESH, symlog_ticks, value_label
+from careful_tui.figures.heatmap import LINTHRESH, reward_limit, symlog_ticks, value_label
 from careful_tui.figures.style import INK, OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
 
 INTERVAL_KINDS = ("identified", "confidence")
@@ -51,9 +51,20 @@ def kind_label(kind: str, confidence: float | None = None) -> str:
     raise ValueError(f"interval kind must be one of {INTERVAL_KINDS}, not {kind!r}")
 
 
-def at_bound(value: float, rmax: float) -> bool:
-    """Whether an interval's end sits on the ±rmax box (the demonstrations do not bound it there)."""
-    return abs(value) >= rmax * (1 - 1e-9)
+def at_bound(value: float, rmax: float | None) -> bool:
+    """Whether an interval's end sits on the ±rmax box (the demonstrations do not bound it there).
+
+    With `rmax` None (the bound is not known) no end is.
+    """
+    return rmax is not None and abs(value) >= rmax * (1 - 1e-9)
+
+
+def axis_limit(rows: Sequence[IntervalRow], rmax: float | None, *, linthresh: float = LINTHRESH) -> float:
+    """Where the axis ends: at ±rmax, or without a known bound just beyond every value drawn."""
+    if rmax is not None:
+        return rmax
+    values = np.array([v for row in rows for v in (row.low, row.high, row.estimate, row.truth)])
+    return reward_limit(values, linthresh=linthresh)
 
 
 def symbol_colour(symbol: str, order: Sequence[str]) -> str:
@@ -72,9 +83,14 @@ def worst_first(rows: Sequence[IntervalRow]) -> list[IntervalRow]:
     return sorted(rows, key=lambda row: (top[row.symbol], row.symbol, row.label))
 
 
-def draw_intervals(ax: Axes, rows: Sequence[IntervalRow], *, rmax: float, linthresh: float = LINTHRESH,
+def draw_intervals(ax: Axes, rows: Sequence[IntervalRow], *, rmax: float | None, linthresh: float = LINTHRESH,
                    title: str | None = None) -> None:
-    """The rows (top to bottom in the order given) on a symmetric-log axis from -rmax to rmax."""
+    """The rows (top to bottom in the order given) on a symmetric-log axis from -rmax to rmax.
+
+    `rmax`: the fit's bound |R_S| <= rmax, or None when it is not known: then the axis ends
+    just beyond the values drawn and no end is marked as unbounded.
+    """
+    limit = axis_limit(rows, rmax, linthresh=linthresh)
     symbols = list(dict.fromkeys(row.symbol for row in rows))
     for y, row in enumerate(rows):
         colour = symbol_colour(row.symbol, symbols)
@@ -83,16 +99,16 @@ def draw_intervals(ax: Axes, rows: Sequence[IntervalRow], *, rmax: float, linthr
         # An end on the ±rmax box gets a triangle in the margin beyond it, pointing away.
         for end, marker, sign in ((row.low, "<", -1), (row.high, ">", 1)):
             if at_bound(end, rmax) and np.sign(end) == sign:
-                ax.plot([sign * rmax * OPEN_END], [y], marker=marker, markersize=4, color=colour, zorder=3)
+                ax.plot([sign * limit * OPEN_END], [y], marker=marker, markersize=4, color=colour, zorder=3)
         if np.isfinite(row.truth):
             ax.plot([row.truth], [y], marker="|", markersize=8, markeredgewidth=1.4, color=INK, zorder=4)
         ax.plot([row.estimate], [y], marker="o", markersize=3.5, markerfacecolor="white",
                 markeredgecolor=INK, markeredgewidth=0.9, zorder=5)
     ax.set_xscale("symlog", linthresh=linthresh, linscale=0.5)
-    ticks = symlog_ticks(rmax, linthresh=linthresh)
+    ticks = symlog_ticks(limit, linthresh=linthresh, ends=False)
     ax.set_xticks(ticks, [value_label(t) for t in ticks])
     ax.xaxis.set_minor_locator(_no_minor())
-    ax.set_xlim(-rmax * 2.5, rmax * 2.5)
+    ax.set_xlim(-limit * 2.5, limit * 2.5)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_yticks(range(len(rows)), [row.label for row in rows])
     ax.tick_params(axis="y", length=0)
@@ -112,7 +128,8 @@ def _no_minor():
     return NullLocator()
 
 
-def interval_legend(rows: Sequence[IntervalRow], *, kind: str, confidence: float | None, rmax: float) -> list:
+def interval_legend(rows: Sequence[IntervalRow], *, kind: str, confidence: float | None,
+                    rmax: float | None) -> list:
     """Legend entries: the dot, the tick, and the triangle when an end is at ±rmax (the kind is its title)."""
     handles = [Line2D([], [], linestyle="", marker="o", markersize=3.5, markerfacecolor="white",
                       markeredgecolor=INK, label="estimate")]
@@ -126,14 +143,15 @@ def interval_legend(rows: Sequence[IntervalRow], *, kind: str, confidence: float
 
 
 def interval_figure(panels: Sequence[tuple[str, Sequence[IntervalRow]]], *, kind: str,
-                    confidence: float | None = None, rmax: float, linthresh: float = LINTHRESH,
+                    confidence: float | None = None, rmax: float | None, linthresh: float = LINTHRESH,
                     width: float = PANEL_WIDTH) -> Figure:
     """Interval panels stacked on one shared axis (e.g. one per world), with one legend.
 
     Args:
         panels: (title, rows) per panel; rows are drawn worst symbol first (`worst_first`).
         kind: "identified" (the lp's identified set) or "confidence" (with `confidence`, e.g. 0.95).
-        rmax: the fit's bound |R_S| <= rmax: the axis runs to it, and ends on it are marked.
+        rmax: the fit's bound |R_S| <= rmax: the axis runs to it, and ends on it are marked;
+            None when it is not known (the axis then ends just beyond the values).
     """
     every_row = [row for _, rows in panels for row in rows]
     legend = interval_legend(every_row, kind=kind, confidence=confidence, rmax=rmax)

@@ -53,3 +53,9 @@ def test_policy_labels_become_arrows(result):
     assert panel.direction[3, 0] == 0 and panel.carefulness[3, 0] == 8
     assert (panel.direction == -1).sum() == panel.direction.size - 3
     assert np.all(panel.carefulness[panel.direction == -1] == 1)
+
+
+def test_other_figures_of_that_world_stay_heatmaps(result):
+    mud_fit = Figure("mud-fit", "a fit of mud", BUILTIN_WORLDS["mud"], values=result.figures[2].values)
+    drawn = draw_experiment_figure(mud_fit, result, rmax=1000.0)
+    assert drawn.axes[0].images and drawn.axes[0].get_xscale() == "linear"

@@ -14,6 +14,7 @@ from careful_tui.figures.heatmap import (
     reward_limit,
     reward_norm,
     symlog_ticks,
+    value_label,
 )
 from careful_tui.figures.intervals import IntervalRow, interval_figure, kind_label, worst_first
 from careful_tui.figures.policy import PolicyPanel, policy_figure
@@ -121,8 +122,14 @@ def test_colour_scale_is_symmetric_log_centred_on_zero():
     # Each power of ten beyond the linear part takes the same share of the bar.
     assert norm(-100.0) - norm(-1000.0) == pytest.approx(norm(-10.0) - norm(-100.0))
     assert symlog_ticks(1000.0) == [-1000, -100, -10, 0, 10, 100, 1000]
+    assert symlog_ticks(2000.0) == [-2000, -1000, -100, -10, 0, 10, 100, 1000, 2000]
+    assert symlog_ticks(2000.0, ends=False) == [-1000, -100, -10, 0, 10, 100, 1000]
     assert reward_limit(np.array([-30.0, 100.0, np.nan])) == 100.0
     assert reward_limit(np.array([-1565.3, 2.0])) == 2000.0
+
+
+def test_cell_values_read_cleanly():
+    assert [value_label(v) for v in (-1000.0, -31.04, -1e-12, 0.0, 104.6)] == ["−1000", "−31.0", "0", "0", "105"]
 
 
 def test_rows_put_each_symbol_together_worst_first():
