@@ -5,10 +5,11 @@ from __future__ import annotations
 import asyncio
 import threading
 
-from careful_tui.fit import FitOptions, progress_phrase
+import careful_tui.fit_view
+from careful_tui.fit import progress_phrase
 from careful_tui.fit_view import FitApp
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
-from irl_core.irl import fit
+from irl_core.irl import FitOptions, fit
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
 
@@ -16,6 +17,7 @@ from irl_core.world import BUILTIN_WORLDS
 def test_progress_phrases():
     assert progress_phrase("rounds", 3, None) == "round 3"
     assert progress_phrase("intervals", 12, 62) == "interval LP 12 of 62"
+    assert progress_phrase("resamples", 40, 200) == "resample 40 of 200"
 
 
 def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
@@ -23,15 +25,15 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
     first = fit(demos)
     release = threading.Event()
-    real_run = FitOptions.run
+    real_refit = careful_tui.fit_view.refit
 
-    def slow_run(self, demos, *, progress=None):
+    def slow_refit(demos, options, *, progress=None):
         progress("rounds", 2, None)
         progress("intervals", 3, 8)
         release.wait(10)
-        return real_run(self, demos, progress=progress)
+        return real_refit(demos, options, progress=progress)
 
-    monkeypatch.setattr(FitOptions, "run", slow_run)
+    monkeypatch.setattr(careful_tui.fit_view, "refit", slow_refit)
     app = FitApp(demos, FitOptions(), result=first)
     seen = []
 
