@@ -46,7 +46,7 @@ def main() -> None:
         print(f"careful experiment: {wall:.2f} s wall, {cpu:.2f} s CPU (best of {args.repeats}); "
               f"target {TARGET_S:.0f} s: {verdict}")
 
-        import careful_tui.experiment as command
+        import careful_tui.commands.experiment as command
         from irl_core.experiment import run_experiment
 
         recordings = Path(tmp) / "none"

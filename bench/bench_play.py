@@ -24,7 +24,8 @@ import time
 
 from textual import events
 
-from careful_tui.play import PlayApp, make_play_app
+from careful_tui.app import make_play_app
+from careful_tui.screens.play import PlayApp
 from irl_core.world import load_world
 
 PERIOD_MS = 33.0

@@ -8,6 +8,7 @@ need them, so `careful worlds` and `careful --help` answer at once.
 from __future__ import annotations
 
 import argparse
+import importlib
 import math
 import sys
 from pathlib import Path
@@ -15,23 +16,12 @@ from pathlib import Path
 from rich.console import Console
 from rich.text import Text
 
+from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.version import app_version
 from irl_core.demonstrations import RecordingError
 from irl_core.safe_files import OutputError
 from irl_core.safe_text import one_line
 from irl_core.world import WorldError
-
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
-
-
-class UsageError(Exception):
-    """Bad input found after parsing (a value out of range, a file that exists): exit 2."""
-
-
-def require_terminal(command: str) -> None:
-    """Raise `UsageError` unless standard input and output are a terminal (for the screens)."""
-    if not (sys.stdin.isatty() and sys.stdout.isatty()):
-        raise UsageError(f"careful {command} needs an interactive terminal")
-
 
 def finite_float(text: str) -> float:
     """A number JSON can hold: "inf" and "nan" are refused (exit 2), as is anything beyond 1e300."""
@@ -207,86 +197,26 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_FAILURE
 
 
-def app_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("careful")
-    except PackageNotFoundError:
-        return "0+unknown"
-
-
-def run_worlds(args: argparse.Namespace) -> int:
-    from careful_tui.worlds import print_world, print_world_table
-
-    console = Console(highlight=False)
-    if args.show:
-        from irl_core.world import load_world
-
-        print_world(console, load_world(args.show))
-    else:
-        print_world_table(console)
-    return EXIT_OK
-
-
-def run_simulate(args: argparse.Namespace) -> int:
-    from rich.progress import Progress
-
-    from irl_core.experts import NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
-    from irl_core.mdp import build_mdp
-    from irl_core.safe_files import check_output
-    from irl_core.world import load_world
-
-    world_file = [args.world] if Path(args.world).exists() else []
-    check_output(args.out, option="--out", inputs=world_file)
-    if args.out.exists():
-        raise UsageError(f"{args.out} already exists; recordings are never overwritten, choose another --out")
-    mdp = build_mdp(load_world(args.world))
-    try:
-        if args.policy == "optimal":
-            policy, player = optimal_policy(mdp), expert_name("optimal")
-        else:
-            policy, player = boltzmann_policy(mdp, beta=args.beta), expert_name("boltzmann", args.beta)
-    except NotConverged as exc:
-        raise UsageError(str(exc)) from None
-    with Progress(console=Console(stderr=True), transient=True, disable=args.episodes < 2000) as progress:
-        task = progress.add_task("simulating and writing episodes", total=args.episodes)
-        try:
-            ended = simulate_to_file(args.out, mdp, policy, episodes=args.episodes, seed=args.seed, player=player,
-                                     progress=lambda done: progress.update(task, completed=done))
-        except OSError as exc:
-            raise UsageError(f"--out {args.out}: cannot write the recording ({exc.strerror or exc}); "
-                             "nothing was kept") from None
-    summary = ", ".join(f"{ended[k]} {k}" for k in sorted(ended))
-    Console(stderr=True, highlight=False).print(
-        Text(one_line(f"wrote {args.episodes} episodes (ended: {summary}) to {args.out}")), soft_wrap=True
-    )
-    return EXIT_OK
-
-
 def _lazy(module: str, function: str):
-    def run(args: argparse.Namespace) -> int:
-        import importlib
+    """A command that imports its module when it runs: Textual, cvxpy and matplotlib load only
+    for the commands that need them, so `careful --help` and `careful worlds` answer at once."""
 
+    def run(args: argparse.Namespace) -> int:
         return getattr(importlib.import_module(module), function)(args)
 
     return run
 
 
 COMMANDS = {
-    "play": _lazy("careful_tui.play", "run_play"),
-    "replay": _lazy("careful_tui.replay", "run_replay"),
-    "fit": _lazy("careful_tui.fit", "run_fit"),
-    "simulate": run_simulate,
-    "worlds": run_worlds,
-    "experiment": _lazy("careful_tui.experiment", "run_experiment"),
-    "export": _lazy("careful_tui.export", "run_export"),
+    "play": _lazy("careful_tui.commands.play", "run_play"),
+    "replay": _lazy("careful_tui.commands.replay", "run_replay"),
+    "fit": _lazy("careful_tui.commands.fit", "run_fit"),
+    "simulate": _lazy("careful_tui.commands.simulate", "run_simulate"),
+    "worlds": _lazy("careful_tui.commands.worlds", "run_worlds"),
+    "experiment": _lazy("careful_tui.commands.experiment", "run_experiment"),
+    "export": _lazy("careful_tui.commands.export", "run_export"),
 }
 
 
 if __name__ == "__main__":
-    # Run the imported module's main, not this __main__ copy: command modules raise
-    # careful_tui.cli.UsageError, which must be the class main() catches.
-    from careful_tui.cli import main as _main
-
-    sys.exit(_main())
+    sys.exit(main())

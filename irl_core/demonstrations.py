@@ -21,21 +21,18 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import numpy as np
 import scipy.sparse as sp
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic import Field, TypeAdapter, ValidationError
 
 from irl_core.mdp import DIRECTIONS, MDP, build_mdp
 from irl_core.safe_files import open_regular
+from irl_core.recording_lines import SCHEMA_VERSION, EpisodeEnd, SessionHeader, Step, _Line
 from irl_core.safe_text import VALUE_LIMIT, cut, printable
 from irl_core.step_table import StepTable
 from irl_core.world import World, field_path
-
-SCHEMA_VERSION = 1
-Direction = Literal["up", "right", "down", "left"]
-
 
 class RecordingError(ValueError):
     """A recording that cannot be used. `str()` is `file:line: field: problem`."""
@@ -45,50 +42,6 @@ class RecordingError(ValueError):
         where = cut(self.path, 200) if line is None else f"{cut(self.path, 200)}:{line}"
         field = None if field is None else cut(field, VALUE_LIMIT)
         super().__init__(f"{where}: {field}: {problem}" if field else f"{where}: {problem}")
-
-
-class _Line(BaseModel):
-    # Every number must be one JSON can hold: NaN and Infinity are refused when read and never written.
-    model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=True, allow_inf_nan=False)
-
-
-class SessionHeader(_Line):
-    kind: Literal["session"] = "session"
-    schema_version: int = Field(SCHEMA_VERSION, alias="schema")
-    world: World
-    player: str
-    created: datetime = Field(strict=False)
-    seed: int | None = None
-    input: dict[str, Any] = Field(default_factory=lambda: {"mode": "hold"})
-    app_version: str = ""
-
-
-class Step(_Line):
-    kind: Literal["step"] = "step"
-    episode: int = Field(ge=0)
-    t: int = Field(ge=0)
-    # JSON has no tuples: a cell arrives as a 2-element array.
-    state: tuple[int, int] = Field(strict=False)
-    direction: Direction
-    carefulness: int = Field(ge=1)
-    hold_ms: float | None = Field(default=None, ge=0)
-    hold_exact: bool = False
-    next_state: tuple[int, int] = Field(strict=False)
-    slipped: bool
-    reward: float
-    score: float
-    # The direction the move really went (differs from `direction` on a slip); optional, newer files have it.
-    realised: Direction | None = None
-
-
-class EpisodeEnd(_Line):
-    kind: Literal["episode_end"] = "episode_end"
-    episode: int = Field(ge=0)
-    outcome: Literal["terminal", "quit", "step_limit"]
-    terminal_symbol: str | None = None
-    steps: int = Field(ge=0)
-    return_: float = Field(alias="return")
-    score: float
 
 
 _BODY = TypeAdapter(Annotated[Step | EpisodeEnd, Field(discriminator="kind")])

@@ -14,6 +14,7 @@ from typing import Any, overload
 import numpy as np
 
 from irl_core.mdp import DIRECTIONS
+from irl_core.recording_lines import Step
 
 _BLOCK = 4096
 _COLUMNS = {
@@ -79,8 +80,6 @@ class StepTable(Sequence):
             index += self._size
         if not 0 <= index < self._size:
             raise IndexError("step index out of range")
-        from irl_core.demonstrations import Step
-
         c = {name: column[index].item() for name, column in self._consolidated().items()}
         return Step.model_construct(
             episode=c["episode"], t=c["t"], state=(c["row"], c["col"]), direction=DIRECTIONS[c["direction"]],

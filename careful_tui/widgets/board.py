@@ -21,8 +21,8 @@ from textual.reactive import reactive
 from textual.strip import Strip
 from textual.widget import Widget
 
-from careful_tui.grid import WorldGrid
-from careful_tui.widgets.gauge import level_colour
+from careful_tui.render.grid import WorldGrid
+from careful_tui.render.palette import WHITE, level_colour
 from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.world import World
 
@@ -32,9 +32,8 @@ Mark = tuple[str, Style]
 MIN_CELL = (7, 3)
 MAX_CELL = (15, 7)
 PLAYER_GLYPH = "●"
-PLAYER_STYLE = Style(color="#ffffff", bold=True)
+PLAYER_STYLE = Style(color=WHITE, bold=True)
 PLAYER_FRAME = "#aab8c8"
-SLIP_COLOUR = "#ff9f1c"
 CHECKER_SHADE = 0.82
 # The longest arrow (level L) reaches this many cells beyond the player's centre.
 ARROW_REACH = 1.5

@@ -17,23 +17,11 @@ from textual.reactive import reactive
 from textual.strip import Strip
 from textual.widget import Widget
 
-from careful_tui.grid import format_value
+from careful_tui.render.grid import format_value
+from careful_tui.render.palette import EMPTY, level_colour
 
-# Level colours run from cheap and risky (cool) to careful and costly (warm).
-_COLOUR_STOPS = ((0x4F, 0xC3, 0xF7), (0xFF, 0xD5, 0x4F), (0xFF, 0x5A, 0x36))
-EMPTY = "#262b33"
 _PARTIAL = " ▁▂▃▄▅▆▇█"
 BAR_WIDTH = 6
-
-
-def level_colour(level: float, levels: int) -> str:
-    """The colour of carefulness `level` (1..levels, may be fractional) as #rrggbb."""
-    f = 0.0 if levels <= 1 else min(1.0, max(0.0, (level - 1) / (levels - 1)))
-    x = f * (len(_COLOUR_STOPS) - 1)
-    i = min(int(x), len(_COLOUR_STOPS) - 2)
-    a, b = _COLOUR_STOPS[i], _COLOUR_STOPS[i + 1]
-    t = x - i
-    return "#{:02x}{:02x}{:02x}".format(*(round(p + (q - p) * t) for p, q in zip(a, b)))
 
 
 class Gauge(Widget):

@@ -8,6 +8,8 @@ from rich.text import Text
 from textual.reactive import reactive
 from textual.widget import Widget
 
+from careful_tui.render.palette import NOTE, ON_NOTE
+
 
 class KeyBar(Widget):
     """Shows `keys`, a sequence of (key label, what it does), as chips on one line."""
@@ -20,6 +22,6 @@ class KeyBar(Widget):
     def render(self) -> Text:
         text = Text(no_wrap=True, overflow="ellipsis")
         for key, action in self.keys:
-            text.append(f" {key} ", style="bold #101418 on #9ecbff")
+            text.append(f" {key} ", style=f"bold {ON_NOTE} on {NOTE}")
             text.append(f" {action}  ")
         return text

@@ -276,7 +276,7 @@ def test_a_failed_export_leaves_no_dataset(tmp_path, session, datasets, monkeypa
 
 def test_the_game_does_not_import_gymnasium_or_minari():
     code = (
-        "import sys, careful_tui.cli, careful_tui.play, careful_tui.export, irl_core.export; "
+        "import sys, careful_tui.cli, careful_tui.screens.play, careful_tui.commands.export, irl_core.export; "
         "print(sorted({m.split('.')[0] for m in sys.modules} & {'gymnasium', 'minari', 'h5py', 'jax'}))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -25,7 +25,7 @@ def matches_baseline(tmp_path):
     """
     from matplotlib.testing.compare import compare_images
 
-    from careful_tui.figures.style import save_figure
+    from careful_tui.render.figures.style import save_figure
 
     def check(figure, name: str, *, may_update: bool = True) -> None:
         actual = tmp_path / f"{name}.png"
@@ -50,7 +50,7 @@ def mud_world():
 @pytest.fixture
 def mud_fitted(mud_world):
     """(rows, cols) a fitted reward of `mud` as an lp fit gives it."""
-    from careful_tui.figures.board import Board
+    from careful_tui.render.figures.board import Board
 
     fitted = Board.of(mud_world).rewards(mud_world)
     fitted[1, 1:3] = [-23.9, -31.0]

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from matplotlib.patches import Rectangle
 
-from careful_tui.figures.board import Board
-from careful_tui.figures.experiment_figures import draw_experiment_figure, policy_from_labels
+from careful_tui.render.figures.board import Board
+from careful_tui.render.figures.experiment_figures import draw_experiment_figure, policy_from_labels
 from irl_core.experiment import ExperimentResult, Figure, Separation
 from irl_core.world import BUILTIN_WORLDS
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from careful_tui.figures.board import Board
-from careful_tui.figures.carefulness import CarefulnessByDistance, carefulness_by_distance, carefulness_figure
-from careful_tui.figures.heatmap import (
+from careful_tui.render.figures.board import Board
+from careful_tui.render.figures.carefulness import CarefulnessByDistance, carefulness_by_distance, carefulness_figure
+from careful_tui.render.figures.heatmap import (
     add_colour_bar,
     draw_reward,
     reward_figure,
@@ -16,9 +16,9 @@ from careful_tui.figures.heatmap import (
     symlog_ticks,
     value_label,
 )
-from careful_tui.figures.intervals import IntervalRow, interval_figure, kind_label, worst_first
-from careful_tui.figures.policy import PolicyPanel, policy_figure
-from careful_tui.figures.style import figure_style, new_figure
+from careful_tui.render.figures.intervals import IntervalRow, interval_figure, kind_label, worst_first
+from careful_tui.render.figures.policy import PolicyPanel, policy_figure
+from careful_tui.render.figures.style import figure_style, new_figure
 from irl_core.world import BUILTIN_WORLDS
 
 # The optimal policy of `paper` (up, right, down, left = 0..3; -1 at terminal cells) and its levels.

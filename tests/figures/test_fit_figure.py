@@ -79,7 +79,7 @@ def test_figure_as_svg(mud_recording, tmp_path):
 
 
 def test_bad_suffix_is_refused_before_fitting(mud_recording, tmp_path, capsys, monkeypatch):
-    import careful_tui.fit as fit_command
+    import careful_tui.commands.fit as fit_command
 
     def no_fitting(*args, **kwargs):
         raise AssertionError("fitted before checking --figure")
@@ -100,7 +100,7 @@ def test_missing_folder_is_refused(mud_recording, tmp_path, capsys):
 def test_interval_bars_are_the_jsons_intervals(mud_fit):
     from matplotlib.patches import Rectangle
 
-    from careful_tui.figures.fit_figure import fit_figure
+    from careful_tui.render.figures.fit_figure import fit_figure
 
     figure = fit_figure(mud_fit)
     ax = next(a for a in figure.axes if a.get_label() == "intervals")
@@ -120,7 +120,7 @@ def test_interval_bars_are_the_jsons_intervals(mud_fit):
 
 
 def test_fit_figure_panels(mud_fit):
-    from careful_tui.figures.fit_figure import fit_figure
+    from careful_tui.render.figures.fit_figure import fit_figure
 
     figure = fit_figure(mud_fit)
     names = {ax.get_label() for ax in figure.axes}
@@ -132,7 +132,7 @@ def test_fit_figure_panels(mud_fit):
 
 
 def test_playing_and_the_command_line_do_not_import_matplotlib():
-    code = ("import sys, careful_tui.play, careful_tui.cli, careful_tui.fit, careful_tui.experiment, "
-            "careful_tui.figures; print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))")
+    code = ("import sys, careful_tui.screens.play, careful_tui.cli, careful_tui.commands.fit, careful_tui.commands.experiment, "
+            "careful_tui.render.figures; print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert json.loads(out.replace("'", '"')) == []

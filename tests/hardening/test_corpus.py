@@ -274,11 +274,11 @@ def test_bad_world_file_gets_one_line_naming_file_and_field(name, generated):
 
 
 def command_exists(command: str) -> bool:
-    return importlib.util.find_spec(f"careful_tui.{command}") is not None
+    return importlib.util.find_spec(f"careful_tui.commands.{command}") is not None
 
 
 def needs(command: str):
-    return pytest.mark.skipif(not command_exists(command), reason=f"careful_tui/{command}.py does not exist yet")
+    return pytest.mark.skipif(not command_exists(command), reason=f"careful_tui/commands/{command}.py does not exist yet")
 
 
 @dataclass(frozen=True)
@@ -301,7 +301,7 @@ class Outcome:
 WARM_PARENT = r"""
 import importlib, json, os, runpy, signal, sys, tempfile, time, traceback, warnings
 
-for module in ("careful_tui.cli", "cvxpy", "textual.app", "careful_tui.fit", "careful_tui.replay", "careful_tui.play"):
+for module in ("careful_tui.cli", "cvxpy", "textual.app", "careful_tui.commands.fit", "careful_tui.screens.replay", "careful_tui.screens.play"):
     try:
         importlib.import_module(module)
     except Exception:
@@ -408,7 +408,7 @@ def recording_cases(name: str, folder: Path) -> dict[str, Case]:
     return {"fit": Case(("fit", path, "--no-view")), "replay": Case(("replay", path))}
 
 
-COMMAND_MODULE = {"simulate": "cli", "worlds": "cli", "play": "play", "fit": "fit", "replay": "replay"}
+COMMAND_MODULE = {"simulate": "simulate", "worlds": "worlds", "play": "play", "fit": "fit", "replay": "replay"}
 COLD = {  # one fresh interpreter per command, on a file whose error each reader reports differently
     ("worlds", "invalid_toml.toml"), ("simulate", "start_in_wall.toml"), ("play", "ragged_layout.toml"),
     ("fit", "jump_two_cells.jsonl"), ("replay", "schema_future.jsonl"),

@@ -91,7 +91,7 @@ def test_the_header_world_is_not_mixed_with_the_built_in(old_recording, tmp_path
     assert info.value.field == "world" and "differ in layout, levels, cost_per_level, rewards" in info.value.problem
 
 
-@pytest.mark.skipif(find_spec("careful_tui.fit") is None, reason="careful_tui/fit.py does not exist yet")
+@pytest.mark.skipif(find_spec("careful_tui.commands.fit") is None, reason="careful_tui/commands/fit.py does not exist yet")
 def test_fit_fits_the_header_world(old_recording, tmp_path):
     out = tmp_path / "fit.json"
     done = subprocess.run(

@@ -45,11 +45,12 @@ from textual.pilot import Pilot
 from textual.widgets import Static
 
 import irl_core.demonstrations
-from careful_tui.hold import HoldProfile
-from careful_tui.kitty import KeyRelease, KittyParser
-from careful_tui.play import PlayApp, make_play_app
-from careful_tui.replay import ReplayApp
-from careful_tui.widgets.calibration import CalibrationScreen
+from careful_tui.keys.hold import HoldProfile
+from careful_tui.keys.kitty import KeyRelease, KittyParser
+from careful_tui.app import make_play_app
+from careful_tui.screens.play import PlayApp
+from careful_tui.screens.replay import ReplayApp
+from careful_tui.screens.calibration import CalibrationScreen
 from irl_core.demonstrations import Recording, SessionHeader, read_recording
 from irl_core.demonstrations import SessionRecorder
 from irl_core.game import Game, MoveResult

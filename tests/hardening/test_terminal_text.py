@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from careful_tui.fit_view import default_svg_name
-from careful_tui.play import make_play_app
-from careful_tui.replay import ReplayApp
+from careful_tui.screens.fit import default_svg_name
+from careful_tui.app import make_play_app
+from careful_tui.screens.replay import ReplayApp
 from hardening_checks import RAW_CONTROL, assert_refused, careful, digest, recording
 from irl_core.demonstrations import read_recording
 from irl_core.safe_text import MESSAGE_LIMIT, cut, one_line, printable
@@ -169,8 +169,8 @@ def test_player_names_that_are_not_utf8_are_refused_before_anything_is_written(t
 
 
 def test_the_fit_view_shows_a_hostile_world_name_as_text_and_saves_beside_it(tmp_path, monkeypatch):
-    from careful_tui.fit import FitOptions
-    from careful_tui.fit_view import FitApp
+    from irl_core.irl import FitOptions
+    from careful_tui.screens.fit import FitApp
     from irl_core.demonstrations import Demonstrations
 
     path = evil_recording(tmp_path)

@@ -5,7 +5,7 @@ from datetime import datetime, timezone
 
 import pytest
 
-import careful_tui.fit as fit_command
+import careful_tui.commands.fit as fit_command
 from careful_tui.cli import main
 from irl_core.demonstrations import RecordingWriter, SessionHeader, Step
 from irl_core.experts import optimal_policy, rollouts, write_rollouts
@@ -152,7 +152,7 @@ def opened(monkeypatch):
     """`careful fit` sees a terminal on standard input and output; the fit views it runs are collected."""
     from types import SimpleNamespace
 
-    from careful_tui.fit_view import FitApp
+    from careful_tui.screens.fit import FitApp
 
     apps = []
     monkeypatch.setattr(FitApp, "run", lambda app: apps.append(app))

@@ -5,9 +5,9 @@ from __future__ import annotations
 import asyncio
 import threading
 
-import careful_tui.fit_view
-from careful_tui.fit import progress_phrase
-from careful_tui.fit_view import FitApp
+import careful_tui.screens.fit
+from careful_tui.render.fit_printout import progress_phrase
+from careful_tui.screens.fit import FitApp
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, fit
 from irl_core.mdp import build_mdp
@@ -25,7 +25,7 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
     first = fit(demos)
     release = threading.Event()
-    real_refit = careful_tui.fit_view.refit
+    real_refit = careful_tui.screens.fit.fit
 
     def slow_refit(demos, options, *, progress=None):
         progress("rounds", 2, None)
@@ -33,7 +33,7 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
         release.wait(10)
         return real_refit(demos, options, progress=progress)
 
-    monkeypatch.setattr(careful_tui.fit_view, "refit", slow_refit)
+    monkeypatch.setattr(careful_tui.screens.fit, "fit", slow_refit)
     app = FitApp(demos, FitOptions(), result=first)
     seen = []
 

@@ -12,11 +12,13 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-import careful_tui.fit as fit_command
+import careful_tui.screens.fit as fit_screen
 from careful_tui.cli import build_parser, main
-from careful_tui.fit import fit_from_args, interval_span
-from careful_tui.fit_view import FitApp, board_width
-from careful_tui.grid import format_value
+from careful_tui.app import make_fit_app
+from careful_tui.commands.fit import fit_from_args
+from careful_tui.render.intervals import interval_span
+from careful_tui.screens.fit import FitApp, board_width
+from careful_tui.render.grid import format_value
 from careful_tui.widgets import Board, KeyBar
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import fit
@@ -48,7 +50,7 @@ def make_app(*argv, fitted=True, **kwargs) -> FitApp:
         demos, result = fit_from_args(args, err=Console(file=io.StringIO()))
     else:
         demos, result = Demonstrations.read(args.files), None
-    return FitApp.from_args(args, demos, result, **kwargs)
+    return make_fit_app(args, demos, result, **kwargs)
 
 
 def text_of(widget) -> str:
@@ -126,7 +128,7 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
 
     async def body(pilot):
         lp_values = app.query_one("#fitted", Board).values.copy()
-        monkeypatch.setattr(fit_command, "fit", slow_fit)
+        monkeypatch.setattr(fit_screen, "fit", slow_fit)
         await pilot.press("o")
         # Busy: the last result stays, dimmed, under a "fitting" status.
         assert app.busy and "fitting loss" in shown(app, "#status")

@@ -13,8 +13,8 @@ import pytest
 from rich.console import Console
 
 from careful_tui.cli import build_parser, main
-from careful_tui.fit import fit_from_args
-from careful_tui.fit_view import FitApp
+from careful_tui.commands.fit import fit_from_args
+from careful_tui.app import make_fit_app
 
 
 @pytest.fixture(scope="module")
@@ -28,5 +28,5 @@ def mud_file(tmp_path_factory):
 def test_fit_view_on_mud_with_intervals(snap_compare, mud_file) -> None:
     args = build_parser().parse_args(["fit", str(mud_file), "--intervals"])
     demos, result = fit_from_args(args, err=Console(file=io.StringIO()))
-    app = FitApp.from_args(args, demos, result, show_times=False)
+    app = make_fit_app(args, demos, result, show_times=False)
     assert snap_compare(app, terminal_size=(100, 40))

@@ -8,16 +8,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from careful_tui.hold import (
-    ActiveHold,
-    Calibration,
-    DigitsInput,
-    Hold,
-    HoldDetector,
-    HoldProfile,
-    TapCounter,
-    make_input,
-)
+from careful_tui.keys.calibration import Calibration
+from careful_tui.keys.hold import ActiveHold, Hold, HoldDetector, HoldProfile
+from careful_tui.keys.modes import DigitsInput, TapCounter, make_input
 
 
 class FakeClock:

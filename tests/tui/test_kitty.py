@@ -20,7 +20,7 @@ from textual._xterm_parser import XTermParser
 from textual.app import App
 from textual.message import Message
 
-from careful_tui.kitty import (
+from careful_tui.keys.kitty import (
     KeyRelease,
     KittyDriver,
     KittyKey,
@@ -269,7 +269,7 @@ def test_app_receives_repeats_and_releases() -> None:
 _CHILD = """
 import json, sys
 from textual.app import App
-from careful_tui.kitty import KittyDriver, key_repeat
+from careful_tui.keys.kitty import KittyDriver, key_repeat
 
 class Probe(App):
     def __init__(self):

@@ -10,11 +10,12 @@ import pytest
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-from careful_tui.hold import HoldProfile
-from careful_tui.kitty import KittyParser
-from careful_tui.play import PlayApp, make_play_app, minimum_size
+from careful_tui.keys.hold import HoldProfile
+from careful_tui.keys.kitty import KittyParser
+from careful_tui.app import make_play_app
+from careful_tui.screens.play import PlayApp, minimum_size
 from careful_tui.widgets import Board, Gauge
-from careful_tui.widgets.calibration import CalibrationScreen
+from careful_tui.screens.calibration import CalibrationScreen
 from irl_core.demonstrations import Recording, read_recording
 from irl_core.world import World, load_world
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from textual.pilot import Pilot
 
-from careful_tui.play import make_play_app
+from careful_tui.app import make_play_app
 from irl_core.world import load_world
 
 

@@ -14,7 +14,7 @@ from textual.pilot import Pilot
 from textual.widgets import Static
 
 from careful_tui.cli import main
-from careful_tui.replay import END_TICKS, ReplayApp, minimum_size
+from careful_tui.screens.replay import END_TICKS, ReplayApp, minimum_size
 from careful_tui.widgets import Board, Gauge
 from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step, read_recording
 from irl_core.world import World

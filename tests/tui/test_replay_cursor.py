@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from careful_tui.replay_cursor import ReplayCursor, group_episodes
+from careful_tui.screens.replay_cursor import ReplayCursor, group_episodes
 from irl_core.demonstrations import EpisodeEnd, Step, read_recording
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from careful_tui.replay import ReplayApp
+from careful_tui.screens.replay import ReplayApp
 from irl_core.demonstrations import read_recording
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"

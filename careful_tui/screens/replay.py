@@ -4,7 +4,7 @@ The screen is the play screen's, reused: the board shows the player where the st
 with the arrow of the recorded direction and carefulness, then where the move went (a slip
 framed in the slip colour); the gauge shows the step's recorded level and hold time. A side
 panel summarises the session (`irl_core.summary`), with mean carefulness by distance from
-the nearest terminal cell. Where the replay is lives in `careful_tui.replay_cursor`.
+the nearest terminal cell. Where the replay is lives in `careful_tui.screens.replay_cursor`.
 
 Time: a Textual interval timer calls `ReplayApp.advance` once a frame while playing (two
 frames a step, an episode's end held for `END_TICKS`); tests call `advance` directly and
@@ -13,32 +13,25 @@ pass a `frame_seconds` long enough that the timer never fires on its own.
 
 from __future__ import annotations
 
-import argparse
-
-from rich.console import Console, Group
-from rich.table import Table
 from rich.text import Text
 from textual import events
 from textual.app import App, ComposeResult
 from textual.binding import Binding
-from textual.containers import Horizontal, Vertical
 from textual.driver import Driver
 from textual.timer import Timer
 from textual.widgets import Static
 
-from careful_tui.grid import format_value
-from careful_tui.kitty import PassiveKittyDriver
-from careful_tui.reading import read_with_progress
-from careful_tui.play import BAD, GOOD, NOTE, carefulness_gauge, world_board
-from careful_tui.replay_cursor import Frame, ReplayCursor
-from careful_tui.widgets import Arrow, Board, Gauge, KeyBar, level_colour
-from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
+from careful_tui.render.grid import format_value
+from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
+from careful_tui.render.session import plural, summary_panel
+from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
+from careful_tui.screens.replay_cursor import Frame, ReplayCursor
+from careful_tui.widgets import Arrow, Board, Gauge, KeyBar
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording, Step
-from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.mdp import DIRECTIONS, OFFSETS
-from irl_core.game import level_costs
-from irl_core.summary import SessionSummary, distance_to_terminal, outcome_label, summarise
+from irl_core.safe_text import VALUE_LIMIT, printable
+from irl_core.summary import distance_to_terminal, outcome_label, summarise
 from irl_core.world import World
 
 FRAME_S = 0.5
@@ -46,23 +39,10 @@ SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 # Ticks an episode's end stays on screen while playing (the outcome is worth a look).
 END_TICKS = 3
 PANEL_WIDTH = 19
-WARN = "#ffd54f"
-MEAN_BAR = 5
-HERE = "bold on #2a3442"
 
 
 def speed_text(speed: float) -> str:
     return f"×{speed:g}"
-
-
-def plural(n: int, word: str) -> str:
-    return f"{n} {word}{'' if n == 1 else 's'}"
-
-
-def short_warning(recording: Recording, warning: str) -> str:
-    """A reader's warning without the file's name: "line 6: the last line is truncated ..."."""
-    prefix = f"{recording.path}:"
-    return f"line {warning.removeprefix(prefix)}" if warning.startswith(prefix) else warning
 
 
 def realised_direction(step: Step) -> str | None:
@@ -76,56 +56,8 @@ def realised_direction(step: Step) -> str | None:
 
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the replay screen fits in, for `world`."""
-    gauge = Gauge(level_costs(world))
-    cell_width, cell_height = MIN_CELL
-    # As in replay.tcss: gauge border; board border; the panel; title and key bars; 3 status lines.
-    width = (gauge.get_content_width(None, None) + 2) + (world.cols * cell_width + 2) + PANEL_WIDTH
-    height = 2 + max(world.levels + 2 + 3, world.rows * cell_height + 2 + 3)
-    return width, height
-
-
-def summary_panel(recording: Recording, summary: SessionSummary, distance: int | None) -> Group:
-    """The session at a glance; `distance` marks the current row of the carefulness table."""
-    header, world = recording.header, recording.world
-    about = Table.grid(padding=(0, 1))
-    about.add_column(style="dim", no_wrap=True)
-    about.add_column(overflow="fold")
-    about.add_row("world", Text(printable(world.name, limit=VALUE_LIMIT), style="bold"))
-    about.add_row("input", Text(printable(str(header.input.get("mode", "?")), limit=20)))
-    player = Text(printable(header.player, limit=VALUE_LIMIT), style="bold", overflow="fold")
-    created = Text(f"{header.created:%Y-%m-%d %H:%M}", style="dim")
-
-    session = Table.grid(padding=(0, 1))
-    session.add_column(justify="right", style="bold", no_wrap=True)
-    session.add_column()
-    session.add_row(*plural(summary.episodes, "episode").split(" ", 1))
-    for label, count in sorted(summary.outcomes.items(), key=lambda item: -item[1]):
-        colour = GOOD if label == "reached the goal" else BAD if label == "fell off the cliff" else NOTE
-        session.add_row(Text(str(count), style=colour), Text(label, style=colour))
-    session.add_row(*plural(summary.steps, "step").split(" ", 1))
-    session.add_row(Text(str(summary.slips), style=SLIP_COLOUR if summary.slips else ""),
-                    "slip" if summary.slips == 1 else "slips")
-    score = "—" if summary.final_score is None else format_value(summary.final_score)
-    session.add_row(score, Text("final score", style="dim"))
-
-    careful = Table(box=None, padding=(0, 0), show_edge=False, header_style="dim", title_style=f"bold {NOTE}",
-                    title=f"carefulness by\ndistance to {'/'.join(world.terminal)}", title_justify="left")
-    careful.add_column("d", justify="right", width=2)
-    careful.add_column("mean", justify="right", width=5)
-    careful.add_column("", width=MEAN_BAR + 1)
-    careful.add_column("n", justify="right", min_width=4)
-    for d, (mean, n) in summary.carefulness_by_distance.items():
-        colour = level_colour(mean, world.levels)
-        bar = "▆" * max(1, round(MEAN_BAR * mean / world.levels))
-        careful.add_row(str(d), Text(f"{mean:.1f}", style=f"bold {colour}"), Text(f" {bar}", style=colour),
-                        str(n), style=HERE if d == distance else "")
-    # Warnings first: the panel is cut at the bottom in a small terminal.
-    warnings = [Text(f"⚠ {printable(short_warning(recording, warning), limit=200)}\n", style=f"bold {WARN}")
-                for warning in recording.warnings]
-    parts = [*warnings, player, about, created, Text(), session, Text(), careful]
-    if not summary.carefulness_by_distance:
-        parts.append(Text("(no steps)", style="dim"))
-    return Group(*parts)
+    # As in replay.tcss: the gauge's border only; the session panel; the hold info under the gauge.
+    return game_minimum_size(world, side_padding=2, panel_width=PANEL_WIDTH, side_lines=3)
 
 
 class ReplayApp(App[None]):
@@ -178,19 +110,9 @@ class ReplayApp(App[None]):
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
-        yield Static(id="title")
-        with Horizontal(id="main"):
-            with Vertical(id="side"):
-                yield carefulness_gauge(self.world)
-                yield Static(id="hold-info")
-            with Vertical(id="right"):
-                yield world_board(self.world)
-                yield Static(id="status")
-            panel = Static(id="summary")
-            panel.border_title = "session"
-            yield panel
-        yield TooSmall(id="too-small")
-        yield KeyBar(id="keys")
+        panel = Static(id="summary")
+        panel.border_title = "session"
+        yield from compose_game(self.world, panel=panel)
 
     def on_mount(self) -> None:
         self.query_one("#title", Static).update(Text.assemble(
@@ -299,7 +221,7 @@ class ReplayApp(App[None]):
         board.arrow = (Arrow(step.direction, step.carefulness, self.world.levels)
                        if step is not None and frame.phase == "before" else None)
         slipped = step is not None and step.slipped and frame.phase == "after"
-        board.highlight = {step.next_state: SLIP_COLOUR} if slipped else {}
+        board.highlight = {step.next_state: SLIP} if slipped else {}
         gauge.level = None if step is None else step.carefulness
         gauge.fill = 0.0 if step is None else float(step.carefulness)
         self.query_one("#hold-info", Static).update(self._hold_info(step), layout=False)
@@ -374,20 +296,10 @@ class ReplayApp(App[None]):
             where = f"went {went} into the edge instead of {step.direction}, and stayed put"
         else:
             where = f"went {went} instead of {step.direction}"
-        return Text.assemble(("slipped! ", f"bold {SLIP_COLOUR}"), where)
+        return Text.assemble(("slipped! ", f"bold {SLIP}"), where)
 
     def _keys(self) -> list[tuple[str, str]]:
         if self._too_small:
             return [("q", "quit")]
         return [("space", "pause" if self.playing else "play"), ("←→", "step"), ("↑↓", "episode"),
                 ("+-", speed_text(self.speed)), ("home end", "jump"), ("q", "quit")]
-
-
-def run_replay(args: argparse.Namespace) -> int:
-    """`careful replay FILE`: read the recording (bad files are reported without a terminal), then watch it."""
-    from careful_tui.cli import require_terminal
-
-    (recording,) = read_with_progress([args.file], Console(stderr=True, highlight=False))
-    require_terminal("replay")
-    ReplayApp(recording, playing=True, driver_class=PassiveKittyDriver).run()
-    return 0

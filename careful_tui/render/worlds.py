@@ -7,7 +7,7 @@ from rich.syntax import Syntax
 from rich.table import Table
 from rich.text import Text
 
-from careful_tui.grid import WorldGrid, format_value, symbol_legend
+from careful_tui.render.grid import WorldGrid, format_value, symbol_legend
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.world import BUILTIN_WORLDS, WORLD_PURPOSES, World
 

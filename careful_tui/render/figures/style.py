@@ -18,7 +18,7 @@ import matplotlib as mpl
 import matplotlib.style
 from matplotlib.figure import Figure
 
-from careful_tui.figures import FIGURE_SUFFIXES
+from careful_tui.render.figures import FIGURE_SUFFIXES
 from irl_core.safe_files import write_output
 
 DPI = 300
@@ -82,7 +82,7 @@ def save_figure(figure: Figure, path: Path, *, option: str = "--figure", inputs:
     replaces a recording or one of `inputs`, and a failed write leaves no half-written file.
 
     Text is plain (no mathtext): every PDF then embeds one font, DejaVu Sans, and embedding
-    (subsetting with fontTools) is most of the time a PDF takes. Raises ValueError for another suffix (`careful_tui.figures.figure_suffix_problem` says it
+    (subsetting with fontTools) is most of the time a PDF takes. Raises ValueError for another suffix (`careful_tui.render.figures.figure_suffix_problem` says it
     in a sentence first). No creation date is stored, so the same figure gives the same file.
     """
     fmt = path.suffix.lower()

@@ -3,7 +3,7 @@
 A terminal reports key presses and autorepeats, not releases (SPEC section 5), so the length of
 a hold is inferred from the autorepeat rhythm: a press starts a hold, autorepeats of the same key
 extend it, silence longer than the release timeout ends it and another key ends it at once. Where
-the terminal does report releases (kitty's keyboard protocol, see `careful_tui.kitty`), a release
+the terminal does report releases (kitty's keyboard protocol, see `careful_tui.keys.kitty`), a release
 ends the hold exactly.
 
 Three input modes produce the same `Hold` (key, level, hold_ms, exact), so the play screen can use
@@ -12,8 +12,8 @@ any of them through the `MoveInput` protocol:
 | mode     | class          | how a level is chosen                                        |
 |----------|----------------|--------------------------------------------------------------|
 | `hold`   | `HoldDetector` | hold the arrow; the level rises with the hold time           |
-| `tap`    | `TapCounter`   | tap the same arrow k times quickly for level k               |
-| `digits` | `DigitsInput`  | type the level, then the arrow                               |
+| `tap`    | `TapCounter`   | tap the same arrow k times quickly for level k (`modes`)     |
+| `digits` | `DigitsInput`  | type the level, then the arrow (`modes`)                     |
 
 Nothing here imports Textual: every class takes an injectable `clock` (seconds, like
 `time.monotonic`) so the tests drive time by hand.
@@ -22,10 +22,9 @@ Nothing here imports Textual: every class takes an injectable `clock` (seconds, 
 from __future__ import annotations
 
 import math
-import statistics
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Protocol
 
 DIRECTIONS: tuple[str, ...] = ("up", "right", "down", "left")
@@ -181,13 +180,13 @@ class MoveInput(Protocol):
     def header(self) -> dict[str, object]: ...
 
 
-def _check_key(key: str, keys: frozenset[str]) -> None:
+def check_key(key: str, keys: frozenset[str]) -> None:
     if key not in keys:
         raise ValueError(f"this input does not take {key!r}; it takes {sorted(keys)}")
 
 
 @dataclass
-class _Pending:
+class PendingHold:
     key: str
     started: float
     last: float
@@ -217,11 +216,11 @@ class HoldDetector:
     def __init__(self, profile: HoldProfile, *, clock: Clock = time.monotonic) -> None:
         self.profile = profile
         self._clock = clock
-        self._pending: _Pending | None = None
+        self._pending: PendingHold | None = None
 
     def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
         """A key press or autorepeat of `key`; returns the hold it ended, if any."""
-        _check_key(key, self.keys)
+        check_key(key, self.keys)
         now = self._clock()
         done: list[Hold] = []
         pending = self._pending
@@ -233,7 +232,7 @@ class HoldDetector:
             done.append(self._infer(pending))
             self._pending = None
         if not repeat:
-            self._pending = _Pending(key=key, started=now, last=now)
+            self._pending = PendingHold(key=key, started=now, last=now)
         return done
 
     def release(self, key: str) -> list[Hold]:
@@ -282,32 +281,32 @@ class HoldDetector:
         """The session header's `"input"` object."""
         return {"mode": self.mode, **self.profile.to_header()}
 
-    def _extend(self, pending: _Pending, now: float) -> None:
+    def _extend(self, pending: PendingHold, now: float) -> None:
         pending.repeats += 1
         if pending.first_repeat is None:
             pending.first_repeat = now
         pending.last = now
 
-    def _period_ms(self, pending: _Pending) -> float:
+    def _period_ms(self, pending: PendingHold) -> float:
         if pending.repeats >= 2 and pending.first_repeat is not None:
             return (pending.last - pending.first_repeat) * 1000.0 / (pending.repeats - 1)
         return self.profile.repeat_period_ms
 
-    def _deadline(self, pending: _Pending) -> float:
+    def _deadline(self, pending: PendingHold) -> float:
         if pending.repeats == 0:
             timeout_ms = self.profile.first_repeat_timeout_ms
         else:
             timeout_ms = self.profile.repeat_timeout_ms(self._period_ms(pending))
         return pending.last + timeout_ms / 1000.0
 
-    def _infer(self, pending: _Pending) -> Hold:
+    def _infer(self, pending: PendingHold) -> Hold:
         if pending.repeats == 0:
             hold_ms = 0.0
         else:
             hold_ms = (pending.last - pending.started) * 1000.0 + self._period_ms(pending) / 2
         return self._hold(pending, hold_ms, exact=False)
 
-    def _hold(self, pending: _Pending, hold_ms: float, *, exact: bool) -> Hold:
+    def _hold(self, pending: PendingHold, hold_ms: float, *, exact: bool) -> Hold:
         return Hold(
             key=pending.key,
             hold_ms=hold_ms,
@@ -316,254 +315,3 @@ class HoldDetector:
             started=pending.started,
             repeats=pending.repeats,
         )
-
-
-class TapCounter:
-    """Tap mode (`--input tap`): tap the same arrow k times quickly for level k.
-
-    A pause of `tap_window_ms` (default 400) after the last tap, or a different arrow, commits
-    the move; taps beyond `levels` stay at the top level. Explicit kitty repeats
-    (`repeat=True`) are not taps and are ignored; a legacy terminal cannot tell them apart, so
-    holding an arrow there counts its autorepeats as taps.
-    """
-
-    mode = "tap"
-    keys = frozenset(DIRECTIONS)
-
-    def __init__(
-        self,
-        profile: HoldProfile,
-        *,
-        clock: Clock = time.monotonic,
-        tap_window_ms: float = 400.0,
-    ) -> None:
-        self.profile = profile
-        self.tap_window_ms = tap_window_ms
-        self._clock = clock
-        self._pending: _Pending | None = None
-
-    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
-        """A tap of `key`; returns the move it committed (a different arrow commits at once)."""
-        _check_key(key, self.keys)
-        if repeat:
-            return []
-        done = self.poll()
-        now = self._clock()
-        pending = self._pending
-        if pending is not None and pending.key == key:
-            pending.repeats += 1
-            pending.last = now
-            return done
-        if pending is not None:
-            done.append(self._commit(pending))
-        self._pending = _Pending(key=key, started=now, last=now)
-        return done
-
-    def release(self, key: str) -> list[Hold]:
-        """Releases carry no meaning in tap mode."""
-        return []
-
-    def poll(self) -> list[Hold]:
-        """Commit the taps if the pause since the last one reached the tap window."""
-        pending = self._pending
-        if pending is None or self._clock() < self._deadline(pending):
-            return []
-        return [self._commit(pending)]
-
-    def deadline(self) -> float | None:
-        """Clock time at which `poll` commits the taps (None when there are none)."""
-        return None if self._pending is None else self._deadline(self._pending)
-
-    def current(self) -> ActiveHold | None:
-        """The taps so far and the level they give."""
-        pending = self._pending
-        if pending is None:
-            return None
-        return ActiveHold(
-            key=pending.key,
-            elapsed_ms=(self._clock() - pending.started) * 1000.0,
-            level=self._level(pending),
-            repeats=pending.repeats,
-        )
-
-    def reset(self) -> None:
-        """Drop the taps so far without committing them."""
-        self._pending = None
-
-    def header(self) -> dict[str, object]:
-        """The session header's `"input"` object."""
-        return {"mode": self.mode, **self.profile.to_header(), "tap_window_ms": self.tap_window_ms}
-
-    def _deadline(self, pending: _Pending) -> float:
-        return pending.last + self.tap_window_ms / 1000.0
-
-    def _level(self, pending: _Pending) -> int:
-        return min(self.profile.levels, pending.repeats + 1)
-
-    def _commit(self, pending: _Pending) -> Hold:
-        self._pending = None
-        return Hold(
-            key=pending.key,
-            hold_ms=(pending.last - pending.started) * 1000.0,
-            level=self._level(pending),
-            exact=False,
-            started=pending.started,
-            repeats=pending.repeats,
-        )
-
-
-class DigitsInput:
-    """Digits mode (`--input digits`): type the level, then the arrow.
-
-    Digits accumulate ("1", "2" is level 12); the arrow commits the move with that level,
-    clamped to 1..levels (level 1 with no digits). Backspace removes the last digit, Escape all
-    of them. Nothing is timed, so `deadline` is always None. Explicit kitty repeats of an arrow
-    are ignored; a legacy terminal's autorepeat moves again at level 1.
-    """
-
-    mode = "digits"
-    keys = frozenset((*DIRECTIONS, *DIGITS, "backspace", "escape"))
-
-    def __init__(self, profile: HoldProfile, *, clock: Clock = time.monotonic) -> None:
-        self.profile = profile
-        self._clock = clock
-        self._digits = ""
-        self._started: float | None = None
-
-    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
-        """A digit, Backspace, Escape or arrow; an arrow returns the committed move."""
-        _check_key(key, self.keys)
-        if repeat and key in DIRECTIONS:
-            return []
-        now = self._clock()
-        if key in DIGITS:
-            if self._started is None:
-                self._started = now
-            self._digits += key
-            return []
-        if key == "backspace":
-            self._digits = self._digits[:-1]
-            if not self._digits:
-                self._started = None
-            return []
-        if key == "escape":
-            self.reset()
-            return []
-        started = now if self._started is None else self._started
-        hold = Hold(
-            key=key,
-            hold_ms=(now - started) * 1000.0,
-            level=self._level(),
-            exact=False,
-            started=started,
-            repeats=0,
-        )
-        self.reset()
-        return [hold]
-
-    def release(self, key: str) -> list[Hold]:
-        """Releases carry no meaning in digits mode."""
-        return []
-
-    def poll(self) -> list[Hold]:
-        """Nothing commits by time in digits mode."""
-        return []
-
-    def deadline(self) -> float | None:
-        """Always None: nothing commits by time."""
-        return None
-
-    def current(self) -> ActiveHold | None:
-        """The level typed so far (no key until the arrow)."""
-        if self._started is None:
-            return None
-        return ActiveHold(
-            key=None,
-            elapsed_ms=(self._clock() - self._started) * 1000.0,
-            level=self._level(),
-            repeats=0,
-        )
-
-    def reset(self) -> None:
-        """Forget the digits typed so far."""
-        self._digits = ""
-        self._started = None
-
-    def header(self) -> dict[str, object]:
-        """The session header's `"input"` object."""
-        return {"mode": self.mode, **self.profile.to_header()}
-
-    def _level(self) -> int:
-        typed = int(self._digits) if self._digits else 1
-        return min(self.profile.levels, max(1, typed))
-
-
-INPUT_MODES: tuple[str, ...] = ("hold", "tap", "digits")
-
-
-def make_input(mode: str, profile: HoldProfile, *, clock: Clock = time.monotonic) -> MoveInput:
-    """The input for `mode` ("hold", "tap" or "digits"), sharing one profile and clock."""
-    if mode == "hold":
-        return HoldDetector(profile, clock=clock)
-    if mode == "tap":
-        return TapCounter(profile, clock=clock)
-    if mode == "digits":
-        return DigitsInput(profile, clock=clock)
-    raise ValueError(f"unknown input mode {mode!r}: use one of {', '.join(INPUT_MODES)}")
-
-
-class Calibration:
-    """Measure the keyboard's autorepeat from one long hold ("hold an arrow for 2 s").
-
-    Feed every press/autorepeat event of the hold with `feed`, then call `result`. The initial
-    delay is the first repeat's time after the press; the period is the median gap between
-    repeats (the median shrugs off a gap stretched by a busy event loop). A different key, or a
-    silence longer than `restart_after_s` (longer than any delay we accept), starts over: the
-    user is trying again.
-    """
-
-    DELAY_RANGE_MS = (150.0, 1000.0)
-    PERIOD_RANGE_MS = (10.0, 200.0)
-    MIN_REPEATS = 3
-
-    def __init__(self, base: HoldProfile, *, restart_after_s: float = 1.5) -> None:
-        self.base = base
-        self.restart_after_s = restart_after_s
-        self._key: str | None = None
-        self._times: list[float] = []
-
-    def feed(self, key: str, at: float) -> None:
-        """A press or autorepeat of `key` at clock time `at` (seconds)."""
-        if key != self._key or (self._times and at - self._times[-1] > self.restart_after_s):
-            self._key = key
-            self._times = []
-        self._times.append(at)
-
-    @property
-    def repeats(self) -> int:
-        """Autorepeats seen so far in the current attempt."""
-        return max(0, len(self._times) - 1)
-
-    def result(self) -> HoldProfile:
-        """The base profile with the measured delay and period, marked calibrated.
-
-        Raises:
-            ValueError: fewer than `MIN_REPEATS` autorepeats were seen (message for the user).
-        """
-        if self.repeats < self.MIN_REPEATS:
-            raise ValueError("no autorepeat seen: hold the key down for 2 seconds")
-        times = self._times
-        delay_ms = (times[1] - times[0]) * 1000.0
-        gaps_ms = [(b - a) * 1000.0 for a, b in zip(times[1:], times[2:])]
-        period_ms = statistics.median(gaps_ms)
-        return replace(
-            self.base,
-            initial_delay_ms=_clamp(delay_ms, self.DELAY_RANGE_MS),
-            repeat_period_ms=_clamp(period_ms, self.PERIOD_RANGE_MS),
-            calibrated=True,
-        )
-
-
-def _clamp(value: float, bounds: tuple[float, float]) -> float:
-    low, high = bounds
-    return min(high, max(low, value))

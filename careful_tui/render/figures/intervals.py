@@ -17,8 +17,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from careful_tui.figures.heatmap import LINTHRESH, reward_limit, symlog_ticks, value_label
-from careful_tui.figures.style import INK, OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
+from careful_tui.render.figures.heatmap import LINTHRESH, reward_limit, symlog_ticks, value_label
+from careful_tui.render.figures.style import INK, OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
 
 INTERVAL_KINDS = ("identified", "confidence")
 SYMBOL_COLOURS = {"C": OKABE_ITO[0], "G": OKABE_ITO[1], "U": OKABE_ITO[2]}

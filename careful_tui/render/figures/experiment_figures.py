@@ -17,11 +17,11 @@ import re
 import numpy as np
 from matplotlib.figure import Figure as PlotFigure
 
-from careful_tui.figures.board import Board
-from careful_tui.figures.heatmap import reward_figure, reward_limit
-from careful_tui.figures.intervals import IntervalRow, interval_figure
-from careful_tui.figures.policy import PolicyPanel, policy_figure
-from careful_tui.grid import SYMBOL_NAMES
+from careful_tui.render.figures.board import Board
+from careful_tui.render.figures.heatmap import reward_figure, reward_limit
+from careful_tui.render.figures.intervals import IntervalRow, interval_figure
+from careful_tui.render.figures.policy import PolicyPanel, policy_figure
+from careful_tui.render.grid import SYMBOL_NAMES
 from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
 from irl_core.mdp import ARROWS, DIRECTIONS
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from rich.console import Console, ConsoleOptions, RenderResult
+from rich.measure import Measurement
 from rich.segment import Segment
 from rich.style import Style
 from rich.text import Text
@@ -153,8 +154,6 @@ class WorldGrid:
                 yield Segment.line()
 
     def __rich_measure__(self, console: Console, options: ConsoleOptions):
-        from rich.measure import Measurement
-
         width = self.world.cols * self.cell_width
         return Measurement(width, width)
 

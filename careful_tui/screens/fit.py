@@ -1,7 +1,8 @@
 """The fit view: a fitted reward as a picture, refitted with a key (SPEC sections 3 and 4).
 
-`careful fit FILE...` in a terminal opens it on the first fit (`careful_tui.fit.run_fit`).
-It shows the fitted R_S coloured on the diverging log scale of `careful_tui.grid`, the
+`careful fit FILE...` in a terminal opens it on the first fit (`careful_tui.commands.fit.run_fit`,
+through `careful_tui.app.make_fit_app`).
+It shows the fitted R_S coloured on the diverging log scale of `careful_tui.render.grid`, the
 world's own R_S beside it on the same scale, how far the demonstrations pin each reward
 (`IntervalChart` and a sentence per symbol), the demonstrated policy, the status and notes.
 
@@ -12,13 +13,12 @@ answer to the latest request is shown. A refit that fails (an lp with no solutio
 demonstrations, a solver that gives up) is reported in the status line and the view keeps
 the last result.
 
-Everything drawn comes from `careful_tui.fit` and the shared `Board`; this module is layout
+Everything drawn comes from `careful_tui.commands.fit` and the shared `Board`; this module is layout
 and keys.
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -34,27 +34,23 @@ from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
 from textual.widgets import Static
 
-from careful_tui.fit import (
-    IntervalChart,
+from careful_tui.render.fit_printout import (
     evaluation_line,
-    progress_phrase,
-    interval_readings,
-    interval_title,
-    options_from_args,
     policy_labels,
-    refit,
+    progress_phrase,
     reward_scale,
-    signed_log_value,
     status_text,
     unknown_phrase,
 )
-from careful_tui.grid import diverging_colour, format_value
-from careful_tui.play import BAD, GOOD, NOTE, legend
+from careful_tui.render.grid import diverging_colour, format_value
+from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, signed_log_value
+from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
+from careful_tui.render.session import legend
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Demonstrations, slug
-from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError
+from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError, fit
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable
 
@@ -64,7 +60,6 @@ CELL_HEIGHT = MIN_CELL[1]
 MAX_CELL_WIDTH = 11
 GAP = 2
 POLICY_KEY_WIDTH = 34
-BUSY = "#ffd54f"
 
 
 def board_width(world_cols: int, room: int) -> int:
@@ -135,7 +130,7 @@ class FitApp(App[None]):
         show_times: show the fit's seconds (snapshot tests turn it off: times vary).
     """
 
-    CSS_PATH = ["play.tcss", "fit_view.tcss"]
+    CSS_PATH = ["play.tcss", "fit.tcss"]
     TITLE = "careful fit"
     ENABLE_COMMAND_PALETTE = False
     BINDINGS = [
@@ -175,13 +170,6 @@ class FitApp(App[None]):
         self._progress = ""
         self._too_small = False
         self._save_first = svg is not None
-
-    @classmethod
-    def from_args(cls, args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,
-                  *, show_times: bool = True, driver_class: type[Driver] | None = None) -> FitApp:
-        """The view `careful fit` opens for its parsed `args` (the CLI and the tests build it here)."""
-        return cls(demos, options_from_args(args), result=result, sources=args.files, svg=args.svg,
-                   show_times=show_times, driver_class=driver_class)
 
     # ------------------------------------------------------------------ layout
 
@@ -252,7 +240,7 @@ class FitApp(App[None]):
     def _fit(self, request: int, options: FitOptions) -> None:
         try:
             heard = lambda *done: self.post_message(FitProgress(request, progress_phrase(*done)))  # noqa: E731
-            result, error = refit(self.demos, options, progress=heard), None
+            result, error = fit(self.demos, options, progress=heard), None
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
         self.post_message(Fitted(request, options, result, error))
@@ -380,7 +368,7 @@ class FitApp(App[None]):
 
     def _status(self) -> Text:
         if self._fitting is not None:
-            return Text(f"⟳ fitting {self._fitting.describe()}…{self._progress}", style=f"bold {BUSY}")
+            return Text(f"⟳ fitting {self._fitting.describe()}…{self._progress}", style=f"bold {WARN}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
             return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
@@ -401,7 +389,7 @@ class FitApp(App[None]):
 
     def _notes(self, result: FitResult) -> Group:
         return Group(Text(evaluation_line(result), style="bold"),
-                     *(Text(f"• {note}", style=BUSY) for note in result.notes),
+                     *(Text(f"• {note}", style=WARN) for note in result.notes),
                      Text(unknown_phrase(result), style="dim"))
 
     def _intervals(self, result: FitResult) -> Group | Text:
@@ -410,7 +398,7 @@ class FitApp(App[None]):
                     else f"a {self.options.confidence:.0%} confidence interval (resampling episodes)")
             return Text.assemble(("press ", "dim"), ("i", "bold"), (f" to bound every fitted reward: {what}", "dim"))
         if result.intervals is None:
-            return Text("The intervals could not be computed: see the notes above.", style=BUSY)
+            return Text("The intervals could not be computed: see the notes above.", style=WARN)
         if not len(result.intervals):
             return Text("nothing was fitted, so there is nothing to bound", style="dim")
         readings = [Text(f"{line[0].upper()}{line[1:]}.") for line in interval_readings(result)]

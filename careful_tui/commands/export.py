@@ -15,7 +15,8 @@ from rich.markup import escape
 from rich.progress import Progress
 from rich.text import Text
 
-from careful_tui.cli import UsageError, app_version
+from careful_tui.errors import UsageError
+from careful_tui.version import app_version
 from irl_core.demonstrations import Recording, read_recording
 from irl_core.safe_files import check_output
 from irl_core.safe_text import printable

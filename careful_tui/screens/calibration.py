@@ -1,6 +1,6 @@
 """The calibration screen: "hold an arrow for 2 seconds" measures the keyboard's autorepeat.
 
-It feeds every arrow press and autorepeat to `careful_tui.hold.Calibration` and ends the
+It feeds every arrow press and autorepeat to `careful_tui.keys.hold.Calibration` and ends the
 attempt at the key's release: a kitty release event, or a silence of `SILENCE_S` once the
 autorepeat has started (`FIRST_REPEAT_S` before, longer than any initial delay it accepts).
 It returns the calibrated `HoldProfile`, or None when cancelled.
@@ -15,13 +15,16 @@ from textual.containers import Vertical
 from textual.screen import ModalScreen
 from textual.widgets import Static
 
-from careful_tui.hold import DIRECTIONS, Calibration, Clock, HoldProfile
-from careful_tui.kitty import KeyRelease
+from careful_tui.keys.calibration import Calibration
+from careful_tui.keys.hold import DIRECTIONS, Clock, HoldProfile
+from careful_tui.keys.kitty import KeyRelease
+from careful_tui.render.palette import BAR, EMPTY, GOOD, NOTE, ON_NOTE, SLIP
 
 HOLD_S = 2.0
 SILENCE_S = 0.3
 FIRST_REPEAT_S = Calibration.DELAY_RANGE_MS[1] / 1000 + 0.2
 BAR_WIDTH = 30
+KEY_CHIP = f"bold {ON_NOTE} on {NOTE}"
 
 
 class CalibrationScreen(ModalScreen[HoldProfile | None]):
@@ -100,29 +103,29 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
         text = Text()
         if self._result is not None:
             p = self._result
-            text.append("Measured.\n\n", style="bold #7ee787")
+            text.append("Measured.\n\n", style=f"bold {GOOD}")
             text.append(f"Autorepeat starts after {p.initial_delay_ms:.0f} ms and repeats every "
                         f"{p.repeat_period_ms:.0f} ms.\nHolds under {p.initial_delay_ms:.0f} ms are level 1; "
                         f"every {p.ms_per_level:.0f} ms more adds a level.\n\n")
-            text.append(" enter ", style="bold #101418 on #9ecbff")
+            text.append(" enter ", style=KEY_CHIP)
             text.append(" use it   ")
-            text.append(" r ", style="bold #101418 on #9ecbff")
+            text.append(" r ", style=KEY_CHIP)
             text.append(" again   ")
-            text.append(" esc ", style="bold #101418 on #9ecbff")
+            text.append(" esc ", style=KEY_CHIP)
             text.append(" keep the current timing")
         elif self._problem is not None:
-            text.append(f"{self._problem[0].upper()}{self._problem[1:]}.\n\n", style="bold #ff9f1c")
-            text.append(" r ", style="bold #101418 on #9ecbff")
+            text.append(f"{self._problem[0].upper()}{self._problem[1:]}.\n\n", style=f"bold {SLIP}")
+            text.append(" r ", style=KEY_CHIP)
             text.append(" try again   ")
-            text.append(" esc ", style="bold #101418 on #9ecbff")
+            text.append(" esc ", style=KEY_CHIP)
             text.append(" cancel")
         else:
             text.append("Hold any arrow key down for 2 seconds, then let go.\n\n", style="bold")
             filled = round(BAR_WIDTH * min(1.0, held / HOLD_S))
-            text.append(" " * filled, style="on #4fc3f7")
-            text.append(" " * (BAR_WIDTH - filled), style="on #262b33")
+            text.append(" " * filled, style=f"on {BAR}")
+            text.append(" " * (BAR_WIDTH - filled), style=f"on {EMPTY}")
             text.append(f"  {held:.1f} s   {self._calibration.repeats} repeats\n\n")
             text.append("This measures your keyboard's autorepeat, so that levels count from it.\n", style="dim")
-            text.append(" esc ", style="bold #101418 on #9ecbff")
+            text.append(" esc ", style=KEY_CHIP)
             text.append(" cancel")
         self.query_one("#calibration-text", Static).update(text)

@@ -2,7 +2,7 @@
 
 The player moves with the arrow keys and holds a key longer to be more careful. While a key is
 held the gauge fills and the arrow on the player grows; the move is made when the hold ends
-(`careful_tui.hold` infers the end from the autorepeat rhythm, or a kitty release event ends it
+(`careful_tui.keys.hold` infers the end from the autorepeat rhythm, or a kitty release event ends it
 exactly). The rules and the recording live in `irl_core.game`; this module is the screen.
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
@@ -26,93 +26,42 @@ can be recorded, so nothing more is played; `careful play` then exits 2 with one
 
 from __future__ import annotations
 
-import argparse
 import asyncio
-import getpass
 import os
-import secrets
 import signal
 import time
-from datetime import datetime
-from pathlib import Path
 
 from rich.text import Text
 from textual import events
 from textual.app import App, ComposeResult
 from textual.binding import Binding
-from textual.containers import Horizontal, Vertical
 from textual.driver import Driver
 from textual.timer import Timer
 from textual.widgets import Static
 
-from careful_tui.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, format_value
-from careful_tui.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput, make_input
-from careful_tui.kitty import KeyRelease, KittyDriver, key_repeat
+from careful_tui.keys.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput
+from careful_tui.keys.modes import make_input
+from careful_tui.keys.kitty import KeyRelease, key_repeat
+from careful_tui.render.grid import format_value
+from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
+from careful_tui.render.session import outcome_text
+from careful_tui.screens.calibration import CalibrationScreen
+from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge, KeyBar
-from careful_tui.widgets.board import MIN_CELL, SLIP_COLOUR
-from careful_tui.widgets.calibration import CalibrationScreen
-from careful_tui.widgets.gauge import level_colour
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import EpisodeEnd, SessionHeader, SessionRecorder, check_writable
-from irl_core.game import Game, MoveResult, level_costs
+from irl_core.demonstrations import SessionRecorder
+from irl_core.game import Game, MoveResult
 from irl_core.safe_text import printable
-from irl_core.world import World, load_world
+from irl_core.world import World
 
 FLASH_S = 0.8
 TICK_S = 1 / 30
-GOOD, BAD, NOTE = "#7ee787", "#ff6b6b", "#9ecbff"
-
-
-def outcome_text(end: EpisodeEnd) -> str:
-    """How an episode ended, for a person: "reached the goal", "fell off the cliff", ..."""
-    if end.outcome == "quit":
-        return "quit"
-    if end.outcome == "step_limit":
-        return "ran out of steps"
-    if end.terminal_symbol == "G":
-        return "reached the goal"
-    if end.terminal_symbol == "C":
-        return "fell off the cliff"
-    return f"ended on {SYMBOL_NAMES.get(end.terminal_symbol or '', repr(end.terminal_symbol))}"
-
-
-def legend(world: World) -> Text:
-    """One line naming the world's rewarded symbols: "■ cliff -1000 · ■ goal 100 (ends)"."""
-    text = Text()
-    for symbol, reward in world.rewards.items():
-        if text:
-            text.append(" · ")
-        text.append("■ ", style=SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR))
-        text.append(f"{SYMBOL_NAMES.get(symbol, symbol)} {format_value(reward)}")
-        if symbol in world.terminal:
-            text.append(" (ends)", style="dim")
-    return text
-
-
-def carefulness_gauge(world: World) -> Gauge:
-    """The gauge of the play and replay screens: one step per level, each with its cost."""
-    gauge = Gauge(level_costs(world), id="gauge")
-    gauge.border_title = "carefulness"
-    return gauge
-
-
-def world_board(world: World) -> Board:
-    """The board of the play and replay screens, titled with the world and its legend."""
-    board = Board(world, id="board")
-    board.border_title = Text(f"{printable(world.name, limit=40)} · {world.levels} levels · slip {world.slip}")
-    board.border_subtitle = legend(world)
-    return board
 
 
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
-    gauge = Gauge(level_costs(world))
-    gauge_width = gauge.get_content_width(None, None)
-    cell_width, cell_height = MIN_CELL
-    # Borders, padding and margins as in play.tcss; a title bar and a key bar; 3 status lines.
-    width = (gauge_width + 5) + (world.cols * cell_width + 2)
-    height = 2 + max(world.levels + 2, world.rows * cell_height + 2 + 3)
-    return width, height
+    # As in play.tcss: the gauge's border, padding and margin.
+    return game_minimum_size(world, side_padding=5)
 
 
 class PlayApp(App[None]):
@@ -162,16 +111,7 @@ class PlayApp(App[None]):
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
-        yield Static(id="title")
-        with Horizontal(id="main"):
-            with Vertical(id="side"):
-                yield carefulness_gauge(self.world)
-                yield Static(id="hold-info")
-            with Vertical(id="right"):
-                yield world_board(self.world)
-                yield Static(id="status")
-        yield TooSmall(id="too-small")
-        yield KeyBar(id="keys")
+        yield from compose_game(self.world)
 
     def on_mount(self) -> None:
         self._ticker = self.set_interval(TICK_S, self.tick, pause=True)
@@ -313,9 +253,9 @@ class PlayApp(App[None]):
         step = result.step
         board = self.query_one(Board)
         if result.slipped:
-            self.message = Text.assemble(("slipped! ", f"bold {SLIP_COLOUR}"),
+            self.message = Text.assemble(("slipped! ", f"bold {SLIP}"),
                                          f"you went {result.realised} instead of {step.direction}")
-            board.highlight = {step.next_state: SLIP_COLOUR}
+            board.highlight = {step.next_state: SLIP}
             if self._flash is not None:
                 self._flash.stop()
             self._flash = self.set_timer(FLASH_S, self._end_flash)
@@ -405,7 +345,7 @@ class PlayApp(App[None]):
         if game.live or game.last_end is None:
             status.append(f"Episode {game.episode + 1}", style="bold")
             status.append(f"   step {game.t}/{self.world.max_steps}   score ", style="dim")
-            status.append(format_value(game.score), style="bold " + (GOOD if game.score >= self.world.initial_score else "#ffd54f"))
+            status.append(format_value(game.score), style="bold " + (GOOD if game.score >= self.world.initial_score else WARN))
             status.append("\n")
             if game.last_end is not None:
                 end = game.last_end
@@ -442,76 +382,3 @@ class PlayApp(App[None]):
         }[self.input_mode]
         extra = [("c", "calibrate")] if self.game.t == 0 else []
         return [*moves, *extra, ("q", "quit")]
-
-
-def make_play_app(
-    world: World,
-    *,
-    out: str | Path,
-    player: str,
-    seed: int,
-    input_mode: str = "hold",
-    clock: Clock = time.monotonic,
-    calibrate: bool = False,
-    driver_class: type[Driver] | None = None,
-) -> PlayApp:
-    """The play app, recording to a new file in `out` (the CLI and the tests both build it here)."""
-    from careful_tui.cli import app_version
-
-    profile = HoldProfile(levels=world.levels)
-    header = SessionHeader(
-        world=world,
-        player=player,
-        created=datetime.now().astimezone(),
-        seed=seed,
-        input=make_input(input_mode, profile, clock=clock).header(),
-        app_version=app_version(),
-    )
-    recorder = SessionRecorder(out, header)
-    game = Game(world, seed=seed, sink=recorder)
-    return PlayApp(game, recorder, input_mode=input_mode, profile=profile, clock=clock,
-                   calibrate=calibrate, player=player, driver_class=driver_class)
-
-
-def default_player() -> str:
-    try:
-        return getpass.getuser() or "player"
-    except (KeyError, OSError):
-        return "player"
-
-
-def run_play(args: argparse.Namespace) -> int:
-    """`careful play`: check the world and the recordings folder, then play."""
-    from careful_tui.cli import UsageError, require_terminal
-
-    world = load_world(args.world)
-    if args.out.exists() and not args.out.is_dir():
-        raise UsageError(f"{args.out} is a file, not a folder; choose a folder for recordings with --out")
-    if args.out.is_symlink() and not args.out.exists():
-        raise UsageError(f"{args.out} is a link to nothing; choose a folder for recordings with --out")
-    try:
-        check_writable(args.out)
-    except OSError as exc:
-        raise UsageError(f"cannot write recordings to {args.out} ({exc.strerror or exc}); "
-                         "choose a writable folder with --out") from None
-    require_terminal("play")
-    seed = args.seed if args.seed is not None else secrets.randbelow(2**32)
-    player = args.player or default_player()
-    app = make_play_app(world, out=args.out, player=player, seed=seed, input_mode=args.input,
-                        calibrate=args.calibrate, driver_class=KittyDriver)
-    try:
-        app.run()
-    finally:
-        app.record_quit()
-    recorder = app.recorder
-    for path in recorder.lost:
-        print(f"{printable(str(path))} was deleted during the session; its steps were written again below")
-    for path in recorder.paths:
-        print(f"recorded to {printable(str(path))}")
-    if app.write_error is not None:
-        kept = "the steps before it are kept" if recorder.paths else "nothing was recorded"
-        problem = getattr(app.write_error, "strerror", None) or app.write_error
-        raise UsageError(f"cannot write the recording in {args.out} ({problem}); the game stopped and {kept}")
-    if not recorder.paths:
-        print("nothing was played, so nothing was recorded")
-    return 0

@@ -1,7 +1,7 @@
 """`careful experiment`: the paper's experiments, printed, drawn and written to a folder.
 
 Writes into `--out`: every figure as PDF and as PNG (300 dpi), drawn with matplotlib for a
-paper (`careful_tui.figures`), `summary.json` and `report.md`, which shows the PNGs.
+paper (`careful_tui.render.figures`), `summary.json` and `report.md`, which shows the PNGs.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
 
-from irl_core.safe_files import check_output_folder
-from careful_tui.cli import UsageError
+from careful_tui.errors import UsageError
+from careful_tui.render.grid import WorldGrid, format_value, symbol_legend
+from irl_core.experiment import FULL, QUICK, ExperimentResult, Figure, _interval_caption, run_experiment as run_stages
 from irl_core.irl import FitOptions
-from careful_tui.grid import WorldGrid, format_value, symbol_legend
-from irl_core.experiment import FULL, QUICK, ExperimentResult, Figure, run_experiment as run_stages
+from irl_core.safe_files import check_output_folder
 
 
 def figure_panel(figure: Figure) -> Panel:
@@ -70,8 +70,9 @@ def write_figures(result: ExperimentResult, out: Path) -> None:
 
 def write_figure(figure: Figure, *, result: ExperimentResult, out: Path, rmax: float) -> None:
     """One figure as `<key>.pdf` and `<key>.png` in `out`."""
-    from careful_tui.figures.experiment_figures import draw_experiment_figure
-    from careful_tui.figures.style import save_figure
+    # Imported here, not above: matplotlib loads only when figures are drawn (a test checks it).
+    from careful_tui.render.figures.experiment_figures import draw_experiment_figure
+    from careful_tui.render.figures.style import save_figure
 
     drawn = draw_experiment_figure(figure, result, rmax=rmax)
     for suffix in FIGURE_FORMATS:
@@ -80,7 +81,7 @@ def write_figure(figure: Figure, *, result: ExperimentResult, out: Path, rmax: f
 
 def how_to_read(result: ExperimentResult) -> list[str]:
     """A paragraph on what the figures' marks mean, with this run's scale and bound."""
-    from careful_tui.figures.experiment_figures import shared_scale
+    from careful_tui.render.figures.experiment_figures import shared_scale  # matplotlib: only when drawn
 
     vmax, rmax = shared_scale(result), FitOptions().rmax
     lines = ["Each figure is a PDF (fonts embedded) and a PNG (300 dpi), a third of a page wide. "
@@ -124,8 +125,6 @@ def report_markdown(result: ExperimentResult) -> str:
 
 def _verdict(s) -> str:
     """The interval caption of a stage, from its numbers (the figure's caption)."""
-    from irl_core.experiment import _interval_caption
-
     return _interval_caption(s)
 
 

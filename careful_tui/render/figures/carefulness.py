@@ -17,7 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from careful_tui.figures.style import OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
+from careful_tui.render.figures.style import OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
 from irl_core.mdp import MDP
 from irl_core.summary import distance_to_terminal
 

@@ -19,9 +19,9 @@ from matplotlib.figure import Figure
 from matplotlib.image import AxesImage
 from matplotlib.patches import Rectangle
 
-from careful_tui.figures.board import GROUND, Board
-from careful_tui.figures.style import INK, QUIET, PANEL_WIDTH, figure_style, new_figure
-from careful_tui.grid import format_value
+from careful_tui.render.figures.board import GROUND, Board
+from careful_tui.render.figures.style import INK, QUIET, PANEL_WIDTH, figure_style, new_figure
+from careful_tui.render.grid import format_value
 
 REWARD_CMAP = "RdBu"
 LINTHRESH = 10.0  # |R| below this is drawn on a linear scale: the action costs (1 per level) live here

@@ -17,8 +17,8 @@ from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
 from matplotlib.patches import FancyArrowPatch
 
-from careful_tui.figures.board import GROUND, Board
-from careful_tui.figures.heatmap import (
+from careful_tui.render.figures.board import GROUND, Board
+from careful_tui.render.figures.heatmap import (
     FULL_CELL,
     REWARD_CMAP,
     TITLE_HEIGHT,
@@ -28,7 +28,7 @@ from careful_tui.figures.heatmap import (
     reward_limit,
     reward_norm,
 )
-from careful_tui.figures.style import INK, PANEL_WIDTH, figure_style, new_figure
+from careful_tui.render.figures.style import INK, PANEL_WIDTH, figure_style, new_figure
 from irl_core.mdp import MDP
 
 # (dx, dy) on the page for up, right, down, left; rows grow downwards.

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from careful_tui.figures.board import Board
-from careful_tui.figures.carefulness import carefulness_by_distance, draw_carefulness, state_distances
-from careful_tui.figures.heatmap import (
+from careful_tui.render.figures.board import Board
+from careful_tui.render.figures.carefulness import carefulness_by_distance, draw_carefulness, state_distances
+from careful_tui.render.figures.heatmap import (
     COLOUR_BAR_WIDTH,
     TITLE_HEIGHT,
     add_colour_bar,
@@ -22,7 +22,7 @@ from careful_tui.figures.heatmap import (
     reward_limit,
     reward_norm,
 )
-from careful_tui.figures.intervals import (
+from careful_tui.render.figures.intervals import (
     FRAME_HEIGHT,
     LEGEND_HEIGHT,
     ROW_HEIGHT,
@@ -32,9 +32,9 @@ from careful_tui.figures.intervals import (
     kind_label,
     worst_first,
 )
-from careful_tui.figures.policy import NOTE_HEIGHT, draw_policy, policy_note, policy_panel
-from careful_tui.figures.style import PAGE_WIDTH, figure_style, new_figure
-from careful_tui.grid import SYMBOL_NAMES
+from careful_tui.render.figures.policy import NOTE_HEIGHT, draw_policy, policy_note, policy_panel
+from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure
+from careful_tui.render.grid import SYMBOL_NAMES
 from irl_core.irl import FitResult
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).

@@ -1,0 +1,123 @@
+"""`careful fit`: read recordings, fit the state rewards, show them (and save JSON or SVG).
+
+`fit_from_args` reads and fits (a spinner on stderr while it runs, a progress bar while
+bootstrap resamples come back); `options_from_args` builds the one `FitOptions` of a fit,
+which the fit view changes to refit. `run_fit` ties them to the command line: with a
+terminal it opens the fit view (`careful_tui.screens.fit`) on the first fit, without one (or
+with `--no-view`) it prints (`careful_tui.render.fit_printout`). The files are read and the first fit is made before the view
+opens, so bad input ends with exit 2 and one line on stderr, and a solver that fails with
+exit 1 and one line, with or without a terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.text import Text
+
+from careful_tui.arguments import options_from_args
+from careful_tui.commands.reading import read_with_progress
+from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.render.figures import figure_suffix_problem
+from careful_tui.render.fit_printout import print_fit
+from irl_core.demonstrations import Demonstrations
+from irl_core.irl import BadInputError, FitResult, SolverError, fit
+from irl_core.safe_files import check_output, write_output
+from irl_core.safe_text import printable
+
+
+def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
+    """Read every recording (printing reader warnings to `err`) and pool them.
+
+    Raises `RecordingError` for a bad file or recordings of different worlds, and
+    `UsageError` when they hold no steps.
+    """
+    recordings = read_with_progress(paths, err)
+    demos = Demonstrations.from_recordings(recordings)
+    if demos.steps == 0:
+        names = ", ".join(str(path) for path in paths)
+        what = "the recording has" if len(paths) == 1 else "the recordings have"
+        raise UsageError(f"{names}: {what} no steps, so there is nothing to fit; play or simulate some episodes first")
+    return demos
+
+
+def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tuple[Demonstrations, FitResult]:
+    """The demonstrations and the fit that `careful fit` options ask for.
+
+    A spinner runs on stderr while it fits, and a progress bar while bootstrap resamples come back.
+    """
+    err = err or Console(stderr=True, highlight=False)
+    options = options_from_args(args)
+    problem = options.problem()
+    if problem:
+        raise UsageError(problem)
+    demos = load_demonstrations(list(args.files), err)
+    columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TimeElapsedColumn())
+    with Progress(*columns, console=err, transient=True) as progress:
+        task = progress.add_task(f"fitting ({options.describe()}) to {demos.steps} steps", total=None)
+
+        def heard(stage: str, done: int, total: int | None) -> None:
+            what = {"rounds": "lp rounds", "intervals": "interval LPs", "resamples": "resampling episodes"}[stage]
+            progress.update(task, description=what, completed=done, total=total)
+
+        try:
+            result = fit(demos, options, progress=heard)
+        except BadInputError as exc:
+            raise UsageError(str(exc)) from None
+    if options.intervals and result.intervals is None:
+        for note in result.notes:
+            if note.startswith("intervals not computed"):
+                err.print(Text(f"warning: {note}", style="yellow"), soft_wrap=True)
+    return demos, result
+
+
+def wants_view(args: argparse.Namespace) -> bool:
+    """Open the fit view: standard input and output are a terminal and `--no-view` was not given."""
+    return not args.no_view and sys.stdin.isatty() and sys.stdout.isatty()
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    """`careful fit`: fit, write --json and --figure, then open the fit view (a terminal) or print (--svg of the printout)."""
+    err = Console(stderr=True, highlight=False)
+    if args.figure is not None and (problem := figure_suffix_problem(args.figure)):
+        raise UsageError(problem)
+    for option, path in (("--json", args.json), ("--svg", args.svg), ("--figure", args.figure)):
+        if path is not None:
+            check_output(path, option=option, inputs=args.files)
+    try:
+        demos, result = fit_from_args(args, err=err)
+    except SolverError as exc:
+        err.print(Text(f"careful fit: {exc}", style="bold red"), soft_wrap=True)
+        return EXIT_FAILURE
+    if args.json is not None:
+        text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
+        write_output(args.json, text, option="--json", inputs=args.files)
+    if args.figure is not None:
+        # Imported here for start-up speed: matplotlib loads only when a figure is asked for.
+        from careful_tui.render.figures.fit_figure import fit_figure
+        from careful_tui.render.figures.style import save_figure
+
+        save_figure(fit_figure(result), args.figure, option="--figure", inputs=args.files)
+    if wants_view(args):
+        # Imported here for start-up speed: Textual loads only when the view opens.
+        from careful_tui.keys.kitty import PassiveKittyDriver
+        from careful_tui.app import make_fit_app
+
+        # The kitty-aware driver: Textual's own crashes on key-event sequences some terminals send.
+        app = make_fit_app(args, demos, result, driver_class=PassiveKittyDriver)
+        app.run()
+        for path in dict.fromkeys(app.saved):
+            print(f"saved {printable(str(path))}")
+        return EXIT_OK
+    console = Console(record=args.svg is not None, highlight=False)
+    print_fit(console, demos, result)
+    if args.svg is not None:
+        title = f"careful fit: {result.method} on {printable(result.world.name, limit=80)}"
+        write_output(args.svg, console.export_svg(title=title), option="--svg", inputs=args.files)
+    return EXIT_OK

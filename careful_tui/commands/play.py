@@ -1,0 +1,56 @@
+"""`careful play`: check the world and the recordings folder, play, then say what was recorded."""
+
+from __future__ import annotations
+
+import argparse
+import getpass
+import secrets
+
+from careful_tui.app import make_play_app
+from careful_tui.errors import UsageError, require_terminal
+from careful_tui.keys.kitty import KittyDriver
+from irl_core.demonstrations import check_writable
+from irl_core.safe_text import printable
+from irl_core.world import load_world
+
+
+def default_player() -> str:
+    try:
+        return getpass.getuser() or "player"
+    except (KeyError, OSError):
+        return "player"
+
+
+def run_play(args: argparse.Namespace) -> int:
+    """`careful play`: check the world and the recordings folder, then play."""
+    world = load_world(args.world)
+    if args.out.exists() and not args.out.is_dir():
+        raise UsageError(f"{args.out} is a file, not a folder; choose a folder for recordings with --out")
+    if args.out.is_symlink() and not args.out.exists():
+        raise UsageError(f"{args.out} is a link to nothing; choose a folder for recordings with --out")
+    try:
+        check_writable(args.out)
+    except OSError as exc:
+        raise UsageError(f"cannot write recordings to {args.out} ({exc.strerror or exc}); "
+                         "choose a writable folder with --out") from None
+    require_terminal("play")
+    seed = args.seed if args.seed is not None else secrets.randbelow(2**32)
+    player = args.player or default_player()
+    app = make_play_app(world, out=args.out, player=player, seed=seed, input_mode=args.input,
+                        calibrate=args.calibrate, driver_class=KittyDriver)
+    try:
+        app.run()
+    finally:
+        app.record_quit()
+    recorder = app.recorder
+    for path in recorder.lost:
+        print(f"{printable(str(path))} was deleted during the session; its steps were written again below")
+    for path in recorder.paths:
+        print(f"recorded to {printable(str(path))}")
+    if app.write_error is not None:
+        kept = "the steps before it are kept" if recorder.paths else "nothing was recorded"
+        problem = getattr(app.write_error, "strerror", None) or app.write_error
+        raise UsageError(f"cannot write the recording in {args.out} ({problem}); the game stopped and {kept}")
+    if not recorder.paths:
+        print("nothing was played, so nothing was recorded")
+    return 0

@@ -1,0 +1,20 @@
+"""`careful worlds`: list the built-in worlds, or draw one and print it as TOML."""
+
+from __future__ import annotations
+
+import argparse
+
+from rich.console import Console
+
+from careful_tui.errors import EXIT_OK
+from careful_tui.render.worlds import print_world, print_world_table
+from irl_core.world import load_world
+
+
+def run_worlds(args: argparse.Namespace) -> int:
+    console = Console(highlight=False)
+    if args.show:
+        print_world(console, load_world(args.show))
+    else:
+        print_world_table(console)
+    return EXIT_OK

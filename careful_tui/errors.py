@@ -1,0 +1,21 @@
+"""What a command tells the shell: exit codes, and the error for bad input found after parsing.
+
+Commands raise `UsageError` and return the exit codes; `careful_tui.cli` turns them into one
+line on stderr. Commands import this module, never `cli`, so imports run one way.
+"""
+
+from __future__ import annotations
+
+import sys
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class UsageError(Exception):
+    """Bad input found after parsing (a value out of range, a file that exists): exit 2."""
+
+
+def require_terminal(command: str) -> None:
+    """Raise `UsageError` unless standard input and output are a terminal (for the screens)."""
+    if not (sys.stdin.isatty() and sys.stdout.isatty()):
+        raise UsageError(f"careful {command} needs an interactive terminal")

@@ -1,0 +1,216 @@
+"""The other two ways to enter a move: tap an arrow k times (`TapCounter`), or type the level and
+then the arrow (`DigitsInput`); and `make_input`, which builds the input of any mode.
+
+Like `careful_tui.keys.hold`, nothing here imports Textual; every class takes a `clock`.
+"""
+
+from __future__ import annotations
+
+import time
+
+from careful_tui.keys.hold import (
+    DIGITS,
+    DIRECTIONS,
+    ActiveHold,
+    Clock,
+    Hold,
+    HoldDetector,
+    HoldProfile,
+    MoveInput,
+    PendingHold,
+    check_key,
+)
+
+
+class TapCounter:
+    """Tap mode (`--input tap`): tap the same arrow k times quickly for level k.
+
+    A pause of `tap_window_ms` (default 400) after the last tap, or a different arrow, commits
+    the move; taps beyond `levels` stay at the top level. Explicit kitty repeats
+    (`repeat=True`) are not taps and are ignored; a legacy terminal cannot tell them apart, so
+    holding an arrow there counts its autorepeats as taps.
+    """
+
+    mode = "tap"
+    keys = frozenset(DIRECTIONS)
+
+    def __init__(
+        self,
+        profile: HoldProfile,
+        *,
+        clock: Clock = time.monotonic,
+        tap_window_ms: float = 400.0,
+    ) -> None:
+        self.profile = profile
+        self.tap_window_ms = tap_window_ms
+        self._clock = clock
+        self._pending: PendingHold | None = None
+
+    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
+        """A tap of `key`; returns the move it committed (a different arrow commits at once)."""
+        check_key(key, self.keys)
+        if repeat:
+            return []
+        done = self.poll()
+        now = self._clock()
+        pending = self._pending
+        if pending is not None and pending.key == key:
+            pending.repeats += 1
+            pending.last = now
+            return done
+        if pending is not None:
+            done.append(self._commit(pending))
+        self._pending = PendingHold(key=key, started=now, last=now)
+        return done
+
+    def release(self, key: str) -> list[Hold]:
+        """Releases carry no meaning in tap mode."""
+        return []
+
+    def poll(self) -> list[Hold]:
+        """Commit the taps if the pause since the last one reached the tap window."""
+        pending = self._pending
+        if pending is None or self._clock() < self._deadline(pending):
+            return []
+        return [self._commit(pending)]
+
+    def deadline(self) -> float | None:
+        """Clock time at which `poll` commits the taps (None when there are none)."""
+        return None if self._pending is None else self._deadline(self._pending)
+
+    def current(self) -> ActiveHold | None:
+        """The taps so far and the level they give."""
+        pending = self._pending
+        if pending is None:
+            return None
+        return ActiveHold(
+            key=pending.key,
+            elapsed_ms=(self._clock() - pending.started) * 1000.0,
+            level=self._level(pending),
+            repeats=pending.repeats,
+        )
+
+    def reset(self) -> None:
+        """Drop the taps so far without committing them."""
+        self._pending = None
+
+    def header(self) -> dict[str, object]:
+        """The session header's `"input"` object."""
+        return {"mode": self.mode, **self.profile.to_header(), "tap_window_ms": self.tap_window_ms}
+
+    def _deadline(self, pending: PendingHold) -> float:
+        return pending.last + self.tap_window_ms / 1000.0
+
+    def _level(self, pending: PendingHold) -> int:
+        return min(self.profile.levels, pending.repeats + 1)
+
+    def _commit(self, pending: PendingHold) -> Hold:
+        self._pending = None
+        return Hold(
+            key=pending.key,
+            hold_ms=(pending.last - pending.started) * 1000.0,
+            level=self._level(pending),
+            exact=False,
+            started=pending.started,
+            repeats=pending.repeats,
+        )
+
+
+class DigitsInput:
+    """Digits mode (`--input digits`): type the level, then the arrow.
+
+    Digits accumulate ("1", "2" is level 12); the arrow commits the move with that level,
+    clamped to 1..levels (level 1 with no digits). Backspace removes the last digit, Escape all
+    of them. Nothing is timed, so `deadline` is always None. Explicit kitty repeats of an arrow
+    are ignored; a legacy terminal's autorepeat moves again at level 1.
+    """
+
+    mode = "digits"
+    keys = frozenset((*DIRECTIONS, *DIGITS, "backspace", "escape"))
+
+    def __init__(self, profile: HoldProfile, *, clock: Clock = time.monotonic) -> None:
+        self.profile = profile
+        self._clock = clock
+        self._digits = ""
+        self._started: float | None = None
+
+    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
+        """A digit, Backspace, Escape or arrow; an arrow returns the committed move."""
+        check_key(key, self.keys)
+        if repeat and key in DIRECTIONS:
+            return []
+        now = self._clock()
+        if key in DIGITS:
+            if self._started is None:
+                self._started = now
+            self._digits += key
+            return []
+        if key == "backspace":
+            self._digits = self._digits[:-1]
+            if not self._digits:
+                self._started = None
+            return []
+        if key == "escape":
+            self.reset()
+            return []
+        started = now if self._started is None else self._started
+        hold = Hold(
+            key=key,
+            hold_ms=(now - started) * 1000.0,
+            level=self._level(),
+            exact=False,
+            started=started,
+            repeats=0,
+        )
+        self.reset()
+        return [hold]
+
+    def release(self, key: str) -> list[Hold]:
+        """Releases carry no meaning in digits mode."""
+        return []
+
+    def poll(self) -> list[Hold]:
+        """Nothing commits by time in digits mode."""
+        return []
+
+    def deadline(self) -> float | None:
+        """Always None: nothing commits by time."""
+        return None
+
+    def current(self) -> ActiveHold | None:
+        """The level typed so far (no key until the arrow)."""
+        if self._started is None:
+            return None
+        return ActiveHold(
+            key=None,
+            elapsed_ms=(self._clock() - self._started) * 1000.0,
+            level=self._level(),
+            repeats=0,
+        )
+
+    def reset(self) -> None:
+        """Forget the digits typed so far."""
+        self._digits = ""
+        self._started = None
+
+    def header(self) -> dict[str, object]:
+        """The session header's `"input"` object."""
+        return {"mode": self.mode, **self.profile.to_header()}
+
+    def _level(self) -> int:
+        typed = int(self._digits) if self._digits else 1
+        return min(self.profile.levels, max(1, typed))
+
+
+INPUT_MODES: tuple[str, ...] = ("hold", "tap", "digits")
+
+
+def make_input(mode: str, profile: HoldProfile, *, clock: Clock = time.monotonic) -> MoveInput:
+    """The input for `mode` ("hold", "tap" or "digits"), sharing one profile and clock."""
+    if mode == "hold":
+        return HoldDetector(profile, clock=clock)
+    if mode == "tap":
+        return TapCounter(profile, clock=clock)
+    if mode == "digits":
+        return DigitsInput(profile, clock=clock)
+    raise ValueError(f"unknown input mode {mode!r}: use one of {', '.join(INPUT_MODES)}")

@@ -1,0 +1,172 @@
+"""A fit as Rich renderables: the `careful fit` printout and the pieces the fit screen shares.
+
+`print_fit` prints the reward grid beside the world's own, the intervals
+(`careful_tui.render.intervals`), the demonstrated policy, what an agent trained on the reward
+does (`evaluation_line`) and the status.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+from rich.console import Console, Group
+from rich.table import Table
+from rich.text import Text
+
+from careful_tui.render.grid import SYMBOL_NAMES, WorldGrid, format_value
+from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table
+from irl_core.demonstrations import Demonstrations
+from irl_core.irl import FitResult
+from irl_core.mdp import ARROWS
+from irl_core.safe_text import printable
+
+
+def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> None:
+    """The reward grid (beside the world's own), the intervals, the policy and the status."""
+    world = result.world
+    files = f"{demos.files} file{'s' * (demos.files != 1)}"
+    console.print(
+        Text.assemble(
+            ("careful fit", "bold"),
+            f": {method_phrase(result)} on ",
+            (printable(world.name, limit=80), "bold"),
+            f" from {files}, {demos.episodes} episodes, {demos.steps} steps",
+        )
+    )
+    console.print(reward_grids(result, width=console.width))
+    console.print(Text(unknown_phrase(result), style="dim"))
+    if result.intervals is not None and len(result.intervals):
+        console.print(interval_table(result))
+        console.print(IntervalChart(result))
+        for line in interval_readings(result):
+            console.print(Text(line), soft_wrap=True)
+    console.print(policy_grid(result))
+    console.print(Text(evaluation_line(result)), soft_wrap=True)
+    console.print(status_text(result), soft_wrap=True)
+
+
+def reward_scale(result: FitResult) -> float:
+    """The magnitude that gets the strongest colour: the largest |R_S|, fitted or true."""
+    values = np.concatenate([result.reward_grid.ravel(), result.true_reward_grid.ravel()])
+    scale = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 0.0
+    return scale if scale > 0 else 1.0
+
+
+def reward_grids(result: FitResult, *, width: int) -> Table:
+    """The fitted R_S and, when the world defines rewards, the true R_S beside it (one colour scale).
+
+    Side by side when `width` allows, else one above the other.
+    """
+    world = result.world
+    scale = reward_scale(result)
+    grids = [Group(Text("fitted R_S", style="bold"), WorldGrid(world, values=result.reward_grid, scale=scale))]
+    if world.rewards:
+        grids.append(Group(Text("true R_S (world file)", style="bold"),
+                           WorldGrid(world, values=result.true_reward_grid, scale=scale)))
+    gap = 4
+    grid_width = world.cols * WorldGrid(world).cell_width
+    side_by_side = len(grids) * grid_width + (len(grids) - 1) * gap <= width
+    table = Table.grid(padding=(0, gap))
+    if side_by_side:
+        for _ in grids:
+            table.add_column(min_width=grid_width)
+        table.add_row(*grids)
+    else:
+        table.add_column(min_width=grid_width)
+        for grid in grids:
+            table.add_row(grid)
+    return table
+
+
+def unknown_phrase(result: FitResult) -> str:
+    """Which rewards were fitted: "fitted: the non-ground cells (ground is 0); the action cost is known"."""
+    options = result.options
+    cells = "every cell" if options.reward_cells == "all" else "the non-ground cells (ground is 0)"
+    return f"fitted: {cells}{', one value per symbol' if options.tie else ''}; the action cost is known"
+
+
+def policy_labels(result: FitResult) -> dict[tuple[int, int], str]:
+    """Per demonstrated cell, the most frequent action: "→8 ×38" (direction, carefulness level, count)."""
+    cells = result.policy_cells().items()
+    return {cell: f"{ARROWS[p.direction]}{p.carefulness} ×{_count(p.count)}" for cell, p in cells}
+
+
+def policy_grid(result: FitResult) -> Group:
+    """The most frequent demonstrated action per cell: arrow, carefulness level and count."""
+    title = Text.assemble(("demonstrated policy", "bold"), "  (most frequent action: direction, level ×count)")
+    return Group(title, WorldGrid(result.world, labels=policy_labels(result)))
+
+
+def _count(count: int) -> str:
+    """A count that fits a cell: 31, 743, 12k."""
+    return str(count) if count < 1000 else f"{count // 1000}k"
+
+
+def status_text(result: FitResult, *, times: bool = True, notes: Iterable[str] | None = None) -> Text:
+    """"status: optimal in 0.07 s" and a line per note (`notes`: the result's, unless given)."""
+    text = Text.assemble(
+        "status: ",
+        (result.status, "bold green" if result.status == "optimal" else "bold yellow"),
+        f" in {result.elapsed_s:.2f} s" if times else "",
+    )
+    for note in result.notes if notes is None else notes:
+        text.append(f"\nnote: {note}", style="yellow")
+    return text
+
+
+def method_phrase(result: FitResult) -> str:
+    """The method used, and that auto chose it: "maxent (chosen by auto, beta 0.53 estimated)"."""
+    details = []
+    if result.options.method == "auto":
+        details.append("chosen by auto")
+    if result.method == "maxent":
+        details.append(f"beta {result.beta:.3g}{' estimated' if result.beta_auto else ''}")
+    return f"{result.method} ({', '.join(details)})" if details else result.method
+
+
+# How an episode that ends in a terminal symbol reads: "falls off the cliff".
+ENDING_VERBS = {"C": "falls off the cliff", "G": "reaches the goal"}
+
+
+def percent(p: float) -> str:
+    """A probability as a percentage, two decimals near 0 and 1 where rare events live:
+    0%, 0.04%, 0.40%, 12.5%, 99.60%, 100%."""
+    if p <= 0:
+        return "0%"
+    if p >= 1:
+        return "100%"
+    if p < 0.01 or p > 0.99:
+        return f"{p:.2%}"
+    return f"{p:.1%}"
+
+
+def evaluation_line(result: FitResult) -> str:
+    """What an agent trained on the fitted reward does in the true world, against the true optimum.
+
+    e.g. "An agent trained on this reward falls off the cliff in 0.4% of episodes and reaches the
+    goal in 99.1% (the true optimum: 0.1% and 99.9%); expected discounted return 61.2 (optimum 63.0)."
+    Terminal symbols without a known meaning read "ends in 'X'".
+    """
+    agent, optimal = result.evaluation.agent, result.evaluation.optimal
+    symbols = list(agent.ends)
+    # The worst outcome first: the safety question.
+    symbols.sort(key=lambda sym: result.world.reward_of(sym))
+    parts = []
+    for i, symbol in enumerate(symbols):
+        verb = ENDING_VERBS.get(symbol, f"ends in {SYMBOL_NAMES.get(symbol, repr(symbol))}")
+        parts.append(f"{verb} in {percent(agent.ends[symbol])}{' of episodes' if i == 0 else ''}")
+    line = "An agent trained on this reward " + " and ".join(parts)
+    line += f" (the true optimum: {' and '.join(percent(optimal.ends[s]) for s in symbols)})"
+    if agent.never > 1e-9:
+        line += f"; {percent(agent.never)} of its episodes never end"
+    line += (f"; expected discounted return {format_value(agent.expected_return)} "
+             f"(optimum {format_value(optimal.expected_return)}).")
+    return line
+
+
+def progress_phrase(stage: str, done: int, total: int | None) -> str:
+    """What a long fit is doing, from its progress callback: "round 3", "interval LP 12 of 62"."""
+    if stage == "rounds":
+        return f"round {done}"
+    return f"{'resample' if stage == 'resamples' else 'interval LP'} {done} of {total}"

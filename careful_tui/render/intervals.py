@@ -1,0 +1,222 @@
+"""How far the demonstrations pin each fitted reward: a table, a chart and a sentence per symbol.
+
+`interval_readings` puts an interval into words ("cliff: at most -661; no lower bound;
+catastrophic next to mud's ..."); `IntervalChart` draws every unknown's interval as a bar on
+the signed-log axis of the reward colours. The `careful fit` printout and the fit screen share them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from rich.console import Console, ConsoleOptions, RenderResult
+from rich.style import Style
+from rich.table import Table
+from rich.text import Text
+
+from careful_tui.render.grid import LINEAR_THRESHOLD, SYMBOL_NAMES, diverging_colour, format_value, signed_log_fraction
+from irl_core.irl import FitResult
+
+
+def interval_table(result: FitResult) -> Table:
+    """One row per unknown: fitted and true values, the interval and what it means."""
+    rmax = result.rmax
+    table = Table(title=interval_title(result))
+    for name, justify in (("unknown", "left"), ("fitted", "right"), ("true", "right"),
+                          ("low", "right"), ("high", "right"), ("reading", "left")):
+        table.add_column(name, justify=justify)
+    first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
+    for label, value, state, (low, high) in zip(result.labels, result.theta, first_state, result.intervals):
+        true = format_value(float(result.mdp.R_S[state])) if result.world.rewards else "-"
+        table.add_row(
+            Text(label), format_value(float(value)), true, format_value(float(low)), format_value(float(high)),
+            interval_reading(low, high, rmax),
+        )
+    return table
+
+
+def interval_title(result: FitResult) -> str:
+    """What the intervals are: identified by the demonstrations (lp) or a confidence interval."""
+    if result.interval_kind == "confidence":
+        options = result.options
+        return (f"{options.confidence:.0%} confidence intervals ({options.resamples} resamples of "
+                f"{result.demos.episodes} episodes)")
+    return "identified by the demonstrations: every value each reward can take"
+
+
+def _open_ends(low: float, high: float, rmax: float) -> tuple[bool, bool]:
+    """Whether each end of an interval sits at the ±rmax bound (no bound from the demonstrations)."""
+    return low <= -rmax * (1 - 1e-9), high >= rmax * (1 - 1e-9)
+
+
+def interval_reading(low: float, high: float, rmax: float) -> str:
+    """A plain sentence for one interval; an end at ±rmax is no bound at all."""
+    open_low, open_high = _open_ends(low, high, rmax)
+    if open_low and open_high:
+        return "not bounded by the demonstrations"
+    if open_low:
+        return f"at most {format_value(high)}; no lower bound"
+    if open_high:
+        return f"at least {format_value(low)}; no upper bound"
+    return f"between {format_value(low)} and {format_value(high)}"
+
+
+def interval_span(low: float, high: float, rmax: float) -> str:
+    """An interval in a few characters: "-49.3..-14.8", "≤ -661", "≥ 89.7", "any"."""
+    open_low, open_high = _open_ends(low, high, rmax)
+    if open_low and open_high:
+        return "any"
+    if open_low:
+        return f"≤ {format_value(high)}"
+    if open_high:
+        return f"≥ {format_value(low)}"
+    return f"{format_value(low)}..{format_value(high)}"
+
+
+def symbol_name(symbol: str) -> str:
+    return SYMBOL_NAMES.get(symbol, symbol)
+
+
+def symbol_intervals(result: FitResult) -> dict[str, tuple[float, float]]:
+    """Per symbol (in the order the unknowns first use it): the lowest low and highest high of its unknowns."""
+    hulls: dict[str, tuple[float, float]] = {}
+    for symbol, (low, high) in zip(result.unknowns.symbols, result.intervals):
+        old_low, old_high = hulls.get(symbol, (np.inf, -np.inf))
+        hulls[symbol] = (min(old_low, float(low)), max(old_high, float(high)))
+    return hulls
+
+
+def _low_to_high(hulls: dict[str, tuple[float, float]]) -> list[str]:
+    """Symbols by the top of their interval, then its bottom."""
+    return sorted(hulls, key=lambda symbol: (hulls[symbol][1], hulls[symbol][0]))
+
+
+# A symbol whose every allowed value is this many times below another's worst is "catastrophic next to" it.
+CATASTROPHIC_RATIO = 10.0
+
+
+def interval_readings(result: FitResult) -> list[str]:
+    """One sentence per symbol, lowest first: its interval and how it stands against the next symbol up.
+
+    e.g. "cliff: at most -661; no lower bound; catastrophic next to mud's -49.3..-14.8 (at least
+    13× worse under every reward the demonstrations allow)"; a confidence interval says "at 95%
+    confidence" instead. A symbol's interval spans those of all its cells.
+    """
+    rmax = result.rmax
+    confident = result.interval_kind == "confidence"
+    sure = f"at {result.options.confidence:.0%} confidence" if confident else "under every reward the demonstrations allow"
+    hulls = symbol_intervals(result)
+    order = _low_to_high(hulls)
+    lines = []
+    for below, above in zip(order, [*order[1:], None]):
+        low, high = hulls[below]
+        line = f"{symbol_name(below)}: {interval_reading(low, high, rmax)}"
+        if above is not None:
+            above_low, above_high = hulls[above]
+            other = f"{symbol_name(above)}'s {interval_span(above_low, above_high, rmax)}"
+            ratio = high / above_low if high < above_low < 0 else 0.0
+            if high >= above_low:
+                who = "at this confidence the data" if confident else "the demonstrations"
+                line += f"; overlaps {other}: {who} cannot tell which is worse"
+            elif ratio >= CATASTROPHIC_RATIO:
+                line += f"; catastrophic next to {other} (at least {ratio:.0f}× worse {sure})"
+            elif ratio > 0:
+                line += f"; at least {ratio:.1f}× worse than {other}{' ' + sure if confident else ''}"
+            else:
+                line += f"; below {other}"
+        lines.append(line)
+    return lines
+
+
+@dataclass
+class IntervalChart:
+    """Every unknown's interval as a bar on the reward colours' signed-log axis, from -rmax to rmax.
+
+    ● marks the fitted value, ○ the world's own (◉ both); ◀ or ▶ at an end of a bar means the
+    demonstrations do not bound it there (the bar runs into ±rmax). Rows are grouped by symbol,
+    lowest symbol first (as `interval_readings`). The bars take the width they are given.
+    """
+
+    result: FitResult
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        result = self.result
+        rmax = float(result.rmax)
+        true = result.unknowns.true_theta(result.mdp) if result.world.rewards else None
+        symbols = _low_to_high(symbol_intervals(result))
+        rows = sorted(range(len(result.labels)), key=lambda j: (symbols.index(result.unknowns.symbols[j]), j))
+        spans = [interval_span(float(lo), float(hi), rmax) for lo, hi in result.intervals]
+        # Tied unknowns are named by their symbol: "cliff" reads better than "C".
+        labels = [symbol_name(s) for s in result.unknowns.symbols] if result.options.tie else result.labels
+        label_width = max(map(len, labels), default=0)
+        span_width = max(map(len, spans), default=0)
+        # An odd number of positions puts 0 in the middle.
+        room = options.max_width - label_width - span_width - 4
+        axis = max(21, room if room % 2 else room - 1)
+        for j in rows:
+            low, high = (float(v) for v in result.intervals[j])
+            line = Text(f"{labels[j]:<{label_width}}  ", no_wrap=True, overflow="crop")
+            line.append_text(self._bar(axis, rmax, low, high, float(result.theta[j]),
+                                       None if true is None else float(true[j])))
+            line.append(f"  {spans[j]:>{span_width}}", style="bold")
+            yield line
+        indent = " " * (label_width + 2)
+        yield Text(indent) + _axis_ticks(axis, rmax)
+        yield Text.assemble(indent, ("● fitted  ○ true  ◉ both  ", "dim"),
+                            ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
+                            (f" {self._what()}  ◀ ▶ no bound", "dim"))
+
+    def _what(self) -> str:
+        if self.result.interval_kind == "confidence":
+            return f"{self.result.options.confidence:.0%} confidence"
+        return "allowed"
+
+    @staticmethod
+    def _bar(axis: int, rmax: float, low: float, high: float, fitted: float, true: float | None) -> Text:
+        def at(value: float) -> int:
+            return round((signed_log_fraction(value, rmax) + 1) / 2 * (axis - 1))
+
+        chars = ["─"] * axis
+        styles = [Style(color="#3a4452")] * axis
+        chars[axis // 2] = "┼"
+        start, end = at(low), at(high)
+        for i in range(start, end + 1):
+            chars[i] = "━"
+            value = signed_log_value(i / (axis - 1) * 2 - 1, rmax)
+            styles[i] = Style(color=diverging_colour(value, rmax), bold=True)
+        open_low, open_high = _open_ends(low, high, rmax)
+        if open_low:
+            chars[start] = "◀"
+        if open_high:
+            chars[end] = "▶"
+        marks = {at(fitted): "●"}
+        if true is not None:
+            marks[at(true)] = "◉" if at(true) in marks else "○"
+        for i, glyph in marks.items():
+            chars[i] = glyph
+            styles[i] = Style(color="#ffffff", bold=True)
+        text = Text()
+        for char, style in zip(chars, styles):
+            text.append(char, style)
+        return text
+
+
+def signed_log_value(fraction: float, scale: float) -> float:
+    """The value that `careful_tui.render.grid.signed_log_fraction` maps to `fraction` in [-1, 1]."""
+    return float(np.sign(fraction) * LINEAR_THRESHOLD * np.expm1(abs(fraction) * np.log1p(scale / LINEAR_THRESHOLD)))
+
+
+def _axis_ticks(axis: int, rmax: float) -> Text:
+    """Labels under the axis: -rmax, the powers of ten between, 0 and up to rmax, where they fit."""
+    powers = [10.0**k for k in range(1, 16) if 10.0**k < rmax / 2]
+    values = [-rmax, *(-p for p in reversed(powers)), 0.0, *powers, rmax]
+    line = [" "] * axis
+    for value in values:
+        label = format_value(value)
+        centre = round((signed_log_fraction(value, rmax) + 1) / 2 * (axis - 1))
+        left = min(max(0, centre - len(label) // 2), axis - len(label))
+        span = range(max(0, left - 1), min(axis, left + len(label) + 1))
+        if all(line[i] == " " for i in span):
+            line[left : left + len(label)] = label
+    return Text("".join(line), style="dim")

@@ -1,0 +1,99 @@
+"""A session as Rich text: how an episode ended, a world's legend, and a recording's summary panel.
+
+The play and replay screens share these; they draw nothing themselves.
+"""
+
+from __future__ import annotations
+
+from rich.console import Group
+from rich.table import Table
+from rich.text import Text
+
+from careful_tui.render.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, format_value
+from careful_tui.render.palette import BAD, GOOD, HERE, NOTE, SLIP, WARN, level_colour
+from irl_core.demonstrations import EpisodeEnd, Recording
+from irl_core.safe_text import VALUE_LIMIT, printable
+from irl_core.summary import SessionSummary
+from irl_core.world import World
+
+MEAN_BAR = 5
+
+
+def outcome_text(end: EpisodeEnd) -> str:
+    """How an episode ended, for a person: "reached the goal", "fell off the cliff", ..."""
+    if end.outcome == "quit":
+        return "quit"
+    if end.outcome == "step_limit":
+        return "ran out of steps"
+    if end.terminal_symbol == "G":
+        return "reached the goal"
+    if end.terminal_symbol == "C":
+        return "fell off the cliff"
+    return f"ended on {SYMBOL_NAMES.get(end.terminal_symbol or '', repr(end.terminal_symbol))}"
+
+
+def legend(world: World) -> Text:
+    """One line naming the world's rewarded symbols: "■ cliff -1000 · ■ goal 100 (ends)"."""
+    text = Text()
+    for symbol, reward in world.rewards.items():
+        if text:
+            text.append(" · ")
+        text.append("■ ", style=SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR))
+        text.append(f"{SYMBOL_NAMES.get(symbol, symbol)} {format_value(reward)}")
+        if symbol in world.terminal:
+            text.append(" (ends)", style="dim")
+    return text
+
+
+def plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def short_warning(recording: Recording, warning: str) -> str:
+    """A reader's warning without the file's name: "line 6: the last line is truncated ..."."""
+    prefix = f"{recording.path}:"
+    return f"line {warning.removeprefix(prefix)}" if warning.startswith(prefix) else warning
+
+
+def summary_panel(recording: Recording, summary: SessionSummary, distance: int | None) -> Group:
+    """The session at a glance; `distance` marks the current row of the carefulness table."""
+    header, world = recording.header, recording.world
+    about = Table.grid(padding=(0, 1))
+    about.add_column(style="dim", no_wrap=True)
+    about.add_column(overflow="fold")
+    about.add_row("world", Text(printable(world.name, limit=VALUE_LIMIT), style="bold"))
+    about.add_row("input", Text(printable(str(header.input.get("mode", "?")), limit=20)))
+    player = Text(printable(header.player, limit=VALUE_LIMIT), style="bold", overflow="fold")
+    created = Text(f"{header.created:%Y-%m-%d %H:%M}", style="dim")
+
+    session = Table.grid(padding=(0, 1))
+    session.add_column(justify="right", style="bold", no_wrap=True)
+    session.add_column()
+    session.add_row(*plural(summary.episodes, "episode").split(" ", 1))
+    for label, count in sorted(summary.outcomes.items(), key=lambda item: -item[1]):
+        colour = GOOD if label == "reached the goal" else BAD if label == "fell off the cliff" else NOTE
+        session.add_row(Text(str(count), style=colour), Text(label, style=colour))
+    session.add_row(*plural(summary.steps, "step").split(" ", 1))
+    session.add_row(Text(str(summary.slips), style=SLIP if summary.slips else ""),
+                    "slip" if summary.slips == 1 else "slips")
+    score = "—" if summary.final_score is None else format_value(summary.final_score)
+    session.add_row(score, Text("final score", style="dim"))
+
+    careful = Table(box=None, padding=(0, 0), show_edge=False, header_style="dim", title_style=f"bold {NOTE}",
+                    title=f"carefulness by\ndistance to {'/'.join(world.terminal)}", title_justify="left")
+    careful.add_column("d", justify="right", width=2)
+    careful.add_column("mean", justify="right", width=5)
+    careful.add_column("", width=MEAN_BAR + 1)
+    careful.add_column("n", justify="right", min_width=4)
+    for d, (mean, n) in summary.carefulness_by_distance.items():
+        colour = level_colour(mean, world.levels)
+        bar = "▆" * max(1, round(MEAN_BAR * mean / world.levels))
+        careful.add_row(str(d), Text(f"{mean:.1f}", style=f"bold {colour}"), Text(f" {bar}", style=colour),
+                        str(n), style=f"bold on {HERE}" if d == distance else "")
+    # Warnings first: the panel is cut at the bottom in a small terminal.
+    warnings = [Text(f"⚠ {printable(short_warning(recording, warning), limit=200)}\n", style=f"bold {WARN}")
+                for warning in recording.warnings]
+    parts = [*warnings, player, about, created, Text(), session, Text(), careful]
+    if not summary.carefulness_by_distance:
+        parts.append(Text("(no steps)", style="dim"))
+    return Group(*parts)

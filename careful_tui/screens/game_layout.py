@@ -1,0 +1,70 @@
+"""The layout the play and replay screens share: the gauge and the hold's numbers on the left,
+the board and a status under it on the right, a title above and keys below.
+
+`compose_game` yields it (the replay adds its session panel on the right) and
+`minimum_size` computes the smallest terminal it fits in, from the paddings each screen's
+stylesheet gives it.
+"""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual.app import ComposeResult
+from textual.containers import Horizontal, Vertical
+from textual.widget import Widget
+from textual.widgets import Static
+
+from careful_tui.render.session import legend
+from careful_tui.widgets import Board, Gauge, KeyBar
+from careful_tui.widgets.board import MIN_CELL
+from careful_tui.widgets.too_small import TooSmall
+from irl_core.game import level_costs
+from irl_core.safe_text import printable
+from irl_core.world import World
+
+STATUS_LINES = 3
+
+
+def carefulness_gauge(world: World) -> Gauge:
+    """The gauge of the play and replay screens: one step per level, each with its cost."""
+    gauge = Gauge(level_costs(world), id="gauge")
+    gauge.border_title = "carefulness"
+    return gauge
+
+
+def world_board(world: World) -> Board:
+    """The board of the play and replay screens, titled with the world and its legend."""
+    board = Board(world, id="board")
+    board.border_title = Text(f"{printable(world.name, limit=40)} · {world.levels} levels · slip {world.slip}")
+    board.border_subtitle = legend(world)
+    return board
+
+
+def compose_game(world: World, *, panel: Widget | None = None) -> ComposeResult:
+    """Title, gauge and hold info, board and status (and `panel` on the right), keys."""
+    yield Static(id="title")
+    with Horizontal(id="main"):
+        with Vertical(id="side"):
+            yield carefulness_gauge(world)
+            yield Static(id="hold-info")
+        with Vertical(id="right"):
+            yield world_board(world)
+            yield Static(id="status")
+        if panel is not None:
+            yield panel
+    yield TooSmall(id="too-small")
+    yield KeyBar(id="keys")
+
+
+def minimum_size(world: World, *, side_padding: int, panel_width: int = 0, side_lines: int = 0) -> tuple[int, int]:
+    """The smallest terminal (columns, rows) the layout fits in, for `world`.
+
+    `side_padding`: columns the gauge's border, padding and margin add to it; `panel_width`: the
+    columns of a panel on the right; `side_lines`: lines under the gauge that must show.
+    """
+    gauge_width = Gauge(level_costs(world)).get_content_width(None, None)
+    cell_width, cell_height = MIN_CELL
+    # A title bar and a key bar; the board's border and the status lines under it.
+    width = (gauge_width + side_padding) + (world.cols * cell_width + 2) + panel_width
+    height = 2 + max(world.levels + 2 + side_lines, world.rows * cell_height + 2 + STATUS_LINES)
+    return width, height

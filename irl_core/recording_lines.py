@@ -1,0 +1,60 @@
+"""The three kinds of line in a recording (SPEC section 2), as pydantic models: the ``session``
+header, a ``step`` and an ``episode_end``. `irl_core.demonstrations` writes and reads them;
+`irl_core.step_table` builds `Step`s from its columns.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from irl_core.world import World
+
+SCHEMA_VERSION = 1
+Direction = Literal["up", "right", "down", "left"]
+
+
+class _Line(BaseModel):
+    # Every number must be one JSON can hold: NaN and Infinity are refused when read and never written.
+    model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=True, allow_inf_nan=False)
+
+
+class SessionHeader(_Line):
+    kind: Literal["session"] = "session"
+    schema_version: int = Field(SCHEMA_VERSION, alias="schema")
+    world: World
+    player: str
+    created: datetime = Field(strict=False)
+    seed: int | None = None
+    input: dict[str, Any] = Field(default_factory=lambda: {"mode": "hold"})
+    app_version: str = ""
+
+
+class Step(_Line):
+    kind: Literal["step"] = "step"
+    episode: int = Field(ge=0)
+    t: int = Field(ge=0)
+    # JSON has no tuples: a cell arrives as a 2-element array.
+    state: tuple[int, int] = Field(strict=False)
+    direction: Direction
+    carefulness: int = Field(ge=1)
+    hold_ms: float | None = Field(default=None, ge=0)
+    hold_exact: bool = False
+    next_state: tuple[int, int] = Field(strict=False)
+    slipped: bool
+    reward: float
+    score: float
+    # The direction the move really went (differs from `direction` on a slip); optional, newer files have it.
+    realised: Direction | None = None
+
+
+class EpisodeEnd(_Line):
+    kind: Literal["episode_end"] = "episode_end"
+    episode: int = Field(ge=0)
+    outcome: Literal["terminal", "quit", "step_limit"]
+    terminal_symbol: str | None = None
+    steps: int = Field(ge=0)
+    return_: float = Field(alias="return")
+    score: float

@@ -1,0 +1,139 @@
+"""The project's modules import one way: irl_core <- render <- keys, widgets <- screens <- app <-
+commands <- cli; no cycle anywhere, and one module touches Textual's private API.
+
+The graph is read from the source with `ast`, imports inside functions included, so a cycle
+cannot hide behind a late import.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import textual
+
+from careful_tui.keys.kitty import WRITTEN_FOR_TEXTUAL
+
+ROOT = Path(__file__).parents[2]
+PACKAGES = ("irl_core", "careful_tui")
+
+# Lower may not import higher. Modules of careful_tui that no prefix names are checked for
+# cycles only.
+LAYERS = (
+    ("irl_core", 0),
+    ("careful_tui.errors", 1),
+    ("careful_tui.version", 1),
+    ("careful_tui.arguments", 1),
+    ("careful_tui.render", 2),
+    ("careful_tui.keys", 3),
+    ("careful_tui.widgets", 4),
+    ("careful_tui.screens", 5),
+    ("careful_tui.app", 6),
+    ("careful_tui.commands", 7),
+    ("careful_tui.cli", 8),
+)
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def project_modules() -> dict[str, Path]:
+    return {module_name(path): path for package in PACKAGES for path in sorted((ROOT / package).rglob("*.py"))}
+
+
+def imported_names(path: Path, module: str) -> set[str]:
+    """Every module `path` imports, anywhere in the file (`from a import b` counts a.b when it is a module)."""
+    names: set[str] = set()
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                base = ".".join([*package.split(".")[: len(package.split(".")) - node.level + 1], base]).strip(".")
+            names.add(base)
+            names.update(f"{base}.{alias.name}" for alias in node.names)
+    return names
+
+
+def import_graph() -> dict[str, set[str]]:
+    modules = project_modules()
+    return {module: imported_names(path, module) & modules.keys() - {module} for module, path in modules.items()}
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """A cycle as a list of modules (first repeated at the end), or None."""
+    state: dict[str, str] = {}
+    stack: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = "open"
+        stack.append(node)
+        for target in sorted(graph[node]):
+            if state.get(target) == "open":
+                return [*stack[stack.index(target):], target]
+            if target not in state and (cycle := visit(target)):
+                return cycle
+        state[node] = "done"
+        stack.pop()
+        return None
+
+    for node in sorted(graph):
+        if node not in state and (cycle := visit(node)):
+            return cycle
+    return None
+
+
+def layer(module: str) -> int | None:
+    for prefix, rank in LAYERS:
+        if module == prefix or module.startswith(prefix + "."):
+            return rank
+    return None
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": set()}) is None
+
+
+def test_no_import_cycle_among_the_projects_modules():
+    graph = import_graph()
+    assert "careful_tui.screens.play" in graph and "irl_core.mdp" in graph["irl_core.game"]
+    assert find_cycle(graph) is None
+
+
+def test_imports_run_one_way_down_the_layers():
+    upward = [
+        f"{module} imports {target}"
+        for module, targets in import_graph().items()
+        for target in targets
+        if layer(module) is not None and layer(target) is not None and layer(target) > layer(module)
+    ]
+    assert upward == []
+
+
+def test_no_command_imports_the_command_line():
+    assert [module for module, targets in import_graph().items() if "careful_tui.cli" in targets] == []
+
+
+def test_render_imports_no_textual():
+    modules = project_modules()
+    textual_users = [module for module, path in modules.items() if module.startswith("careful_tui.render")
+                     and any(name.split(".")[0] == "textual" for name in imported_names(path, module))]
+    assert textual_users == []
+
+
+def test_only_the_kitty_module_touches_textuals_private_api():
+    private = sorted(
+        module for module, path in project_modules().items()
+        if any(name.startswith("textual._") for name in imported_names(path, module))
+    )
+    assert private == ["careful_tui.keys.kitty"]
+
+
+def test_the_kitty_module_was_written_for_the_installed_textual():
+    # Its private-API list must be re-read against a new Textual before the pin moves.
+    assert textual.__version__ == WRITTEN_FOR_TEXTUAL
