@@ -27,7 +27,7 @@ from pathlib import Path
 from rich.console import Group
 from rich.text import Text
 from textual import on, work
-from textual.app import App, ComposeResult
+from textual.app import ComposeResult
 from textual.driver import Driver
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
@@ -46,6 +46,7 @@ from careful_tui.render.grid import diverging_colour, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, signed_log_value
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
 from careful_tui.render.session import legend
+from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -116,7 +117,7 @@ class FitProgress(Message):
     phrase: str
 
 
-class FitApp(App[None]):
+class FitApp(CarefulApp):
     """The fit view of one set of demonstrations (the CLI and the tests build it the same way).
 
     Args:
@@ -130,18 +131,18 @@ class FitApp(App[None]):
         show_times: show the fit's seconds (snapshot tests turn it off: times vary).
     """
 
-    CSS_PATH = ["play.tcss", "fit.tcss"]
     TITLE = "careful fit"
-    ENABLE_COMMAND_PALETTE = False
+    METHOD = Binding.Group("auto/lp/loss/maxent")
     BINDINGS = [
-        Binding("a", "method('auto')", "auto", priority=True),
-        Binding("l", "method('lp')", "lp", priority=True),
-        Binding("o", "method('loss')", "loss", priority=True),
-        Binding("m", "method('maxent')", "maxent", priority=True),
-        Binding("tab", "next_method", "next method", priority=True),
+        Binding("a", "method('auto')", "auto", priority=True, group=METHOD),
+        Binding("l", "method('lp')", "lp", priority=True, group=METHOD),
+        Binding("o", "method('loss')", "loss", priority=True, group=METHOD),
+        Binding("m", "method('maxent')", "maxent", priority=True, group=METHOD),
+        Binding("tab", "next_method", "next method", priority=True, show=False),
         Binding("i", "toggle_intervals", "intervals", priority=True),
         Binding("s", "save_svg", "save SVG", priority=True),
-        Binding("q,ctrl+c,ctrl+q", "quit", "quit", priority=True),
+        Binding("q", "quit", "quit", priority=True),
+        Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
     ]
 
     def __init__(
@@ -168,7 +169,6 @@ class FitApp(App[None]):
         self._request = 0
         self._fitting: FitOptions | None = None
         self._progress = ""
-        self._too_small = False
         self._save_first = svg is not None
 
     # ------------------------------------------------------------------ layout
@@ -223,7 +223,7 @@ class FitApp(App[None]):
             board.styles.height = world.rows * CELL_HEIGHT + 2
         self.query_one("#rewards").set_class(not two, "-stacked")
         self.query_one("#policy-row").set_class(room < each + GAP + POLICY_KEY_WIDTH, "-stacked")
-        self.query_one(KeyBar).show(self._keys())
+        self.refresh_bindings()
 
     # ------------------------------------------------------------------ fitting
 
@@ -340,7 +340,7 @@ class FitApp(App[None]):
         self.query_one("#title", Static).update(self._title())
         self.query_one("#status", Static).update(self._status())
         self.query_one("#body").set_class(self.busy, "-busy")
-        self.query_one(KeyBar).show(self._keys())
+        self.refresh_bindings()
         if result is None:
             return
         scale = reward_scale(result)
@@ -417,9 +417,3 @@ class FitApp(App[None]):
             (" ×38 ", "bold"), "how often it was taken there\n",
             (f"Each level costs {format_value(world.cost_per_level)}; {slip}.", "dim"),
         )
-
-    def _keys(self) -> list[tuple[str, str]]:
-        if self._too_small:
-            return [("q", "quit")]
-        return [("a/l/o/m", "auto/lp/loss/maxent"), ("i", "intervals"), ("s", "save SVG"), ("↑↓", "scroll"),
-                ("q", "quit")]

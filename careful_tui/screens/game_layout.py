@@ -41,7 +41,7 @@ def world_board(world: World) -> Board:
 
 
 def compose_game(world: World, *, panel: Widget | None = None) -> ComposeResult:
-    """Title, gauge and hold info, board and status (and `panel` on the right), keys."""
+    """Title, gauge and hold info, board and status (and `panel` on the right), the key bar."""
     yield Static(id="title")
     with Horizontal(id="main"):
         with Vertical(id="side"):

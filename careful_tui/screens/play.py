@@ -33,7 +33,7 @@ import time
 
 from rich.text import Text
 from textual import events
-from textual.app import App, ComposeResult
+from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.driver import Driver
 from textual.timer import Timer
@@ -47,7 +47,8 @@ from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_text
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
-from careful_tui.widgets import Arrow, Board, Gauge, KeyBar
+from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import SessionRecorder
 from irl_core.game import Game, MoveResult
@@ -64,16 +65,25 @@ def minimum_size(world: World) -> tuple[int, int]:
     return game_minimum_size(world, side_padding=5)
 
 
-class PlayApp(App[None]):
-    """The play screen. Build it with `make_play_app`, which the CLI and the tests share."""
+class PlayApp(CarefulApp):
+    """The play screen. Build it with `careful_tui.app.make_play_app`, which the CLI and the tests share.
 
-    CSS_PATH = "play.tcss"
+    Keys are read in `on_key`, which sees every press and autorepeat a hold needs (and is what
+    the tests call); the bindings below name the keys in the footer, and `check_action` shows
+    those that do something now.
+    """
+
     TITLE = "careful play"
-    ENABLE_COMMAND_PALETTE = False
     BINDINGS = [
-        Binding("ctrl+c", "quit_game", "quit", priority=True, show=False),
-        Binding("ctrl+q", "quit_game", "quit", priority=True, show=False),
-        Binding("q", "quit_game", "quit", priority=True, show=False),
+        Binding("up,right,down,left", "move('hold')", "move · hold longer: more careful (costs more)", key_display="←↑→↓"),
+        Binding("up,right,down,left", "move('tap')", "move · tap ×k: level k", key_display="←↑→↓"),
+        Binding("1,2,3,4,5,6,7,8,9", "move('digits')", "level", key_display="1-9"),
+        Binding("up,right,down,left", "move('digits')", "move", key_display="←↑→↓"),
+        Binding("backspace", "move('digits')", "fix", key_display="⌫"),
+        Binding("space,enter", "next_episode", "next episode", key_display="space"),
+        Binding("c", "calibrate", "calibrate"),
+        Binding("q", "quit", "quit", priority=True),
+        Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
     ]
 
     def __init__(
@@ -103,7 +113,6 @@ class PlayApp(App[None]):
         self._calibrate_at_start = calibrate
         self._last_key_at: float | None = None
         self._shown_view: tuple | None = None
-        self._too_small = False
         self._flash: Timer | None = None
         self._title_shows: str | None = None
         self.write_error: OSError | ValueError | None = None
@@ -133,7 +142,7 @@ class PlayApp(App[None]):
 
     def _check_size(self, width: int, height: int) -> None:
         self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command="careful play")
-        self.query_one(KeyBar).show(self._keys())
+        self.refresh_bindings()
 
     # ------------------------------------------------------------------ input
 
@@ -150,11 +159,11 @@ class PlayApp(App[None]):
                     self._ticker.resume()
         elif key in ("space", "enter") and not self.game.live:
             event.stop()
-            self.game.begin_episode()
-            self.message = Text()
-            self._refresh_all()
+            event.prevent_default()
+            self.action_next_episode()
         elif key == "c":
             event.stop()
+            event.prevent_default()
             self.action_calibrate()
 
     def on_key_release(self, event: KeyRelease) -> None:
@@ -202,6 +211,24 @@ class PlayApp(App[None]):
             self.notify(notice, title="recording", severity="warning", timeout=15, markup=False)
 
     # ------------------------------------------------------------------ actions
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """Show and allow the keys that do something now (the footer follows)."""
+        if action == "move":
+            return self.game.live and parameters == (self.input_mode,)
+        if action == "next_episode":
+            return not self.game.live
+        if action == "calibrate":
+            return not self.game.live or self.game.t == 0
+        return super().check_action(action, parameters)
+
+    def action_move(self, mode: str) -> None:
+        """Nothing: `on_key` reads the move keys (these bindings only name them in the footer)."""
+
+    def action_next_episode(self) -> None:
+        self.game.begin_episode()
+        self.message = Text()
+        self._refresh_all()
 
     def action_quit_game(self) -> None:
         self.record_quit()
@@ -368,17 +395,4 @@ class PlayApp(App[None]):
             status.append("\n")
             status.append("Press space for the next episode.", style="dim")
         self.query_one("#status", Static).update(status, layout=False)
-        self.query_one(KeyBar).show(self._keys())
-
-    def _keys(self) -> list[tuple[str, str]]:
-        if self._too_small:
-            return [("q", "quit")]
-        if not self.game.live:
-            return [("space", "next episode"), ("c", "calibrate"), ("q", "quit")]
-        moves = {
-            "hold": [("←↑→↓", "move"), ("hold", "more careful (costs more)")],
-            "tap": [("←↑→↓", "move"), ("tap ×k", "level k")],
-            "digits": [("1-9", f"level 1-{self.world.levels}"), ("←↑→↓", "move"), ("⌫", "fix")],
-        }[self.input_mode]
-        extra = [("c", "calibrate")] if self.game.t == 0 else []
-        return [*moves, *extra, ("q", "quit")]
+        self.refresh_bindings()

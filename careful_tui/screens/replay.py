@@ -15,9 +15,10 @@ from __future__ import annotations
 
 from rich.text import Text
 from textual import events
-from textual.app import App, ComposeResult
+from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.driver import Driver
+from textual.reactive import reactive
 from textual.timer import Timer
 from textual.widgets import Static
 
@@ -26,7 +27,8 @@ from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import plural, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.screens.replay_cursor import Frame, ReplayCursor
-from careful_tui.widgets import Arrow, Board, Gauge, KeyBar
+from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording, Step
 from irl_core.mdp import DIRECTIONS, OFFSETS
@@ -60,7 +62,7 @@ def minimum_size(world: World) -> tuple[int, int]:
     return game_minimum_size(world, side_padding=2, panel_width=PANEL_WIDTH, side_lines=3)
 
 
-class ReplayApp(App[None]):
+class ReplayApp(CarefulApp):
     """The replay screen for one recording (the CLI and the tests build it the same way).
 
     Args:
@@ -71,21 +73,31 @@ class ReplayApp(App[None]):
             no use for key releases, but must survive a terminal that sends them).
     """
 
-    CSS_PATH = ["play.tcss", "replay.tcss"]
     TITLE = "careful replay"
-    ENABLE_COMMAND_PALETTE = False
+    STEP = Binding.Group("step")
+    EPISODE = Binding.Group("episode")
+    SPEED = Binding.Group("speed")
+    JUMP = Binding.Group("jump")
     BINDINGS = [
-        Binding("space", "toggle_play", "play/pause", priority=True),
-        Binding("right", "forward", "step", priority=True),
-        Binding("left", "back", "step back", priority=True),
-        Binding("up,n", "next_episode", "next episode", priority=True),
-        Binding("down,p", "previous_episode", "previous episode", priority=True),
-        Binding("plus,equals_sign", "faster", "faster", priority=True),
-        Binding("minus,underscore", "slower", "slower", priority=True),
-        Binding("home", "to_start", "start", priority=True),
-        Binding("end", "to_end", "end", priority=True),
-        Binding("q,ctrl+c,ctrl+q", "quit", "quit", priority=True),
+        Binding("space", "toggle_play('pause')", "pause", priority=True),
+        Binding("space", "toggle_play('play')", "play", priority=True),
+        Binding("left", "back", "step back", key_display="←", priority=True, group=STEP),
+        Binding("right", "forward", "step", key_display="→", priority=True, group=STEP),
+        Binding("up,n", "next_episode", "next episode", key_display="↑", priority=True, group=EPISODE),
+        Binding("down,p", "previous_episode", "previous episode", key_display="↓", priority=True, group=EPISODE),
+        Binding("plus,equals_sign", "faster", "faster", key_display="+", priority=True, group=SPEED),
+        Binding("minus,underscore", "slower", "slower", key_display="-", priority=True, group=SPEED),
+        Binding("home", "to_start", "start", priority=True, group=JUMP),
+        Binding("end", "to_end", "end", priority=True, group=JUMP),
+        Binding("q", "quit", "quit", priority=True),
+        Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
     ]
+
+    # What is on screen: playing or paused, the speed, and the cursor's frame. Their watchers
+    # redraw; `set_reactive` in __init__ sets them before there is anything to draw.
+    playing: reactive[bool] = reactive(False, init=False)
+    speed_index: reactive[int] = reactive(SPEEDS.index(1.0), init=False)
+    position: reactive[int] = reactive(0, init=False)
 
     def __init__(self, recording: Recording, *, playing: bool = False, frame_seconds: float = FRAME_S,
                  driver_class: type[Driver] | None = None) -> None:
@@ -95,11 +107,9 @@ class ReplayApp(App[None]):
         self.cursor = ReplayCursor.from_recording(recording)
         self.summary = summarise(recording)
         self.distances = distance_to_terminal(self.world)
-        self.playing = playing
+        self.set_reactive(ReplayApp.playing, playing)
         self.frame_seconds = frame_seconds
-        self.speed_index = SPEEDS.index(1.0)
         self._end_ticks = 0
-        self._too_small = False
         self._timer: Timer | None = None
         self._panel_shows: tuple[int | None] | None = None
 
@@ -123,7 +133,7 @@ class ReplayApp(App[None]):
         for warning in self.recording.warnings:
             self.notify(printable(warning, limit=400), title="recording", severity="warning", timeout=10, markup=False)
         self._check_size(*self.size)
-        self.show()
+        self.draw()
 
     def on_resize(self, event: events.Resize) -> None:
         self._check_size(event.size.width, event.size.height)
@@ -131,7 +141,7 @@ class ReplayApp(App[None]):
     def _check_size(self, width: int, height: int) -> None:
         self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world),
                                                          command="careful replay")
-        self.query_one(KeyBar).show(self._keys())
+        self.refresh_bindings()
 
     def _start_timer(self) -> None:
         if self._timer is not None:
@@ -153,67 +163,80 @@ class ReplayApp(App[None]):
             return
         self._end_ticks = 0
         self.cursor.forward()
+        self.position = self.cursor.position
         if self.cursor.at_end:
-            self._set_playing(False)
-        self.show()
+            self.playing = False
 
-    def _set_playing(self, playing: bool) -> None:
-        self.playing = playing
+    def watch_playing(self, playing: bool) -> None:
         if self._timer is not None:
             if playing:
                 self._timer.reset()
                 self._timer.resume()
             else:
                 self._timer.pause()
+        self.refresh_bindings()
+        self.draw()
 
-    def action_toggle_play(self) -> None:
-        """Play or pause; playing from the last frame starts again from the first."""
+    def watch_speed_index(self) -> None:
+        self._start_timer()
+        self.draw()
+
+    def watch_position(self) -> None:
+        self.draw()
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """Space says what it does now: pause while playing, play while paused."""
+        if action == "toggle_play" and parameters:
+            return parameters == (("pause",) if self.playing else ("play",))
+        return super().check_action(action, parameters)
+
+    def action_toggle_play(self, shown: str = "") -> None:
+        """Play or pause; playing from the last frame starts again from the first (`shown`:
+        what the key bar called it)."""
         if not self.playing and self.cursor.at_end:
             self.cursor.to_start()
+            self.position = self.cursor.position
         self._end_ticks = 0
-        self._set_playing(not self.playing and len(self.cursor) > 1)
-        self.show()
+        self.playing = not self.playing and len(self.cursor) > 1
 
-    def _move(self, moved: bool) -> None:
+    def _moved(self) -> None:
         self._end_ticks = 0
-        if moved:
-            self.show()
+        self.position = self.cursor.position
 
     def action_forward(self) -> None:
-        self._move(self.cursor.forward())
+        self.cursor.forward()
+        self._moved()
 
     def action_back(self) -> None:
-        self._move(self.cursor.back())
+        self.cursor.back()
+        self._moved()
 
     def action_next_episode(self) -> None:
-        self._move(self.cursor.next_episode())
+        self.cursor.next_episode()
+        self._moved()
 
     def action_previous_episode(self) -> None:
-        self._move(self.cursor.previous_episode())
+        self.cursor.previous_episode()
+        self._moved()
 
     def action_to_start(self) -> None:
-        self._move(self.cursor.to_start())
+        self.cursor.to_start()
+        self._moved()
 
     def action_to_end(self) -> None:
-        self._move(self.cursor.to_end())
+        self.cursor.to_end()
+        self._moved()
 
     def action_faster(self) -> None:
-        self._set_speed(self.speed_index + 1)
+        self.speed_index = min(self.speed_index + 1, len(SPEEDS) - 1)
 
     def action_slower(self) -> None:
-        self._set_speed(self.speed_index - 1)
-
-    def _set_speed(self, index: int) -> None:
-        index = max(0, min(index, len(SPEEDS) - 1))
-        if index != self.speed_index:
-            self.speed_index = index
-            self._start_timer()
-            self.show()
+        self.speed_index = max(self.speed_index - 1, 0)
 
     # ------------------------------------------------------------------ drawing
 
-    def show(self) -> None:
-        """Draw the current frame: board, gauge, hold time, status, panel and keys."""
+    def draw(self) -> None:
+        """Draw the current frame: board, gauge, hold time, status, panel and keys (the watchers call it)."""
         frame = self.cursor.frame
         board, gauge = self.query_one(Board), self.query_one(Gauge)
         step = None if frame is None else frame.step
@@ -231,7 +254,7 @@ class ReplayApp(App[None]):
             self._panel_shows = (distance,)
             self.query_one("#summary", Static).update(summary_panel(self.recording, self.summary, distance),
                                                       layout=False)
-        self.query_one(KeyBar).show(self._keys())
+        self.refresh_bindings()
 
     def _hold_info(self, step: Step | None) -> Text:
         if step is None:
@@ -297,9 +320,3 @@ class ReplayApp(App[None]):
         else:
             where = f"went {went} instead of {step.direction}"
         return Text.assemble(("slipped! ", f"bold {SLIP}"), where)
-
-    def _keys(self) -> list[tuple[str, str]]:
-        if self._too_small:
-            return [("q", "quit")]
-        return [("space", "pause" if self.playing else "play"), ("←→", "step"), ("↑↓", "episode"),
-                ("+-", speed_text(self.speed)), ("home end", "jump"), ("q", "quit")]

@@ -1,23 +1,51 @@
-"""A one-line bar of keys and what they do, for the keys of the current mode."""
+"""The keys that do something now, on one line at the bottom of every screen.
+
+The keys come from the app's and the screen's `BINDINGS`, as `check_action` allows them now
+(`Screen.active_bindings`): no screen lists its keys by hand. Bindings in one `Binding.Group`
+share a chip ("a/l/o/m auto/lp/loss/maxent"). It plays the part of Textual's `Footer`, but draws
+in the very first frame (the Footer composes its keys only after a refresh, which a terminal
+test reading the first frame sees as a missing key bar) and keeps the chip look of careful.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 from rich.text import Text
-from textual.reactive import reactive
 from textual.widget import Widget
 
 from careful_tui.render.palette import NOTE, ON_NOTE
 
 
+def joined(keys: list[str]) -> str:
+    """Keys of one chip: arrows run together ("←→"), letters take slashes ("a/l"), words spaces."""
+    if all(len(key) == 1 for key in keys):
+        return ("/" if all(key.isalnum() for key in keys) else "").join(keys)
+    return " ".join(keys)
+
+
 class KeyBar(Widget):
-    """Shows `keys`, a sequence of (key label, what it does), as chips on one line."""
+    """The active bindings as chips: a key, then what it does."""
 
-    keys: reactive[tuple[tuple[str, str], ...]] = reactive(tuple)
+    def on_mount(self) -> None:
+        self.screen.bindings_updated_signal.subscribe(self, lambda _screen: self.refresh())
 
-    def show(self, keys: Sequence[tuple[str, str]]) -> None:
-        self.keys = tuple(keys)
+    @property
+    def keys(self) -> tuple[tuple[str, str], ...]:
+        """(keys, what they do) per chip, in the order of `BINDINGS`; only quitting while the
+        screen is too small (`TooSmall` hides everything else)."""
+        too_small = self.screen.has_class("-too-small")
+        first_of_action = {}  # several keys of one binding (or one action and text) make one chip
+        for active in self.screen.active_bindings.values():
+            binding = active.binding
+            if binding.show and active.enabled and (binding.action == "quit" or not too_small):
+                first_of_action.setdefault((binding.action, binding.description), binding)
+        chips: dict[object, tuple[list[str], str]] = {}
+        for binding in first_of_action.values():
+            shown = binding.key_display or self.app.get_key_display(binding)
+            if binding.group is None:
+                chips[binding] = ([shown], binding.description)
+            else:
+                chips.setdefault(binding.group, ([], binding.group.description))[0].append(shown)
+        return tuple((joined(keys), what) for keys, what in chips.values())
 
     def render(self) -> Text:
         text = Text(no_wrap=True, overflow="ellipsis")
