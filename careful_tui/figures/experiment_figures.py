@@ -62,9 +62,13 @@ def interval_result(figure: Figure, result: ExperimentResult) -> Separation | No
 
 
 def shared_scale(result: ExperimentResult) -> float:
-    """One colour-scale end for every reward figure of a run: the largest |reward| any of them shows."""
-    grids = [f.values for f in result.figures if f.values is not None]
-    grids += [Board.of(f.world).rewards(f.world) for f in result.figures]
+    """One colour-scale end for every reward figure of a run: the largest |reward| any of them shows.
+
+    Interval figures are not heatmaps, so their values (whose fits may use another bound) do not count.
+    """
+    heatmaps = [f for f in result.figures if interval_result(f, result) is None]
+    grids = [f.values for f in heatmaps if f.values is not None]
+    grids += [Board.of(f.world).rewards(f.world) for f in heatmaps]
     return reward_limit(*grids)
 
 
