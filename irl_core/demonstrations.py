@@ -358,7 +358,8 @@ class Recording:
     @property
     def episodes(self) -> list[int]:
         """Episode numbers that have a step or an end, in order (the reader checks that order)."""
-        return sorted({*self.steps.column("episode").tolist(), *(e.episode for e in self.episode_ends)})
+        ends = np.array([e.episode for e in self.episode_ends], dtype=np.int64)
+        return np.union1d(self.steps.column("episode"), ends).tolist()
 
 
 def read_recording(path: str | Path, *, progress: Callable[[int], None] | None = None) -> Recording:
