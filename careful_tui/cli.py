@@ -72,6 +72,16 @@ def text_argument(text: str) -> str:
     return text
 
 
+def beta_value(text: str) -> float | str:
+    """A positive number, or "auto" (estimate beta with the rewards)."""
+    if text == "auto":
+        return text
+    try:
+        return positive_float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive number or auto, got {text}") from None
+
+
 def positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -108,16 +118,26 @@ def build_parser() -> argparse.ArgumentParser:
         "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "
         "the fit view; without one, or with --no-view, it prints the result and exits."))
     fit.add_argument("files", type=Path, nargs="+", metavar="FILE")
-    fit.add_argument("--method", choices=["lp", "loss", "maxent"], default="lp",
-                     help="lp: the paper's simple IRL agent (default); loss: its loss IRL agent, for noisy "
-                     "demonstrations; maxent: the maximum-entropy baseline")
+    fit.add_argument("--method", choices=["auto", "lp", "loss", "maxent"], default="auto",
+                     help="auto (default): lp for a deterministic expert whose lp is feasible, else maxent "
+                     "with --beta auto (a person's noisy play); lp: the paper's simple IRL agent; loss: its "
+                     "loss IRL agent; maxent: the maximum-entropy baseline")
     fit.add_argument("--rmax", type=positive_float, default=1000.0, help="bound |R_S| <= rmax (default 1000)")
     fit.add_argument("--lambda", dest="lam", type=non_negative_float, default=0.0, help="L1 penalty on R_S (default 0)")
-    fit.add_argument("--beta", type=positive_float, default=1.0, help="maxent inverse temperature (default 1.0)")
+    fit.add_argument("--beta", type=beta_value, default=None, metavar="X|auto",
+                     help="maxent inverse temperature, or auto to estimate it with the rewards "
+                     "(default: 1.0 with --method maxent, auto when --method auto picks maxent)")
     fit.add_argument("--reward-cells", choices=["special", "all"], default="special",
                      help="special: fit non-ground cells, ground is 0 (default); all: fit every cell")
     fit.add_argument("--tie", action="store_true", help="one unknown per symbol instead of per cell")
-    fit.add_argument("--intervals", action="store_true", help="the range each unknown can take (2 LPs per unknown)")
+    fit.add_argument("--intervals", action="store_true",
+                     help="an interval per unknown: for lp every value the demonstrations allow (identified set); "
+                     "for maxent and loss a confidence interval from resampling whole episodes")
+    fit.add_argument("--confidence", type=finite_float, default=0.95, metavar="P",
+                     help="confidence level of maxent's and loss's intervals, between 0 and 1 (default 0.95)")
+    fit.add_argument("--resamples", type=int, default=200, metavar="N",
+                     help="bootstrap resamples for those intervals, at least 20 (default 200)")
+    fit.add_argument("--seed", type=seed_int, default=0, help="seed of the resampling (default 0)")
     fit.add_argument("--json", type=Path, metavar="PATH", help="write the result as JSON")
     fit.add_argument("--svg", type=Path, metavar="PATH", help="save a picture of the result as SVG")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
@@ -138,6 +158,10 @@ def build_parser() -> argparse.ArgumentParser:
         "Run the paper's experiments end to end: figures as SVG, summary.json and report.md."))
     experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR", help="output folder (default: experiment/)")
     experiment.add_argument("--quick", action="store_true", help="reduced sizes, for a fast check")
+    experiment.add_argument("--recordings", type=Path, default=None, metavar="DIR",
+                            help="people's recordings of paper for the human stage (default: simulated noisy "
+                            "experts, labelled so)")
+    experiment.add_argument("--seed", type=seed_int, default=0, help="seed of every simulated expert and resampling (default 0)")
 
     export = commands.add_parser("export", help="recordings as CSV or a Minari dataset", description=(
         "Export recordings for other tools: a CSV table with one row per step, or a local Minari "

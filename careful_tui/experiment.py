@@ -45,12 +45,13 @@ def estimates_table(result: ExperimentResult) -> Table:
 
 
 def intervals_table(result: ExperimentResult) -> Table:
-    table = Table(title="What carefulness buys: reward intervals over every reward the demonstrations allow")
-    for column in ("world", "cliff interval", "width", "mud interval", "width", "cliff vs mud", "time"):
+    table = Table(title="What carefulness buys: identified sets (every reward the demonstrations allow) and "
+                        "95% confidence intervals (noisy experts)")
+    for column in ("world", "kind", "cliff interval", "width", "mud interval", "width", "cliff vs mud", "time"):
         table.add_column(column)
     for s in result.separations:
         table.add_row(
-            s.world, f"{s.cliff[0]:.0f} .. {s.cliff[1]:.0f}", f"{s.cliff_width:.0f}",
+            s.world, s.kind, f"{s.cliff[0]:.0f} .. {s.cliff[1]:.0f}", f"{s.cliff_width:.0f}",
             f"{s.mud[0]:.0f} .. {s.mud[1]:.0f}", f"{s.mud_width:.0f}",
             "[green]separated[/]" if s.separated else "[red]overlap[/]", f"{s.seconds:.2f} s",
         )
@@ -73,10 +74,14 @@ def report_markdown(result: ExperimentResult) -> str:
         lines.append(f"| {e.stage} | {e.data} | {e.cliff:.1f} | {e.true_cliff:.0f} | {e.cliff_error:.0%} | "
                      f"{e.goal:.1f} | {e.true_goal:.0f} | {e.goal_error:.0%} | {e.seconds:.2f} s |")
     lines += ["", "## Intervals: what carefulness buys", "",
-              "| world | cliff interval | mud interval | separated | time |", "|---|---|---|---|---|"]
+              "Identified: every value the demonstrations allow (lp, optimal experts). Confidence: a 95% "
+              "bootstrap interval (maxent with beta estimated, noisy experts); it covers sampling noise only.", "",
+              "| world | kind | data | cliff interval | mud interval | separated | time |",
+              "|---|---|---|---|---|---|---|"]
     for s in result.separations:
-        lines.append(f"| {s.world} | {s.cliff[0]:.0f} .. {s.cliff[1]:.0f} | {s.mud[0]:.0f} .. {s.mud[1]:.0f} | "
-                     f"{'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
+        lines.append(f"| {s.world} | {s.kind} | {s.data} | {s.cliff[0]:.0f} .. {s.cliff[1]:.0f} | "
+                     f"{s.mud[0]:.0f} .. {s.mud[1]:.0f} | {'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
+    lines += [""] + [f"- {s.world} ({s.kind}): {_verdict(s)}" for s in result.separations]
     lines += ["", "## Figures", ""]
     for figure in result.figures:
         lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.svg)", "", figure.caption, ""]
@@ -84,6 +89,13 @@ def report_markdown(result: ExperimentResult) -> str:
         lines += ["## Notes", "", *(f"- {note}" for note in result.notes), ""]
     lines += [f"Total time: {result.seconds:.1f} s.", ""]
     return "\n".join(lines)
+
+
+def _verdict(s) -> str:
+    """The interval caption of a stage, from its numbers (the figure's caption)."""
+    from irl_core.experiment import _interval_caption
+
+    return _interval_caption(s)
 
 
 def run_experiment(args: argparse.Namespace) -> int:
@@ -94,11 +106,13 @@ def run_experiment(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UsageError(f"cannot create {out}: {exc.strerror}") from None
+    if args.recordings is not None and not args.recordings.is_dir():
+        raise UsageError(f"--recordings {args.recordings}: not a folder")
     console = Console()
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
                   console=Console(stderr=True), transient=True) as progress:
         task = progress.add_task("starting", total=None)
-        result = run_stages(sizes=QUICK if args.quick else FULL, recordings=Path("recordings"),
+        result = run_stages(sizes=QUICK if args.quick else FULL, recordings=args.recordings, seed=args.seed,
                             progress=lambda stage: progress.update(task, description=stage))
     for figure in result.figures:
         console.print(figure_panel(figure))

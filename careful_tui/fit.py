@@ -1,9 +1,10 @@
 """`careful fit`: read recordings, fit the state rewards, show them (and save JSON or SVG).
 
-`fit_from_args` reads and fits (a spinner on stderr while it runs); `FitOptions` is one
-fit's settings, which the fit view changes to refit. `print_fit` draws a result with Rich
+`fit_from_args` reads and fits (a spinner on stderr while it runs, a progress bar while
+bootstrap resamples come back); `options_from_args` builds the one `FitOptions` of a fit,
+which the fit view changes to refit. `print_fit` draws a result with Rich
 from pieces the fit view shares (`reward_scale`, `policy_labels`, `IntervalChart`,
-`interval_readings`, `status_text`). `run_fit` ties them to the command line: with a
+`interval_readings`, `interval_title`, `evaluation_line`, `status_text`). `run_fit` ties them to the command line: with a
 terminal it opens the fit view (`careful_tui.fit_view`) on the first fit, without one (or
 with `--no-view`) it prints. The files are read and the first fit is made before the view
 opens, so bad input ends with exit 2 and one line on stderr, and a solver that fails with
@@ -21,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 from rich.console import Console, ConsoleOptions, Group, RenderResult
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.style import Style
 from rich.table import Table
 from rich.text import Text
@@ -36,9 +38,9 @@ from careful_tui.grid import (
 )
 from careful_tui.reading import read_with_progress
 from irl_core.demonstrations import Demonstrations
+from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.safe_files import check_output, write_output
 from irl_core.safe_text import printable
-from irl_core.irl import BadInputError, FitResult, SolverError, fit
 from irl_core.mdp import ARROWS
 
 
@@ -57,43 +59,45 @@ def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
     return demos
 
 
-@dataclass(frozen=True)
-class FitOptions:
-    """The settings of one fit, as `careful fit` names them (`lam` is `--lambda`)."""
+def options_from_args(args: argparse.Namespace) -> FitOptions:
+    """The fit's settings from `careful fit`'s parsed arguments (built once; the view refits with replace)."""
+    return FitOptions(method=args.method, rmax=args.rmax, lam=args.lam, beta=args.beta,
+                      reward_cells=args.reward_cells, tie=args.tie, intervals=args.intervals,
+                      confidence=args.confidence, resamples=args.resamples, seed=args.seed)
 
-    method: str = "lp"
-    rmax: float = 1000.0
-    lam: float = 0.0
-    beta: float = 1.0
-    reward_cells: str = "special"
-    tie: bool = False
-    intervals: bool = False
 
-    @classmethod
-    def from_args(cls, args: argparse.Namespace) -> FitOptions:
-        return cls(method=args.method, rmax=args.rmax, lam=args.lam, beta=args.beta,
-                   reward_cells=args.reward_cells, tie=args.tie, intervals=args.intervals)
-
-    def describe(self) -> str:
-        """The method and whether intervals are on, for messages: "loss, with intervals"."""
-        return f"{self.method}{', with intervals' if self.intervals else ''}"
-
-    def run(self, demos: Demonstrations) -> FitResult:
-        """Fit `demos`; raises what `irl_core.irl.fit` raises."""
-        return fit(demos, method=self.method, rmax=self.rmax, lam=self.lam, beta=self.beta,
-                   reward_cells=self.reward_cells, tie=self.tie, intervals=self.intervals)
+def refit(demos: Demonstrations, options: FitOptions, *, progress=None) -> FitResult:
+    """Fit `demos` with `options` (the fit view's refits); raises what `irl_core.irl.fit` raises."""
+    return fit(demos, options, progress=progress)
 
 
 def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tuple[Demonstrations, FitResult]:
-    """The demonstrations and the fit that `careful fit` options ask for."""
+    """The demonstrations and the fit that `careful fit` options ask for.
+
+    A spinner runs on stderr while it fits, and a progress bar while bootstrap resamples come back.
+    """
     err = err or Console(stderr=True, highlight=False)
+    options = options_from_args(args)
+    problem = options.problem()
+    if problem:
+        raise UsageError(problem)
     demos = load_demonstrations(list(args.files), err)
-    options = FitOptions.from_args(args)
-    try:
-        with err.status(f"fitting ({options.describe()}) to {demos.steps} steps", spinner="dots"):
-            result = options.run(demos)
-    except BadInputError as exc:
-        raise UsageError(str(exc)) from None
+    columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TimeElapsedColumn())
+    with Progress(*columns, console=err, transient=True) as progress:
+        task = progress.add_task(f"fitting ({options.describe()}) to {demos.steps} steps", total=None)
+
+        def resampled(done: int, total: int) -> None:
+            progress.update(task, description="resampling episodes", completed=done, total=total)
+
+        try:
+            result = fit(demos, options, progress=resampled)
+        except BadInputError as exc:
+            raise UsageError(str(exc)) from None
+    if options.intervals and result.intervals is None:
+        for note in result.notes:
+            if note.startswith("intervals not computed"):
+                err.print(Text(f"warning: {note}", style="yellow"), soft_wrap=True)
     return demos, result
 
 
@@ -141,7 +145,7 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> Non
     console.print(
         Text.assemble(
             ("careful fit", "bold"),
-            f": {result.method} on ",
+            f": {method_phrase(result)} on ",
             (printable(world.name, limit=80), "bold"),
             f" from {files}, {demos.episodes} episodes, {demos.steps} steps",
         )
@@ -154,6 +158,7 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> Non
         for line in interval_readings(result):
             console.print(Text(line), soft_wrap=True)
     console.print(policy_grid(result))
+    console.print(Text(evaluation_line(result)), soft_wrap=True)
     console.print(status_text(result), soft_wrap=True)
 
 
@@ -193,14 +198,14 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
 def unknown_phrase(result: FitResult) -> str:
     """Which rewards were fitted: "fitted: the non-ground cells (ground is 0); the action cost is known"."""
     options = result.options
-    cells = "every cell" if options["reward_cells"] == "all" else "the non-ground cells (ground is 0)"
-    return f"fitted: {cells}{', one value per symbol' if options['tie'] else ''}; the action cost is known"
+    cells = "every cell" if options.reward_cells == "all" else "the non-ground cells (ground is 0)"
+    return f"fitted: {cells}{', one value per symbol' if options.tie else ''}; the action cost is known"
 
 
 def interval_table(result: FitResult) -> Table:
     """One row per unknown: fitted and true values, the interval and what it means."""
-    rmax = result.options["rmax"]
-    table = Table(title="How far the demonstrations pin each reward (min and max over the lp constraints)")
+    rmax = result.rmax
+    table = Table(title=interval_title(result))
     for name, justify in (("unknown", "left"), ("fitted", "right"), ("true", "right"),
                           ("low", "right"), ("high", "right"), ("reading", "left")):
         table.add_column(name, justify=justify)
@@ -212,6 +217,15 @@ def interval_table(result: FitResult) -> Table:
             interval_reading(low, high, rmax),
         )
     return table
+
+
+def interval_title(result: FitResult) -> str:
+    """What the intervals are: identified by the demonstrations (lp) or a confidence interval."""
+    if result.interval_kind == "confidence":
+        options = result.options
+        return (f"{options.confidence:.0%} confidence intervals ({options.resamples} resamples of "
+                f"{result.demos.episodes} episodes)")
+    return "identified by the demonstrations: every value each reward can take"
 
 
 def _open_ends(low: float, high: float, rmax: float) -> tuple[bool, bool]:
@@ -269,10 +283,12 @@ def interval_readings(result: FitResult) -> list[str]:
     """One sentence per symbol, lowest first: its interval and how it stands against the next symbol up.
 
     e.g. "cliff: at most -661; no lower bound; catastrophic next to mud's -49.3..-14.8 (at least
-    13× worse under every reward the demonstrations allow)". A symbol's interval spans those of
-    all its cells.
+    13× worse under every reward the demonstrations allow)"; a confidence interval says "at 95%
+    confidence" instead. A symbol's interval spans those of all its cells.
     """
-    rmax = result.options["rmax"]
+    rmax = result.rmax
+    confident = result.interval_kind == "confidence"
+    sure = f"at {result.options.confidence:.0%} confidence" if confident else "under every reward the demonstrations allow"
     hulls = symbol_intervals(result)
     order = _low_to_high(hulls)
     lines = []
@@ -284,12 +300,12 @@ def interval_readings(result: FitResult) -> list[str]:
             other = f"{symbol_name(above)}'s {interval_span(above_low, above_high, rmax)}"
             ratio = high / above_low if high < above_low < 0 else 0.0
             if high >= above_low:
-                line += f"; overlaps {other}: the demonstrations cannot tell which is worse"
+                who = "at this confidence the data" if confident else "the demonstrations"
+                line += f"; overlaps {other}: {who} cannot tell which is worse"
             elif ratio >= CATASTROPHIC_RATIO:
-                line += (f"; catastrophic next to {other} (at least {ratio:.0f}× worse under every reward "
-                         "the demonstrations allow)")
+                line += f"; catastrophic next to {other} (at least {ratio:.0f}× worse {sure})"
             elif ratio > 0:
-                line += f"; at least {ratio:.1f}× worse than {other}"
+                line += f"; at least {ratio:.1f}× worse than {other}{' ' + sure if confident else ''}"
             else:
                 line += f"; below {other}"
         lines.append(line)
@@ -309,13 +325,13 @@ class IntervalChart:
 
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         result = self.result
-        rmax = float(result.options["rmax"])
+        rmax = float(result.rmax)
         true = result.unknowns.true_theta(result.mdp) if result.world.rewards else None
         symbols = _low_to_high(symbol_intervals(result))
         rows = sorted(range(len(result.labels)), key=lambda j: (symbols.index(result.unknowns.symbols[j]), j))
         spans = [interval_span(float(lo), float(hi), rmax) for lo, hi in result.intervals]
         # Tied unknowns are named by their symbol: "cliff" reads better than "C".
-        labels = [symbol_name(s) for s in result.unknowns.symbols] if result.options["tie"] else result.labels
+        labels = [symbol_name(s) for s in result.unknowns.symbols] if result.options.tie else result.labels
         label_width = max(map(len, labels), default=0)
         span_width = max(map(len, spans), default=0)
         # An odd number of positions puts 0 in the middle.
@@ -332,7 +348,12 @@ class IntervalChart:
         yield Text(indent) + _axis_ticks(axis, rmax)
         yield Text.assemble(indent, ("● fitted  ○ true  ◉ both  ", "dim"),
                             ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
-                            (" allowed  ◀ ▶ no bound", "dim"))
+                            (f" {self._what()}  ◀ ▶ no bound", "dim"))
+
+    def _what(self) -> str:
+        if self.result.interval_kind == "confidence":
+            return f"{self.result.options.confidence:.0%} confidence"
+        return "allowed"
 
     @staticmethod
     def _bar(axis: int, rmax: float, low: float, high: float, fitted: float, true: float | None) -> Text:
@@ -411,3 +432,53 @@ def status_text(result: FitResult, *, times: bool = True, notes: Iterable[str] |
     for note in result.notes if notes is None else notes:
         text.append(f"\nnote: {note}", style="yellow")
     return text
+
+
+def method_phrase(result: FitResult) -> str:
+    """The method used, and that auto chose it: "maxent (chosen by auto, beta 0.53 estimated)"."""
+    details = []
+    if result.options.method == "auto":
+        details.append("chosen by auto")
+    if result.method == "maxent":
+        details.append(f"beta {result.beta:.3g}{' estimated' if result.beta_auto else ''}")
+    return f"{result.method} ({', '.join(details)})" if details else result.method
+
+
+# How an episode that ends in a terminal symbol reads: "falls off the cliff".
+ENDING_VERBS = {"C": "falls off the cliff", "G": "reaches the goal"}
+
+
+def percent(p: float) -> str:
+    """A probability as a percentage, two decimals near 0 and 1 where rare events live:
+    0%, 0.04%, 0.40%, 12.5%, 99.60%, 100%."""
+    if p <= 0:
+        return "0%"
+    if p >= 1:
+        return "100%"
+    if p < 0.01 or p > 0.99:
+        return f"{p:.2%}"
+    return f"{p:.1%}"
+
+
+def evaluation_line(result: FitResult) -> str:
+    """What an agent trained on the fitted reward does in the true world, against the true optimum.
+
+    e.g. "An agent trained on this reward falls off the cliff in 0.4% of episodes and reaches the
+    goal in 99.1% (the true optimum: 0.1% and 99.9%); expected discounted return 61.2 (optimum 63.0)."
+    Terminal symbols without a known meaning read "ends in 'X'".
+    """
+    agent, optimal = result.evaluation.agent, result.evaluation.optimal
+    symbols = list(agent.ends)
+    # The worst outcome first: the safety question.
+    symbols.sort(key=lambda sym: result.world.reward_of(sym))
+    parts = []
+    for i, symbol in enumerate(symbols):
+        verb = ENDING_VERBS.get(symbol, f"ends in {SYMBOL_NAMES.get(symbol, repr(symbol))}")
+        parts.append(f"{verb} in {percent(agent.ends[symbol])}{' of episodes' if i == 0 else ''}")
+    line = "An agent trained on this reward " + " and ".join(parts)
+    line += f" (the true optimum: {' and '.join(percent(optimal.ends[s]) for s in symbols)})"
+    if agent.never > 1e-9:
+        line += f"; {percent(agent.never)} of its episodes never end"
+    line += (f"; expected discounted return {format_value(agent.expected_return)} "
+             f"(optimum {format_value(optimal.expected_return)}).")
+    return line

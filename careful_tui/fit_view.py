@@ -5,7 +5,7 @@ It shows the fitted R_S coloured on the diverging log scale of `careful_tui.grid
 world's own R_S beside it on the same scale, how far the demonstrations pin each reward
 (`IntervalChart` and a sentence per symbol), the demonstrated policy, the status and notes.
 
-Keys switch the method (l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
+Keys switch the method (a for auto, l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
 view (s) and quit (q). A refit runs in a thread worker while the last result stays on screen,
 dimmed, under a "fitting…" status; the thread hands back a `Fitted` message, and only the
 answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
@@ -35,10 +35,13 @@ from textual.message import Message
 from textual.widgets import Static
 
 from careful_tui.fit import (
-    FitOptions,
     IntervalChart,
+    evaluation_line,
     interval_readings,
+    interval_title,
+    options_from_args,
     policy_labels,
+    refit,
     reward_scale,
     signed_log_value,
     status_text,
@@ -50,9 +53,9 @@ from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Demonstrations, slug
+from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable
-from irl_core.irl import METHODS, FitError, FitResult, InfeasibleError
 
 METHOD_NAMES = {"lp": "the simple IRL agent", "loss": "the loss IRL agent", "maxent": "the MaxEnt baseline"}
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.
@@ -127,6 +130,7 @@ class FitApp(App[None]):
     TITLE = "careful fit"
     ENABLE_COMMAND_PALETTE = False
     BINDINGS = [
+        Binding("a", "method('auto')", "auto", priority=True),
         Binding("l", "method('lp')", "lp", priority=True),
         Binding("o", "method('loss')", "loss", priority=True),
         Binding("m", "method('maxent')", "maxent", priority=True),
@@ -159,6 +163,7 @@ class FitApp(App[None]):
         self.saved: list[Path] = []
         self._request = 0
         self._fitting: FitOptions | None = None
+        self._progress: tuple[int, int] | None = None
         self._too_small = False
         self._save_first = svg is not None
 
@@ -166,7 +171,7 @@ class FitApp(App[None]):
     def from_args(cls, args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,
                   *, show_times: bool = True, driver_class: type[Driver] | None = None) -> FitApp:
         """The view `careful fit` opens for its parsed `args` (the CLI and the tests build it here)."""
-        return cls(demos, FitOptions.from_args(args), result=result, sources=args.files, svg=args.svg,
+        return cls(demos, options_from_args(args), result=result, sources=args.files, svg=args.svg,
                    show_times=show_times, driver_class=driver_class)
 
     # ------------------------------------------------------------------ layout
@@ -229,6 +234,7 @@ class FitApp(App[None]):
         """Fit with `options` in the worker; the answer to an earlier request is then ignored."""
         self._request += 1
         self._fitting = options
+        self._progress = None
         self.error = None
         self._fit(self._request, options)
         self.show()
@@ -236,10 +242,17 @@ class FitApp(App[None]):
     @work(thread=True, group="fit")
     def _fit(self, request: int, options: FitOptions) -> None:
         try:
-            result, error = options.run(self.demos), None
+            progress = lambda done, total: self.call_from_thread(self._resampled, request, done, total)  # noqa: E731
+            result, error = refit(self.demos, options, progress=progress), None
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
         self.post_message(Fitted(request, options, result, error))
+
+    def _resampled(self, request: int, done: int, total: int) -> None:
+        """Show how many bootstrap resamples of the latest request are done."""
+        if request == self._request and self._fitting is not None:
+            self._progress = (done, total)
+            self.query_one("#status", Static).update(self._status())
 
     @on(Fitted)
     def _fitted(self, message: Fitted) -> None:
@@ -265,7 +278,7 @@ class FitApp(App[None]):
 
     def action_method(self, method: str) -> None:
         """Refit with `method` (intervals as now); nothing to do if it is already shown."""
-        shown = self.result is not None and self.result.method == method and self.error is None
+        shown = self.result is not None and self._asked_method() == method and self.error is None
         if (shown and not self.busy) or (self._fitting is not None and self._fitting.method == method):
             return
         self._start(dataclasses.replace(self._wanted(), method=method))
@@ -278,7 +291,7 @@ class FitApp(App[None]):
         """Show the intervals (computing them if the shown fit has none) or hide them."""
         wanted = dataclasses.replace(self._wanted(), intervals=not self._wanted().intervals)
         result = self.result
-        computed = result is not None and result.method == wanted.method and result.intervals is not None
+        computed = result is not None and self._asked_method() == wanted.method and result.intervals is not None
         if self.busy or (wanted.intervals and not computed):
             self._start(wanted)
             return
@@ -312,7 +325,14 @@ class FitApp(App[None]):
         return f"careful fit: {self._shown_method()} on {printable(self.world.name, limit=80)}"
 
     def _shown_method(self) -> str:
+        """The method of the shown fit (the one auto chose), else the options'."""
         return self.result.method if self.result is not None else self.options.method
+
+    def _asked_method(self) -> str:
+        """The method the shown fit was asked for (``auto`` while auto's choice is shown)."""
+        if self.result is None:
+            return self.options.method
+        return "auto" if self.result.options.method == "auto" else self.result.method
 
     # ------------------------------------------------------------------ drawing
 
@@ -335,7 +355,8 @@ class FitApp(App[None]):
             board.redraw()
         self.query_one("#notes", Static).update(self._notes(result))
         intervals = self.query_one("#intervals", Static)
-        intervals.border_title = "how far the demonstrations pin each reward"
+        intervals.border_title = (interval_title(result) if self.options.intervals and result.intervals is not None
+                                  else "how sure the fit is of each reward")
         intervals.update(self._intervals(result))
 
     def _title(self) -> Text:
@@ -349,7 +370,8 @@ class FitApp(App[None]):
 
     def _status(self) -> Text:
         if self._fitting is not None:
-            return Text(f"⟳ fitting {self._fitting.describe()}…", style=f"bold {BUSY}")
+            done = f": resample {self._progress[0]} of {self._progress[1]}" if self._progress else ""
+            return Text(f"⟳ fitting {self._fitting.describe()}…{done}", style=f"bold {BUSY}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
             return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
@@ -362,20 +384,22 @@ class FitApp(App[None]):
     def _settings(result: FitResult) -> str:
         """The fit's settings in a few words: "rmax 1000 · λ 0 · β 1 · special cells"."""
         options = result.options
-        parts = [f"rmax {format_value(options['rmax'])}", f"λ {format_value(options['lambda'])}"]
+        parts = [f"rmax {format_value(options.rmax)}", f"λ {format_value(options.lam)}"]
         if result.method == "maxent":
-            parts.append(f"β {format_value(options['beta'])}")
-        parts.append(f"{options['reward_cells']} cells{', tied' if options['tie'] else ''}")
+            parts.append(f"β {result.beta:.3g}{' (estimated)' if result.beta_auto else ''}")
+        parts.append(f"{options.reward_cells} cells{', tied' if options.tie else ''}")
         return " · ".join(parts)
 
     def _notes(self, result: FitResult) -> Group:
-        return Group(*(Text(f"• {note}", style=BUSY) for note in result.notes),
+        return Group(Text(evaluation_line(result), style="bold"),
+                     *(Text(f"• {note}", style=BUSY) for note in result.notes),
                      Text(unknown_phrase(result), style="dim"))
 
     def _intervals(self, result: FitResult) -> Group | Text:
         if not self.options.intervals:
-            return Text.assemble(("press ", "dim"), ("i", "bold"),
-                                 (" to bound every fitted reward over the lp constraints", "dim"))
+            what = ("every value the demonstrations allow (lp)" if result.method == "lp"
+                    else f"a {self.options.confidence:.0%} confidence interval (resampling episodes)")
+            return Text.assemble(("press ", "dim"), ("i", "bold"), (f" to bound every fitted reward: {what}", "dim"))
         if result.intervals is None:
             return Text("The intervals could not be computed: see the notes above.", style=BUSY)
         if not len(result.intervals):
@@ -400,5 +424,5 @@ class FitApp(App[None]):
     def _keys(self) -> list[tuple[str, str]]:
         if self._too_small:
             return [("q", "quit")]
-        return [("l/o/m", "lp/loss/maxent"), ("i", "intervals"), ("s", "save SVG"), ("↑↓", "scroll"),
+        return [("a/l/o/m", "auto/lp/loss/maxent"), ("i", "intervals"), ("s", "save SVG"), ("↑↓", "scroll"),
                 ("q", "quit")]

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
+import scipy.sparse as sp
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 from irl_core.mdp import DIRECTIONS, MDP, build_mdp
@@ -617,6 +618,8 @@ class Demonstrations:
         mdp: the world's MDP (from the recordings' headers).
         counts: (S, A) N(s, a), how often action a was demonstrated in state s.
         files, episodes, steps: how much was read.
+        by_episode: (E, S * A) sparse, row e the counts of the e-th episode with steps (so that
+            resampling episodes is a weighted sum of rows); None when only the counts are known.
     """
 
     mdp: MDP
@@ -624,6 +627,7 @@ class Demonstrations:
     files: int
     episodes: int
     steps: int
+    by_episode: sp.csr_matrix | None = None
 
     @classmethod
     def from_recordings(cls, recordings: list[Recording]) -> Demonstrations:
@@ -641,21 +645,26 @@ class Demonstrations:
                 )
         mdp = build_mdp(world)
         counts = np.zeros((mdp.n_states, mdp.n_actions))
-        if any(r.steps for r in recordings):
-            index = np.full((world.rows, world.cols), -1, dtype=np.int64)
-            for cell, s in mdp.state_of.items():
-                index[cell] = s
-            def column(name: str) -> np.ndarray:
-                return np.concatenate([r.steps.column(name) for r in recordings]).astype(np.int64)
-            states = index[column("row"), column("col")]
-            actions = column("direction") * world.levels + column("carefulness") - 1
+        index = np.full((world.rows, world.cols), -1, dtype=np.int64)
+        for cell, s in mdp.state_of.items():
+            index[cell] = s
+
+        def column(name: str) -> np.ndarray:
+            return np.concatenate([np.zeros(0, np.int64), *(r.steps.column(name) for r in recordings)]).astype(np.int64)
+
+        states = index[column("row"), column("col")]
+        actions = column("direction") * world.levels + column("carefulness") - 1
+        if states.size:
             np.add.at(counts, (states, actions), 1.0)
+        files = np.repeat(np.arange(len(recordings)), [len(r.steps) for r in recordings])
+        episode_keys = list(zip(files.tolist(), column("episode").tolist()))
         return cls(
             mdp=mdp,
             counts=counts,
             files=len(recordings),
             episodes=sum(len(r.episodes) for r in recordings),
             steps=sum(len(r.steps) for r in recordings),
+            by_episode=episode_matrix(episode_keys, states * mdp.n_actions + actions, mdp.n_states * mdp.n_actions),
         )
 
     @classmethod
@@ -678,3 +687,18 @@ class Demonstrations:
         """(S,) the most frequent demonstrated action (lowest index among ties); -1 if none."""
         return np.where(self.demonstrated, self.counts.argmax(axis=1), -1)
 
+
+def episode_matrix(episode_of_step: list, pair_of_step: np.ndarray, n_pairs: int) -> sp.csr_matrix:
+    """(E, n_pairs) per-episode counts: row e counts the pairs (s * A + a) of the e-th distinct episode key.
+
+    Args:
+        episode_of_step: (steps,) a hashable episode key per step (e.g. (file, episode)).
+        pair_of_step: (steps,) the state-action index s * A + a of each step.
+    """
+    rows = list(dict.fromkeys(episode_of_step))
+    index = {key: e for e, key in enumerate(rows)}
+    row_of_step = np.array([index[key] for key in episode_of_step], dtype=np.int64)
+    matrix = sp.csr_matrix((np.ones(row_of_step.size), (row_of_step, np.asarray(pair_of_step, dtype=np.int64))),
+                           shape=(len(rows), n_pairs))
+    matrix.sum_duplicates()
+    return matrix

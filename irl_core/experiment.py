@@ -3,10 +3,17 @@
 1. The optimal policy of `paper` with 14 levels (figure 3) and its true reward (figure 4).
 2. The MaxEnt baseline: Boltzmann episodes on `paper-maxent`, fitted with `maxent` (figure 5).
 3. The careful LP: optimal episodes on `paper`, fitted with `lp` (figure 6).
-4. The loss method on a handful of noisy demonstrations (figures 7 and 8): human sessions
-   of `paper` when there are some, otherwise Boltzmann episodes, labelled as such.
-5. Beyond the paper: reward intervals on `mud` against `mud-simple`, showing that only
-   carefulness separates the catastrophic cliff from the merely undesirable mud.
+4. The loss method on a handful of noisy demonstrations (figures 7 and 8): people's sessions
+   of `paper` only from a folder named explicitly (`careful experiment --recordings DIR`),
+   otherwise Boltzmann episodes, labelled as such.
+5. Beyond the paper: reward intervals on `mud` against `mud-simple` from optimal experts
+   (the identified set), asking whether only carefulness separates the catastrophic cliff
+   from the merely undesirable mud.
+6. The same question for noisy (Boltzmann) experts: maxent with beta estimated and 95%
+   bootstrap confidence intervals (`NOISY_RESAMPLES` resamples, to keep the run quick).
+
+Every caption and note is written from the run's own numbers (`severity`, `_interval_caption`):
+a stage that does not recover the cliff says so.
 """
 
 from __future__ import annotations
@@ -26,6 +33,7 @@ from irl_core.experts import (
     rollouts,
 )
 from irl_core.irl.fit import fit
+from irl_core.irl.options import FitOptions
 from irl_core.irl.result import FitResult
 from irl_core.mdp import ARROWS, MDP, action_parts, build_mdp
 from irl_core.planning import value_iteration
@@ -42,9 +50,15 @@ class Sizes:
     lp_episodes: int = 100
     noisy_episodes: int = 10
     interval_episodes: int = 100
+    boltzmann_episodes: int = 40
+    resamples: int = 100
 
 
-FULL, QUICK = Sizes(), Sizes(maxent_episodes=2_000, lp_episodes=100, noisy_episodes=10, interval_episodes=60)
+FULL, QUICK = Sizes(), Sizes(maxent_episodes=2_000, lp_episodes=100, noisy_episodes=10, interval_episodes=60,
+                             boltzmann_episodes=40, resamples=40)
+# Stage 6: the noisy experts' inverse temperature, and the confidence of the intervals.
+NOISY_BETA = 0.5
+NOISY_CONFIDENCE = 0.95
 
 
 @dataclass(frozen=True)
@@ -84,12 +98,18 @@ class Estimate:
 
 @dataclass(frozen=True)
 class Separation:
-    """Intervals of the cliff and mud cells in one world, and whether they are disjoint."""
+    """Intervals of the cliff and mud cells in one world, and whether they are disjoint.
+
+    `kind` is ``identified`` (lp: every value the demonstrations allow) or ``confidence``
+    (a bootstrap confidence interval); `data` says what was fitted.
+    """
 
     world: str
     cliff: tuple[float, float]
     mud: tuple[float, float]
     seconds: float
+    kind: str = "identified"
+    data: str = ""
 
     @property
     def separated(self) -> bool:
@@ -128,7 +148,7 @@ class ExperimentResult:
                 {
                     "world": s.world, "cliff": list(s.cliff), "mud": list(s.mud),
                     "cliff_width": s.cliff_width, "mud_width": s.mud_width,
-                    "separated": s.separated, "seconds": s.seconds,
+                    "separated": s.separated, "seconds": s.seconds, "kind": s.kind, "data": s.data,
                 }
                 for s in self.separations
             ],
@@ -198,11 +218,17 @@ def _fitted(result: FitResult, title: str, key: str, caption: str) -> Figure:
 def run_experiment(
     *,
     sizes: Sizes = FULL,
-    recordings: Path | None = Path("recordings"),
+    recordings: Path | None = None,
     seed: int = 0,
     progress: Progress = lambda stage: None,
 ) -> ExperimentResult:
-    """Run the five stages; `progress(name)` is called as each stage starts."""
+    """Run the six stages; `progress(name)` is called as each stage starts.
+
+    Args:
+        recordings: a folder of people's sessions of `paper` for stage 4; None (the default)
+            uses simulated noisy experts and says so. Never read from anywhere not named here.
+        seed: seeds every simulated expert and the bootstrap.
+    """
     out = ExperimentResult()
     started = time.perf_counter()
 
@@ -212,9 +238,9 @@ def run_experiment(
     plan = value_iteration(paper)
     out.figures.append(Figure("fig3-optimal-policy", "Figure 3: optimal policy, 14 levels of carefulness",
                               paper.world, labels=policy_labels(paper, plan.greedy),
-                              caption="More careful near the cliff, and often moving away from it."))
+                              caption=_carefulness_caption(paper, plan.greedy)))
     out.figures.append(Figure("fig4-true-reward", "Figure 4: true reward", paper.world,
-                              values=paper.grid_of(paper.R_S), caption="Cliff -1000, goal +100, ground 0."))
+                              values=paper.grid_of(paper.R_S), caption=_reward_caption(paper.world)))
 
     # 2. Figure 5: the MaxEnt baseline in the deterministic world.
     progress(f"MaxEnt baseline: {sizes.maxent_episodes} Boltzmann episodes (figure 5)")
@@ -226,8 +252,7 @@ def run_experiment(
     data = f"{sizes.maxent_episodes} Boltzmann episodes (beta 0.1)"
     out.estimates.append(_estimate("maxent baseline", data, result, time.perf_counter() - t))
     out.figures.append(_fitted(result, "Figure 5: MaxEnt baseline (no carefulness)", "fig5-maxent",
-                               "Finds the cliff and the goal but badly underestimates how bad the cliff is: "
-                               "the expert almost never steps off, so the likelihood barely depends on it."))
+                               severity(out.estimates[-1])))
 
     # 3. Figure 6: the careful LP from optimal episodes.
     progress(f"careful LP: {sizes.lp_episodes} optimal episodes (figure 6)")
@@ -237,7 +262,7 @@ def run_experiment(
     data = f"{sizes.lp_episodes} optimal episodes"
     out.estimates.append(_estimate("careful lp", data, result, time.perf_counter() - t))
     out.figures.append(_fitted(result, "Figure 6: careful LP from optimal rollouts", "fig6-lp",
-                               "Carefulness reveals the severity of the cliff."))
+                               severity(out.estimates[-1])))
 
     # 4. Figures 7 and 8: the loss method on a handful of noisy demonstrations.
     humans = human_sessions(recordings, paper.world) if recordings is not None else []
@@ -245,20 +270,21 @@ def run_experiment(
     if humans:
         progress(f"loss method: {len(humans)} human session(s) from {recordings} (figures 7, 8)")
         demos = Demonstrations.read(humans)
-        data = f"{demos.episodes} human episodes"
+        data = f"{demos.episodes} human episodes from {len(humans)} session(s)"
     else:
         progress(f"loss method: {sizes.noisy_episodes} Boltzmann episodes (figures 7, 8)")
         demos = demonstrations_of(paper, rollouts(paper, boltzmann_policy(paper, beta=1.0),
                                                   episodes=sizes.noisy_episodes, seed=seed))
-        data = f"{sizes.noisy_episodes} Boltzmann episodes (beta 1)"
-        out.notes.append(f"no human sessions of paper in {recordings}: stage 4 used simulated noisy experts")
+        data = f"{sizes.noisy_episodes} simulated Boltzmann episodes (beta 1), not people"
+        where = f"no person's sessions of paper in {recordings}" if recordings is not None else "no --recordings given"
+        out.notes.append(f"{where}: stage 4 used simulated noisy experts")
     result = fit(demos, method="loss")
     out.estimates.append(_estimate("loss, noisy", data, result, time.perf_counter() - t))
     out.figures.append(Figure("fig7-demonstrated-policy", "Figure 7: the demonstrated policy (most frequent action)",
                               paper.world, labels=policy_labels(paper, demos.counts.argmax(axis=1), demos.demonstrated),
                               caption=data))
     out.figures.append(_fitted(result, "Figure 8: loss IRL from noisy demonstrations", "fig8-loss",
-                               "Variable with so few episodes, but the cliff's severity comes through."))
+                               severity(out.estimates[-1])))
     out.notes += [f"loss: {note}" for note in result.notes]
 
     # 5. Beyond the paper: what carefulness buys, as intervals.
@@ -269,15 +295,85 @@ def run_experiment(
         demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=sizes.interval_episodes, seed=seed))
         result = fit(demos, method="lp", intervals=True)
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
-                                          time.perf_counter() - t))
+                                          time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes"))
         out.figures.append(_fitted(result, f"Intervals on {name}: lp estimate", f"intervals-{name}",
                                    _interval_caption(out.separations[-1])))
+
+    # 6. The same with noisy experts: confidence intervals.
+    for name in ("mud", "mud-simple"):
+        progress(f"confidence intervals on {name}: {sizes.boltzmann_episodes} Boltzmann episodes, "
+                 f"{sizes.resamples} resamples")
+        mdp = build_mdp(BUILTIN_WORLDS[name])
+        t = time.perf_counter()
+        demos = demonstrations_of(mdp, rollouts(mdp, boltzmann_policy(mdp, beta=NOISY_BETA),
+                                                episodes=sizes.boltzmann_episodes, seed=seed))
+        options = FitOptions(method="maxent", beta="auto", tie=True, rmax=5000.0, intervals=True,
+                             confidence=NOISY_CONFIDENCE, resamples=sizes.resamples, seed=seed)
+        result = fit(demos, options)
+        data = (f"{sizes.boltzmann_episodes} Boltzmann episodes (beta {NOISY_BETA:g}), maxent with beta "
+                f"estimated ({result.beta:.2g}), {sizes.resamples} resamples")
+        if any("not identified" in note for note in result.notes):
+            data += "; beta is not identified here, so only the signs and ratios of the rewards mean anything"
+        out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
+                                          time.perf_counter() - t, kind="confidence", data=data))
+        out.figures.append(_fitted(result, f"Confidence intervals on {name}: maxent from noisy experts",
+                                   f"intervals-noisy-{name}", _interval_caption(out.separations[-1])))
+        out.notes += [f"noisy {name}: {note}" for note in result.notes if "not identified" in note]
 
     out.seconds = time.perf_counter() - started
     return out
 
 
-def _interval_caption(s: Separation) -> str:
-    verdict = "disjoint: the cliff is shown to be far worse than the mud" if s.separated else "overlapping: cannot tell them apart"
-    return f"cliff between {s.cliff[0]:.0f} and {s.cliff[1]:.0f}; mud between {s.mud[0]:.0f} and {s.mud[1]:.0f}: {verdict}"
+def severity(e: Estimate) -> str:
+    """What a stage's fit says about the cliff and the goal, against the truth, in one or two sentences."""
+    if e.cliff >= 0:
+        cliff = f"The cliff is not recovered: fitted {e.cliff:.0f}, not even negative (truth {e.true_cliff:.0f})."
+    elif e.cliff_error <= 0.25:
+        cliff = (f"The cliff's severity is recovered: {e.cliff:.0f} against {e.true_cliff:.0f} "
+                 f"({e.cliff_error:.0%} off).")
+    elif abs(e.cliff) < abs(e.true_cliff):
+        cliff = (f"The cliff is found to be bad but its severity is not recovered: {e.cliff:.0f} against "
+                 f"{e.true_cliff:.0f}, {e.true_cliff / e.cliff:.1f}x too mild.")
+    else:
+        cliff = (f"The cliff comes out too severe: {e.cliff:.0f} against {e.true_cliff:.0f}, "
+                 f"{e.cliff / e.true_cliff:.1f}x the truth.")
+    if e.goal <= 0 < e.true_goal:
+        goal = f" The goal is not recovered: {e.goal:.0f} (truth {e.true_goal:.0f})."
+    else:
+        goal = f" Goal {e.goal:.0f} against {e.true_goal:.0f} ({e.goal_error:.0%} off)."
+    return cliff + goal
 
+
+def _carefulness_caption(mdp: MDP, actions: np.ndarray) -> str:
+    """How careful the policy is beside the cliff against elsewhere (mean levels)."""
+    cliff = {cell for cell, symbol in zip(mdp.cells, mdp.symbols) if symbol == "C"}
+    beside, elsewhere = [], []
+    for s, cell in enumerate(mdp.cells):
+        if not mdp.nonterminal[s]:
+            continue
+        near = any((cell[0] + dr, cell[1] + dc) in cliff for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)))
+        (beside if near else elsewhere).append(action_parts(int(actions[s]), mdp.levels)[1])
+    if not beside or not elsewhere:
+        return ""
+    more = "more" if np.mean(beside) > np.mean(elsewhere) else "not more"
+    return (f"Mean carefulness {np.mean(beside):.1f} beside the cliff against {np.mean(elsewhere):.1f} elsewhere: "
+            f"{more} careful near it.")
+
+
+def _reward_caption(world: World) -> str:
+    parts = [f"{SYMBOL_WORDS.get(symbol, symbol)} {value:+g}" for symbol, value in world.rewards.items()]
+    return ", ".join(parts) + ", ground 0."
+
+
+SYMBOL_WORDS = {"C": "cliff", "G": "goal", "U": "mud"}
+
+
+def _interval_caption(s: Separation) -> str:
+    what = "95% confidence intervals" if s.kind == "confidence" else "identified by the demonstrations"
+    if s.separated:
+        verdict = ("disjoint: the cliff is shown to be worse than the mud" if s.cliff[1] < s.mud[0]
+                   else "disjoint, but the mud comes out worse than the cliff")
+    else:
+        verdict = "overlapping: these demonstrations cannot tell the cliff from the mud"
+    return (f"{what}: cliff between {s.cliff[0]:.0f} and {s.cliff[1]:.0f}; mud between {s.mud[0]:.0f} "
+            f"and {s.mud[1]:.0f}; {verdict}.")

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.demonstrations import Demonstrations, EpisodeEnd, RecordingWriter, SessionHeader, Step
+from irl_core.demonstrations import Demonstrations, EpisodeEnd, RecordingWriter, SessionHeader, Step, episode_matrix
 from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
 from irl_core.planning import Plan, soft_value_iteration, value_iteration
 
@@ -137,7 +137,10 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
     """Rollouts as demonstrations (counts N(s, a)), without a file in between."""
     counts = np.zeros((mdp.n_states, mdp.n_actions))
     np.add.at(counts, (result.state, result.action), 1.0)
-    return Demonstrations(mdp=mdp, counts=counts, files=0, episodes=int(result.length.size), steps=int(result.state.size))
+    by_episode = episode_matrix(result.episode.tolist(), result.state * mdp.n_actions + result.action,
+                                mdp.n_states * mdp.n_actions)
+    return Demonstrations(mdp=mdp, counts=counts, files=0, episodes=int(result.length.size),
+                          steps=int(result.state.size), by_episode=by_episode)
 
 
 # The most steps one block of `simulate_to_file` may hold (about 60 bytes each while rolled out).

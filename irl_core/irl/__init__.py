@@ -8,13 +8,20 @@ reached through `fit`:
 ``lp``      the simple IRL agent: rewards under which the most frequent actions are
             optimal, maximising the margin to the next best action (`lp`)
 ``loss``    the loss IRL agent: a convex loss for noisy demonstrations (`loss`)
-``maxent``  maximum-likelihood maximum-entropy IRL, the paper's baseline (`maxent`)
+``maxent``  maximum-likelihood maximum-entropy IRL, the paper's baseline (`maxent`),
+            with beta given or estimated with the rewards
+``auto``    lp for a deterministic expert whose lp is feasible, else maxent with beta
+            estimated (SPEC section 3.1; the default)
 ==========  ====================================================================
 
-`--intervals` bounds every unknown over the lp constraints (`intervals`).
+`--intervals` bounds every unknown: over the lp constraints for lp (`intervals`, the
+identified set), by resampling episodes for maxent and loss (`bootstrap`, a confidence
+interval). `evaluation` says what an agent trained on the fitted reward would do.
 """
 
 from irl_core.irl.fit import METHODS, fit
+from irl_core.irl.options import FitOptions
 from irl_core.irl.result import BadInputError, FitError, FitResult, InfeasibleError, SolverError
 
-__all__ = ["METHODS", "BadInputError", "FitError", "FitResult", "InfeasibleError", "SolverError", "fit"]
+__all__ = ["METHODS", "BadInputError", "FitError", "FitOptions", "FitResult", "InfeasibleError", "SolverError",
+           "fit"]

@@ -1,117 +1,200 @@
-"""`fit`: one entry point for the three inverse-RL methods of SPEC section 3.
+"""`fit`: one entry point for the inverse-RL methods of SPEC sections 3 and 3.1.
 
-It builds the unknowns and the Q map once, runs the chosen method, optionally bounds every
-unknown over the lp constraints (`--intervals`), and returns a `FitResult` with notes a
-researcher should read: rewards the bound rather than the data decided, a loss minimiser
-that is not unique, an optimiser that stopped early.
+It builds the unknowns and the Q map once, chooses the method (``auto``: lp for a
+deterministic expert whose lp is feasible, else maxent with beta estimated), runs it,
+optionally bounds every unknown (`--intervals`: the identified set for lp, a bootstrap
+confidence interval for maxent and loss), evaluates an agent trained on the fitted reward
+in the true world, and returns a `FitResult` with notes a researcher should read: which
+method auto chose and why, rewards the bound rather than the data decided, a loss
+minimiser that is not unique, an optimiser that stopped early, a beta the data cannot fix.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from typing import Literal
 
 import numpy as np
 
 from irl_core.demonstrations import Demonstrations
+from irl_core.irl.bootstrap import Progress, Refit, bootstrap
+from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp import lp_constraints, solve_margin_lp
-from irl_core.irl.maxent import fit_maxent
-from irl_core.irl.qmap import RewardCells, build_qmap, build_unknowns
+from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
+from irl_core.irl.options import FITTERS, FitOptions
+from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError
 
-Method = Literal["lp", "loss", "maxent"]
-METHODS: tuple[str, ...] = ("lp", "loss", "maxent")
+METHODS = FITTERS
+
+
+@dataclasses.dataclass
+class _Fitted:
+    """One method's answer before the intervals: theta (k,), V (S,), beta (maxent's), status, notes."""
+
+    method: str
+    theta: np.ndarray
+    V: np.ndarray
+    beta: float | None = None
+    beta_auto: bool = False
+    status: str = "optimal"
+    notes: list[str] = dataclasses.field(default_factory=list)
 
 
 def fit(
     demos: Demonstrations,
+    options: FitOptions | None = None,
+    /,
     *,
-    method: Method = "lp",
-    rmax: float = 1000.0,
-    lam: float = 0.0,
-    beta: float = 1.0,
-    reward_cells: RewardCells = "special",
-    tie: bool = False,
-    intervals: bool = False,
+    progress: Progress | None = None,
+    workers: int | None = None,
+    **settings,
 ) -> FitResult:
-    """Fit the state rewards that explain `demos` with `method`.
+    """Fit the state rewards that explain `demos` with `options` (or `FitOptions(**settings)`).
+
+    Args:
+        progress: called as progress(done, total) while bootstrap resamples come back.
+        workers: processes for the bootstrap (default: the cores).
 
     Raises `BadInputError` (no demonstrated steps; `InfeasibleError` when the lp has no
     solution) or `SolverError`.
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, not {method!r}")
-    if not rmax > 0:
-        raise ValueError("rmax must be positive")
-    if lam < 0:
-        raise ValueError("lambda must be zero or more")
+    options = dataclasses.replace(options or FitOptions(), **settings) if settings else (options or FitOptions())
     if demos.counts.sum() <= 0:
         raise BadInputError("the recordings contain no steps: there is nothing to fit")
     start = time.perf_counter()
     mdp = demos.mdp
-    unknowns = build_unknowns(mdp, reward_cells=reward_cells, tie=tie)
+    unknowns = build_unknowns(mdp, reward_cells=options.reward_cells, tie=options.tie)
     qmap = build_qmap(mdp, unknowns)
     notes: list[str] = []
-    status = "optimal"
     if unknowns.k == 0:
         notes.append("nothing to fit: every cell is ground, which --reward-cells special keeps at 0; "
                      "try --reward-cells all")
-    constraints = None
 
-    if method == "lp":
-        constraints = lp_constraints(qmap, demos.most_frequent, rmax=rmax)
-        solution = solve_margin_lp(constraints, lam=lam)
-        theta, V = qmap.split(solution.x)
-    elif method == "loss":
-        solution = fit_loss(qmap, demos.policy, rmax=rmax, lam=lam)
-        theta, V = qmap.split(solution.x)
-        notes += solution.notes
-        if solution.gap > STALL_TOLERANCE:
-            status = "optimal_inaccurate"
+    if options.method == "auto":
+        fitted = _auto(qmap, demos, options)
     else:
-        solution = fit_maxent(mdp, unknowns, demos.counts, beta=beta, rmax=rmax)
-        theta, V = solution.theta, solution.V
-        if not solution.converged:
-            status = "not_converged"
-            notes.append(f"maxent stopped before converging: {solution.message.lower()}")
+        fitted = _run(options.method, qmap, demos, options, beta=options.maxent_beta(chosen_by_auto=False))
+    notes += fitted.notes
 
-    bounds = None
-    if intervals:
-        constraints = constraints or lp_constraints(qmap, demos.most_frequent, rmax=rmax)
-        try:
-            bounds, _ = reward_intervals(constraints)
-        except InfeasibleError:
-            notes.append(
-                "intervals not computed: the most frequent actions are not optimal for any reward "
-                "within ±rmax, so the lp constraints they come from are empty"
-            )
+    bounds, kind = None, None
+    if options.intervals and unknowns.k:
+        bounds, kind = _intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers)
 
-    at_bound = [label for label, value in zip(unknowns.labels, theta) if abs(value) >= rmax * (1 - 1e-9)]
+    at_bound = [label for label, value in zip(unknowns.labels, fitted.theta)
+                if abs(value) >= options.rmax * (1 - 1e-9)]
     if at_bound:
         notes.append(
             f"at ±rmax: {', '.join(at_bound)}; there the bound, not the demonstrations, set the value"
         )
+    R_S = unknowns.state_rewards(fitted.theta)
     return FitResult(
-        method=method,
-        mdp=mdp,
-        options={
-            "rmax": rmax,
-            "lambda": lam,
-            "beta": beta,
-            "reward_cells": reward_cells,
-            "tie": tie,
-            "intervals": intervals,
-        },
-        R_S=unknowns.state_rewards(theta),
-        V=np.asarray(V, dtype=float),
-        theta=np.asarray(theta, dtype=float),
+        method=fitted.method,
+        options=options,
+        beta=fitted.beta,
+        beta_auto=fitted.beta_auto,
+        R_S=R_S,
+        V=np.asarray(fitted.V, dtype=float),
+        theta=np.asarray(fitted.theta, dtype=float),
         unknowns=unknowns,
         intervals=bounds,
-        counts=demos.counts,
-        demonstrations={"files": demos.files, "episodes": demos.episodes, "steps": demos.steps},
-        status=status,
+        interval_kind=kind,
+        demos=demos,
+        evaluation=evaluate(mdp, R_S),
+        status=fitted.status,
         elapsed_s=time.perf_counter() - start,
         notes=notes,
     )
+
+
+def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions) -> _Fitted:
+    """SPEC 3.1's choice: lp for a deterministic expert whose lp is feasible, else maxent (beta auto)."""
+    acted = demos.counts[demos.demonstrated]
+    mixed = int(((acted > 0).sum(axis=1) > 1).sum())
+    if mixed == 0:
+        try:
+            fitted = _run("lp", qmap, demos, options, beta=None)
+        except InfeasibleError:
+            why = ("every demonstrated cell shows a single action, but no reward within ±rmax makes "
+                   "those actions optimal")
+        else:
+            fitted.notes.insert(0, "method auto chose lp: every demonstrated cell shows a single action "
+                                   "and some reward makes those actions optimal")
+            return fitted
+    else:
+        why = (f"{mixed} of {len(acted)} demonstrated cells show more than one action, so no single "
+               "optimal policy was demonstrated (noisy play, as a person's)")
+    beta = options.maxent_beta(chosen_by_auto=True)
+    fitted = _run("maxent", qmap, demos, options, beta=beta)
+    what = "beta estimated with the rewards" if beta == "auto" else f"beta {beta:g}"
+    fitted.notes.insert(0, f"method auto chose maxent ({what}): {why}")
+    return fitted
+
+
+def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *, beta) -> _Fitted:
+    """Fit with one method (lp, loss or maxent)."""
+    if method == "lp":
+        solution = solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax), lam=options.lam)
+        theta, V = qmap.split(solution.x)
+        return _Fitted("lp", theta, V)
+    if method == "loss":
+        solution = fit_loss(qmap, demos.policy, rmax=options.rmax, lam=options.lam)
+        theta, V = qmap.split(solution.x)
+        return _Fitted("loss", theta, V, status="optimal_inaccurate" if solution.gap > STALL_TOLERANCE else "optimal",
+                       notes=list(solution.notes))
+    solution = fit_maxent(qmap.mdp, qmap.unknowns, demos.counts, beta=beta, rmax=options.rmax)
+    fitted = _Fitted("maxent", solution.theta, solution.V, beta=solution.beta, beta_auto=beta == "auto")
+    if not solution.converged:
+        fitted.status = "not_converged"
+        fitted.notes.append(f"maxent stopped before converging: {solution.message.lower()}")
+    if beta != "auto":
+        fitted.notes.append(f"beta fixed at {solution.beta:g}, not estimated (--beta auto estimates it from the data)")
+    else:
+        fitted.notes.append(f"beta estimated by maximum likelihood: {solution.beta:.3g}")
+        reason = identification(qmap.mdp)
+        if solution.beta_at_bound:
+            reason = (f"beta is not identified: the estimate ran to the end of its range ({solution.beta:.3g}); "
+                      "the demonstrations do not fix the reward's scale")
+        if reason:
+            fitted.notes.append(reason)
+    return fitted
+
+
+def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptions, notes: list[str], *,
+               progress: Progress | None, workers: int | None) -> tuple[np.ndarray | None, str | None]:
+    """(k, 2) intervals and their kind (``identified`` or ``confidence``), or (None, None) with a note why not."""
+    if fitted.method == "lp":
+        try:
+            bounds, _ = reward_intervals(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax))
+        except InfeasibleError:
+            notes.append("intervals not computed: the most frequent actions are not optimal for any reward "
+                         "within ±rmax, so the lp constraints they come from are empty")
+            return None, None
+        return bounds, "identified"
+    episodes = 0 if demos.by_episode is None else demos.by_episode.shape[0]
+    if episodes < 2:
+        notes.append("intervals not computed: a confidence interval comes from resampling whole episodes, and "
+                     + ("these demonstrations hold one episode, which says nothing about the next"
+                        if episodes == 1 else "these demonstrations do not keep their episodes"))
+        return None, None
+    beta = fitted.beta if fitted.method == "maxent" else 1.0
+    scale = None
+    if fitted.method == "maxent":
+        scale = curvature_scale(qmap.mdp, qmap.unknowns, demos.counts, theta=fitted.theta, beta=beta,
+                                estimate=fitted.beta_auto, rmax=options.rmax)
+    refit = Refit(mdp=qmap.mdp, unknowns=qmap.unknowns, method=fitted.method, rmax=options.rmax, lam=options.lam,
+                  beta="auto" if fitted.beta_auto else beta, start=(fitted.theta, beta), scale=scale,
+                  start_V=fitted.V if fitted.method == "maxent" else None)
+    full = np.append(fitted.theta, fitted.beta) if fitted.beta_auto else fitted.theta
+    result = bootstrap(refit, demos.by_episode, full, confidence=options.confidence, resamples=options.resamples,
+                       seed=options.seed, bounds=(-options.rmax, options.rmax), progress=progress, workers=workers)
+    if result.failed:
+        notes.append(f"{result.failed} of {options.resamples} resamples failed to fit and were left out")
+    if fitted.beta_auto:
+        low, high = result.intervals[-1]
+        notes.append(f"beta's {options.confidence:.0%} confidence interval: {low:.3g} to {high:.3g}")
+    if episodes < 10:
+        notes.append(f"only {episodes} episodes: a bootstrap interval from so few is rough (it tends to be too narrow)")
+    return result.intervals[: qmap.k], "confidence"

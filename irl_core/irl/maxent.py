@@ -31,10 +31,23 @@ With actions that are never demonstrated because they are very bad (stepping off
 the likelihood keeps rising, ever more slowly, as the reward of what they lead to falls: the
 data say "bad", not "how bad". L-BFGS-B stops where the gradient has become negligible,
 which is how the paper's baseline underestimates the cliff by an order of magnitude.
+
+`--beta auto` estimates beta with R_S. The soft Bellman equations scale: beta Q is the
+soft-optimal Q (with beta 1) of the reward beta R, so LL(R_S, beta) = LL_1(beta R) and, with
+G(s, a) = dLL_1/dR(s, a) = N(s, a) + y(s) pi(s, a) (y = (I - gamma P^pi)^-T (m - n) as above),
+
+    dLL/dR_S(s) = beta sum_a G(s, a),        dLL/d log beta = sum_{s, a} G(s, a) beta R(s, a).
+
+The fit runs over (theta, log beta). With carefulness levels the known action costs R_A fix
+the reward's scale, so beta is identified. With one level every action costs the same: that
+constant step cost can be traded against the (unknown) terminal rewards, and on `mud-simple`
+the likelihood is the same, to 1e-15, at scales five times apart: beta is not identified
+(`identification`).
 """
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,8 +55,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import minimize
 from scipy.special import logsumexp, softmax
+from threadpoolctl import threadpool_limits
 
 from irl_core.irl.qmap import Unknowns
+from irl_core.irl.result import SolverError
 from irl_core.mdp import MDP
 from irl_core.planning import policy_matrix
 
@@ -54,6 +69,8 @@ GRADIENT_TOLERANCE = 1e-10
 # ... or when an iteration improves it by less than this (relative).
 VALUE_TOLERANCE = 1e-15
 MAX_ITER = 2000
+# --beta auto searches log beta within these bounds; an estimate at either is not identified.
+LOG_BETA_BOUNDS = (float(np.log(1e-4)), float(np.log(1e3)))
 
 
 @dataclass(frozen=True)
@@ -77,29 +94,50 @@ def soft_bellman(
 ) -> SoftPlan:
     """Soft-optimal V, Q and pi for state rewards R_S (S,) by soft policy iteration.
 
-    Raises RuntimeError if max|V_k - V_{k-1}| is not below tol * max(1, |V|) after max_iter solves.
+    Raises `SolverError` if max|V_k - V_{k-1}| is not below tol * max(1, |V|) after max_iter solves.
     """
     R = mdp.reward_matrix(R_S)
-    identity = sp.identity(mdp.n_states, format="csc")
     V = np.zeros(mdp.n_states) if V0 is None else np.asarray(V0, dtype=float)
     for iteration in range(1, max_iter + 1):
         Q = R + mdp.gamma * mdp.expected_next(V)
         pi = softmax(beta * Q, axis=1)
-        P_pi, _ = policy_matrix(mdp, pi)
         entropy = -(pi * np.log(np.where(pi > 0, pi, 1.0))).sum(axis=1)
-        V_new = spla.spsolve(identity - mdp.gamma * P_pi.tocsc(), (pi * R).sum(axis=1) + entropy / beta)
+        V_new = _solve(policy_system(mdp, pi), (pi * R).sum(axis=1) + entropy / beta)
         change = float(np.abs(V_new - V).max())
         V = V_new
         if change <= tol * max(1.0, float(np.abs(V).max())):
             Q = R + mdp.gamma * mdp.expected_next(V)
             return SoftPlan(V=V, Q=Q, policy=softmax(beta * Q, axis=1), iterations=iteration)
-    raise RuntimeError(f"soft policy iteration did not converge in {max_iter} solves")
+    raise SolverError(
+        f"maxent's soft Bellman equations did not converge in {max_iter} solves (beta {beta:.3g}); "
+        "the rewards may be too large for this beta: try a smaller --rmax or another --beta"
+    )
 
 
 def log_likelihood(
     mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None = None
 ) -> tuple[float, np.ndarray, SoftPlan]:
     """LL(R_S) and its gradient dLL/dR_S (S,) for demonstrated counts N (S, A)."""
+    ll, G, plan = _likelihood(mdp, counts, R_S, beta=beta, V0=V0)
+    grad = beta * G.sum(axis=1)
+    grad[mdp.exit_state] = 0.0  # the exit's reward is fixed at 0
+    return ll, grad, plan
+
+
+def log_likelihood_beta(
+    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None = None
+) -> tuple[float, np.ndarray, float, SoftPlan]:
+    """LL(R_S, beta), dLL/dR_S (S,) and dLL/d log beta, for demonstrated counts N (S, A)."""
+    ll, G, plan = _likelihood(mdp, counts, R_S, beta=beta, V0=V0)
+    grad = beta * G.sum(axis=1)
+    grad[mdp.exit_state] = 0.0
+    return ll, grad, float((G * (beta * mdp.reward_matrix(R_S))).sum()), plan
+
+
+def _likelihood(
+    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None
+) -> tuple[float, np.ndarray, SoftPlan]:
+    """LL and G (S, A) = dLL/dR(s, a) at beta 1 for the scaled reward beta R (see the module's text)."""
     plan = soft_bellman(mdp, R_S, beta=beta, V0=V0)
     acting = mdp.nonterminal
     log_pi = beta * plan.Q - logsumexp(beta * plan.Q, axis=1, keepdims=True)
@@ -107,60 +145,174 @@ def log_likelihood(
 
     visits = counts.sum(axis=1)
     successors = mdp.gamma * (counts.ravel() @ mdp.P)
-    P_pi, _ = policy_matrix(mdp, plan.policy)
-    system = (sp.identity(mdp.n_states, format="csc") - mdp.gamma * P_pi.tocsc()).T.tocsc()
-    y = spla.spsolve(system, successors - visits)
-    y[mdp.exit_state] = 0.0  # the exit's reward is fixed at 0
-    return ll, beta * (visits + y), plan
+    y = _solve(policy_system(mdp, plan.policy).T, successors - visits)
+    return ll, counts + y[:, None] * plan.policy, plan
+
+
+# Worlds up to this many states keep P as a dense (S, A, S) array: their solves are then a
+# LAPACK call each instead of a sparse matrix built and factorised in Python (5x faster on
+# the built-in worlds); larger ones stay sparse.
+DENSE_STATES = 150
+_DENSE_P: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def policy_system(mdp: MDP, pi: np.ndarray) -> np.ndarray | sp.csc_matrix:
+    """(S, S) I - gamma P^pi for the policy pi (S, A): dense in small worlds, sparse in large ones."""
+    if mdp.n_states > DENSE_STATES:
+        P_pi, _ = policy_matrix(mdp, pi)
+        return (sp.identity(mdp.n_states, format="csc") - mdp.gamma * P_pi).tocsc()
+    P = _DENSE_P.get(mdp)
+    if P is None:
+        P = _DENSE_P[mdp] = mdp.P.toarray().reshape(mdp.n_states, mdp.n_actions, mdp.n_states)
+    return np.identity(mdp.n_states) - mdp.gamma * np.einsum("sa,sat->st", pi, P)
+
+
+def _solve(system: np.ndarray | sp.spmatrix, b: np.ndarray) -> np.ndarray:
+    if isinstance(system, np.ndarray):
+        return np.linalg.solve(system, b)
+    return spla.spsolve(system.tocsc(), b)
+
+
+def identification(mdp: MDP) -> str | None:
+    """Why beta cannot be (fully) estimated in `mdp`, or None when the action costs fix the scale."""
+    if mdp.world.cost_per_level == 0:
+        return ("beta is not identified: the actions cost nothing, so nothing fixes the reward's scale "
+                "and only beta times R_S is estimated")
+    if mdp.levels == 1:
+        return ("beta is not identified with one carefulness level: every action costs the same, and a "
+                "constant step cost can be traded against the terminal rewards, so the data do not fix the "
+                "reward's scale; read the rewards' signs and ratios, not their size")
+    return None
 
 
 @dataclass(frozen=True)
 class MaxEntSolution:
-    """theta (k,), the soft V (S,) there, the mean log likelihood, and L-BFGS-B's report."""
+    """theta (k,), beta (given or estimated), the soft V (S,) there, the mean log likelihood,
+    and L-BFGS-B's report."""
 
     theta: np.ndarray
+    beta: float
     V: np.ndarray
     mean_log_likelihood: float
     converged: bool
     iterations: int
     message: str
 
+    @property
+    def beta_at_bound(self) -> bool:
+        """Whether an estimated beta stopped at the end of its search range."""
+        return min(abs(np.log(self.beta) - end) for end in LOG_BETA_BOUNDS) < 1e-6
+
 
 def fit_maxent(
-    mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, beta: float, rmax: float
+    mdp: MDP,
+    unknowns: Unknowns,
+    counts: np.ndarray,
+    *,
+    beta: float | str,
+    rmax: float,
+    start: tuple[np.ndarray, float] | None = None,
+    start_V: np.ndarray | None = None,
+    scale: np.ndarray | None = None,
+    gradient_tolerance: float = GRADIENT_TOLERANCE,
+    value_tolerance: float = VALUE_TOLERANCE,
 ) -> MaxEntSolution:
-    """Maximise the mean log likelihood over the unknowns, |theta| <= rmax, from theta = 0."""
+    """Maximise the mean log likelihood over the unknowns, |theta| <= rmax (and log beta if
+    `beta` is ``"auto"``), from `start` = (theta, beta) or from theta = 0, beta = 1, and
+    the soft Bellman iteration from `start_V` (S,).
+
+    `scale` (p,) are the variables' natural sizes (`curvature_scale`): the search runs over
+    z / scale, which L-BFGS-B crosses in a few steps where the raw variables (rewards in
+    hundreds, log beta near 1) take dozens. The gradient tolerance then applies to the
+    scaled variables."""
     counts = np.asarray(counts, dtype=float)
     total = counts.sum()
     if total <= 0:
         raise ValueError("maxent needs at least one demonstrated step")
-    if unknowns.k == 0:
-        plan = soft_bellman(mdp, unknowns.fixed, beta=beta)
-        ll, _, _ = log_likelihood(mdp, counts, unknowns.fixed, beta=beta)
-        return MaxEntSolution(np.zeros(0), plan.V, ll / total, True, 0, "no unknowns")
+    estimate = beta == "auto"
+    theta0, beta0 = start if start is not None else (np.zeros(unknowns.k), 1.0 if estimate else float(beta))
+    if unknowns.k == 0 and not estimate:
+        ll, _, plan = log_likelihood(mdp, counts, unknowns.fixed, beta=float(beta))
+        return MaxEntSolution(np.zeros(0), float(beta), plan.V, ll / total, True, 0, "no unknowns")
     basis = unknowns.basis.tocsc()
-    warm = {"V": None}
+    warm = {"V": start_V}
 
-    def negative(theta: np.ndarray) -> tuple[float, np.ndarray]:
-        ll, grad, plan = log_likelihood(mdp, counts, unknowns.state_rewards(theta), beta=beta, V0=warm["V"])
+    def negative(z: np.ndarray) -> tuple[float, np.ndarray]:
+        value, gradient = _negative(z * unit)
+        return value, gradient * unit
+
+    def _negative(z: np.ndarray) -> tuple[float, np.ndarray]:
+        theta = z[: unknowns.k]
+        R_S = unknowns.state_rewards(theta)
+        if estimate:
+            ll, grad, grad_log_beta, plan = log_likelihood_beta(mdp, counts, R_S, beta=float(np.exp(z[-1])),
+                                                                V0=warm["V"])
+            gradient = np.append(basis.T @ grad, grad_log_beta)
+        else:
+            ll, grad, plan = log_likelihood(mdp, counts, R_S, beta=float(beta), V0=warm["V"])
+            gradient = basis.T @ grad
         warm["V"] = plan.V
-        return -ll / total, -(basis.T @ grad) / total
+        return -ll / total, -gradient / total
 
-    result = minimize(
-        negative,
-        np.zeros(unknowns.k),
-        jac=True,
-        method="L-BFGS-B",
-        bounds=[(-rmax, rmax)] * unknowns.k,
-        options={"maxiter": MAX_ITER, "gtol": GRADIENT_TOLERANCE, "ftol": VALUE_TOLERANCE},
-    )
-    theta = np.asarray(result.x, dtype=float)
-    plan = soft_bellman(mdp, unknowns.state_rewards(theta), beta=beta)
+    z0 = np.asarray(theta0, dtype=float)
+    bounds = [(-rmax, rmax)] * unknowns.k
+    if estimate:
+        z0 = np.append(z0, np.clip(np.log(beta0), *LOG_BETA_BOUNDS))
+        bounds.append(LOG_BETA_BOUNDS)
+    unit = np.ones(z0.size) if scale is None else np.asarray(scale, dtype=float)
+    z0 = z0 / unit
+    bounds = [(low / u, high / u) for (low, high), u in zip(bounds, unit)]
+    # L-BFGS-B's and the solves' BLAS calls are tiny: on several BLAS threads they spend more time
+    # waking threads than computing (5x slower on a busy 2-core machine).
+    with threadpool_limits(limits=1, user_api="blas"):
+        result = minimize(
+            negative,
+            z0,
+            jac=True,
+            method="L-BFGS-B",
+            bounds=bounds,
+            options={"maxiter": MAX_ITER, "gtol": gradient_tolerance, "ftol": value_tolerance},
+        )
+    z = result.x * unit
+    theta = np.asarray(z[: unknowns.k], dtype=float)
+    fitted_beta = float(np.exp(z[-1])) if estimate else float(beta)
+    plan = soft_bellman(mdp, unknowns.state_rewards(theta), beta=fitted_beta, V0=warm["V"])
     return MaxEntSolution(
         theta=theta,
+        beta=fitted_beta,
         V=plan.V,
         mean_log_likelihood=float(-result.fun),
         converged=bool(result.success),
         iterations=int(result.nit),
         message=str(result.message),
     )
+
+
+def curvature_scale(
+    mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, beta: float, estimate: bool, rmax: float
+) -> np.ndarray:
+    """(p,) 1 / sqrt of the mean negative log likelihood's curvature along each variable at
+    (theta, log beta), from central differences of the exact gradient; capped at rmax where
+    the likelihood is (nearly) flat, e.g. for a cliff nobody steps into."""
+    counts = np.asarray(counts, dtype=float)
+    total = counts.sum()
+    basis = unknowns.basis.tocsc()
+    z = np.append(theta, np.log(beta)) if estimate else np.asarray(theta, dtype=float)
+
+    def gradient(point: np.ndarray) -> np.ndarray:
+        R_S = unknowns.state_rewards(point[: unknowns.k])
+        if estimate:
+            _, grad, grad_log_beta, _ = log_likelihood_beta(mdp, counts, R_S, beta=float(np.exp(point[-1])))
+            return -np.append(basis.T @ grad, grad_log_beta) / total
+        _, grad, _ = log_likelihood(mdp, counts, R_S, beta=beta)
+        return -(basis.T @ grad) / total
+
+    curvature = np.empty(z.size)
+    with threadpool_limits(limits=1, user_api="blas"):
+        for j in range(z.size):
+            h = 1e-4 * max(1.0, abs(z[j]))
+            step = np.zeros(z.size)
+            step[j] = h
+            curvature[j] = (gradient(z + step)[j] - gradient(z - step)[j]) / (2 * h)
+    scale = 1.0 / np.sqrt(np.maximum(curvature, 1.0 / rmax**2))
+    return np.minimum(scale, rmax)

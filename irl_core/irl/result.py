@@ -13,6 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from irl_core.demonstrations import Demonstrations
+from irl_core.irl.evaluation import Evaluation
+from irl_core.irl.options import DEFAULT_BETA, FitOptions
 from irl_core.irl.qmap import Unknowns
 from irl_core.mdp import MDP, action_parts
 from irl_core.world import WALL, World
@@ -48,34 +51,65 @@ class FitResult:
     """A fitted reward and everything needed to show or save it.
 
     Attributes:
-        method: ``lp``, ``loss`` or ``maxent``.
-        mdp: the MDP of the world the recordings share (``world`` is that world).
-        options: the fit's options as SPEC names them (rmax, lambda, beta, reward_cells, tie, intervals).
+        method: the method used: ``lp``, ``loss`` or ``maxent`` (``auto`` chooses one of them).
+        options: the fit's settings as asked (`FitOptions`; ``options.method`` may be ``auto``).
+        beta: maxent's beta (estimated with ``beta_auto``); None for lp and loss.
+        beta_auto: whether beta was estimated.
         R_S: (S,) fitted state rewards (known cells at their fixed value, 0 at the exit).
         V: (S,) the values that came with the fit (the LP's or loss's V, maxent's soft V).
         theta: (k,) the fitted unknowns.
         unknowns: which state rewards theta stands for (labels, basis).
         intervals: (k, 2) [low, high] per unknown, or None when not computed.
-        counts: (S, A) demonstrated action counts N(s, a).
-        demonstrations: files, episodes and steps read.
+        interval_kind: ``identified`` (lp: every value the demonstrations allow) or ``confidence``
+            (maxent, loss: a bootstrap confidence interval), None without intervals.
+        demos: the demonstrations fitted (their world, counts N(s, a) and sizes).
+        evaluation: what an agent that plans for the fitted reward does in the true world.
         status: ``optimal`` or the solver's word for a usable but imperfect answer.
         elapsed_s: wall-clock seconds the fit took (intervals included).
-        notes: sentences for the reader: non-uniqueness, rewards at the bound, ...
+        notes: sentences for the reader: the method auto chose, non-uniqueness, rewards at the bound, ...
     """
 
     method: str
-    mdp: MDP
-    options: dict[str, Any]
+    options: FitOptions
+    beta: float | None
+    beta_auto: bool
     R_S: np.ndarray
     V: np.ndarray
     theta: np.ndarray
     unknowns: Unknowns
     intervals: np.ndarray | None
-    counts: np.ndarray
-    demonstrations: dict[str, int]
+    interval_kind: str | None
+    demos: Demonstrations
+    evaluation: Evaluation
     status: str
     elapsed_s: float
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def mdp(self) -> MDP:
+        return self.demos.mdp
+
+    @property
+    def counts(self) -> np.ndarray:
+        """(S, A) demonstrated action counts N(s, a)."""
+        return self.demos.counts
+
+    @property
+    def demonstrations(self) -> dict[str, int]:
+        """Files, episodes and steps read (the JSON's ``demonstrations``)."""
+        return {"files": self.demos.files, "episodes": self.demos.episodes, "steps": self.demos.steps}
+
+    @property
+    def rmax(self) -> float:
+        return self.options.rmax
+
+    def options_json(self) -> dict[str, Any]:
+        """The JSON's ``options``: SPEC names, beta as used (maxent's estimate with ``beta_auto``)."""
+        out = self.options.to_json()
+        given = self.options.beta
+        out["beta"] = self.beta if self.beta is not None else (given if isinstance(given, (int, float)) else DEFAULT_BETA)
+        out["beta_auto"] = self.beta_auto
+        return out
 
     @property
     def world(self) -> World:
@@ -150,7 +184,7 @@ class FitResult:
         return {
             "method": self.method,
             "world": world.model_dump(mode="json"),
-            "options": dict(self.options),
+            "options": self.options_json(),
             "reward": [
                 [None if wall[r][c] else _number(reward[r, c]) for c in range(world.cols)] for r in range(world.rows)
             ],
@@ -162,6 +196,7 @@ class FitResult:
                 ]
                 for r in range(world.rows)
             ],
+            "interval_kind": self.interval_kind,
             "policy": [
                 [
                     None
@@ -175,9 +210,11 @@ class FitResult:
                 ]
                 for r in range(world.rows)
             ],
-            "demonstrations": dict(self.demonstrations),
+            "demonstrations": self.demonstrations,
+            "evaluation": self.evaluation.to_json(),
             "status": self.status,
             "elapsed_s": round(float(self.elapsed_s), 4),
+            "notes": list(self.notes),
         }
 
 

@@ -17,7 +17,9 @@ def test_quick_experiment_tells_the_papers_story(tmp_path, monkeypatch):
     assert maxent["cliff"] < 0 and maxent["cliff_error"] > 0.5
     assert maxent["goal"] > 0
     assert loss["cliff"] < loss["goal"]
-    intervals = {s["world"]: s for s in summary["intervals"]}
+    intervals = {s["world"]: s for s in summary["intervals"] if s["kind"] == "identified"}
+    noisy = {s["world"]: s for s in summary["intervals"] if s["kind"] == "confidence"}
+    assert set(noisy) == {"mud", "mud-simple"} and "Boltzmann episodes" in noisy["mud"]["data"]
     assert intervals["mud"]["separated"] and not intervals["mud-simple"]["separated"]
     assert intervals["mud"]["cliff"][1] < intervals["mud"]["mud"][0]
     for name in ("fig3-optimal-policy", "fig4-true-reward", "fig5-maxent", "fig6-lp",

@@ -43,12 +43,15 @@ def test_json_has_the_spec_structure(tmp_path, capsys, mud_file):
     code, out, err = run(capsys, mud_file, "--intervals", "--json", out_json, "--no-view")
     assert code == 0, err
     data = json.loads(out_json.read_text())
-    assert list(data) == ["method", "world", "options", "reward", "unknown", "interval", "policy",
-                          "demonstrations", "status", "elapsed_s"]
-    assert data["method"] == "lp" and data["status"] == "optimal"
+    assert list(data) == ["method", "world", "options", "reward", "unknown", "interval", "interval_kind", "policy",
+                          "demonstrations", "evaluation", "status", "elapsed_s", "notes"]
+    assert data["method"] == "lp" and data["status"] == "optimal" and data["interval_kind"] == "identified"
     assert data["world"] == BUILTIN_WORLDS["mud"].model_dump(mode="json")
     assert data["options"] == {"rmax": 1000.0, "lambda": 0.0, "beta": 1.0, "reward_cells": "special",
-                               "tie": False, "intervals": True}
+                               "tie": False, "intervals": True, "confidence": 0.95, "resamples": 200, "seed": 0,
+                               "beta_auto": False}
+    assert any(note.startswith("method auto chose lp") for note in data["notes"])
+    assert set(data["evaluation"]) >= {"ends", "return", "optimal_return"}
     for key in ("reward", "unknown", "interval", "policy"):
         assert len(data[key]) == 4 and all(len(row) == 6 for row in data[key])
     assert data["unknown"][3][1] is True and data["unknown"][0][0] is False
@@ -112,7 +115,11 @@ def test_demonstrations_no_reward_explains(tmp_path, capsys):
         for t in range(5):
             writer.write_step(Step(episode=0, t=t, state=(0, 0), direction="up", carefulness=14, hold_ms=900.0,
                                    next_state=(0, 0), slipped=False, reward=-14.0, score=200.0 - 14 * (t + 1)))
-    code, _, err = run(capsys, path)
+    # The default, auto, falls back to maxent (the lp has no answer); lp itself says why not.
+    code, out, err = run(capsys, path, "--no-view")
+    assert code == 0, err
+    assert "auto chose maxent" in out and "no reward within ±rmax makes those actions optimal" in out
+    code, _, err = run(capsys, path, "--method", "lp")
     assert_one_line_error(code, err, "not optimal for any reward", "--method loss", "--rmax")
 
 

@@ -6,7 +6,7 @@ import pytest
 from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, rollouts
 from irl_core.irl import fit
-from irl_core.irl.maxent import log_likelihood, soft_bellman
+from irl_core.irl.maxent import log_likelihood, log_likelihood_beta, soft_bellman
 from irl_core.mdp import build_mdp
 from irl_core.planning import soft_value_iteration
 from irl_core.world import BUILTIN_WORLDS, World
@@ -30,15 +30,21 @@ def test_soft_policy_iteration_matches_soft_value_iteration(name, beta):
     assert plan.iterations < 30
 
 
-@pytest.mark.parametrize("gamma", [0.0, 0.5, 0.9, 0.99])
-def test_gradient_matches_finite_differences(gamma):
-    world = World(layout="...\n.UG\nC..\n", levels=2, gamma=gamma, rewards={"C": -20.0, "G": 10.0, "U": -3.0})
+def random_problem(gamma, *, levels=2, seed=0):
+    """A small world, random counts and a random reward near the true one."""
+    world = World(layout="...\n.UG\nC..\n", levels=levels, gamma=gamma, rewards={"C": -20.0, "G": 10.0, "U": -3.0})
     mdp = build_mdp(world)
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(seed)
     counts = rng.integers(0, 4, size=(mdp.n_states, mdp.n_actions)).astype(float)
     counts[~mdp.nonterminal] = 0.0
     R_S = mdp.R_S + rng.normal(scale=2.0, size=mdp.n_states)
     R_S[mdp.exit_state] = 0.0
+    return mdp, counts, R_S
+
+
+@pytest.mark.parametrize("gamma", [0.0, 0.5, 0.9, 0.99])
+def test_gradient_matches_finite_differences(gamma):
+    mdp, counts, R_S = random_problem(gamma)
     _, gradient, _ = log_likelihood(mdp, counts, R_S, beta=0.7)
     h = 1e-5
     numeric = np.zeros(mdp.n_states - 1)
@@ -86,3 +92,17 @@ def test_a_soft_optimal_expert_ends_its_episodes(paper_maxent):
     # small-beta expert would wander until the step limit rather than give the bonus up.
     _, result = boltzmann_demonstrations(paper_maxent, 0.1, 2_000, seed=1)
     assert not result.truncated.any()
+
+
+@pytest.mark.parametrize("gamma", [0.0, 0.9])
+def test_beta_gradient_matches_finite_differences(gamma):
+    mdp, counts, R_S = random_problem(gamma, levels=3, seed=1)
+    beta = 0.7
+    ll, grad, grad_log_beta, _ = log_likelihood_beta(mdp, counts, R_S, beta=beta)
+    h = 1e-6
+    up, _, _ = log_likelihood(mdp, counts, R_S, beta=beta * np.exp(h))
+    down, _, _ = log_likelihood(mdp, counts, R_S, beta=beta * np.exp(-h))
+    assert grad_log_beta == pytest.approx((up - down) / (2 * h), rel=1e-5, abs=1e-6)
+    # The R_S part is the fixed-beta gradient.
+    same_ll, same_grad, _ = log_likelihood(mdp, counts, R_S, beta=beta)
+    assert ll == pytest.approx(same_ll) and np.allclose(grad, same_grad)

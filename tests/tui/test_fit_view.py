@@ -150,7 +150,8 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
 
 
 def test_intervals_toggle(mud_file):
-    app = make_app(mud_file)
+    # loss's intervals are bootstrap confidence intervals: 20 resamples keep the test quick.
+    app = make_app(mud_file, "--resamples", "20")
 
     async def body(pilot):
         assert app.result.intervals is None and "press i" in shown(app, "#intervals")
@@ -169,6 +170,7 @@ def test_intervals_toggle(mud_file):
         await pilot.press("o")
         await settle(app, pilot)
         assert app.result.method == "loss" and app.result.intervals is not None
+        assert app.result.interval_kind == "confidence" and "95% confidence" in shown(app, "#intervals")
     drive(app, body, size=(100, 40))
 
 
@@ -266,3 +268,24 @@ def test_board_width():
     assert board_width(6, 0) == 6 * 7 + 2
     assert board_width(6, 100) == 6 * 11 + 2
     assert board_width(6, 6 * 8 + 2) == 6 * 7 + 2
+
+
+def test_a_noisy_recording_opens_on_auto_maxent_with_confidence_intervals(noisy_file):
+    app = make_app(noisy_file, "--intervals", "--resamples", "20")
+
+    async def body(pilot):
+        result = app.result
+        assert result.options.method == "auto" and result.method == "maxent" and result.beta_auto
+        notes = shown(app, "#notes")
+        assert "An agent trained on this reward falls off the cliff in" in notes and "auto chose maxent" in notes
+        assert "95% confidence" in shown(app, "#intervals") and "identified" not in shown(app, "#intervals")
+        assert "(estimated)" in shown(app, "#status")
+        # Back to auto after another method: a refit, and the same answer.
+        await pilot.press("m")  # maxent as asked: beta fixed at 1
+        await settle(app, pilot)
+        assert app.result.method == "maxent" and not app.result.beta_auto and app.result.beta == 1.0
+        await pilot.press("a")
+        await settle(app, pilot)
+        assert app.result.method == "maxent" and app.result.options.method == "auto"
+        np.testing.assert_allclose(app.result.intervals, result.intervals)
+    drive(app, body, size=(100, 40))

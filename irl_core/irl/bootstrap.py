@@ -1,0 +1,230 @@
+"""Confidence intervals for maxent and loss by resampling whole episodes (SPEC section 3.1).
+
+The demonstrations are E episodes. A resample draws E episodes with replacement, so its
+counts are w @ by_episode for multiplicities w ~ Multinomial(E, 1/E); each resample is
+refitted, warm-started from the full-data fit, and the spread of the refits is the sampling
+noise of the estimate. Episodes, not steps, are resampled because the steps of one episode
+are not independent (a careless start is followed by a rescue).
+
+Two intervals come from the same refits (theta_hat the full-data fit, q the quantiles of
+the refits at (1 - confidence)/2 and (1 + confidence)/2):
+
+==============  =====================================================================
+``percentile``  [q_low, q_high]
+``basic``       [2 theta_hat - q_high, 2 theta_hat - q_low], which corrects a bias of the
+                refits around theta_hat by reflecting it
+==============  =====================================================================
+
+`bench/bench_calibration.py` measures how often each contains the truth; `fit` uses the
+better calibrated one (`INTERVAL_VARIANT`, chosen from that measurement: see the README).
+
+Resamples run in parallel across cores in a process pool: forked from this process when it
+has a single thread, else from a server that has imported this module once (forking beside
+threads, such as the fit view's, is unsafe). Either way a worker starts in milliseconds. The multiplicities are drawn in the parent from
+`seed`, so the same seed gives the same interval whatever the number of workers.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from irl_core.irl.loss import fit_loss
+from irl_core.irl.maxent import fit_maxent
+from irl_core.irl.qmap import Unknowns, build_qmap
+from irl_core.mdp import MDP
+
+Progress = Callable[[int, int], None]
+VARIANTS = ("percentile", "basic")
+INTERVAL_VARIANT = "percentile"
+# A resample's maxent refit, over variables scaled to unit curvature (`maxent.curvature_scale`),
+# stops at this projected gradient: its error is then far below the resampling noise.
+RESAMPLE_GRADIENT_TOLERANCE = 1e-5
+RESAMPLE_VALUE_TOLERANCE = 1e-12
+
+
+@dataclass(frozen=True, eq=False)
+class Refit:
+    """How to refit one resample's counts (S, A): the method, its settings, the warm start
+    (theta, beta) and, for maxent, the variables' scale at the full-data fit."""
+
+    mdp: MDP
+    unknowns: Unknowns
+    method: str
+    rmax: float
+    lam: float
+    beta: float | str
+    start: tuple[np.ndarray, float]
+    scale: np.ndarray | None = None
+    start_V: np.ndarray | None = None
+
+    def __call__(self, counts: np.ndarray) -> np.ndarray:
+        """(p,) the unknowns fitted to `counts` (S, A), with beta appended when it is estimated."""
+        if self.method == "maxent":
+            solution = fit_maxent(self.mdp, self.unknowns, counts, beta=self.beta, rmax=self.rmax, start=self.start,
+                                  start_V=self.start_V, scale=self.scale, gradient_tolerance=RESAMPLE_GRADIENT_TOLERANCE,
+                                  value_tolerance=RESAMPLE_VALUE_TOLERANCE)
+            theta = solution.theta
+            return np.append(theta, solution.beta) if self.beta == "auto" else theta
+        totals = counts.sum(axis=1, keepdims=True)
+        frequencies = np.divide(counts, totals, out=np.zeros_like(counts), where=totals > 0)
+        solution = fit_loss(build_qmap(self.mdp, self.unknowns), frequencies, rmax=self.rmax, lam=self.lam)
+        return np.asarray(solution.x[: self.unknowns.k], dtype=float)
+
+
+@dataclass(frozen=True)
+class BootstrapResult:
+    """The refits of every resample and the intervals they give.
+
+    Attributes:
+        estimates: (resamples, p) each resample's refit (p = k, or k + 1 with beta last).
+        intervals: (p, 2) [low, high] per parameter at `confidence`.
+        confidence: the confidence level.
+        variant: ``percentile`` or ``basic``.
+        failed: resamples whose refit raised (left out of the intervals).
+    """
+
+    estimates: np.ndarray
+    intervals: np.ndarray
+    confidence: float
+    variant: str
+    failed: int
+
+
+def resample_weights(episodes: int, resamples: int, seed: int) -> np.ndarray:
+    """(resamples, episodes) multiplicities of each episode in each resample (rows sum to `episodes`)."""
+    rng = np.random.default_rng(seed)
+    return rng.multinomial(episodes, np.full(episodes, 1.0 / episodes), size=resamples).astype(float)
+
+
+def interval(estimates: np.ndarray, full: np.ndarray, *, confidence: float, variant: str) -> np.ndarray:
+    """(p, 2) intervals from refits (R, p) and the full-data estimate (p,)."""
+    alpha = (1.0 - confidence) / 2.0
+    low, high = np.quantile(estimates, [alpha, 1.0 - alpha], axis=0)
+    if variant == "percentile":
+        return np.stack([low, high], axis=1)
+    if variant == "basic":
+        return np.stack([2 * full - high, 2 * full - low], axis=1)
+    raise ValueError(f"variant must be one of {VARIANTS}, not {variant!r}")
+
+
+def bootstrap(
+    refit: Refit,
+    by_episode: sp.csr_matrix,
+    full: np.ndarray,
+    *,
+    confidence: float,
+    resamples: int,
+    seed: int,
+    bounds: tuple[float, float] | None = None,
+    variant: str = INTERVAL_VARIANT,
+    progress: Progress | None = None,
+    workers: int | None = None,
+) -> BootstrapResult:
+    """Refit `resamples` resamples of the episodes (rows of `by_episode`, (E, S * A)) and bound every parameter.
+
+    Args:
+        full: (p,) the full-data estimate (the basic interval reflects around it).
+        bounds: clip the intervals to these (the fit's ±rmax: a reflected end may not pass them).
+        progress: called as progress(done, resamples) while the refits come back.
+        workers: processes (default: the cores; 1 runs in this process).
+    """
+    weights = resample_weights(by_episode.shape[0], resamples, seed)
+    workers = min(workers or os.cpu_count() or 1, resamples)
+    estimates = np.full((resamples, full.size), np.nan)
+    done = 0
+    if workers <= 1:
+        for i in range(resamples):
+            estimates[i] = _refit_rows(refit, by_episode, weights[i : i + 1])[0]
+            done += 1
+            if progress:
+                progress(done, resamples)
+    else:
+        chunks = np.array_split(np.arange(resamples), min(resamples, workers * 8))
+        with contextlib.ExitStack() as stack:
+            with _stderr_with_a_descriptor():  # the pool starts its helpers and workers here
+                pool = stack.enter_context(ProcessPoolExecutor(
+                    max_workers=workers, mp_context=_context(), initializer=_install, initargs=(refit, by_episode)))
+                futures = {pool.submit(_refit_chunk, weights[chunk]): chunk for chunk in chunks}
+            for future in as_completed(futures):
+                chunk = futures[future]
+                estimates[chunk] = future.result()
+                done += chunk.size
+                if progress:
+                    progress(done, resamples)
+    ok = ~np.isnan(estimates).any(axis=1)
+    intervals = interval(estimates[ok], full, confidence=confidence, variant=variant)
+    if bounds is not None:
+        intervals[: refit.unknowns.k] = np.clip(intervals[: refit.unknowns.k], *bounds)
+    return BootstrapResult(estimates=estimates, intervals=intervals, confidence=confidence, variant=variant,
+                           failed=int((~ok).sum()))
+
+
+def _refit_rows(refit: Refit, by_episode: sp.csr_matrix, weights: np.ndarray) -> np.ndarray:
+    """(len(weights), p) the refits of resamples given as episode multiplicities (n, E); a row
+    of NaN where the solver failed (counted, not fatal: the other refits still bound)."""
+    shape = (refit.mdp.n_states, refit.mdp.n_actions)
+    size = refit.unknowns.k + int(refit.method == "maxent" and refit.beta == "auto")
+    out = np.full((len(weights), size), np.nan)
+    for i, w in enumerate(weights):
+        counts = np.asarray(by_episode.T @ w).reshape(shape)
+        try:
+            out[i] = refit(counts)
+        except Exception:  # noqa: BLE001 - one failed resample must not lose the others
+            continue
+    return out
+
+
+_WORKER: tuple[Refit, sp.csr_matrix] | None = None
+
+
+def _install(refit: Refit, by_episode: sp.csr_matrix) -> None:
+    """Worker initialiser: keep the refit (world, warm start) and the episodes, sent once per worker."""
+    global _WORKER
+    _WORKER = (refit, by_episode)
+
+
+def _refit_chunk(weights: np.ndarray) -> np.ndarray:
+    assert _WORKER is not None
+    return _refit_rows(*_WORKER, weights)
+
+
+@contextlib.contextmanager
+def _stderr_with_a_descriptor() -> Iterator[None]:
+    """Starting workers passes sys.stderr's file descriptor on; where sys.stderr has none (a Textual
+    app or a test capture replaces it), lend it the process's own stderr while they start."""
+    try:
+        usable = sys.stderr.fileno() >= 0
+    except (AttributeError, OSError, ValueError):
+        usable = False
+    if usable or sys.__stderr__ is None:
+        yield
+        return
+    saved, sys.stderr = sys.stderr, sys.__stderr__
+    try:
+        yield
+    finally:
+        sys.stderr = saved
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    """Fork when this process has one thread (quick, and a script without a main guard still
+    works); otherwise fork from a server that has imported this module (forking beside other
+    threads, such as the fit view's, can deadlock)."""
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    if "forkserver" not in methods:
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload([__name__])
+    return context

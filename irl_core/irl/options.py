@@ -1,0 +1,99 @@
+"""`FitOptions`: the settings of one fit, in one shape from the command line to the JSON.
+
+The command line builds it once from its arguments, the fit view changes it with
+`dataclasses.replace` to refit, `fit` reads it, and `FitResult.options` keeps it, written
+to the JSON under SPEC section 3's names (``lambda`` for `lam`).
+
+``beta`` is a number or ``"auto"`` (estimated with R_S); ``None`` means the method's
+default: 1.0 for ``maxent``, ``"auto"`` when ``auto`` falls back to maxent.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from irl_core.irl.qmap import RewardCells
+
+Method = Literal["auto", "lp", "loss", "maxent"]
+METHODS: tuple[str, ...] = ("auto", "lp", "loss", "maxent")
+FITTERS: tuple[str, ...] = ("lp", "loss", "maxent")
+MIN_RESAMPLES = 20
+DEFAULT_BETA = 1.0
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """One fit's settings, as `careful fit` names them (`lam` is ``--lambda``).
+
+    Attributes:
+        method: ``auto``, ``lp``, ``loss`` or ``maxent``. `careful fit`'s default is ``auto``;
+            the library's stays ``lp``, so that code written before ``auto`` keeps its answers.
+        rmax: the bound |R_S| <= rmax.
+        lam: the L1 penalty lambda on R_S (lp and loss).
+        beta: maxent's inverse temperature, ``"auto"`` to estimate it, or None for the default.
+        reward_cells: ``special`` or ``all``.
+        tie: one unknown per symbol.
+        intervals: compute an interval per unknown.
+        confidence: the confidence level of maxent's and loss's intervals, in (0, 1).
+        resamples: bootstrap resamples for those intervals (at least 20).
+        seed: the bootstrap's seed.
+    """
+
+    method: Method = "lp"
+    rmax: float = 1000.0
+    lam: float = 0.0
+    beta: float | Literal["auto"] | None = None
+    reward_cells: RewardCells = "special"
+    tie: bool = False
+    intervals: bool = False
+    confidence: float = 0.95
+    resamples: int = 200
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, not {self.method!r}")
+        if not self.rmax > 0:
+            raise ValueError("rmax must be positive")
+        if not self.lam >= 0:
+            raise ValueError("lambda must be zero or more")
+        if self.beta is not None and self.beta != "auto" and not float(self.beta) > 0:
+            raise ValueError(f"beta must be positive or 'auto', not {self.beta!r}")
+
+    def problem(self) -> str | None:
+        """Why these options are bad input (one sentence for the user), or None.
+
+        `fit` does not refuse them (the fit view switches methods freely); the command line does.
+        """
+        if self.method == "lp" and self.beta == "auto":
+            return "--beta auto needs --method maxent or auto: the lp has no temperature to estimate"
+        if not 0 < self.confidence < 1:
+            return f"--confidence must lie strictly between 0 and 1, not {self.confidence:g}"
+        if self.resamples < MIN_RESAMPLES:
+            return f"--resamples must be at least {MIN_RESAMPLES} for a usable interval, not {self.resamples}"
+        return None
+
+    def maxent_beta(self, *, chosen_by_auto: bool) -> float | Literal["auto"]:
+        """The beta maxent runs with: the given one, else auto after `auto`, else 1.0."""
+        if self.beta is not None:
+            return self.beta
+        return "auto" if chosen_by_auto else DEFAULT_BETA
+
+    def describe(self) -> str:
+        """The method and whether intervals are on, for messages: "loss, with intervals"."""
+        return f"{self.method}{', with intervals' if self.intervals else ''}"
+
+    def to_json(self) -> dict[str, Any]:
+        """SPEC section 3's option names and values (beta as given; the fit replaces it by what it used)."""
+        return {
+            "rmax": self.rmax,
+            "lambda": self.lam,
+            "beta": self.beta,
+            "reward_cells": self.reward_cells,
+            "tie": self.tie,
+            "intervals": self.intervals,
+            "confidence": self.confidence,
+            "resamples": self.resamples,
+            "seed": self.seed,
+        }

@@ -1,0 +1,76 @@
+"""`careful experiment` says what its numbers show: captions change with the numbers."""
+
+import json
+from datetime import datetime, timezone
+
+import numpy as np
+
+from careful_tui.cli import main
+from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step
+from irl_core.experiment import Estimate, Separation, _interval_caption, severity
+from irl_core.mdp import DIRECTIONS, build_mdp
+from irl_core.world import BUILTIN_WORLDS
+
+
+def estimate(cliff, goal=100.0):
+    return Estimate(stage="s", method="m", data="d", cliff=cliff, goal=goal, true_cliff=-1000.0, true_goal=100.0,
+                    seconds=0.0)
+
+
+def test_the_cliff_caption_follows_the_estimate():
+    assert "severity is recovered" in severity(estimate(-950.0))
+    assert "not recovered" in severity(estimate(-100.0)) and "10.0x too mild" in severity(estimate(-100.0))
+    assert "not recovered: fitted 20, not even negative" in severity(estimate(20.0))
+    assert "too severe" in severity(estimate(-3000.0))
+    assert "goal is not recovered" in severity(estimate(-950.0, goal=-5.0))
+
+
+def test_the_interval_caption_follows_the_intervals():
+    apart = Separation("mud", (-1000.0, -600.0), (-50.0, -10.0), 0.0)
+    overlap = Separation("mud-simple", (-1000.0, 30.0), (-100.0, 40.0), 0.0, kind="confidence")
+    assert "disjoint: the cliff is shown to be worse" in _interval_caption(apart)
+    assert "identified by the demonstrations" in _interval_caption(apart)
+    assert "overlapping" in _interval_caption(overlap) and "95% confidence" in _interval_caption(overlap)
+
+
+def careless_person(folder):
+    """A person who walks at random, at level 1, in paper: nothing about the cliff can be learnt."""
+    world = BUILTIN_WORLDS["paper"]
+    mdp = build_mdp(world)
+    rng = np.random.default_rng(0)
+    header = SessionHeader(world=world, player="careless", created=datetime(2000, 1, 1, tzinfo=timezone.utc), seed=0)
+    with RecordingWriter(folder / "careless.jsonl", header) as writer:
+        for episode in range(6):
+            s, score = mdp.state_of[(0, 0)], 200.0
+            for t in range(60):
+                d = int(rng.integers(4))
+                s_next, realised = mdp.move(s, d * world.levels, rng)
+                score -= 1.0
+                writer.write_step(Step(episode=episode, t=t, state=mdp.cells[s], direction=DIRECTIONS[d], carefulness=1,
+                                       next_state=mdp.cells[s_next], slipped=realised != d, reward=-1.0, score=score))
+                s = s_next
+                if not mdp.nonterminal[s]:
+                    break
+            symbol = None if mdp.nonterminal[s] else mdp.symbols[s]
+            writer.end_episode(EpisodeEnd(episode=episode, outcome="terminal" if symbol else "step_limit",
+                                          terminal_symbol=symbol, steps=t + 1, **{"return": -(t + 1.0)}, score=score))
+
+
+def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(tmp_path, monkeypatch):
+    people = tmp_path / "people"
+    people.mkdir()
+    careless_person(people)
+    out = tmp_path / "exp"
+    assert main(["experiment", "--quick", "--recordings", str(people), "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    loss = {e["stage"]: e for e in summary["estimates"]}["loss, noisy"]
+    assert "human episodes" in loss["data"]
+    report = (out / "report.md").read_text()
+    caption = report.split("### Figure 8")[1].split("###")[0]
+    assert loss["cliff_error"] > 0.25 and "not recovered" in caption
+    assert "simulated noisy experts" not in report
+
+
+def test_a_missing_recordings_folder_is_bad_input(tmp_path, capsys):
+    assert main(["experiment", "--quick", "--recordings", str(tmp_path / "none"), "--out", str(tmp_path / "e")]) == 2
+    assert "not a folder" in capsys.readouterr().err

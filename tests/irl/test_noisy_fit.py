@@ -1,0 +1,78 @@
+"""Noisy experts (SPEC 3.1): beta estimated with the rewards, method auto, and bootstrap intervals."""
+
+import numpy as np
+import pytest
+
+from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
+from irl_core.irl import FitOptions, fit
+from irl_core.irl.bootstrap import interval, resample_weights
+from irl_core.irl.maxent import fit_maxent, log_likelihood
+from irl_core.irl.qmap import build_unknowns
+from irl_core.mdp import build_mdp
+from irl_core.world import BUILTIN_WORLDS
+
+
+def boltzmann(name, beta, episodes, seed):
+    mdp = build_mdp(BUILTIN_WORLDS[name])
+    return demonstrations_of(mdp, rollouts(mdp, boltzmann_policy(mdp, beta=beta), episodes=episodes, seed=seed))
+
+
+def test_beta_auto_recovers_beta_and_the_rewards_at_2000_episodes():
+    demos = boltzmann("mud", 0.5, 2000, seed=3)
+    mdp = demos.mdp
+    unknowns = build_unknowns(mdp, tie=True)
+    solution = fit_maxent(mdp, unknowns, demos.counts, beta="auto", rmax=5000.0)
+    assert solution.beta == pytest.approx(0.5, rel=0.25)
+    truth = unknowns.true_theta(mdp)
+    np.testing.assert_allclose(solution.theta, truth, rtol=0.10)
+    at_truth, _, _ = log_likelihood(mdp, demos.counts, mdp.R_S, beta=0.5)
+    assert solution.mean_log_likelihood * demos.counts.sum() >= at_truth - 1e-9
+
+
+def test_auto_picks_lp_for_an_optimal_expert_and_maxent_for_a_noisy_one():
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    optimal = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=30, seed=0))
+    chosen = fit(optimal, method="auto")
+    assert chosen.method == "lp" and chosen.beta is None and "auto chose lp" in chosen.notes[0]
+    noisy = boltzmann("mud", 0.5, 30, seed=0)
+    chosen = fit(noisy, method="auto", tie=True)
+    assert chosen.method == "maxent" and chosen.beta_auto and "auto chose maxent" in chosen.notes[0]
+    assert chosen.to_json()["options"]["beta"] == chosen.beta and chosen.to_json()["options"]["beta_auto"] is True
+
+
+def test_one_carefulness_level_says_beta_is_not_identified():
+    result = fit(boltzmann("mud-simple", 0.5, 50, seed=0), method="maxent", beta="auto", tie=True, rmax=5000.0)
+    assert any("not identified" in note for note in result.notes)
+
+
+def test_bootstrap_intervals_are_reproducible_and_widen_with_confidence():
+    demos = boltzmann("mud", 0.5, 40, seed=1)
+    options = FitOptions(method="maxent", beta="auto", tie=True, rmax=5000.0, intervals=True, resamples=40)
+    seen = []
+    first = fit(demos, options, workers=2, progress=lambda done, total: seen.append((done, total)))
+    assert first.interval_kind == "confidence" and seen[-1] == (40, 40)
+    again = fit(demos, options, workers=1)
+    np.testing.assert_allclose(first.intervals, again.intervals, rtol=1e-4)  # the workers do not matter
+    low, high = first.intervals.T
+    assert (low <= first.theta + 1e-6).all() and (first.theta <= high + 1e-6).all()
+    wider = fit(demos, options, confidence=0.99, workers=1)
+    assert (wider.intervals[:, 0] <= low + 1e-9).all() and (wider.intervals[:, 1] >= high - 1e-9).all()
+    other = fit(demos, options, seed=1, workers=1)
+    assert not np.allclose(other.intervals, first.intervals)
+
+
+def test_percentile_and_basic_intervals_by_hand():
+    estimates = np.arange(1.0, 101.0)[:, None]  # 1..100
+    percentile = interval(estimates, np.array([40.0]), confidence=0.9, variant="percentile")
+    np.testing.assert_allclose(percentile, [[np.quantile(estimates, 0.05), np.quantile(estimates, 0.95)]])
+    basic = interval(estimates, np.array([40.0]), confidence=0.9, variant="basic")
+    np.testing.assert_allclose(basic, [[80 - percentile[0, 1], 80 - percentile[0, 0]]])
+    weights = resample_weights(7, 5, seed=0)
+    assert weights.shape == (5, 7) and (weights.sum(axis=1) == 7).all()
+
+
+def test_one_episode_gives_no_interval_and_says_why():
+    demos = boltzmann("mud", 0.5, 1, seed=0)
+    result = fit(demos, method="maxent", intervals=True, tie=True)
+    assert result.intervals is None and result.interval_kind is None
+    assert any("one episode" in note for note in result.notes)
