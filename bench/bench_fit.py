@@ -1,10 +1,11 @@
 """Fitting speed against baselines run in the same process.
 
-* lp: `careful fit`'s whole lp fit (unknowns, Q map, sparse assembly, HiGHS) against
-  scipy.optimize.linprog(method="highs") on the same LP, assembled beforehand (only the
-  solve is timed), and against the same LP stated in cvxpy and solved with HiGHS.
+* lp: `careful fit`'s whole lp fit (unknowns, Q map, sparse assembly, row generation with
+  HiGHS) against scipy.optimize.linprog(method="highs") on the whole slack-form LP, assembled
+  beforehand (only the solve is timed), and against the same LP stated in cvxpy and solved
+  with HiGHS.
   Target: within 2x of linprog. On `paper` from 100 optimal episodes.
-* intervals: the 2k interval LPs (one HiGHS model re-solved from its last basis) against
+* intervals: the 2k interval LPs (one explicit dual re-solved from its last basis) against
   one lp fit. Target: within 10x. On `mud` from 100 optimal episodes.
 * loss: the exact outer approximation (all stages: minimum, smallest ||R_S||_1, uniqueness)
   against one cvxpy + Clarabel solve of the literal problem, for information.
@@ -18,6 +19,7 @@ import warnings
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 from scipy.optimize import linprog
 
 from bench.timing import best_of
@@ -45,9 +47,12 @@ def linprog_form(problem):
     """The margin LP as linprog's A_ub, b_ub, A_eq, b_eq, bounds."""
     eq = problem.row_lower == problem.row_upper
     upper = np.isfinite(problem.row_upper) & ~eq
+    lower = np.isfinite(problem.row_lower) & ~eq
     bounds = [(lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None)
               for lo, hi in zip(problem.lower, problem.upper)]
-    return problem.A[upper], problem.row_upper[upper], problem.A[eq], problem.row_lower[eq], bounds
+    A_ub = sp.vstack([problem.A[upper], -problem.A[lower]], format="csr")
+    b_ub = np.concatenate([problem.row_upper[upper], -problem.row_lower[lower]])
+    return A_ub, b_ub, problem.A[eq], problem.row_lower[eq], bounds
 
 
 def cvxpy_solve(problem) -> float:
@@ -68,7 +73,7 @@ def bench_lp() -> None:
     for name in ("paper", "mud", "paper-simple"):
         demos = demonstrations(name, episodes=100, seed=0)
         qmap = build_qmap(demos.mdp, build_unknowns(demos.mdp))
-        problem = margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=1000.0))
+        problem = margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=1000.0)).full()
         A_ub, b_ub, A_eq, b_eq, bounds = linprog_form(problem)
 
         def baseline():

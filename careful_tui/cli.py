@@ -55,6 +55,16 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+def beta_value(text: str) -> float | str:
+    """A positive number, or "auto" (estimate beta with the rewards)."""
+    if text == "auto":
+        return text
+    try:
+        return positive_float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive number or auto, got {text}") from None
+
+
 def seed_int(text: str) -> int:
     """A seed numpy takes: a whole number from 0 to 2**64 - 1."""
     value = int(text)
@@ -70,16 +80,6 @@ def text_argument(text: str) -> str:
     except UnicodeEncodeError:
         raise argparse.ArgumentTypeError("is not valid UTF-8 text") from None
     return text
-
-
-def beta_value(text: str) -> float | str:
-    """A positive number, or "auto" (estimate beta with the rewards)."""
-    if text == "auto":
-        return text
-    try:
-        return positive_float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a positive number or auto, got {text}") from None
 
 
 def positive_int(text: str) -> int:
@@ -140,6 +140,8 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--seed", type=seed_int, default=0, help="seed of the resampling (default 0)")
     fit.add_argument("--json", type=Path, metavar="PATH", help="write the result as JSON")
     fit.add_argument("--svg", type=Path, metavar="PATH", help="save a picture of the result as SVG")
+    fit.add_argument("--figure", type=Path, metavar="PATH", help="save the result as a figure for a paper "
+                     "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
 
     simulate = commands.add_parser("simulate", help="record a computer expert", description=(
@@ -155,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     worlds.add_argument("--show", metavar="NAME|FILE", help="draw one world and print it as TOML")
 
     experiment = commands.add_parser("experiment", help="the paper's experiments, end to end", description=(
-        "Run the paper's experiments end to end: figures as SVG, summary.json and report.md."))
+        "Run the paper's experiments end to end: figures as PDF and PNG (300 dpi), summary.json and report.md."))
     experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR", help="output folder (default: experiment/)")
     experiment.add_argument("--quick", action="store_true", help="reduced sizes, for a fast check")
     experiment.add_argument("--recordings", type=Path, default=None, metavar="DIR",

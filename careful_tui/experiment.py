@@ -1,12 +1,12 @@
 """`careful experiment`: the paper's experiments, printed, drawn and written to a folder.
 
-Writes into `--out`: one SVG per figure, `summary.json` and `report.md`.
+Writes into `--out`: every figure as PDF and as PNG (300 dpi), drawn with matplotlib for a
+paper (`careful_tui.figures`), `summary.json` and `report.md`, which shows the PNGs.
 """
 
 from __future__ import annotations
 
 import argparse
-import io
 import json
 from pathlib import Path
 
@@ -18,8 +18,9 @@ from rich.text import Text
 
 from irl_core.safe_files import check_output_folder
 from careful_tui.cli import UsageError
+from irl_core.irl import FitOptions
 from careful_tui.grid import WorldGrid, format_value, symbol_legend
-from irl_core.experiment import FULL, QUICK, ExperimentResult, Figure, run_experiment as run_stages
+from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, run_experiment as run_stages
 
 
 def figure_panel(figure: Figure) -> Panel:
@@ -58,10 +59,45 @@ def intervals_table(result: ExperimentResult) -> Table:
     return table
 
 
-def save_figure(figure: Figure, path: Path) -> None:
-    console = Console(record=True, width=max(60, figure.world.cols * 7 + 4), file=io.StringIO())
-    console.print(figure_panel(figure))
-    console.save_svg(str(path), title=figure.title)
+FIGURE_FORMATS = (".pdf", ".png")
+
+
+def write_figures(result: ExperimentResult, out: Path) -> None:
+    """Every figure of `result` as `<key>.pdf` and `<key>.png` in `out`."""
+    for figure in result.figures:
+        write_figure(figure, result=result, out=out, rmax=FitOptions().rmax)
+
+
+def write_figure(figure: Figure, *, result: ExperimentResult, out: Path, rmax: float) -> None:
+    """One figure as `<key>.pdf` and `<key>.png` in `out`."""
+    from careful_tui.figures.experiment_figures import draw_experiment_figure
+    from careful_tui.figures.style import save_figure
+
+    drawn = draw_experiment_figure(figure, result, rmax=rmax)
+    for suffix in FIGURE_FORMATS:
+        save_figure(drawn, out / f"{figure.key}{suffix}")
+
+
+def how_to_read(result: ExperimentResult) -> list[str]:
+    """A paragraph on what the figures' marks mean, with this run's scale and bound."""
+    from careful_tui.figures.experiment_figures import shared_scale
+
+    vmax, rmax = shared_scale(result), FitOptions().rmax
+    lines = ["Each figure is a PDF (fonts embedded) and a PNG (300 dpi), a third of a page wide. "
+             f"Rewards share one colour scale, symmetric-log from -{vmax:.0f} to {vmax:.0f} (white is 0, "
+             "red worse, blue better); terminal cells are outlined, walls hatched. "
+             "A policy is an arrow per cell whose width and number give the carefulness level."]
+    kinds = {s.kind for s in result.separations}
+    if kinds:
+        lines[0] += (" In an interval plot (labelled with its kind) each bar is a symbol's interval, the dot "
+                     "the fit's estimate (mean over the symbol's cells) and the tick the world's value.")
+    if "identified" in kinds:
+        lines[0] += (" An identified set's bar is every value the demonstrations allow; a triangle marks an end "
+                     f"at ±{rmax:.0f}, where the data set no bound.")
+    if "confidence" in kinds:
+        lines[0] += (f" A confidence interval's bar is a {NOISY_CONFIDENCE:.0%} bootstrap interval: it covers "
+                     "sampling noise only, and its axis ends just beyond the values drawn.")
+    return lines
 
 
 def report_markdown(result: ExperimentResult) -> str:
@@ -82,9 +118,10 @@ def report_markdown(result: ExperimentResult) -> str:
         lines.append(f"| {s.world} | {s.kind} | {s.data} | {s.cliff[0]:.0f} .. {s.cliff[1]:.0f} | "
                      f"{s.mud[0]:.0f} .. {s.mud[1]:.0f} | {'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
     lines += [""] + [f"- {s.world} ({s.kind}): {_verdict(s)}" for s in result.separations]
-    lines += ["", "## Figures", ""]
+    lines += ["", "## Figures", "", *how_to_read(result), ""]
     for figure in result.figures:
-        lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.svg)", "", figure.caption, ""]
+        lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.png)", "",
+                  f"{figure.caption} ([PDF]({figure.key}.pdf))".lstrip(), ""]
     if result.notes:
         lines += ["## Notes", "", *(f"- {note}" for note in result.notes), ""]
     lines += [f"Total time: {result.seconds:.1f} s.", ""]
@@ -116,7 +153,7 @@ def run_experiment(args: argparse.Namespace) -> int:
                             progress=lambda stage: progress.update(task, description=stage))
     for figure in result.figures:
         console.print(figure_panel(figure))
-        save_figure(figure, out / f"{figure.key}.svg")
+    write_figures(result, out)
     console.print(estimates_table(result))
     console.print(intervals_table(result))
     for note in result.notes:

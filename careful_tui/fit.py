@@ -28,6 +28,7 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.cli import EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.figures import figure_suffix_problem
 from careful_tui.grid import (
     LINEAR_THRESHOLD,
     SYMBOL_NAMES,
@@ -71,6 +72,13 @@ def refit(demos: Demonstrations, options: FitOptions, *, progress=None) -> FitRe
     return fit(demos, options, progress=progress)
 
 
+def progress_phrase(stage: str, done: int, total: int | None) -> str:
+    """What a long fit is doing, from its progress callback: "round 3", "interval LP 12 of 62"."""
+    if stage == "rounds":
+        return f"round {done}"
+    return f"{'resample' if stage == 'resamples' else 'interval LP'} {done} of {total}"
+
+
 def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tuple[Demonstrations, FitResult]:
     """The demonstrations and the fit that `careful fit` options ask for.
 
@@ -87,11 +95,12 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tu
     with Progress(*columns, console=err, transient=True) as progress:
         task = progress.add_task(f"fitting ({options.describe()}) to {demos.steps} steps", total=None)
 
-        def resampled(done: int, total: int) -> None:
-            progress.update(task, description="resampling episodes", completed=done, total=total)
+        def heard(stage: str, done: int, total: int | None) -> None:
+            what = {"rounds": "lp rounds", "intervals": "interval LPs", "resamples": "resampling episodes"}[stage]
+            progress.update(task, description=what, completed=done, total=total)
 
         try:
-            result = fit(demos, options, progress=resampled)
+            result = fit(demos, options, progress=heard)
         except BadInputError as exc:
             raise UsageError(str(exc)) from None
     if options.intervals and result.intervals is None:
@@ -107,9 +116,11 @@ def wants_view(args: argparse.Namespace) -> bool:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    """`careful fit`: fit, write --json, then open the fit view (a terminal) or print (--svg of the printout)."""
+    """`careful fit`: fit, write --json and --figure, then open the fit view (a terminal) or print (--svg of the printout)."""
     err = Console(stderr=True, highlight=False)
-    for option, path in (("--json", args.json), ("--svg", args.svg)):
+    if args.figure is not None and (problem := figure_suffix_problem(args.figure)):
+        raise UsageError(problem)
+    for option, path in (("--json", args.json), ("--svg", args.svg), ("--figure", args.figure)):
         if path is not None:
             check_output(path, option=option, inputs=args.files)
     try:
@@ -120,6 +131,11 @@ def run_fit(args: argparse.Namespace) -> int:
     if args.json is not None:
         text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
         write_output(args.json, text, option="--json", inputs=args.files)
+    if args.figure is not None:
+        from careful_tui.figures.fit_figure import fit_figure
+        from careful_tui.figures.style import save_figure
+
+        save_figure(fit_figure(result), args.figure, option="--figure", inputs=args.files)
     if wants_view(args):
         from careful_tui.fit_view import FitApp
         from careful_tui.kitty import PassiveKittyDriver

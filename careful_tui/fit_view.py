@@ -37,6 +37,7 @@ from textual.widgets import Static
 from careful_tui.fit import (
     IntervalChart,
     evaluation_line,
+    progress_phrase,
     interval_readings,
     interval_title,
     options_from_args,
@@ -112,6 +113,14 @@ class Fitted(Message):
     error: Exception | None
 
 
+@dataclass
+class FitProgress(Message):
+    """How far a fit has got (sent from the fitting thread): "round 3", "interval LP 12 of 62"."""
+
+    request: int
+    phrase: str
+
+
 class FitApp(App[None]):
     """The fit view of one set of demonstrations (the CLI and the tests build it the same way).
 
@@ -163,7 +172,7 @@ class FitApp(App[None]):
         self.saved: list[Path] = []
         self._request = 0
         self._fitting: FitOptions | None = None
-        self._progress: tuple[int, int] | None = None
+        self._progress = ""
         self._too_small = False
         self._save_first = svg is not None
 
@@ -234,7 +243,7 @@ class FitApp(App[None]):
         """Fit with `options` in the worker; the answer to an earlier request is then ignored."""
         self._request += 1
         self._fitting = options
-        self._progress = None
+        self._progress = ""
         self.error = None
         self._fit(self._request, options)
         self.show()
@@ -242,17 +251,18 @@ class FitApp(App[None]):
     @work(thread=True, group="fit")
     def _fit(self, request: int, options: FitOptions) -> None:
         try:
-            progress = lambda done, total: self.call_from_thread(self._resampled, request, done, total)  # noqa: E731
-            result, error = refit(self.demos, options, progress=progress), None
+            heard = lambda *done: self.post_message(FitProgress(request, progress_phrase(*done)))  # noqa: E731
+            result, error = refit(self.demos, options, progress=heard), None
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
         self.post_message(Fitted(request, options, result, error))
 
-    def _resampled(self, request: int, done: int, total: int) -> None:
-        """Show how many bootstrap resamples of the latest request are done."""
-        if request == self._request and self._fitting is not None:
-            self._progress = (done, total)
-            self.query_one("#status", Static).update(self._status())
+    @on(FitProgress)
+    def _progressed(self, message: FitProgress) -> None:
+        if message.request == self._request and self._fitting is not None:
+            self._progress = f": {message.phrase}"
+            for status in self.query("#status").results(Static):  # none once the view is closing
+                status.update(self._status())
 
     @on(Fitted)
     def _fitted(self, message: Fitted) -> None:
@@ -370,8 +380,7 @@ class FitApp(App[None]):
 
     def _status(self) -> Text:
         if self._fitting is not None:
-            done = f": resample {self._progress[0]} of {self._progress[1]}" if self._progress else ""
-            return Text(f"⟳ fitting {self._fitting.describe()}…{done}", style=f"bold {BUSY}")
+            return Text(f"⟳ fitting {self._fitting.describe()}…{self._progress}", style=f"bold {BUSY}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
             return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))

@@ -577,13 +577,13 @@ class Demonstrations:
             index[cell] = s
 
         def column(name: str) -> np.ndarray:
-            return np.concatenate([np.zeros(0, np.int64), *(r.steps.column(name) for r in recordings)]).astype(np.int64)
+            return np.concatenate([np.empty(0, np.int64)] + [r.steps.column(name) for r in recordings]).astype(np.int64)
 
         states = index[column("row"), column("col")]
         actions = column("direction") * world.levels + column("carefulness") - 1
         if states.size:
             np.add.at(counts, (states, actions), 1.0)
-        files = np.repeat(np.arange(len(recordings)), [len(r.steps) for r in recordings])
+        files = np.concatenate([np.empty(0, np.int64)] + [np.full(len(r.steps), i) for i, r in enumerate(recordings)])
         episode_keys = list(zip(files.tolist(), column("episode").tolist()))
         return cls(
             mdp=mdp,

@@ -31,7 +31,7 @@ import multiprocessing
 import os
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 
@@ -39,11 +39,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from irl_core.irl.loss import fit_loss
+from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
 from irl_core.mdp import MDP
 
-Progress = Callable[[int, int], None]
 VARIANTS = ("percentile", "basic")
 INTERVAL_VARIANT = "percentile"
 # A resample's maxent refit, over variables scaled to unit curvature (`maxent.curvature_scale`),
@@ -135,7 +135,7 @@ def bootstrap(
     Args:
         full: (p,) the full-data estimate (the basic interval reflects around it).
         bounds: clip the intervals to these (the fit's ±rmax: a reflected end may not pass them).
-        progress: called as progress(done, resamples) while the refits come back.
+        progress: called as progress("resamples", done, resamples) while the refits come back.
         workers: processes (default: the cores; 1 runs in this process).
     """
     weights = resample_weights(by_episode.shape[0], resamples, seed)
@@ -147,7 +147,7 @@ def bootstrap(
             estimates[i] = _refit_rows(refit, by_episode, weights[i : i + 1])[0]
             done += 1
             if progress:
-                progress(done, resamples)
+                progress("resamples", done, resamples)
     else:
         chunks = np.array_split(np.arange(resamples), min(resamples, workers * 8))
         with contextlib.ExitStack() as stack:
@@ -160,7 +160,7 @@ def bootstrap(
                 estimates[chunk] = future.result()
                 done += chunk.size
                 if progress:
-                    progress(done, resamples)
+                    progress("resamples", done, resamples)
     ok = ~np.isnan(estimates).any(axis=1)
     intervals = interval(estimates[ok], full, confidence=confidence, variant=variant)
     if bounds is not None:

@@ -17,11 +17,11 @@ import time
 import numpy as np
 
 from irl_core.demonstrations import Demonstrations
-from irl_core.irl.bootstrap import Progress, Refit, bootstrap
+from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
-from irl_core.irl.lp import lp_constraints, solve_margin_lp
+from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -55,7 +55,8 @@ def fit(
     """Fit the state rewards that explain `demos` with `options` (or `FitOptions(**settings)`).
 
     Args:
-        progress: called as progress(done, total) while bootstrap resamples come back.
+        progress: called as progress(stage, done, total) as long work goes on: the lp's
+            ``rounds`` (total None), the ``intervals`` LPs done, the bootstrap's ``resamples``.
         workers: processes for the bootstrap (default: the cores).
 
     Raises `BadInputError` (no demonstrated steps; `InfeasibleError` when the lp has no
@@ -74,9 +75,10 @@ def fit(
                      "try --reward-cells all")
 
     if options.method == "auto":
-        fitted = _auto(qmap, demos, options)
+        fitted = _auto(qmap, demos, options, progress=progress)
     else:
-        fitted = _run(options.method, qmap, demos, options, beta=options.maxent_beta(chosen_by_auto=False))
+        fitted = _run(options.method, qmap, demos, options, beta=options.maxent_beta(chosen_by_auto=False),
+                      progress=progress)
     notes += fitted.notes
 
     bounds, kind = None, None
@@ -109,13 +111,13 @@ def fit(
     )
 
 
-def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions) -> _Fitted:
+def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
     """SPEC 3.1's choice: lp for a deterministic expert whose lp is feasible, else maxent (beta auto)."""
     acted = demos.counts[demos.demonstrated]
     mixed = int(((acted > 0).sum(axis=1) > 1).sum())
     if mixed == 0:
         try:
-            fitted = _run("lp", qmap, demos, options, beta=None)
+            fitted = _run("lp", qmap, demos, options, beta=None, progress=progress)
         except InfeasibleError:
             why = ("every demonstrated cell shows a single action, but no reward within ±rmax makes "
                    "those actions optimal")
@@ -127,16 +129,18 @@ def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions) -> _Fitted:
         why = (f"{mixed} of {len(acted)} demonstrated cells show more than one action, so no single "
                "optimal policy was demonstrated (noisy play, as a person's)")
     beta = options.maxent_beta(chosen_by_auto=True)
-    fitted = _run("maxent", qmap, demos, options, beta=beta)
+    fitted = _run("maxent", qmap, demos, options, beta=beta, progress=progress)
     what = "beta estimated with the rewards" if beta == "auto" else f"beta {beta:g}"
     fitted.notes.insert(0, f"method auto chose maxent ({what}): {why}")
     return fitted
 
 
-def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *, beta) -> _Fitted:
+def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *, beta,
+         progress: Progress | None = None) -> _Fitted:
     """Fit with one method (lp, loss or maxent)."""
     if method == "lp":
-        solution = solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax), lam=options.lam)
+        solution = solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax), lam=options.lam,
+                                   progress=progress)
         theta, V = qmap.split(solution.x)
         return _Fitted("lp", theta, V)
     if method == "loss":
@@ -167,7 +171,8 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
     """(k, 2) intervals and their kind (``identified`` or ``confidence``), or (None, None) with a note why not."""
     if fitted.method == "lp":
         try:
-            bounds, _ = reward_intervals(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax))
+            bounds, _ = reward_intervals(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax),
+                                         progress=progress)
         except InfeasibleError:
             notes.append("intervals not computed: the most frequent actions are not optimal for any reward "
                          "within ±rmax, so the lp constraints they come from are empty")

@@ -56,7 +56,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.special import logsumexp
 
-from irl_core.irl.lp import HighsLP
+from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
+from irl_core.irl.lp import check_bounds
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import InfeasibleError, SolverError
 
@@ -80,13 +81,15 @@ FAR = 30.0
 REBASE = 5.0
 # Two optimal rewards differing by more than this (relative to rmax) make the answer not unique.
 UNIQUE_TOLERANCE = 1e-4
+# The loss problem always has a feasible point (`fit_loss` reports HiGHS saying otherwise).
+_INFEASIBLE = "the loss problem is infeasible"
 
 
 @dataclass(frozen=True, eq=False)
 class LossConstraints:
     """The loss agent's constraints and z_s, over y = [x; auxiliaries], x = [theta; V].
 
-    row_lower <= A y <= row_upper, lower <= y <= upper; z = Z y + z0 (d,). The auxiliaries
+    `program` (cost 0): row_lower <= A y <= row_upper, lower <= y <= upper; z = Z y + z0 (d,). The auxiliaries
     bound max_{a' != a} Q(s, a') for each demonstrated pair (see `_rival_rows`).
 
     Attributes:
@@ -98,17 +101,14 @@ class LossConstraints:
     frequencies: np.ndarray
     demonstrated: np.ndarray
     pairs: np.ndarray
-    A: sp.csr_matrix
-    row_lower: np.ndarray
-    row_upper: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
+    program: LinearProgram
     Z: sp.csr_matrix
     z0: np.ndarray
 
 
 def loss_constraints(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> LossConstraints:
     """The constraints for demonstrated frequencies pi (S, A) (rows of 0: not demonstrated)."""
+    check_bounds(rmax=rmax)
     mdp = qmap.mdp
     S, A, k = mdp.n_states, mdp.n_actions, qmap.k
     pi = np.asarray(frequencies, dtype=float)
@@ -146,12 +146,14 @@ def loss_constraints(qmap: QMap, frequencies: np.ndarray, *, rmax: float) -> Los
         frequencies=pi,
         demonstrated=d,
         pairs=np.column_stack([pair_s, pair_a]),
-        A=sp.vstack([widen(qmap.E), widen(average), widen(better), rivals], format="csr"),
-        row_lower=np.concatenate([qmap.e, demanded, np.full(better.shape[0] + rivals.shape[0], -np.inf)]),
-        row_upper=np.concatenate([qmap.e, demanded, -q0_free, rivals_upper]),
-        # Every Q lies in [-vmax, vmax], so the rival maxima may be bounded below by -vmax.
-        lower=np.concatenate([np.full(k, -rmax), np.full(S + n_aux, -vmax)]),
-        upper=np.concatenate([np.full(k, rmax), np.full(S, vmax), np.full(n_aux, np.inf)]),
+        program=linear_program(
+            sp.vstack([widen(qmap.E), widen(average), widen(better), rivals], format="csr"),
+            np.concatenate([qmap.e, demanded, np.full(better.shape[0] + rivals.shape[0], -np.inf)]),
+            np.concatenate([qmap.e, demanded, -q0_free, rivals_upper]),
+            # Every Q lies in [-vmax, vmax], so the rival maxima may be bounded below by -vmax.
+            np.concatenate([np.full(k, -rmax), np.full(S + n_aux, -vmax)]),
+            np.concatenate([np.full(k, rmax), np.full(S, vmax), np.full(n_aux, np.inf)]),
+        ),
         Z=sp.hstack([-(to_state @ rows_k), to_state @ pick_m], format="csr"),
         z0=-(to_state @ q0_k),
     )
@@ -226,19 +228,19 @@ def loss_problem(constraints: LossConstraints, *, lam: float = 0.0) -> tuple[cp.
     """
     import cvxpy as cp  # only the model needs it; the solve path does not
 
-    c = constraints
-    y = cp.Variable(c.A.shape[1], name="y")
-    eq = c.row_lower == c.row_upper
-    bounded = np.isfinite(c.lower)
+    c, lp = constraints, constraints.program
+    y = cp.Variable(lp.shape[1], name="y")
+    eq = lp.row_lower == lp.row_upper
+    bounded = np.isfinite(lp.lower)
     k = c.qmap.k
     l1 = c.qmap.unknowns.weight @ cp.abs(y[:k]) if k else 0.0
     problem = cp.Problem(
         cp.Minimize(cp.sum(cp.exp(cp.pos(c.Z @ y + c.z0))) + lam * l1),
         [
-            c.A[eq] @ y == c.row_lower[eq],
-            c.A[~eq] @ y <= c.row_upper[~eq],
-            y[bounded] >= c.lower[bounded],
-            y[bounded] <= c.upper[bounded],
+            lp.A[eq] @ y == lp.row_lower[eq],
+            lp.A[~eq] @ y <= lp.row_upper[~eq],
+            y[bounded] >= lp.lower[bounded],
+            y[bounded] <= lp.upper[bounded],
         ],
     )
     return problem, y
@@ -253,15 +255,11 @@ class _LossLP:
     """
 
     constraints: LossConstraints
-    A: sp.csr_matrix
-    row_lower: np.ndarray
-    row_upper: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
+    program: LinearProgram
 
     @property
     def y(self) -> slice:
-        return slice(0, self.constraints.A.shape[1])
+        return slice(0, self.constraints.program.shape[1])
 
     @property
     def x(self) -> slice:
@@ -286,7 +284,8 @@ class _LossLP:
 
 def _loss_lp(constraints: LossConstraints) -> _LossLP:
     c = constraints
-    n_y, d, k = c.A.shape[1], c.demonstrated.size, c.qmap.k
+    lp = c.program
+    n_y, d, k = lp.shape[1], c.demonstrated.size, c.qmap.k
     size = n_y + 2 * d + k
     eye_k = sp.identity(k, format="csr")
 
@@ -299,7 +298,7 @@ def _loss_lp(constraints: LossConstraints) -> _LossLP:
 
     A = sp.vstack(
         [
-            place(c.A, 0),
+            place(lp.A, 0),
             place(c.Z, 0) - place(sp.identity(d), n_y),  # z_s - r_s <= -z0
             place(eye_k, 0) - place(eye_k, size - k),  # theta - u <= 0
             -place(eye_k, 0) - place(eye_k, size - k),  # -theta - u <= 0
@@ -308,11 +307,13 @@ def _loss_lp(constraints: LossConstraints) -> _LossLP:
     )
     return _LossLP(
         constraints=c,
-        A=A,
-        row_lower=np.concatenate([c.row_lower, np.full(d + 2 * k, -np.inf)]),
-        row_upper=np.concatenate([c.row_upper, -c.z0, np.zeros(2 * k)]),
-        lower=np.concatenate([c.lower, np.zeros(2 * d + k)]),
-        upper=np.concatenate([c.upper, np.full(2 * d, np.inf), c.upper[:k]]),
+        program=linear_program(
+            A,
+            np.concatenate([lp.row_lower, np.full(d + 2 * k, -np.inf)]),
+            np.concatenate([lp.row_upper, -c.z0, np.zeros(2 * k)]),
+            np.concatenate([lp.lower, np.zeros(2 * d + k)]),
+            np.concatenate([lp.upper, np.full(2 * d, np.inf), lp.upper[:k]]),
+        ),
     )
 
 
@@ -375,7 +376,7 @@ class _OuterApproximation:
         self.shift, self.cap, self.log_level = 0.0, np.inf, None
         self.excess = 0.0  # the largest gap any stage had to accept when the LP stopped improving
         # HiGHS's tolerances are absolute: with huge bounds (values near vmax) ask for less.
-        vmax = float(np.max(np.abs(problem.upper[problem.x]), initial=1.0))
+        vmax = float(np.max(np.abs(problem.program.upper[problem.x]), initial=1.0))
         self.tolerance = min(max(LP_TOLERANCE, 1e-14 * vmax), 1e-7)
         d = problem.constraints.demonstrated.size
         self.points = (np.arange(d), np.zeros(d))  # every tangent so far: (positions, rho)
@@ -383,9 +384,11 @@ class _OuterApproximation:
 
     def _build(self) -> None:
         p = self.problem
-        upper = p.upper.copy()
+        lp = p.program
+        upper = lp.upper.copy()
         upper[p.r] = self.cap
-        self.solver = HighsLP(p.A, p.row_lower, p.row_upper, p.lower, upper, tolerance=self.tolerance)
+        capped = LinearProgram(lp.A, lp.row_lower, lp.row_upper, lp.lower, upper, lp.cost)
+        self.solver = HighsModel(capped, tolerance=self.tolerance)
         self._add_tangents(*self.points)
         if self.log_level is not None:
             self._add_level_row()
@@ -468,7 +471,7 @@ class _OuterApproximation:
         gap = max(GAP_TOLERANCE, 10 * self.tolerance)
         best, stale = -np.inf, 0
         for _ in range(MAX_ROUNDS):
-            v, value = self.solver.minimise(self.loss_cost() if cost is None else cost)
+            v, value = self.solver.minimise(self.loss_cost() if cost is None else cost, infeasible_message=_INFEASIBLE)
             self.rounds += 1
             log_loss = self.log_loss(v)
             log_bound = np.log(value) + self.shift if value > 0 else -np.inf
@@ -496,6 +499,7 @@ class _OuterApproximation:
 
 def fit_loss(qmap: QMap, frequencies: np.ndarray, *, rmax: float, lam: float = 0.0) -> LossSolution:
     """Minimise the loss exactly, then pick the smallest-||R_S||_1 minimiser and test uniqueness."""
+    check_bounds(rmax=rmax, lam=lam)
     constraints = loss_constraints(qmap, frequencies, rmax=rmax)
     if constraints.demonstrated.size == 0:
         raise ValueError("the loss needs at least one demonstrated state")
@@ -513,7 +517,7 @@ def _minimise_loss(qmap: QMap, constraints: LossConstraints, *, rmax: float, lam
 
     # The tangent at 0 alone (minimise sum ReLU(z_s)): a feasible point whose loss U0 bounds
     # the minimum. Rescale to it and cap r at log U0 + 1 (a margin far above the LP's tolerance).
-    first = outer.solver.minimise(outer.loss_cost())[0]
+    first = outer.solver.minimise(outer.loss_cost(), infeasible_message=_INFEASIBLE)[0]
     outer.rescale(first, cap=outer.log_loss(first) + 1.0)
     optimum, log_lower_bound = outer.minimise()
 

@@ -18,51 +18,62 @@ rays along which an unvisited state's value (bounded only from below) could grow
 
 Among the feasible rewards the agent maximises the paper's margin (its equation 1),
 
-    sum over demonstrated s of [V(s) - max_{a != pi(s)} Q(s, a)]  -  lambda ||R_S||_1,
+    sum over demonstrated s of [V(s) - max_{a != pi(s)} Q(s, a)]  -  lambda ||R_S||_1.
 
-with one epigraph variable t_s >= Q(s, a) (a != pi(s)) per demonstrated state and, when
-lambda > 0, u >= |theta|. Every block is assembled as one sparse matrix and the LP is
-solved by HiGHS directly (`HighsLP`). bench/bench_fit.py measures the whole fit at 1.1-1.3x
-the time of scipy's linprog(method="highs") on the same, pre-assembled LP, where stating
-it in cvxpy costs 1.5-2.4x (over 2x on `paper-simple`); and a live HiGHS model can be
-re-solved from its last basis, which is what the intervals need.
+Slack form. The paper's epigraph (t_s >= Q(s, a), a != pi(s)) repeats the rows V(s) >= Q(s, a)
+at demonstrated states. Writing instead
+
+    V(s) - Q(s, a) >= m_s  (a != pi(s)),   m_s >= 0,   margin = sum_s m_s
+
+is exactly equivalent (at an optimum m_s = V(s) - max_{a != pi(s)} Q(s, a), and m_s >= 0 is
+V(s) >= Q(s, a)), with one row per pair instead of two: 225,912 rows instead of 376,557 on a
+64x64 world. With lambda > 0, u >= |theta| adds 2k rows.
+
+Row generation. At the optimum only about one row V(s) - Q(s, a) >= m_s per state is tight
+(985 of 54,753 on a 32x32 world), so one live HiGHS model starts from a few rows per state
+and each round adds every state's most violated row, solved by the dual simplex from the last
+basis; it stops when no row of the full LP is violated, so the answer is the full LP's. The
+seed matters: at a demonstrated state the demonstrated direction at carefulness +-1 and the
+other directions at the demonstrated carefulness (the near rivals), elsewhere all four
+directions at carefulness 1. Seeding only the equalities leaves the first rounds wild
+(objective -1.1e8 on a 64x64 world) and takes many more rounds.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
-import highspy
 import numpy as np
 import scipy.sparse as sp
 
+from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
 from irl_core.irl.qmap import QMap
-from irl_core.irl.result import InfeasibleError, SolverError
 
 INFEASIBLE_MESSAGE = (
     "the demonstrations are not optimal for any reward within ±rmax; "
     "they may be noisy: try --method loss, or raise --rmax"
 )
+# A row of the full LP violated by more than this (HiGHS's own feasibility tolerance) is added.
+CUT_TOLERANCE = 1e-7
+
+# progress(stage, done, total): stage "rounds" (total None) or "intervals" (total 2k LPs).
+Progress = Callable[[str, int, "int | None"], None]
 
 
 @dataclass(frozen=True, eq=False)
 class LPConstraints:
-    """The lp feasible set over x = [theta (k,); V (S,)].
-
-    row_lower <= A @ x <= row_upper and lower <= x <= upper, with A (m, k + S) sparse CSR.
+    """The lp feasible set over x = [theta (k,); V (S,)] as a `LinearProgram` (cost 0).
 
     Attributes:
         qmap: the Q map the rows were built from.
         policy: (S,) pi(s), the demonstrated action, or -1 where nothing was demonstrated.
+        program: the rows and bounds.
     """
 
     qmap: QMap
     policy: np.ndarray
-    A: sp.csr_matrix
-    row_lower: np.ndarray
-    row_upper: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
+    program: LinearProgram
 
     @property
     def demonstrated(self) -> np.ndarray:
@@ -71,256 +82,252 @@ class LPConstraints:
 
     def violation(self, x: np.ndarray) -> float:
         """The largest amount by which x breaks a constraint or a bound (0 when feasible)."""
-        Ax = self.A @ x
-        return float(
-            max(
-                np.max(self.row_lower - Ax, initial=0.0),
-                np.max(Ax - self.row_upper, initial=0.0),
-                np.max(self.lower - x, initial=0.0),
-                np.max(x - self.upper, initial=0.0),
-            )
-        )
+        return self.program.violation(x)
+
+
+def check_bounds(*, rmax: float, lam: float = 0.0) -> None:
+    """Raise ValueError unless rmax is a positive number and lambda a non-negative one (not inf)."""
+    if not (np.isfinite(rmax) and rmax > 0):
+        raise ValueError(f"rmax must be a positive finite number, not {rmax}")
+    if not (np.isfinite(lam) and lam >= 0):
+        raise ValueError(f"lambda must be a finite number >= 0, not {lam}")
+
+
+def _policy(qmap: QMap, policy: np.ndarray) -> np.ndarray:
+    policy = np.asarray(policy, dtype=np.int64)
+    if np.any((policy >= 0) & ~qmap.mdp.nonterminal):
+        raise ValueError("a policy is given at a terminal state or the exit")
+    return policy
+
+
+def _rivals(qmap: QMap, policy: np.ndarray) -> np.ndarray:
+    """(S, A) True at the pairs (s, a) with a row V(s) >= Q(s, a): non-terminal s, a != pi(s)."""
+    S, A = qmap.mdp.n_states, qmap.mdp.n_actions
+    rivals = np.repeat(qmap.mdp.nonterminal[:, None], A, axis=1)
+    shown = np.flatnonzero(policy >= 0)
+    rivals[shown, policy[shown]] = False
+    return rivals
 
 
 def lp_constraints(qmap: QMap, policy: np.ndarray, *, rmax: float) -> LPConstraints:
     """The lp feasible set for the demonstrated policy (S,) (-1: not demonstrated)."""
-    mdp = qmap.mdp
-    S, A = mdp.n_states, mdp.n_actions
-    policy = np.asarray(policy, dtype=np.int64)
-    shown = policy >= 0
-    if np.any(shown & ~mdp.nonterminal):
-        raise ValueError("a policy is given at a terminal state or the exit")
-
-    # V(s) >= Q(s, a) at non-terminal s, except (s, pi(s)), which the equality covers.
-    s_all = np.repeat(np.arange(S), A)
-    a_all = np.tile(np.arange(A), S)
-    keep = np.repeat(mdp.nonterminal, A) & (a_all != np.repeat(np.where(shown, policy, -1), A))
-    rows_q, q0 = qmap.rows(s_all[keep], a_all[keep])
-    better = rows_q - qmap.value_selector(s_all[keep])
-
-    # V(s) = Q(s, pi(s)) at demonstrated s.
-    d = np.flatnonzero(shown)
+    check_bounds(rmax=rmax)
+    policy = _policy(qmap, policy)
+    s_rival, a_rival = np.nonzero(_rivals(qmap, policy))
+    rows_q, q0 = qmap.rows(s_rival, a_rival)
+    better = rows_q - qmap.value_selector(s_rival)  # Q(s, a) - V(s) <= -q0
+    d = np.flatnonzero(policy >= 0)
     rows_pi, q0_pi = qmap.rows(d, policy[d])
-    attains = qmap.value_selector(d) - rows_pi
-
-    matrix = sp.vstack([better, attains, qmap.E], format="csr")
-    row_lower = np.concatenate([np.full(better.shape[0], -np.inf), q0_pi, qmap.e])
-    row_upper = np.concatenate([-q0, q0_pi, qmap.e])
+    attains = qmap.value_selector(d) - rows_pi  # V(s) - Q(s, pi(s)) = q0
     vmax = qmap.value_bound(rmax)
-    lower = np.concatenate([np.full(qmap.k, -rmax), np.full(S, -vmax)])
-    upper = -lower
-    return LPConstraints(qmap, policy, matrix, row_lower, row_upper, lower, upper)
-
-
-class HighsLP:
-    """One HiGHS model, kept alive so that new costs are solved from the last basis.
-
-    minimise cost @ z  s.t.  row_lower <= A z <= row_upper,  lower <= z <= upper.
-    """
-
-    def __init__(
-        self,
-        A: sp.spmatrix,
-        row_lower: np.ndarray,
-        row_upper: np.ndarray,
-        lower: np.ndarray,
-        upper: np.ndarray,
-        cost: np.ndarray | None = None,
-        *,
-        tolerance: float | None = None,
-        interior: bool = False,
-    ):
-        """`tolerance`: HiGHS's primal and dual feasibility tolerances (default 1e-7).
-        `interior`: solve by the interior point method without crossover (no basis to warm-start
-        from, but far faster on large models)."""
-        A = sp.csc_matrix(A)
-        A.sort_indices()
-        n_row, n_col = A.shape
-        lp = highspy.HighsLp()
-        lp.num_col_, lp.num_row_ = n_col, n_row
-        lp.col_cost_ = np.zeros(n_col) if cost is None else np.asarray(cost, dtype=float)
-        lp.col_lower_, lp.col_upper_ = _finite(lower), _finite(upper)
-        lp.row_lower_, lp.row_upper_ = _finite(row_lower), _finite(row_upper)
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        lp.a_matrix_.start_ = A.indptr.astype(np.int32)
-        lp.a_matrix_.index_ = A.indices.astype(np.int32)
-        lp.a_matrix_.value_ = A.data.astype(float)
-        self.n_col = n_col
-        self.highs = highspy.Highs()
-        self.highs.setOptionValue("output_flag", False)
-        if tolerance is not None:
-            self.highs.setOptionValue("primal_feasibility_tolerance", tolerance)
-            self.highs.setOptionValue("dual_feasibility_tolerance", tolerance)
-        if interior:
-            self.highs.setOptionValue("solver", "ipm")
-            self.highs.setOptionValue("run_crossover", "off")
-        self.highs.passModel(lp)
-        self.iterations = 0
-
-    def add_rows(self, A: sp.spmatrix, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
-        """Append constraints row_lower <= A z <= row_upper; the current basis is kept."""
-        A = sp.csr_matrix(A)
-        A.sort_indices()
-        self.highs.addRows(
-            A.shape[0], _finite(row_lower), _finite(row_upper), A.nnz,
-            A.indptr.astype(np.int32), A.indices.astype(np.int32), A.data.astype(float),
-        )
-
-    def minimise(self, cost: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-        """Solve (with new costs if given) and return (z, objective).
-
-        Raises `InfeasibleError` when no z satisfies the constraints, `SolverError` on
-        any other outcome than an optimum.
-        """
-        highs = self.highs
-        if cost is not None:
-            highs.changeColsCost(self.n_col, np.arange(self.n_col, dtype=np.int32), np.asarray(cost, dtype=float))
-        status = self._run()
-        if status not in _ANSWERS and not self._interior_optimum(status):
-            # A warm start can occasionally fail inside HiGHS: solve from scratch, then with
-            # the primal simplex, which copes with the nearly parallel tangent rows of the loss.
-            highs.clearSolver()
-            status = self._run()
-        if status not in _ANSWERS:
-            _, strategy = highs.getOptionValue("simplex_strategy")
-            highs.setOptionValue("simplex_strategy", 4)
-            highs.clearSolver()
-            status = self._run()
-            highs.setOptionValue("simplex_strategy", strategy)
-        if status == highspy.HighsModelStatus.kOptimal or self._interior_optimum(status):
-            return np.array(highs.getSolution().col_value), float(highs.getInfo().objective_function_value)
-        # Every variable is bounded, so "unbounded or infeasible" can only mean infeasible.
-        if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnboundedOrInfeasible):
-            raise InfeasibleError(INFEASIBLE_MESSAGE)
-        raise SolverError(f"the LP solver HiGHS stopped without an answer ({highs.modelStatusToString(status)})")
-
-
-    def _interior_optimum(self, status: highspy.HighsModelStatus) -> bool:
-        """Without crossover HiGHS can report "unknown" for an interior point answer that is primal
-        feasible and whose dual infeasibility is within tolerance: optimal to its tolerances."""
-        info = self.highs.getInfo()
-        _, tolerance = self.highs.getOptionValue("dual_feasibility_tolerance")
-        feasible = int(highspy.SolutionStatus.kSolutionStatusFeasible)
-        return (status == highspy.HighsModelStatus.kUnknown
-                and int(info.primal_solution_status) == feasible
-                and info.max_dual_infeasibility <= tolerance)
-
-    def _run(self) -> highspy.HighsModelStatus:
-        self.highs.run()
-        self.iterations += max(int(self.highs.getInfo().simplex_iteration_count), 0)
-        return self.highs.getModelStatus()
-
-
-_ANSWERS = (
-    highspy.HighsModelStatus.kOptimal,
-    highspy.HighsModelStatus.kInfeasible,
-    highspy.HighsModelStatus.kUnboundedOrInfeasible,
-)
-
-
-# A model with more rows than this is solved by HiGHS's interior point method without
-# crossover: on a 64x64 world (376,000 rows) in under a minute, where simplex takes longer than
-# ten; on `paper` (2,000 rows) simplex is quicker and leaves a basis to warm-start from.
-INTERIOR_ROWS = 50_000
-
-
-def highs_lp(
-    A: sp.spmatrix,
-    row_lower: np.ndarray,
-    row_upper: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    cost: np.ndarray | None = None,
-) -> HighsLP:
-    """A live HiGHS model of the LP: simplex, or the interior point method past `INTERIOR_ROWS`."""
-    return HighsLP(A, row_lower, row_upper, lower, upper, cost, interior=A.shape[0] > INTERIOR_ROWS)
-
-
-def _finite(bound: np.ndarray) -> np.ndarray:
-    """HiGHS writes infinity as +-inf too, but only as its own constant."""
-    return np.clip(np.asarray(bound, dtype=float), -highspy.kHighsInf, highspy.kHighsInf)
+    lower = np.concatenate([np.full(qmap.k, -rmax), np.full(qmap.mdp.n_states, -vmax)])
+    program = linear_program(
+        sp.vstack([better, attains, qmap.E], format="csr"),
+        np.concatenate([np.full(better.shape[0], -np.inf), q0_pi, qmap.e]),
+        np.concatenate([-q0, q0_pi, qmap.e]),
+        lower,
+        -lower,
+    )
+    return LPConstraints(qmap, policy, program)
 
 
 @dataclass(frozen=True, eq=False)
 class MarginLP:
-    """The margin-maximising LP over z = [theta; V; t (d,); u (k,) if lambda > 0].
+    """The slack-form margin LP over z = [theta; V; m (d,); u (k,) if lambda > 0].
+
+    `base` holds the rows every model keeps (terminal cells, V(s) = Q(s, pi(s)), u >= |theta|),
+    the bounds and the cost (minimise -sum m + lambda ||R_S||_1); the family rows
+    V(s) - Q(s, a) - m_s >= q0(s, a), one per (s, a) with `rivals[s, a]` (m_s only at
+    demonstrated s), are built on demand by `rows`.
 
     Attributes:
-        constraints: the feasible set it extends.
-        A, row_lower, row_upper, lower, upper, cost: the LP in HiGHS's form (minimise cost @ z).
+        qmap, policy: as in `LPConstraints`.
+        rivals: (S, A) the pairs of the family.
+        base: the rows always present, with the bounds and cost of every column.
     """
 
-    constraints: LPConstraints
-    A: sp.csr_matrix
-    row_lower: np.ndarray
-    row_upper: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-    cost: np.ndarray
+    qmap: QMap
+    policy: np.ndarray
+    rivals: np.ndarray
+    base: LinearProgram
+
+    @property
+    def demonstrated(self) -> np.ndarray:
+        return np.flatnonzero(self.policy >= 0)
+
+    def rows(self, states: np.ndarray, actions: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+        """The family rows of the pairs (states[i], actions[i]) and their lower bounds (upper: inf)."""
+        qmap, n_col = self.qmap, self.base.shape[1]
+        rows_q, q0 = qmap.rows(states, actions)
+        slack = qmap.value_selector(states) - rows_q
+        shown = self.policy[states] >= 0
+        m_col = np.searchsorted(self.demonstrated, states[shown])
+        minus_m = sp.csr_matrix((-np.ones(m_col.size), (np.flatnonzero(shown), m_col)), shape=(states.size, n_col - qmap.n))
+        return sp.hstack([slack, minus_m], format="csr"), q0
+
+    def slacks(self, z: np.ndarray) -> np.ndarray:
+        """(S, A) V(s) - Q(s, a) - m_s at z for every pair (meaningful where `rivals`)."""
+        qmap = self.qmap
+        x = z[: qmap.n]
+        m = np.zeros(qmap.mdp.n_states)
+        m[self.demonstrated] = z[qmap.n : qmap.n + self.demonstrated.size]
+        return (x[qmap.k :] - m)[:, None] - qmap.q(x)
+
+    def full(self) -> LinearProgram:
+        """The whole LP: the base rows and every family row."""
+        family, q0 = self.rows(*np.nonzero(self.rivals))
+        b = self.base
+        return LinearProgram(
+            sp.vstack([b.A, family], format="csr"),
+            np.concatenate([b.row_lower, q0]),
+            np.concatenate([b.row_upper, np.full(q0.size, np.inf)]),
+            b.lower, b.upper, b.cost,
+        )
 
 
 def margin_lp(constraints: LPConstraints, *, lam: float = 0.0) -> MarginLP:
-    """Add the paper's objective to the feasible set: maximise the margin minus lambda ||R_S||_1."""
-    qmap = constraints.qmap
-    A, n, k = qmap.mdp.n_actions, qmap.n, qmap.k
+    """The paper's objective on the feasible set, in slack form: maximise sum m - lambda ||R_S||_1."""
+    qmap, policy = constraints.qmap, constraints.policy
+    k, n = qmap.k, qmap.n
+    rmax = float(constraints.program.upper[:k].max(initial=1.0))
+    check_bounds(rmax=rmax, lam=lam)
     d = constraints.demonstrated
-    n_d = d.size
     n_u = k if lam > 0 else 0
+    n_col = n + d.size + n_u
 
-    # t_s >= Q(s, a) for a != pi(s): rows Q(s, a) - t_s <= -q0.
-    s_rep = np.repeat(d, A)
-    a_rep = np.tile(np.arange(A), n_d)
-    other = a_rep != np.repeat(constraints.policy[d], A)
-    rows_q, q0 = qmap.rows(s_rep[other], a_rep[other])
-    t_col = np.repeat(np.arange(n_d), A)[other]
-    pick_t = sp.csr_matrix((np.ones(t_col.size), (np.arange(t_col.size), t_col)), shape=(t_col.size, n_d))
-    epigraph = sp.hstack([rows_q, -pick_t, sp.csr_matrix((t_col.size, n_u))])
-
-    blocks = [sp.hstack([constraints.A, sp.csr_matrix((constraints.A.shape[0], n_d + n_u))]), epigraph]
-    row_lower = [constraints.row_lower, np.full(t_col.size, -np.inf)]
-    row_upper = [constraints.row_upper, -q0]
+    rows_pi, q0_pi = qmap.rows(d, policy[d])
+    blocks = [qmap.E, qmap.value_selector(d) - rows_pi]
+    row_lower, row_upper = [qmap.e, q0_pi], [qmap.e, q0_pi]
+    blocks = [sp.hstack([b, sp.csr_matrix((b.shape[0], n_col - n))]) for b in blocks]
     if n_u:
         # u >= theta and u >= -theta.
         eye = sp.identity(k, format="csr")
-        zeros = sp.csr_matrix((k, n - k + n_d))
+        zeros = sp.csr_matrix((k, n - k + d.size))
         blocks += [sp.hstack([eye, zeros, -eye]), sp.hstack([-eye, zeros, -eye])]
-        row_lower += [np.full(2 * k, -np.inf)]
-        row_upper += [np.zeros(2 * k)]
+        row_lower.append(np.full(2 * k, -np.inf))
+        row_upper.append(np.zeros(2 * k))
 
-    cost = np.zeros(n + n_d + n_u)
-    cost[qmap.k + d] = -1.0  # maximise sum V(s) ...
-    cost[n : n + n_d] = 1.0  # ... - sum t_s
-    cost[n + n_d :] = lam * qmap.unknowns.weight[:n_u]
-    rmax = constraints.upper[:k].max(initial=0.0)
-    # t_s is a Q value, so |t_s| <= vmax, the value bound (it keeps every variable bounded).
-    vmax = constraints.upper[k:n].max(initial=0.0)
-    lower = np.concatenate([constraints.lower, np.full(n_d, -vmax), np.zeros(n_u)])
-    upper = np.concatenate([constraints.upper, np.full(n_d, vmax), np.full(n_u, rmax)])
-    return MarginLP(
-        constraints=constraints,
-        A=sp.vstack(blocks, format="csr"),
-        row_lower=np.concatenate(row_lower),
-        row_upper=np.concatenate(row_upper),
-        lower=lower,
-        upper=upper,
-        cost=cost,
+    cost = np.zeros(n_col)
+    cost[n : n + d.size] = -1.0
+    cost[n + d.size :] = lam * qmap.unknowns.weight[:n_u]
+    # m_s = V(s) - Q(s, a) is at most twice the value bound: a bound no optimum reaches.
+    vmax = float(constraints.program.upper[k:n].max(initial=1.0))
+    base = linear_program(
+        sp.vstack(blocks, format="csr"),
+        np.concatenate(row_lower),
+        np.concatenate(row_upper),
+        np.concatenate([constraints.program.lower, np.zeros(d.size + n_u)]),
+        np.concatenate([constraints.program.upper, np.full(d.size, 2 * vmax), np.full(n_u, rmax)]),
+        cost,
     )
+    return MarginLP(qmap, policy, _rivals(qmap, policy), base)
+
+
+def seed_pairs(problem: MarginLP) -> np.ndarray:
+    """(S, A) the family rows a row-generation model starts with (see the module docstring)."""
+    mdp = problem.qmap.mdp
+    L = mdp.levels
+    direction = np.arange(mdp.n_actions) // L
+    carefulness = np.arange(mdp.n_actions) % L + 1
+    policy = problem.policy
+    shown = policy >= 0
+    pi = np.where(shown, policy, 0)
+    same_direction = direction[None, :] == direction[pi][:, None]
+    gap = np.abs(carefulness[None, :] - carefulness[pi][:, None])
+    near = np.where(same_direction, gap == 1, gap == 0)
+    seeds = np.where(shown[:, None], near, (carefulness == 1)[None, :])
+    return seeds & problem.rivals
 
 
 @dataclass(frozen=True)
 class LPSolution:
-    """x = [theta; V] of the margin LP's optimum, its margin sum and HiGHS's effort."""
+    """x = [theta; V] of the margin LP's optimum, its margin sum and the work it took.
+
+    Attributes:
+        rounds: LP solves (1 without row generation).
+        rows: rows of the last model.
+        iterations: HiGHS's simplex (and interior point) iterations over all rounds.
+    """
 
     x: np.ndarray
     margin: float
     iterations: int
+    rounds: int
+    rows: int
 
 
-def solve_margin_lp(constraints: LPConstraints, *, lam: float = 0.0) -> LPSolution:
-    """Solve the margin LP with HiGHS. Raises `InfeasibleError` or `SolverError`."""
+def solve_margin_lp(
+    constraints: LPConstraints,
+    *,
+    lam: float = 0.0,
+    generate_rows: bool = True,
+    progress: Progress | None = None,
+) -> LPSolution:
+    """Solve the margin LP by row generation (or, with `generate_rows=False`, whole).
+
+    Raises `InfeasibleError` or `SolverError`.
+    """
     problem = margin_lp(constraints, lam=lam)
-    solver = highs_lp(problem.A, problem.row_lower, problem.row_upper, problem.lower, problem.upper, problem.cost)
-    z, _ = solver.minimise()
-    n, n_d = constraints.qmap.n, constraints.demonstrated.size
-    margin = float(z[constraints.qmap.k + constraints.demonstrated].sum() - z[n : n + n_d].sum())
-    return LPSolution(x=z[:n], margin=margin, iterations=solver.iterations)
+    if not generate_rows:
+        model = HighsModel(problem.full())
+        z, _ = model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
+        return _solution(problem, z, model, rounds=1)
+    run = RowGeneration(problem, options=MARGIN_OPTIONS)
+    z = run.solve(progress=progress)
+    return _solution(problem, z, run.model, rounds=run.rounds)
+
+
+# Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
+# on its weights than it saves here (a 64x64 world's first round: 23 s against over 150 s;
+# devex: over 6 minutes).
+MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
+
+
+class RowGeneration:
+    """The margin LP solved by row generation in one live HiGHS model (see the module docstring).
+
+    Attributes:
+        model: the HiGHS model, holding the base rows and the family rows in `in_model`.
+        in_model: (S, A) the family rows added so far.
+        pairs: (r, 2) the (state, action) of each family row, in the model's order (after the base rows).
+        rounds: LPs solved.
+    """
+
+    def __init__(self, problem: MarginLP, *, options: dict[str, object]):
+        self.problem = problem
+        self.in_model = np.zeros_like(problem.rivals)
+        self.pairs = np.zeros((0, 2), dtype=np.int64)
+        self.model = HighsModel(problem.base, options=options)
+        self._add(seed_pairs(problem))
+        self.rounds = 0
+
+    def _add(self, pairs: np.ndarray) -> None:
+        states, actions = np.nonzero(pairs)
+        rows, q0 = self.problem.rows(states, actions)
+        self.model.add_rows(rows, q0, np.full(q0.size, np.inf))
+        self.in_model |= pairs
+        self.pairs = np.concatenate([self.pairs, np.column_stack([states, actions])])
+
+    def solve(self, *, progress: Progress | None = None) -> np.ndarray:
+        """z at the full LP's optimum for the model's current cost. Raises `InfeasibleError` or `SolverError`."""
+        problem = self.problem
+        while True:  # each round adds rows of a finite family, so it ends
+            z, _ = self.model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
+            self.rounds += 1
+            if progress is not None:
+                progress("rounds", self.rounds, None)
+            slack = np.where(problem.rivals & ~self.in_model, problem.slacks(z), np.inf)
+            worst = slack.argmin(axis=1)
+            states = np.flatnonzero(slack[np.arange(slack.shape[0]), worst] < -CUT_TOLERANCE)
+            if states.size == 0:
+                return z
+            add = np.zeros_like(self.in_model)
+            add[states, worst[states]] = True
+            self._add(add)
+
+
+def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: int) -> LPSolution:
+    n, n_d = problem.qmap.n, problem.demonstrated.size
+    return LPSolution(
+        x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=model.iterations, rounds=rounds, rows=model.n_row
+    )

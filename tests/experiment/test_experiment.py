@@ -24,9 +24,10 @@ def test_quick_experiment_tells_the_papers_story(tmp_path, monkeypatch):
     assert intervals["mud"]["cliff"][1] < intervals["mud"]["mud"][0]
     for name in ("fig3-optimal-policy", "fig4-true-reward", "fig5-maxent", "fig6-lp",
                  "fig7-demonstrated-policy", "fig8-loss", "intervals-mud", "intervals-mud-simple"):
-        assert (out / f"{name}.svg").read_text().startswith("<svg")
+        assert (out / f"{name}.pdf").read_bytes().startswith(b"%PDF")
+        assert (out / f"{name}.png").read_bytes().startswith(b"\x89PNG")
     report = (out / "report.md").read_text()
-    assert "| careful lp |" in report and "![Figure 6" in report
+    assert "| careful lp |" in report and "![Figure 6" in report and "(fig6-lp.png)" in report
     assert "simulated noisy experts" in report
 
 

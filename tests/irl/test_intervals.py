@@ -74,15 +74,16 @@ def test_reused_model_gives_the_same_ends_as_fresh_lps():
     demos = optimal_demonstrations("mud", 10, 1)
     constraints = lp_constraints(build_qmap(demos.mdp, build_unknowns(demos.mdp)), demos.most_frequent, rmax=1000.0)
     intervals, _ = reward_intervals(constraints)
-    eq = constraints.row_lower == constraints.row_upper
-    upper = ~eq & np.isfinite(constraints.row_upper)
-    bounds = list(zip(constraints.lower, constraints.upper))
+    program = constraints.program
+    eq = program.row_lower == program.row_upper
+    upper = ~eq & np.isfinite(program.row_upper)
+    bounds = list(zip(program.lower, program.upper))
     for j in range(constraints.qmap.k):
         for end, sign in ((0, 1.0), (1, -1.0)):
             cost = np.zeros(constraints.qmap.n)
             cost[j] = sign
-            fresh = linprog(cost, A_ub=constraints.A[upper], b_ub=constraints.row_upper[upper], A_eq=constraints.A[eq],
-                            b_eq=constraints.row_lower[eq], bounds=bounds, method="highs")
+            fresh = linprog(cost, A_ub=program.A[upper], b_ub=program.row_upper[upper], A_eq=program.A[eq],
+                            b_eq=program.row_lower[eq], bounds=bounds, method="highs")
             assert intervals[j, end] == pytest.approx(sign * fresh.fun, abs=1e-6)
 
 

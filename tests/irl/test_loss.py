@@ -102,12 +102,13 @@ def test_at_the_floor_the_reported_minimiser_has_the_smallest_l1_norm():
     solution = fit_loss(qmap, demos.policy, rmax=1000.0)
     assert solution.loss == pytest.approx(demos.demonstrated.sum())
     c = loss_constraints(qmap, demos.policy, rmax=1000.0)
-    y = cp.Variable(c.A.shape[1])
-    eq, bounded = c.row_lower == c.row_upper, np.isfinite(c.lower)
+    lp = c.program
+    y = cp.Variable(lp.shape[1])
+    eq, bounded = lp.row_lower == lp.row_upper, np.isfinite(lp.lower)
     reference = cp.Problem(
         cp.Minimize(qmap.unknowns.weight @ cp.abs(y[: qmap.k])),
-        [c.A[eq] @ y == c.row_lower[eq], c.A[~eq] @ y <= c.row_upper[~eq],
-         y[bounded] >= c.lower[bounded], y[bounded] <= c.upper[bounded], c.Z @ y + c.z0 <= 0],
+        [lp.A[eq] @ y == lp.row_lower[eq], lp.A[~eq] @ y <= lp.row_upper[~eq],
+         y[bounded] >= lp.lower[bounded], y[bounded] <= lp.upper[bounded], c.Z @ y + c.z0 <= 0],
     )
     reference.solve(solver=cp.HIGHS)
     ours = qmap.unknowns.weight @ np.abs(solution.x[: qmap.k])

@@ -2,12 +2,11 @@
 
 import numpy as np
 import pytest
-from scipy.optimize import linprog
 
 from irl_core.demonstrations import Demonstrations
 from irl_core.experts import optimal_policy, rollouts
 from irl_core.irl import InfeasibleError, fit
-from irl_core.irl.lp import lp_constraints, margin_lp, solve_margin_lp
+from irl_core.irl.lp import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import action_index, build_mdp
 from irl_core.planning import value_iteration
@@ -85,27 +84,6 @@ def test_without_carefulness_the_answer_follows_rmax():
     assert np.max(np.abs(doubled - base) / np.abs(base)) > 0.5
 
 
-def test_the_lp_matches_an_independent_solve_with_scipy(paper_100):
-    unknowns = build_unknowns(paper_100.mdp)
-    constraints = lp_constraints(build_qmap(paper_100.mdp, unknowns), paper_100.most_frequent, rmax=1000.0)
-    problem = margin_lp(constraints)
-    eq = problem.row_lower == problem.row_upper
-    upper = np.isfinite(problem.row_upper) & ~eq
-    reference = linprog(
-        problem.cost,
-        A_ub=problem.A[upper],
-        b_ub=problem.row_upper[upper],
-        A_eq=problem.A[eq],
-        b_eq=problem.row_lower[eq],
-        bounds=list(zip(np.where(np.isfinite(problem.lower), problem.lower, None),
-                        np.where(np.isfinite(problem.upper), problem.upper, None))),
-        method="highs-ipm",
-    )
-    assert reference.status == 0
-    solution = solve_margin_lp(constraints)
-    assert solution.margin == pytest.approx(-reference.fun, rel=1e-7)
-
-
 def test_lambda_trades_margin_for_a_smaller_reward(paper_100):
     plain, sparse = fit(paper_100), fit(paper_100, lam=1.0)
     assert np.abs(sparse.theta).sum() < np.abs(plain.theta).sum()
@@ -118,22 +96,3 @@ def test_demonstrations_optimal_for_no_reward_are_infeasible():
     counts[mdp.state_of[(0, 0)], action_index("up", 14, mdp.levels)] = 5.0
     with pytest.raises(InfeasibleError, match="--method loss"):
         fit(demonstrations(mdp, counts), rmax=10_000.0)
-
-
-def test_the_interior_point_method_finds_the_same_answer_as_simplex(monkeypatch):
-    # Large worlds are solved by HiGHS's interior point method without crossover; force it on
-    # a small world and compare with simplex.
-    import irl_core.irl.lp as lp
-    from irl_core.experts import demonstrations_of
-
-    world = World(layout="......\n......\n......\n......\n.CCCCG\n", levels=6, rewards={"C": -1000.0, "G": 100.0})
-    mdp = build_mdp(world)
-    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=40, seed=3))
-    full = fit(demos, method="lp", intervals=True)
-    monkeypatch.setattr(lp, "INTERIOR_ROWS", 10)
-    interior = fit(demos, method="lp", intervals=True)
-    assert interior.status == "optimal"
-    np.testing.assert_allclose(interior.theta, full.theta, atol=1e-5 * 1000)
-    np.testing.assert_allclose(interior.intervals, full.intervals, atol=1e-5 * 1000)
-    constraints = lp_constraints(build_qmap(mdp, interior.unknowns), demos.most_frequent, rmax=1000.0)
-    assert constraints.violation(np.concatenate([interior.theta, interior.V])) < 1e-4

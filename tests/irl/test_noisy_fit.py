@@ -49,8 +49,8 @@ def test_bootstrap_intervals_are_reproducible_and_widen_with_confidence():
     demos = boltzmann("mud", 0.5, 40, seed=1)
     options = FitOptions(method="maxent", beta="auto", tie=True, rmax=5000.0, intervals=True, resamples=40)
     seen = []
-    first = fit(demos, options, workers=2, progress=lambda done, total: seen.append((done, total)))
-    assert first.interval_kind == "confidence" and seen[-1] == (40, 40)
+    first = fit(demos, options, workers=2, progress=lambda stage, done, total: seen.append((stage, done, total)))
+    assert first.interval_kind == "confidence" and seen[-1] == ("resamples", 40, 40)
     again = fit(demos, options, workers=1)
     np.testing.assert_allclose(first.intervals, again.intervals, rtol=1e-4)  # the workers do not matter
     low, high = first.intervals.T

@@ -1,0 +1,93 @@
+"""The experiment's figures (`irl_core.experiment.Figure`) drawn for a paper.
+
+What a figure holds decides how it is drawn, so new stages need no new code here:
+- an `intervals-...` figure: the interval plot of the interval result added with it to
+  `ExperimentResult.separations` (cliff and mud rows, the figure's values as the estimates,
+  labelled identified set or confidence interval as the result's `kind` says);
+- a figure with values: a reward heatmap, on one colour scale shared by every figure of the
+  run, so the same colour is the same reward in figure 4 (true) and figures 5, 6 and 8 (fitted);
+- a figure with labels ("→8" per cell): a policy, arrows sized by carefulness.
+Each is one panel a third of a page wide, without a title (the paper's caption is the title).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from matplotlib.figure import Figure as PlotFigure
+
+from careful_tui.figures.board import Board
+from careful_tui.figures.heatmap import reward_figure, reward_limit
+from careful_tui.figures.intervals import IntervalRow, interval_figure
+from careful_tui.figures.policy import PolicyPanel, policy_figure
+from careful_tui.grid import SYMBOL_NAMES
+from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
+from irl_core.mdp import ARROWS, DIRECTIONS
+
+DIRECTION_OF_ARROW = {arrow: DIRECTIONS.index(direction) for direction, arrow in ARROWS.items()}
+
+
+def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: float) -> PlotFigure:
+    """The paper figure for one of the experiment's figures (see the module docstring).
+
+    Args:
+        rmax: the bound the experiment's lp fits used: an identified set's axis runs to it.
+    """
+    board = Board.of(figure.world)
+    separation = interval_result(figure, result)
+    if separation is not None:
+        rows = separation_rows(separation, figure, board)
+        if separation.kind == "confidence":
+            # The stage's own bound is not part of its result: the axis follows the values instead.
+            return interval_figure([("", rows)], kind="confidence", confidence=NOISY_CONFIDENCE, rmax=None)
+        return interval_figure([("", rows)], kind=separation.kind, rmax=rmax)
+    if figure.values is not None:
+        return reward_figure([("", figure.values)], board, vmax=shared_scale(result))
+    return policy_figure([policy_from_labels(figure, board)], board, levels=figure.world.levels,
+                         background=board.rewards(figure.world), vmax=shared_scale(result))
+
+
+def interval_result(figure: Figure, result: ExperimentResult) -> Separation | None:
+    """The interval results an `intervals-...` figure shows, or None for any other figure.
+
+    The experiment adds one `intervals-...` figure with each of its interval results, in the same
+    order, so the k-th such figure shows the k-th result (of the figure's own world).
+    """
+    keyed = [f.key for f in result.figures if f.key.startswith("intervals-") and f.values is not None]
+    if figure.key not in keyed or len(keyed) != len(result.separations):
+        return None
+    separation = result.separations[keyed.index(figure.key)]
+    return separation if separation.world == figure.world.name else None
+
+
+def shared_scale(result: ExperimentResult) -> float:
+    """One colour-scale end for every reward figure of a run: the largest |reward| any of them shows.
+
+    Interval figures are not heatmaps, so their values (whose fits may use another bound) do not count.
+    """
+    heatmaps = [f for f in result.figures if interval_result(f, result) is None]
+    grids = [f.values for f in heatmaps if f.values is not None]
+    grids += [Board.of(f.world).rewards(f.world) for f in heatmaps]
+    return reward_limit(*grids)
+
+
+def separation_rows(separation: Separation, figure: Figure, board: Board) -> list[IntervalRow]:
+    """Cliff and mud rows: the interval hull of their cells, the mean fitted value, the world's value."""
+    rows = []
+    for symbol, (low, high) in (("C", separation.cliff), ("U", separation.mud)):
+        cells = board.symbols == symbol
+        rows.append(IntervalRow(SYMBOL_NAMES.get(symbol, symbol), symbol, low, high,
+                                float(np.nanmean(figure.values[cells])), figure.world.reward_of(symbol)))
+    return rows
+
+
+def policy_from_labels(figure: Figure, board: Board) -> PolicyPanel:
+    """A policy panel from a figure's "→8" labels (arrow, then the level when there are levels)."""
+    direction = np.full(board.shape, -1)
+    carefulness = np.ones(board.shape, dtype=int)
+    for (r, c), label in figure.labels.items():
+        level = re.match(r"\d*", label[1:]).group()
+        direction[r, c] = DIRECTION_OF_ARROW[label[0]]
+        carefulness[r, c] = int(level) if level else 1
+    return PolicyPanel("", direction, carefulness)

@@ -1,0 +1,139 @@
+"""One `careful fit` result as one figure: what `careful fit --figure PATH` writes.
+
+First row: the fitted reward, and the world's own reward beside it on the same colour scale
+(when the world file gives rewards). Second row: the demonstrated policy and, with carefulness
+levels, mean carefulness against distance to danger. With intervals, a third row: the
+interval of every unknown (or of every symbol, when there are too many cells to read).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from careful_tui.figures.board import Board
+from careful_tui.figures.carefulness import carefulness_by_distance, draw_carefulness, state_distances
+from careful_tui.figures.heatmap import (
+    COLOUR_BAR_WIDTH,
+    TITLE_HEIGHT,
+    add_colour_bar,
+    cell_width,
+    draw_reward,
+    reward_limit,
+    reward_norm,
+)
+from careful_tui.figures.intervals import (
+    FRAME_HEIGHT,
+    LEGEND_HEIGHT,
+    ROW_HEIGHT,
+    IntervalRow,
+    draw_intervals,
+    interval_legend,
+    worst_first,
+)
+from careful_tui.figures.policy import NOTE_HEIGHT, draw_policy, policy_note, policy_panel
+from careful_tui.figures.style import PAGE_WIDTH, figure_style, new_figure
+from careful_tui.fit import interval_title
+from careful_tui.grid import SYMBOL_NAMES
+from irl_core.irl import FitResult
+
+# Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
+MAX_INTERVAL_ROWS = 24
+
+
+def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
+    """A row per unknown ("cliff (3, 1)", or "cliff" when tied), or per symbol when there are many.
+
+    Returns the rows and whether they are per-symbol hulls of several unknowns.
+    """
+    truth = result.unknowns.true_theta(result.mdp) if result.world.rewards else np.full(len(result.labels), np.nan)
+    first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
+    rows = []
+    for j, symbol in enumerate(result.unknowns.symbols):
+        name = SYMBOL_NAMES.get(symbol, symbol)
+        label = name if result.options.tie else f"{name} {result.mdp.cells[first_state[j]]}"
+        low, high = (float(v) for v in result.intervals[j])
+        rows.append(IntervalRow(label, symbol, low, high, float(result.theta[j]), float(truth[j])))
+    if len(rows) <= MAX_INTERVAL_ROWS:
+        return rows, False
+    hulls = []
+    for symbol in dict.fromkeys(row.symbol for row in rows):
+        mine = [row for row in rows if row.symbol == symbol]
+        truths = {row.truth for row in mine}
+        cells = f"{len(mine)} cell{'s' * (len(mine) != 1)}"
+        hulls.append(IntervalRow(f"{SYMBOL_NAMES.get(symbol, symbol)} ({cells})", symbol,
+                                 min(r.low for r in mine), max(r.high for r in mine),
+                                 float(np.mean([r.estimate for r in mine])),
+                                 truths.pop() if len(truths) == 1 else float("nan")))
+    return hulls, True
+
+
+def fitted_cells(result: FitResult) -> str:
+    """Which cells the fit estimated: "ground fixed at 0", "every cell fitted; one value per symbol"."""
+    options = result.options
+    cells = "every cell fitted" if options.reward_cells == "all" else "ground fixed at 0"
+    return f"{cells}{'; one value per symbol' if options.tie else ''}"
+
+
+def interval_kind(result: FitResult) -> tuple[str, float | None]:
+    """What the result's intervals are ("identified" or "confidence") and, for a confidence interval, its level."""
+    kind = result.interval_kind or "identified"
+    return kind, result.options.confidence if kind == "confidence" else None
+
+
+def fit_figure(result: FitResult) -> Figure:
+    """The fitted reward beside the true one; the demonstrated policy and carefulness; the intervals."""
+    world, mdp = result.world, result.mdp
+    board = Board.of(world)
+    rows, cols = board.shape
+    rewards = [(f"fitted reward ({result.method})", result.reward_grid)]
+    if world.rewards:
+        rewards.append(("true reward (world file)", result.true_reward_grid))
+    vmax = reward_limit(*(grid for _, grid in rewards))
+    demonstrated = result.counts.sum(axis=1) > 0
+    policy = policy_panel(mdp, result.counts.argmax(axis=1), title="demonstrated policy", where=demonstrated,
+                          counts=result.counts.max(axis=1))
+    # Two grids and the colour bar fill the page's width; the policy is as wide as one grid.
+    grid_width = (PAGE_WIDTH - COLOUR_BAR_WIDTH) / 2 * 0.92
+    grid_height = grid_width * rows / cols + TITLE_HEIGHT
+    heights = [grid_height + NOTE_HEIGHT, grid_height + NOTE_HEIGHT]
+    has_intervals = result.intervals is not None and len(result.intervals) > 0
+    if has_intervals:
+        interval_data, hulls = interval_rows(result)
+        kind, confidence = interval_kind(result)
+        rmax = float(result.rmax)
+        heights.append(FRAME_HEIGHT + LEGEND_HEIGHT + ROW_HEIGHT * len(interval_data))
+    width = cell_width(grid_width, cols)
+    with figure_style():
+        figure = new_figure(PAGE_WIDTH, sum(heights))
+        reward_row, middle_row, *interval_row = figure.subfigures(len(heights), 1, height_ratios=heights)
+        axes = reward_row.subplots(1, 2, squeeze=False)[0]
+        norm = reward_norm(vmax)
+        image = None
+        for ax, (title, grid), name in zip(axes, rewards, ("fitted", "true")):
+            image = draw_reward(ax, grid, board, norm=norm, title=title, width=width)
+            ax.set_label(name)
+        axes[0].set_xlabel(fitted_cells(result), labelpad=2)
+        if len(rewards) == 1:
+            axes[1].set_visible(False)  # keeps the fitted grid the same size as with a true one
+        add_colour_bar(reward_row, image, axes, vmax=vmax)
+        careful = world.levels > 1
+        ax_policy, *ax_careful = middle_row.subplots(1, 2 if careful else 1, squeeze=False)[0]
+        draw_policy(ax_policy, policy, board, levels=world.levels,
+                    background=result.true_reward_grid if world.rewards else None, vmax=vmax, width=width)
+        ax_policy.set_xlabel(policy_note(policy), labelpad=2)
+        ax_policy.set_label("policy")
+        if careful:
+            series = carefulness_by_distance(result.counts, state_distances(mdp), levels=world.levels)
+            draw_carefulness(ax_careful[0], [(f"{result.demonstrations['steps']} steps", series)],
+                             levels=world.levels, title="carefulness by distance to danger")
+            ax_careful[0].set_label("carefulness")
+        if interval_row:
+            ax_int = interval_row[0].subplots()
+            title = f"{interval_title(result)}{' (hull per symbol)' if hulls else ''}"
+            draw_intervals(ax_int, worst_first(interval_data), rmax=rmax, title=title)
+            ax_int.set_label("intervals")
+            legend = interval_legend(interval_data, kind=kind, confidence=confidence, rmax=rmax)
+            interval_row[0].legend(handles=legend, loc="outside lower center", ncol=len(legend),
+                                   handlelength=1.2, columnspacing=0.9, handletextpad=0.3)
+    return figure

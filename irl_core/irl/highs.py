@@ -1,0 +1,289 @@
+"""One way to state a linear program, solve it with HiGHS and report what HiGHS said.
+
+Every LP of the fitters (the lp's margin and intervals, the loss's outer approximation) is a
+`LinearProgram`:
+
+    minimise cost @ z  subject to  row_lower <= A z <= row_upper,  lower <= z <= upper,
+
+and is solved by a live `HighsModel`, the one place a `highspy.Highs` is built. A live model
+keeps its basis, so new rows (row generation), a new cost or new row bounds (the intervals'
+dual) are solved from the last optimum instead of from scratch.
+
+HiGHS's model status is read through one table, `OUTCOMES`: our word for it and whether it
+is an answer, a proof of infeasibility or unboundedness, or a failure. A failure is retried
+from scratch, then by the primal simplex, then by the interior point method IPX with
+crossover; only when all of them fail does `SolverError` reach the user.
+
+The solver is always named ("simplex", "ipx"): HiGHS's "ipm" means IPX in a plain install but
+HiPO when `highspy-extras` is installed, which took 12x longer on a 32x32 world's fit.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from dataclasses import dataclass
+from typing import Literal
+
+import highspy
+import numpy as np
+import scipy.sparse as sp
+
+from irl_core.irl.result import InfeasibleError, SolverError
+
+Kind = Literal["answer", "infeasible", "unbounded", "failure"]
+_Status = highspy.HighsModelStatus
+
+# HiGHS's model status -> (our status word, what it means).
+OUTCOMES: dict[highspy.HighsModelStatus, tuple[str, Kind]] = {
+    _Status.kOptimal: ("optimal", "answer"),
+    _Status.kInfeasible: ("infeasible", "infeasible"),
+    _Status.kUnbounded: ("unbounded", "unbounded"),
+    # Raised by presolve; `HighsModel.solve` settles it by solving without presolve.
+    _Status.kUnboundedOrInfeasible: ("infeasible_or_unbounded", "failure"),
+    _Status.kUnknown: ("unknown", "failure"),
+    _Status.kIterationLimit: ("iteration_limit", "failure"),
+    _Status.kTimeLimit: ("time_limit", "failure"),
+    _Status.kSolveError: ("solve_error", "failure"),
+    _Status.kModelError: ("model_error", "failure"),
+    _Status.kLoadError: ("load_error", "failure"),
+    _Status.kPresolveError: ("presolve_error", "failure"),
+    _Status.kPostsolveError: ("postsolve_error", "failure"),
+    _Status.kMemoryLimit: ("memory_limit", "failure"),
+    _Status.kInterrupt: ("interrupted", "failure"),
+    _Status.kHighsInterrupt: ("interrupted", "failure"),
+    _Status.kNotset: ("not_solved", "failure"),
+    _Status.kModelEmpty: ("optimal", "answer"),
+    _Status.kObjectiveBound: ("objective_bound", "failure"),
+    _Status.kObjectiveTarget: ("objective_target", "failure"),
+    _Status.kSolutionLimit: ("solution_limit", "failure"),
+}
+
+DEFAULT_TOLERANCE = 1e-7
+
+
+@dataclass(frozen=True)
+class SolveReport:
+    """What one solve ended with.
+
+    Attributes:
+        status: our word for HiGHS's model status ("optimal", "infeasible", ...).
+        kind: "answer", "infeasible", "unbounded" or "failure".
+        objective: cost @ z at the answer (nan without one).
+        iterations: simplex and interior point iterations of this solve, retries included.
+        solver: the HiGHS solver that gave the final status ("simplex", "primal simplex", "ipx").
+    """
+
+    status: str
+    kind: Kind
+    objective: float
+    iterations: int
+    solver: str
+
+    def check(self, infeasible_message: str) -> None:
+        """Raise `InfeasibleError` (infeasible) or `SolverError` (anything but an answer)."""
+        if self.kind == "infeasible":
+            raise InfeasibleError(infeasible_message)
+        if self.kind != "answer":
+            raise SolverError(f"the LP solver HiGHS ({self.solver}) stopped without an answer ({self.status})")
+
+
+@dataclass(frozen=True, eq=False)
+class LinearProgram:
+    """minimise cost @ z  s.t.  row_lower <= A z <= row_upper,  lower <= z <= upper.
+
+    Attributes:
+        A: (m, n) sparse CSR.
+        row_lower, row_upper: (m,), -inf / inf where a side is absent.
+        lower, upper: (n,)
+        cost: (n,)
+    """
+
+    A: sp.csr_matrix
+    row_lower: np.ndarray
+    row_upper: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    cost: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, columns)."""
+        return self.A.shape
+
+    def violation(self, z: np.ndarray) -> float:
+        """The largest amount by which z breaks a row or a bound (0 when feasible)."""
+        Az = self.A @ z
+        return float(
+            max(
+                np.max(self.row_lower - Az, initial=0.0),
+                np.max(Az - self.row_upper, initial=0.0),
+                np.max(self.lower - z, initial=0.0),
+                np.max(z - self.upper, initial=0.0),
+            )
+        )
+
+
+def linear_program(
+    A: sp.spmatrix,
+    row_lower: np.ndarray,
+    row_upper: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    cost: np.ndarray | None = None,
+) -> LinearProgram:
+    """A `LinearProgram`, checked: NaN or an infinite bound of the wrong sign is refused.
+
+    Raises ValueError (a non-finite rmax, say, would otherwise reach HiGHS as a huge number).
+    """
+    A = sp.csr_matrix(A, dtype=float)
+    m, n = A.shape
+    arrays = [np.asarray(a, dtype=float) for a in (row_lower, row_upper, lower, upper)]
+    cost = np.zeros(n) if cost is None else np.asarray(cost, dtype=float)
+    if [a.shape for a in arrays] != [(m,), (m,), (n,), (n,)] or cost.shape != (n,):
+        raise ValueError("the LP's bounds and cost do not match its matrix")
+    if not np.all(np.isfinite(A.data)) or not np.all(np.isfinite(cost)):
+        raise ValueError("the LP's matrix and cost must be finite")
+    for low, high in (arrays[:2], arrays[2:]):
+        if np.isnan(low).any() or np.isnan(high).any() or np.isposinf(low).any() or np.isneginf(high).any():
+            raise ValueError("the LP's bounds must be numbers, with only -inf below and inf above")
+    return LinearProgram(A, *arrays, cost)
+
+
+def _new_highs() -> highspy.Highs:
+    """A silent `highspy.Highs`.
+
+    highspy 1.16 writes its banner ("Running HiGHS ...") to file descriptor 1 when the first
+    Highs of a process is built, before any option can be set. `careful fit --no-view` owes its
+    stdout to its own output (it may be piped into a file), so the first one is built with
+    fd 1 pointed at /dev/null.
+    """
+    global _banner_shown
+    if _banner_shown:
+        highs = highspy.Highs()
+    else:
+        sys.stdout.flush()
+        saved = os.dup(1)
+        try:
+            with open(os.devnull, "w") as null:
+                os.dup2(null.fileno(), 1)
+                highs = highspy.Highs()
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+        _banner_shown = True
+    highs.setOptionValue("output_flag", False)
+    return highs
+
+
+_banner_shown = False
+
+
+class HighsModel:
+    """A live HiGHS model of a `LinearProgram`, solved by the dual simplex unless told otherwise.
+
+    `tolerance` sets HiGHS's primal and dual feasibility tolerances (default 1e-7); `options`
+    are further HiGHS options, kept for every solve.
+    """
+
+    def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE,
+                 options: dict[str, object] | None = None):
+        A = sp.csc_matrix(problem.A)
+        A.sort_indices()
+        n_row, n_col = A.shape
+        lp = highspy.HighsLp()
+        lp.num_col_, lp.num_row_ = n_col, n_row
+        lp.col_cost_ = problem.cost
+        lp.col_lower_, lp.col_upper_ = _highs_bound(problem.lower), _highs_bound(problem.upper)
+        lp.row_lower_, lp.row_upper_ = _highs_bound(problem.row_lower), _highs_bound(problem.row_upper)
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        lp.a_matrix_.start_ = A.indptr.astype(np.int32)
+        lp.a_matrix_.index_ = A.indices.astype(np.int32)
+        lp.a_matrix_.value_ = A.data.astype(float)
+        self.n_col, self.n_row = n_col, n_row
+        self.highs = _new_highs()
+        self.highs.setOptionValue("primal_feasibility_tolerance", tolerance)
+        self.highs.setOptionValue("dual_feasibility_tolerance", tolerance)
+        self.options = {"solver": "simplex", "simplex_strategy": 1, "run_crossover": "on", **(options or {})}
+        self._set(self.options)
+        self.highs.passModel(lp)
+        self.iterations = 0
+        self.solves = 0
+
+    def add_rows(self, A: sp.spmatrix, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
+        """Append rows row_lower <= A z <= row_upper; the current basis is kept."""
+        A = sp.csr_matrix(A)
+        A.sort_indices()
+        self.highs.addRows(
+            A.shape[0], _highs_bound(row_lower), _highs_bound(row_upper), A.nnz,
+            A.indptr.astype(np.int32), A.indices.astype(np.int32), A.data.astype(float),
+        )
+        self.n_row += A.shape[0]
+
+    def set_cost(self, cost: np.ndarray) -> None:
+        self.highs.changeColsCost(self.n_col, np.arange(self.n_col, dtype=np.int32), np.asarray(cost, dtype=float))
+
+    def set_row_bounds(self, rows: np.ndarray, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
+        rows = np.asarray(rows, dtype=np.int32)
+        self.highs.changeRowsBounds(rows.size, rows, _highs_bound(row_lower), _highs_bound(row_upper))
+
+    def solve(self) -> tuple[np.ndarray, SolveReport]:
+        """Solve from the current basis; on a failure retry as the module says. Never raises."""
+        highs = self.highs
+        iterations = 0
+        for solver, setup in _ATTEMPTS:
+            self._set(setup)
+            if solver != "as set":
+                highs.clearSolver()
+            highs.run()
+            info = highs.getInfo()
+            iterations += max(int(info.simplex_iteration_count), 0) + max(int(info.ipm_iteration_count), 0)
+            status = highs.getModelStatus()
+            if status == _Status.kUnboundedOrInfeasible and highs.getOptionValue("presolve")[1] != "off":
+                # Presolve cannot tell which: the simplex without it can.
+                highs.setOptionValue("presolve", "off")
+                highs.run()
+                highs.setOptionValue("presolve", "choose")
+                status = highs.getModelStatus()
+            word, kind = OUTCOMES.get(status, ("unknown", "failure"))
+            if kind != "failure":
+                break
+        if solver != "as set":
+            self._set(self.options)
+        self.iterations += iterations
+        self.solves += 1
+        objective = float(highs.getInfo().objective_function_value) if kind == "answer" else float("nan")
+        if solver in ("as set", "from scratch"):
+            solver = f"{self.options['solver']}{' from scratch' if solver == 'from scratch' else ''}"
+        return np.array(highs.getSolution().col_value), SolveReport(word, kind, objective, iterations, solver)
+
+    def _set(self, options: dict[str, object]) -> None:
+        for option, value in options.items():
+            self.highs.setOptionValue(option, value)
+
+    def minimise(self, cost: np.ndarray | None = None, *, infeasible_message: str) -> tuple[np.ndarray, float]:
+        """Solve (with a new cost if given) and return (z, cost @ z).
+
+        Raises `InfeasibleError` with `infeasible_message`, or `SolverError` on anything but an answer.
+        """
+        if cost is not None:
+            self.set_cost(cost)
+        z, report = self.solve()
+        report.check(infeasible_message)
+        return z, report.objective
+
+
+# The solver attempts, in order: the model's own simplex from the current basis, the same from
+# scratch (after clearSolver), the primal simplex, which copes with the nearly parallel
+# tangent rows of the loss, and IPX with crossover.
+_ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
+    ("as set", {}),
+    ("from scratch", {}),
+    ("primal simplex", {"solver": "simplex", "simplex_strategy": 4}),
+    ("ipx", {"solver": "ipx", "run_crossover": "on"}),
+)
+
+
+def _highs_bound(bound: np.ndarray) -> np.ndarray:
+    """HiGHS writes infinity as its own constant."""
+    return np.clip(np.asarray(bound, dtype=float), -highspy.kHighsInf, highspy.kHighsInf)

@@ -1,0 +1,100 @@
+"""The one HiGHS wrapper: its status table, its refusals and its silence on stdout."""
+
+import subprocess
+import sys
+
+import highspy
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from irl_core.experts import optimal_policy, rollouts, write_rollouts
+from irl_core.irl import InfeasibleError, SolverError, fit
+from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program
+from irl_core.irl.lp import lp_constraints, margin_lp
+from irl_core.irl.qmap import build_qmap, build_unknowns
+from irl_core.mdp import build_mdp
+from irl_core.world import BUILTIN_WORLDS
+
+
+def one_variable(row_lower, row_upper, *, lower=-np.inf, upper=np.inf, cost=-1.0):
+    """minimise cost * z subject to row_lower <= z <= row_upper (a row) and lower <= z <= upper."""
+    return HighsModel(linear_program(sp.csr_matrix([[1.0]]), [row_lower], [row_upper], [lower], [upper], [cost]))
+
+
+def test_every_highs_status_has_a_word_and_a_kind():
+    statuses = [getattr(highspy.HighsModelStatus, name) for name in dir(highspy.HighsModelStatus) if name.startswith("k")]
+    for status in statuses:
+        word, kind = OUTCOMES[status]
+        assert word and kind in ("answer", "infeasible", "unbounded", "failure")
+
+
+def test_an_optimum_is_an_answer_with_its_objective():
+    z, report = one_variable(-2.0, 3.0).solve()
+    assert (report.kind, report.status) == ("answer", "optimal")
+    assert z[0] == pytest.approx(3.0) and report.objective == pytest.approx(-3.0)
+
+
+def test_an_unbounded_lp_is_called_unbounded_not_infeasible():
+    _, report = one_variable(0.0, np.inf).solve()
+    assert (report.kind, report.status) == ("unbounded", "unbounded")
+    with pytest.raises(SolverError, match="unbounded"):
+        report.check("never")
+
+
+def test_an_infeasible_lp_raises_the_message_given():
+    model = one_variable(1.0, 2.0, lower=-1.0, upper=0.0)
+    _, report = model.solve()
+    assert report.kind == "infeasible"
+    with pytest.raises(InfeasibleError, match="no such z"):
+        model.minimise(infeasible_message="no such z")
+
+
+@pytest.mark.parametrize("bad", [dict(row_lower=np.nan), dict(row_upper=-np.inf), dict(lower=np.inf), dict(cost=np.inf)])
+def test_nan_and_misplaced_infinities_never_reach_highs(bad):
+    args = dict(row_lower=0.0, row_upper=1.0, lower=0.0, upper=1.0, cost=1.0) | bad
+    with pytest.raises(ValueError):
+        linear_program(sp.csr_matrix([[1.0]]), [args["row_lower"]], [args["row_upper"]], [args["lower"]],
+                       [args["upper"]], [args["cost"]])
+
+
+@pytest.fixture(scope="module")
+def mud_demos():
+    from irl_core.experts import demonstrations_of
+
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    return demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=10, seed=0))
+
+
+@pytest.mark.parametrize("method", ["lp", "loss"])
+@pytest.mark.parametrize(("rmax", "lam"), [(np.inf, 0.0), (np.nan, 0.0), (1000.0, np.inf)])
+def test_an_infinite_rmax_or_lambda_is_refused_before_highs(mud_demos, method, rmax, lam):
+    with pytest.raises(ValueError, match="rmax|lambda"):
+        fit(mud_demos, method=method, rmax=rmax, lam=lam)
+
+
+def test_margin_lp_refuses_an_infinite_lambda(mud_demos):
+    constraints = lp_constraints(build_qmap(mud_demos.mdp, build_unknowns(mud_demos.mdp)), mud_demos.most_frequent,
+                                 rmax=1000.0)
+    with pytest.raises(ValueError, match="lambda"):
+        margin_lp(constraints, lam=np.inf)
+
+
+def test_stdout_of_careful_fit_carries_only_its_output(tmp_path):
+    # highspy prints a banner on fd 1 when a process builds its first Highs; it must not reach stdout.
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    recording = tmp_path / "mud.jsonl"
+    write_rollouts(recording, mdp, rollouts(mdp, optimal_policy(mdp), episodes=5, seed=0),
+                   player="expert:optimal", seed=0)
+    run = subprocess.run(
+        [sys.executable, "-c", "import sys; from careful_tui.cli import main; sys.exit(main())",
+         "fit", "--no-view", "--intervals", str(recording)],
+        capture_output=True, text=True, timeout=120, check=True,
+    )
+    assert "HiGHS" not in run.stdout and "licence" not in run.stdout
+    library = subprocess.run(
+        [sys.executable, "-c", "from irl_core.irl.highs import HighsModel, linear_program; import scipy.sparse as sp; "
+         "HighsModel(linear_program(sp.csr_matrix([[1.0]]), [0], [1], [0], [1], [1])).solve(); print('ok')"],
+        capture_output=True, text=True, timeout=60, check=True,
+    )
+    assert library.stdout == "ok\n"

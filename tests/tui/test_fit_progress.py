@@ -1,0 +1,55 @@
+"""The fit view and `careful fit` say how far a long fit has got (rounds, interval LPs)."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+
+import careful_tui.fit_view
+from careful_tui.fit import progress_phrase
+from careful_tui.fit_view import FitApp
+from irl_core.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.irl import FitOptions, fit
+from irl_core.mdp import build_mdp
+from irl_core.world import BUILTIN_WORLDS
+
+
+def test_progress_phrases():
+    assert progress_phrase("rounds", 3, None) == "round 3"
+    assert progress_phrase("intervals", 12, 62) == "interval LP 12 of 62"
+    assert progress_phrase("resamples", 40, 200) == "resample 40 of 200"
+
+
+def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
+    first = fit(demos)
+    release = threading.Event()
+    real_refit = careful_tui.fit_view.refit
+
+    def slow_refit(demos, options, *, progress=None):
+        progress("rounds", 2, None)
+        progress("intervals", 3, 8)
+        release.wait(10)
+        return real_refit(demos, options, progress=progress)
+
+    monkeypatch.setattr(careful_tui.fit_view, "refit", slow_refit)
+    app = FitApp(demos, FitOptions(), result=first)
+    seen = []
+
+    async def go():
+        async with app.run_test(size=(180, 50)) as pilot:
+            await pilot.press("i")
+            for _ in range(200):
+                await pilot.pause(0.02)
+                if "interval LP" in str(app._status()):
+                    break
+            seen.append(str(app._status()))
+            release.set()
+            await app.workers.wait_for_complete()
+            await pilot.pause()
+            seen.append(str(app._status()))
+
+    asyncio.run(go())
+    assert seen[0].endswith("interval LP 3 of 8")
+    assert "interval LP" not in seen[1] and seen[1].startswith("✓")
