@@ -133,7 +133,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--intervals", action="store_true",
                      help="an interval per unknown: for lp every value the demonstrations allow (identified set); "
                      "for maxent and loss a confidence interval from resampling whole episodes")
-    fit.add_argument("--confidence", type=float, default=0.95, metavar="P",
+    fit.add_argument("--confidence", type=finite_float, default=0.95, metavar="P",
                      help="confidence level of maxent's and loss's intervals, between 0 and 1 (default 0.95)")
     fit.add_argument("--resamples", type=int, default=200, metavar="N",
                      help="bootstrap resamples for those intervals, at least 20 (default 200)")
