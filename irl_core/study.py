@@ -122,8 +122,12 @@ def load_study(path: str | Path) -> LoadedStudy:
         raise StudyError(f"{path}: {describe_validation_error(exc)}") from None
     worlds = []
     for i, entry in enumerate(study.worlds):
+        source = _world_source(entry, path.parent)
+        if not isinstance(source, str) and not source.exists():
+            raise StudyError(f"{path}: worlds[{i}]: {printable(entry, limit=VALUE_LIMIT)!r} is neither a built-in world "
+                             f"({', '.join(BUILTIN_WORLDS)}) nor a world file (looked for {source})")
         try:
-            worlds.append(load_world(_world_source(entry, path.parent)))
+            worlds.append(load_world(source))
         except WorldError as exc:
             raise StudyError(f"{path}: worlds[{i}]: {exc}") from None
     return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)

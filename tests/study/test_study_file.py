@@ -27,7 +27,7 @@ def test_a_study_file_reads_with_worlds_relative_to_it(tmp_path):
     ('worlds = ["paper"]\nepisodes = 0', "pilot.toml: episodes: Input should be greater than or equal to 1"),
     ('worlds = ["paper"]\nepisodes = "5"', "pilot.toml: episodes: Input should be a valid integer"),
     ('worlds = ["paper"]\nparticipants = 3', "pilot.toml: participants: Extra inputs are not permitted"),
-    ('worlds = ["paper", "nowhere.toml"]', "pilot.toml: worlds[1]: no world named"),
+    ('worlds = ["paper", "nowhere.toml"]', "pilot.toml: worlds[1]: 'nowhere.toml' is neither a built-in world"),
     ('worlds = ["paper"', "pilot.toml: not valid TOML"),
 ])
 def test_a_bad_study_file_is_one_line_naming_file_and_field(tmp_path, text, message):
