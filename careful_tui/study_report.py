@@ -88,7 +88,6 @@ def run_study_report(args: argparse.Namespace) -> int:
         if not out_console.is_terminal:
             out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
         out_console.print(report_table(data, fits))
-        out.mkdir(parents=True, exist_ok=True)
         progress.update(task, description="drawing figures", completed=0, total=None)
         start = time.perf_counter()
         timings.written = write_report(data, fits, out)
@@ -105,6 +104,7 @@ def run_study_report(args: argparse.Namespace) -> int:
 def write_report(data: StudyData, fits: list[CellFit], out: Path) -> list[Path]:
     """The CSV and every figure, in `out` (through the output guard); returns the files written."""
     inputs = [data.study.path]
+    out.mkdir(parents=True, exist_ok=True)
     columns, rows = report_rows(data, fits)
     written = [write_output(out / "report.csv", csv_text(columns, rows), option="--out", inputs=inputs)]
     from careful_tui.figures.study_figures import report_figures
