@@ -130,7 +130,19 @@ def interval_caption(fits: list[CellFit]) -> str:
         kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes) for maxent and loss fits")
     if any(f.interval_kind == "identified" for f in fits):
         kinds.append("identified set for lp fits")
-    return "[low, high]: " + "; ".join(kinds) if kinds else "no intervals could be computed"
+    return "[low, high]: " + "; ".join(kinds) if kinds else "No intervals could be computed"
+
+
+def table_caption(data: StudyData, fits: list[CellFit]) -> str:
+    """What the table's brackets, columns and marks mean, as far as this report has them."""
+    parts = [interval_caption(fits), "Careful: mean carefulness one step from a terminal cell",
+             "Interrupted episodes are counted, not fitted"]
+    boxed = [f for f in fits if f.intervals is not None and (abs(f.intervals) >= f.rmax * (1 - 1e-9)).any()]
+    if boxed:
+        parts.append(f"An end at ±{boxed[0].rmax:g} is the fit's bound (--rmax), not a bound from the data")
+    if data.left_out:
+        parts.append("*: a file of this participant was left out (named above the table)")
+    return ". ".join(parts) + "."
 
 
 def report_table(data: StudyData, fits: list[CellFit]) -> Table:
@@ -139,8 +151,7 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
     symbols = report_symbols(study, fits)
     table = Table(title=Text(f"study {printable(study.study.name, limit=80)}: main-phase episodes, fitted per "
                              "participant and pooled"),
-                  caption=Text(f"{interval_caption(fits)}. careful: mean carefulness next to a terminal cell. "
-                               "Interrupted episodes are counted, not fitted."),
+                  caption=Text(table_caption(data, fits)),
                   header_style="bold", box=box.SIMPLE_HEAD, padding=(0, 1))
     for name in ("participant", "world", "episodes", "steps", "outcomes", "careful", "fit"):
         table.add_column(name, justify="right" if name in ("episodes", "steps", "careful") else "left")

@@ -15,7 +15,6 @@ from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
 
 from careful_tui.figures.board import Board
 from careful_tui.figures.carefulness import CarefulnessByDistance, draw_carefulness
@@ -28,7 +27,7 @@ from careful_tui.figures.heatmap import (
     reward_limit,
     reward_norm,
 )
-from careful_tui.figures.style import OKABE_ITO, PAGE_WIDTH, QUIET, figure_style, new_figure
+from careful_tui.figures.style import PAGE_WIDTH, QUIET, figure_style, new_figure
 
 SUPTITLE_HEIGHT = 0.3  # inches
 CAREFULNESS_PANEL_HEIGHT = 0.95  # inches per row of carefulness panels
@@ -79,8 +78,7 @@ def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *
         reference: (label, data) drawn faintly in every panel (e.g. everyone pooled).
     """
     n_rows, n_cols = _grid_shape(len(panels), columns)
-    height = n_rows * CAREFULNESS_PANEL_HEIGHT + AXIS_LABEL_HEIGHT + (SUPTITLE_HEIGHT if title else 0) + 0.2
-    colour = OKABE_ITO[1]
+    height = n_rows * CAREFULNESS_PANEL_HEIGHT + AXIS_LABEL_HEIGHT + SUPTITLE_HEIGHT * 2
     with figure_style():
         figure = new_figure(PAGE_WIDTH, height)
         axes = figure.subplots(n_rows, n_cols, squeeze=False, sharex=True, sharey=True)
@@ -95,10 +93,9 @@ def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *
             ax.set_visible(False)
         figure.supxlabel("steps to the nearest terminal cell", fontsize=7)
         figure.supylabel("mean carefulness level", fontsize=7)
-        handles = [Line2D([], [], color=colour, marker="o", markersize=3, label="participant: mean ± 95% interval")]
+        # The key goes under the title as words: a legend box collides with the title or the axis label.
+        key = "blue: the participant's mean carefulness ± 95% interval"
         if reference is not None:
-            handles.append(Line2D([], [], color=QUIET, linewidth=1.6, alpha=0.6, label=reference[0]))
-        figure.legend(handles=handles, loc="outside upper center", ncol=len(handles))
-        if title:
-            figure.suptitle(title, fontsize=7)
+            key += f"; grey: {reference[0]}"
+        figure.suptitle(f"{title}\n{key}" if title else key, fontsize=7)
     return figure
