@@ -84,20 +84,26 @@ def run_study_report(args: argparse.Namespace) -> int:
         fits = run_fits(list(data.cells), options, workers=args.workers,
                         progress=lambda done, total: progress.update(task, completed=done))
         timings.fits = time.perf_counter() - start
-        out_console = Console(highlight=False)
-        if not out_console.is_terminal:
-            out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
-        out_console.print(report_table(data, fits))
         progress.update(task, description="drawing figures", completed=0, total=None)
         start = time.perf_counter()
-        timings.written = write_report(data, fits, out)
+        try:
+            timings.written = write_report(data, fits, out)
+        except OSError as exc:
+            raise UsageError(f"--out {printable(str(out), limit=160)}: cannot write there "
+                             f"({exc.strerror or exc})") from None
         timings.figures = time.perf_counter() - start
-    left_out = len([p for p in data.problems if p.endswith("left out")])
+    # The table goes out once the progress display on stderr is gone, so the two never interleave.
+    out_console = Console(highlight=False)
+    if not out_console.is_terminal:
+        out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
+    out_console.print(report_table(data, fits))
+    left_out = sum(data.left_out.values())
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
         f"{len(data.participants)} participants, {len(fits)} fits; reading {timings.reading:.1f} s, "
         f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s"
-        + (f"; {left_out} file{'s' * (left_out != 1)} left out (named above)" if left_out else "")), soft_wrap=True)
+        + (f"; {left_out} file{'s' * (left_out != 1)} left out (named above the table)" if left_out else "")),
+        soft_wrap=True)
     return EXIT_OK
 
 

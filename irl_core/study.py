@@ -124,7 +124,8 @@ def load_study(path: str | Path) -> LoadedStudy:
     for i, entry in enumerate(study.worlds):
         source = _world_source(entry, path.parent)
         if not isinstance(source, str) and not source.exists():
-            raise StudyError(f"{path}: worlds[{i}]: {printable(entry, limit=VALUE_LIMIT)!r} is neither a built-in world "
+            shown = printable(entry, limit=VALUE_LIMIT)
+            raise StudyError(f"{path}: worlds[{i}]: {shown!r} is neither a built-in world "
                              f"({', '.join(BUILTIN_WORLDS)}) nor a world file (looked for {source})")
         try:
             worlds.append(load_world(source))
@@ -182,12 +183,14 @@ def world_order(study: Study, participant: str) -> list[int]:
 
 @dataclass(frozen=True)
 class ParticipantRecordings:
-    """The study recordings in a participant's folder, and the files left out (one line each)."""
+    """The study recordings in a participant's folder; `problems` names each file left out (and
+    any reader warning) in one line, `left_out` counts the files left out."""
 
     participant: str
     folder: Path
     recordings: tuple[tuple[StudyTag, Recording], ...]
     problems: tuple[str, ...]
+    left_out: int = 0
 
 
 def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordings:
@@ -200,7 +203,8 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
     folder = study.participant_folder(participant)
     found: list[tuple[StudyTag, Recording]] = []
     problems: list[str] = []
-    for path in sorted(folder.glob("*.jsonl")) if folder.is_dir() else []:
+    paths = sorted(folder.glob("*.jsonl")) if folder.is_dir() else []
+    for path in paths:
         try:
             recording = read_recording(path)
         except EmptyRecording:
@@ -215,7 +219,7 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
             problems.append(f"{path}: {problem}; left out")
             continue
         found.append((recording.header.study, recording))
-    return ParticipantRecordings(participant, folder, tuple(found), tuple(problems))
+    return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
 
 
 def _foreign(study: LoadedStudy, participant: str, recording: Recording) -> str | None:

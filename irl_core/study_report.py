@@ -53,7 +53,7 @@ class Cell:
         outcomes: finished episodes per terminal symbol, and `STEP_LIMIT`.
         careful_next_to_terminal: mean carefulness of the steps taken next to a terminal cell
             (one grid step away), or None when there were none.
-        participants: how many participants the cell holds (1, or the pool's size).
+        participants: how many participants the cell holds (1, or how many have episodes in the pool).
     """
 
     participant: str
@@ -76,7 +76,7 @@ class StudyData:
     participants: tuple[str, ...]
     cells: tuple[Cell, ...]
     problems: tuple[str, ...]
-    left_out: dict[str, int]  # participant -> files left out
+    left_out: dict[str, int]  # participant -> files left out (participants with none are not listed)
 
     def cell(self, participant: str, world_index: int) -> Cell:
         return next(c for c in self.cells if c.participant == participant and c.world_index == world_index)
@@ -110,8 +110,8 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
     for n, participant in enumerate(ids, 1):
         found = read_participant(study, participant)
         problems.extend(found.problems)
-        if found.problems:
-            left_out[participant] = sum(1 for p in found.problems if p.endswith("left out"))
+        if found.left_out:
+            left_out[participant] = found.left_out
         mine: dict[int, list[Recording]] = {i: [] for i in range(len(study.worlds))}
         for tag, recording in found.recordings:
             if tag.phase == "main":
@@ -123,7 +123,8 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
             progress(n, len(ids))
     for world_index, recordings in per_world.items():
         pooled = _cell(study, POOLED, world_index, recordings)
-        cells.append(dataclasses.replace(pooled, participants=len(ids)))
+        contributing = sum(1 for cell in cells if cell.world_index == world_index and cell.episodes)
+        cells.append(dataclasses.replace(pooled, participants=contributing))
     # World by world: its participants in name order, then its pool.
     cells.sort(key=lambda cell: (cell.world_index, cell.participant == POOLED))
     return StudyData(study=study, participants=tuple(ids), cells=tuple(cells), problems=tuple(problems),
@@ -203,7 +204,8 @@ def fit_cell(cell: Cell, options: FitOptions) -> CellFit:
                    symbols=tuple(result.unknowns.symbols), estimate=result.theta.copy(),
                    intervals=None if result.intervals is None else np.asarray(result.intervals, dtype=float),
                    truth=result.unknowns.true_theta(result.mdp), interval_kind=result.interval_kind,
-                   confidence=options.confidence, rmax=options.rmax, reward_grid=result.reward_grid, notes=tuple(result.notes),
+                   confidence=options.confidence, rmax=options.rmax, reward_grid=result.reward_grid,
+                   notes=tuple(result.notes),
                    elapsed_s=result.elapsed_s)
 
 

@@ -24,6 +24,11 @@ from irl_core.safe_text import printable
 from irl_core.study_report import POOLED, CellFit, StudyData
 
 
+def plain(text: str, *, limit: int = 40) -> str:
+    """Text from a file for a figure: control characters escaped, and `$` kept from starting mathtext."""
+    return printable(text, limit=limit).replace("$", r"\$")
+
+
 def world_key(data: StudyData, world_index: int) -> str:
     """``w0-paper``: the world's index in the study file and its name, as a file-name piece."""
     return f"w{world_index}-{slug(data.study.worlds[world_index].name, default='world')}"
@@ -45,11 +50,12 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
         mine = [(cell, fit) for cell, fit in zip(data.cells, fits) if cell.world_index == world_index]
         board = Board.of(world)
         key = world_key(data, world_index)
-        name = printable(world.name, limit=40)
+        name = plain(world.name)
         panels = [("true (world file)", board.rewards(world))] if world.rewards else []
         panels += [(_who(cell), fit.reward_grid) for cell, fit in mine if fit.reward_grid is not None]
         if panels:
-            title = f"{name}: fitted reward per participant ({method_phrase([f for _, f in mine])}, one value per symbol)"
+            how = method_phrase([f for _, f in mine])
+            title = f"{name}: fitted reward per participant ({how}, one value per symbol)"
             figures.append((f"rewards-{key}", reward_multiples(panels, board, title=title)))
         played = [cell for cell, _ in mine if cell.demos is not None]
         if world.levels > 1 and played:
@@ -76,11 +82,11 @@ def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple
     for cell, fit in zip(data.cells, fits):
         if cell.participant != POOLED or fit.intervals is None:
             continue
-        rows = [IntervalRow(SYMBOL_NAMES.get(symbol, printable(symbol)), symbol, float(low), float(high),
+        rows = [IntervalRow(SYMBOL_NAMES.get(symbol, plain(symbol)), symbol, float(low), float(high),
                             float(estimate), float(truth))
                 for symbol, (low, high), estimate, truth in zip(fit.symbols, fit.intervals, fit.estimate, fit.truth)]
         world = data.study.worlds[cell.world_index]
-        title = f"{printable(world.name, limit=40)}: pooled over {cell.participants} participants, {cell.episodes} episodes"
+        title = f"{plain(world.name)}: pooled over {cell.participants} participants, {cell.episodes} episodes"
         by_kind.setdefault(fit.interval_kind, []).append((title, rows))
         if fit.interval_kind == "confidence":
             confidence = fit.confidence

@@ -115,3 +115,35 @@ def test_a_bad_study_file_or_no_participants_exits_2_with_one_line(tmp_path, cap
     assert "no participant folders" in capsys.readouterr().err
     assert main(["study", "report", str(empty), "--resamples", "5"]) == 2
     assert "--resamples must be at least 20" in capsys.readouterr().err
+
+
+def test_the_figures_show_each_participant_the_pool_and_the_truth(study_path):
+    """Figures drawn from given fits (no fitting): which panels there are, and what the cells hold."""
+    from careful_tui.figures.study_figures import plain, report_figures
+    from irl_core.study_report import CellFit
+
+    data = gather(load_study(study_path))
+    fits = []
+    for cell in data.cells:
+        world = data.study.worlds[cell.world_index]
+        symbols = tuple(s for s in ("C", "U", "G") if s in world.layout)
+        estimate = np.array([-900.0 - cell.world_index, -30.0, 90.0][: len(symbols)] if len(symbols) == 3
+                            else [-900.0, 90.0])
+        grid = np.array([[estimate[symbols.index(ch)] if ch in symbols else 0.0 for ch in row] for row in world.grid])
+        fits.append(CellFit(method="maxent", beta=0.5, beta_auto=True, symbols=symbols, estimate=estimate,
+                            intervals=np.stack([estimate - 50, estimate + 50], axis=1), truth=estimate,
+                            interval_kind="confidence", rmax=5000.0, reward_grid=grid))
+    figures = dict(report_figures(data, fits))
+    assert sorted(figures) == ["carefulness-w0-paper", "carefulness-w1-mud", "intervals-pooled",
+                               "rewards-w0-paper", "rewards-w1-mud"]
+    titles = [ax.get_title() for ax in figures["rewards-w1-mud"].axes if ax.get_visible() and ax.get_title()]
+    assert titles == ["true (world file)", "sim01", "sim02", "sim03", "pooled (3)"]
+    sim02 = next(ax for ax in figures["rewards-w1-mud"].axes if ax.get_title() == "sim02")
+    assert sim02.images[0].get_array()[3, 1] == -901.0  # the cliff cell shows that participant's fitted cliff
+    careful = [ax.get_title() for ax in figures["carefulness-w0-paper"].axes if ax.get_visible()]
+    assert careful == ["sim01", "sim02", "sim03"]
+    panels = [ax for ax in figures["intervals-pooled"].axes if ax.get_title()]
+    assert [ax.get_title() for ax in panels] == ["paper: pooled over 3 participants, 12 episodes",
+                                                 "mud: pooled over 3 participants, 12 episodes"]
+    assert [t.get_text() for t in panels[1].get_yticklabels()] == ["cliff", "mud", "goal"]
+    assert plain("a$b\x1b") == "a\\$b\\x1b"
