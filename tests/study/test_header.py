@@ -47,3 +47,15 @@ def test_a_bad_study_field_is_named_with_file_and_line(tmp_path, change, field, 
         read_recording(path)
     assert str(caught.value).startswith(f"{path}:1: {field}: ")
     assert problem in str(caught.value)
+
+
+def test_export_adds_the_study_columns_from_a_real_study_header(tmp_path):
+    from irl_core.export import CSV_COLUMNS, STUDY_COLUMNS, csv_columns, csv_rows
+    from irl_core.study import load_study
+    from study.conftest import write_block, write_study
+
+    study = load_study(write_study(tmp_path))
+    path = write_block(study, "p7", 1, "main", name="a.jsonl", finished=2)
+    recording = read_recording(path)
+    assert csv_columns([recording]) == CSV_COLUMNS + STUDY_COLUMNS
+    assert [row[-4:] for row in csv_rows(recording, study_columns=True)] == [["pilot", "p7", "main", "1"]] * 2
