@@ -23,7 +23,7 @@ import numpy as np
 
 from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitError, FitOptions, fit
-from irl_core.irl.bootstrap import _context
+from irl_core.irl.bootstrap import process_context
 from irl_core.step_table import StepTable
 from irl_core.study import REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
     interrupted_episodes, read_participant
@@ -226,7 +226,7 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
             if progress:
                 progress(done, len(cells))
         return fits
-    with ProcessPoolExecutor(max_workers=workers, mp_context=_context()) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=process_context()) as pool:
         futures = {pool.submit(fit_cell, cells[i], options): i for i in order}
         for future in as_completed(futures):
             fits[futures[future]] = future.result()
