@@ -123,7 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--intervals", action="store_true",
                      help="an interval per unknown: for lp every value the demonstrations allow (identified set); "
                      "for maxent and loss a confidence interval from resampling whole episodes")
-    fit.add_argument("--confidence", type=float, default=0.95, metavar="P",
+    fit.add_argument("--confidence", type=finite_float, default=0.95, metavar="P",
                      help="confidence level of maxent's and loss's intervals, between 0 and 1 (default 0.95)")
     fit.add_argument("--resamples", type=int, default=200, metavar="N",
                      help="bootstrap resamples for those intervals, at least 20 (default 200)")
@@ -164,6 +164,27 @@ def build_parser() -> argparse.ArgumentParser:
                         help="csv: one row per step; minari: a Minari dataset, one episode per recorded episode")
     export.add_argument("--out", required=True, metavar="PATH|DATASET_ID",
                         help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0")
+
+    study = commands.add_parser("study", help="studies: one protocol for many participants, one report", description=(
+        "Studies (a study file names the worlds, their order, practice and main episodes per world). "
+        "'careful study report' fits every participant and the pool of them; running participants "
+        "('careful study run') is not built yet."))
+    study_commands = study.add_subparsers(dest="study_command", metavar="COMMAND", required=True)
+    report = study_commands.add_parser("report", help="fit every participant and the pool, per world", description=(
+        "Fit the main-phase episodes of every participant folder under the study's out folder, per world, and "
+        "every world's pool of them, with 95% confidence intervals (maxent, beta estimated, one reward per symbol; "
+        "lp with its identified set for a deterministic player). Prints a table, and writes report.csv and the "
+        "figures (PNG and PDF) to <out>/report/. A file that cannot be used is named and left out."))
+    report.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
+    report.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help="folder for report.csv and the figures (default: <the study's out>/report/)")
+    report.add_argument("--resamples", type=int, default=200, metavar="N",
+                        help="bootstrap resamples per fit, at least 20 (default 200)")
+    report.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the resampling (default 0)")
+    report.add_argument("--workers", type=positive_int, default=None, metavar="N",
+                        help="processes for the fits (default: every core)")
+    report.add_argument("--rmax", type=positive_float, default=5000.0, metavar="X",
+                        help="bound |R_S| <= rmax for every fit (default 5000, so a cliff at -1000 lies well inside)")
     return parser
 
 
@@ -215,6 +236,7 @@ COMMANDS = {
     "worlds": _lazy("careful_tui.commands.worlds", "run_worlds"),
     "experiment": _lazy("careful_tui.commands.experiment", "run_experiment"),
     "export": _lazy("careful_tui.commands.export", "run_export"),
+    "study": _lazy("careful_tui.study_report", "run_study"),
 }
 
 

@@ -27,9 +27,10 @@ import numpy as np
 import scipy.sparse as sp
 from pydantic import Field, TypeAdapter, ValidationError
 
-from irl_core.mdp import DIRECTIONS, MDP, build_mdp
+from irl_core.line_checks import LineChecker, Mismatch
+from irl_core.mdp import MDP, build_mdp
 from irl_core.safe_files import open_regular
-from irl_core.recording_lines import SCHEMA_VERSION, EpisodeEnd, SessionHeader, Step, _Line
+from irl_core.recording_lines import SCHEMA_VERSION, EpisodeEnd, SessionHeader, Step, StudyTag, _Line  # noqa: F401 (read from here)
 from irl_core.safe_text import VALUE_LIMIT, cut, printable
 from irl_core.step_table import StepTable
 from irl_core.world import World, field_path
@@ -54,8 +55,9 @@ def to_json_line(line: _Line) -> str:
         ValueError: a number JSON cannot hold (NaN, Infinity); nothing is written for it.
     """
     data = line.model_dump(mode="json", by_alias=True)
-    if data.get("realised", "") is None:
-        del data["realised"]
+    for optional in ("realised", "study"):
+        if data.get(optional, "") is None:
+            del data[optional]
     return json.dumps(data, ensure_ascii=False, allow_nan=False) + "\n"
 
 
@@ -312,7 +314,8 @@ class Recording:
     @property
     def episodes(self) -> list[int]:
         """Episode numbers that have a step or an end, in order (the reader checks that order)."""
-        return sorted({*self.steps.column("episode").tolist(), *(e.episode for e in self.episode_ends)})
+        ends = np.array([e.episode for e in self.episode_ends], dtype=np.int64)
+        return np.union1d(self.steps.column("episode"), ends).tolist()
 
 
 def read_recording(path: str | Path, *, progress: Callable[[int], None] | None = None) -> Recording:
@@ -370,18 +373,21 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
                 raise RecordingError(path, number, None, "a line must be a JSON object")
             if recording is None:
                 recording = Recording(path=path, header=_read_header(obj, path, number))
-                checker = _LineChecker(build_mdp(recording.world), path)
+                checker = LineChecker(build_mdp(recording.world))
                 continue
             try:
                 line = _BODY.validate_python(obj)
             except ValidationError as exc:
                 raise _line_error(path, number, exc, obj) from None
-        if isinstance(line, Step):
-            checker.step(line, number)
-            recording.steps.append(line)
-        else:
-            checker.end(line, number)
-            recording.episode_ends.append(line)
+        try:
+            if isinstance(line, Step):
+                checker.step(line, number)
+                recording.steps.append(line)
+            else:
+                checker.end(line, number)
+                recording.episode_ends.append(line)
+        except Mismatch as exc:
+            raise RecordingError(path, exc.line, exc.field, exc.problem) from None
     if progress is not None:
         progress(unreported)
     if recording is None:
@@ -480,83 +486,6 @@ def _line_error(path: Path, number: int, exc: ValidationError, obj: dict) -> Rec
     elif "input" in first and first["type"] != "extra_forbidden":
         problem = f"{problem} (got {_brief(first['input'])})"
     return RecordingError(path, number, name, problem)
-
-
-class _LineChecker:
-    """Checks that a step is a move the header's world can make, and that lines agree.
-
-    Episodes come in increasing order; within one, `t` counts 0, 1, 2, ...; each step starts
-    where the previous one ended; nothing of an episode follows its `episode_end`.
-    """
-
-    def __init__(self, mdp: MDP, path: Path):
-        self.mdp, self.path = mdp, path
-        self._neighbours = mdp.neighbour.tolist()
-        self._episode: int | None = None
-        self._next_t = 0
-        self._cell: tuple[int, int] | None = None
-        self._ended_on: int | None = None
-
-    def _error(self, number: int, field: str, problem: str) -> RecordingError:
-        return RecordingError(self.path, number, field, problem)
-
-    def _enter(self, episode: int, number: int) -> None:
-        """Move on to `episode` if it is a new one; refuse one that comes back or has ended."""
-        if episode == self._episode:
-            if self._ended_on is not None:
-                raise self._error(number, "episode", f"episode {episode} already ended on line {self._ended_on}")
-            return
-        if self._episode is not None and episode < self._episode:
-            raise self._error(number, "episode", f"episode {episode} comes after episode {self._episode}: "
-                              "episodes must be in order")
-        self._episode, self._next_t, self._cell, self._ended_on = episode, 0, None, None
-
-    def step(self, step: Step, number: int) -> None:
-        self._check_move(step, number)
-        self._enter(step.episode, number)
-        if step.t != self._next_t:
-            what = "repeats" if step.t < self._next_t else "skips"
-            raise self._error(number, "t", f"{step.t} {what} a step: episode {step.episode}'s next step is "
-                              f"t = {self._next_t}")
-        if self._cell is not None and step.state != self._cell:
-            raise self._error(number, "state", f"{list(step.state)} is not where the previous step ended "
-                              f"({list(self._cell)})")
-        self._next_t += 1
-        self._cell = step.next_state
-
-    def end(self, end: EpisodeEnd, number: int) -> None:
-        self._enter(end.episode, number)
-        self._ended_on = number
-
-    def _check_move(self, step: Step, number: int) -> None:
-        world, mdp = self.mdp.world, self.mdp
-        if step.carefulness > world.levels:
-            raise self._error(number, "carefulness", f"{step.carefulness} is above the world's {world.levels} levels")
-        for name in ("state", "next_state"):
-            cell = getattr(step, name)
-            if cell not in mdp.state_of:
-                what = "a wall" if 0 <= cell[0] < world.rows and 0 <= cell[1] < world.cols else "outside the grid"
-                raise self._error(number, name, f"{list(cell)} is {what} ({world.rows}x{world.cols})")
-        s = mdp.state_of[step.state]
-        if not mdp.nonterminal[s]:
-            raise self._error(number, "state", f"{list(step.state)} is a terminal cell: no move starts there")
-        # A halving world may slip in any direction; a world without slip only goes the chosen way.
-        reachable = self._neighbours[s]
-        if world.slip == "none":
-            reachable = [reachable[DIRECTIONS.index(step.direction)]]
-        if mdp.state_of[step.next_state] not in reachable:
-            raise self._error(number, "next_state", f"the world cannot move from {list(step.state)} to "
-                              f"{list(step.next_state)} going {step.direction} in one step")
-        if step.realised is not None:
-            if world.slip == "none" and step.realised != step.direction:
-                raise self._error(number, "realised", f"{step.realised}, but this world never slips "
-                                  f"(the move was {step.direction})")
-            if mdp.state_of[step.next_state] != self._neighbours[s][DIRECTIONS.index(step.realised)]:
-                raise self._error(number, "next_state", f"{list(step.next_state)} is not where going "
-                                  f"{step.realised} from {list(step.state)} leads")
-            if step.slipped != (step.realised != step.direction):
-                raise self._error(number, "slipped", f"{str(step.slipped).lower()}, but the move went "
-                                  f"{step.realised} for {step.direction}")
 
 
 # ---------------------------------------------------------------------------- using

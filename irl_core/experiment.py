@@ -110,6 +110,7 @@ class Separation:
     seconds: float
     kind: str = "identified"
     data: str = ""
+    rmax: float | None = None  # the fit's bound |R_S| <= rmax: an end there is the bound's, not the data's
 
     @property
     def separated(self) -> bool:
@@ -295,7 +296,8 @@ def run_experiment(
         demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=sizes.interval_episodes, seed=seed))
         result = fit(demos, method="lp", intervals=True)
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
-                                          time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes"))
+                                          time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes",
+                                          rmax=result.options.rmax))
         out.figures.append(_fitted(result, f"Intervals on {name}: lp estimate", f"intervals-{name}",
                                    _interval_caption(out.separations[-1])))
 
@@ -315,7 +317,8 @@ def run_experiment(
         if any("not identified" in note for note in result.notes):
             data += "; beta is not identified here, so only the signs and ratios of the rewards mean anything"
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
-                                          time.perf_counter() - t, kind="confidence", data=data))
+                                          time.perf_counter() - t, kind="confidence", data=data,
+                                          rmax=options.rmax))
         out.figures.append(_fitted(result, f"Confidence intervals on {name}: maxent from noisy experts",
                                    f"intervals-noisy-{name}", _interval_caption(out.separations[-1])))
         out.notes += [f"noisy {name}: {note}" for note in result.notes if "not identified" in note]
@@ -375,5 +378,12 @@ def _interval_caption(s: Separation) -> str:
                    else "disjoint, but the mud comes out worse than the cliff")
     else:
         verdict = "overlapping: these demonstrations cannot tell the cliff from the mud"
-    return (f"{what}: cliff between {s.cliff[0]:.0f} and {s.cliff[1]:.0f}; mud between {s.mud[0]:.0f} "
-            f"and {s.mud[1]:.0f}; {verdict}.")
+    caption = (f"{what}: cliff between {s.cliff[0]:.0f} and {s.cliff[1]:.0f}; mud between {s.mud[0]:.0f} "
+               f"and {s.mud[1]:.0f}; {verdict}.")
+    if s.rmax is not None:
+        at_bound = [f"the {name}'s {end:.0f}" for name, interval in (("cliff", s.cliff), ("mud", s.mud))
+                    for end in interval if abs(end) >= s.rmax * (1 - 1e-9)]
+        if at_bound:
+            caption += (f" At ±{s.rmax:.0f}, {' and '.join(at_bound)} {'is' if len(at_bound) == 1 else 'are'} "
+                        "the bound of the fit, not a value the data set.")
+    return caption

@@ -167,13 +167,17 @@ def write_rollouts(
     player: str,
     seed: int,
     progress: Callable[[int], None] | None = None,
+    header: SessionHeader | None = None,
 ) -> Path:
     """Write rollouts as a SPEC section 2 session file (never overwriting).
 
     Args:
         progress: called with the number of episodes written so far, now and then.
+        header: the session header to write instead of `session_header(mdp, player, seed)`
+            (a simulated study participant's, which carries a ``study`` field).
     """
-    with RecordingWriter(path, session_header(mdp, player=player, seed=seed), sync_episodes=False) as writer:
+    header = header or session_header(mdp, player=player, seed=seed)
+    with RecordingWriter(path, header, sync_episodes=False) as writer:
         _write_block(writer, mdp, result, first_episode=0, progress=progress)
     return Path(path)
 

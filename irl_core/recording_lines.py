@@ -21,6 +21,19 @@ class _Line(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=True, allow_inf_nan=False)
 
 
+class StudyTag(_Line):
+    """A study session's place in its study (SPEC section 8): the header's optional ``study`` field.
+
+    `world_index` is the world's index in the study file's ``worlds`` list (not its place in a
+    participant's shuffled order), so that a world is the same index for every participant.
+    """
+
+    name: str
+    participant: str
+    phase: Literal["practice", "main"]
+    world_index: int = Field(ge=0)
+
+
 class SessionHeader(_Line):
     kind: Literal["session"] = "session"
     schema_version: int = Field(SCHEMA_VERSION, alias="schema")
@@ -30,6 +43,8 @@ class SessionHeader(_Line):
     seed: int | None = None
     input: dict[str, Any] = Field(default_factory=lambda: {"mode": "hold"})
     app_version: str = ""
+    # Only in a study's recordings; a header without it reads (and is written) as before.
+    study: StudyTag | None = None
 
 
 class Step(_Line):

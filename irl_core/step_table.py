@@ -93,8 +93,36 @@ class StepTable(Sequence):
         for i in range(self._size):
             yield self[i]
 
+    def window(self, start: int, stop: int) -> StepWindow:
+        """Steps `start` to `stop` (not included) as a sequence that builds each `Step` when asked."""
+        return StepWindow(self, start, stop)
+
     def __bool__(self) -> bool:
         return self._size > 0
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Sequence) and len(self) == len(other) and list(self) == list(other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+class StepWindow(Sequence):
+    """A run of a `StepTable`'s steps (one episode's), without copying them."""
+
+    def __init__(self, table: StepTable, start: int, stop: int) -> None:
+        self._table, self._start, self._stop = table, start, stop
+
+    def __len__(self) -> int:
+        return self._stop - self._start
+
+    def __getitem__(self, index: int | slice) -> Any:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        if index < 0:
+            index += len(self)
+        if not 0 <= index < len(self):
+            raise IndexError("step index out of range")
+        return self._table[self._start + index]
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Sequence) and len(self) == len(other) and list(self) == list(other)

@@ -68,27 +68,35 @@ def outcome_label(outcome: str, symbol: str | None, world: World) -> str:
 
 
 def summarise(recording: Recording) -> SessionSummary:
+    """The session at a glance, from the recording's step columns (no `Step` is built per step)."""
     world = recording.world
     ended = {end.episode: end for end in recording.episode_ends}
     outcomes = Counter(
         outcome_label(ended[e].outcome, ended[e].terminal_symbol, world) if e in ended else "unfinished"
         for e in recording.episodes
     )
-    last_score = None
-    if recording.steps or recording.episode_ends:
-        lines = [*recording.steps, *recording.episode_ends]
-        last_score = max(lines, key=lambda line: (line.episode, line.kind == "episode_end", getattr(line, "t", 0))).score
-    distance = distance_to_terminal(world)
-    by_distance: dict[int, list[int]] = {}
-    for step in recording.steps:
-        if step.state in distance:
-            by_distance.setdefault(distance[step.state], []).append(step.carefulness)
+    steps = recording.steps
+    # The reader keeps lines in order, so the session's last line is its last step or its last end.
+    candidates = []
+    if steps:
+        last = steps[-1]
+        candidates.append(((last.episode, False, last.t), last.score))
+    if recording.episode_ends:
+        end = recording.episode_ends[-1]
+        candidates.append(((end.episode, True, 0), end.score))
+    last_score = max(candidates)[1] if candidates else None
+    grid = np.full((world.rows, world.cols), -1, dtype=np.int64)
+    for cell, d in distance_to_terminal(world).items():
+        grid[cell] = d
+    distance = grid[steps.column("row"), steps.column("col")]
+    reached = distance >= 0
+    counts = np.bincount(distance[reached], minlength=1)
+    totals = np.bincount(distance[reached], weights=steps.column("carefulness")[reached], minlength=1)
     return SessionSummary(
         episodes=len(recording.episodes),
         outcomes=dict(outcomes),
         final_score=last_score,
-        steps=len(recording.steps),
-        slips=sum(step.slipped for step in recording.steps),
-        carefulness_by_distance={d: (float(np.mean(cs)), len(cs)) for d, cs in sorted(by_distance.items())},
+        steps=len(steps),
+        slips=int(steps.column("slipped").sum()),
+        carefulness_by_distance={d: (float(totals[d] / counts[d]), int(counts[d])) for d in np.flatnonzero(counts).tolist()},
     )
-

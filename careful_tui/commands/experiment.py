@@ -18,7 +18,7 @@ from rich.text import Text
 
 from careful_tui.errors import UsageError
 from careful_tui.render.grid import WorldGrid, format_value, symbol_legend
-from irl_core.experiment import FULL, QUICK, ExperimentResult, Figure, _interval_caption, run_experiment as run_stages
+from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, _interval_caption, run_experiment as run_stages
 from irl_core.irl import FitOptions
 from irl_core.safe_files import check_output_folder
 
@@ -88,10 +88,16 @@ def how_to_read(result: ExperimentResult) -> list[str]:
              f"Rewards share one colour scale, symmetric-log from -{vmax:.0f} to {vmax:.0f} (white is 0, "
              "red worse, blue better); terminal cells are outlined, walls hatched. "
              "A policy is an arrow per cell whose width and number give the carefulness level."]
-    if result.separations:
-        lines[0] += (" In an interval plot the bar is every value the demonstrations allow (the lp's "
-                     "identified set), the dot the lp's estimate (mean over the symbol's cells), the tick "
-                     f"the world's value, and a triangle an end at ±{rmax:.0f}: no bound from the data.")
+    kinds = {s.kind for s in result.separations}
+    if kinds:
+        lines[0] += (" In an interval plot (labelled with its kind) each bar is a symbol's interval, the dot "
+                     "the fit's estimate (mean over the symbol's cells) and the tick the world's value.")
+    if "identified" in kinds:
+        lines[0] += (" An identified set's bar is every value the demonstrations allow; a triangle marks an end "
+                     f"at ±{rmax:.0f}, where the data set no bound.")
+    if "confidence" in kinds:
+        lines[0] += (f" A confidence interval's bar is a {NOISY_CONFIDENCE:.0%} bootstrap interval: it covers "
+                     "sampling noise only, and its axis ends just beyond the values drawn.")
     return lines
 
 

@@ -113,6 +113,7 @@ class PlayApp(CarefulApp):
         self._calibrate_at_start = calibrate
         self._last_key_at: float | None = None
         self._shown_view: tuple | None = None
+        self._keys_state: tuple | None = None
         self._flash: Timer | None = None
         self._title_shows: str | None = None
         self.write_error: OSError | ValueError | None = None
@@ -142,7 +143,7 @@ class PlayApp(CarefulApp):
 
     def _check_size(self, width: int, height: int) -> None:
         self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command="careful play")
-        self.refresh_bindings()
+        self._refresh_keys()
 
     # ------------------------------------------------------------------ input
 
@@ -395,4 +396,11 @@ class PlayApp(CarefulApp):
             status.append("\n")
             status.append("Press space for the next episode.", style="dim")
         self.query_one("#status", Static).update(status, layout=False)
-        self.refresh_bindings()
+        self._refresh_keys()
+
+    def _refresh_keys(self) -> None:
+        """Have the key bar ask `check_action` again, when what it answers may have changed."""
+        keys_state = (self.game.live, self.game.t == 0, self._too_small)
+        if keys_state != self._keys_state:
+            self._keys_state = keys_state
+            self.refresh_bindings()

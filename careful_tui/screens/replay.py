@@ -316,7 +316,7 @@ class ReplayApp(CarefulApp):
         if went is None:
             where = f"stayed put instead of going {step.direction}"
         elif step.next_state == step.state:
-            where = f"went {went} into the edge instead of {step.direction}, and stayed put"
+            where = f"went {went} into the edge instead of {step.direction}"
         else:
             where = f"went {went} instead of {step.direction}"
         return Text.assemble(("slipped! ", f"bold {SLIP}"), where)

@@ -15,16 +15,23 @@ with one:
             stays where its last step left it
 ==========  ============================================================================
 
-Episodes are taken in the order they first appear in the file, steps in file order.
+Episodes are taken in the order they first appear in the file, steps in file order (the
+reader checks that an episode's steps are contiguous and in order). Nothing is built per step
+in advance: an episode's steps are a window on the recording's step columns, and a frame is
+worked out from its position, so a recording of millions of steps replays in little memory.
 """
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
+
 from irl_core.demonstrations import EpisodeEnd, Recording, Step
+from irl_core.step_table import StepTable
 
 Cell = tuple[int, int]
 Phase = Literal["before", "after", "end"]
@@ -35,7 +42,7 @@ class Episode:
     """One episode of a recording: its number, its steps, and its end (None: unfinished)."""
 
     number: int
-    steps: tuple[Step, ...]
+    steps: Sequence[Step]
     end: EpisodeEnd | None
 
 
@@ -71,17 +78,24 @@ class Frame:
 
 def group_episodes(steps: Sequence[Step], ends: Sequence[EpisodeEnd]) -> list[Episode]:
     """The episodes of a recording: those with steps in the order of their first step, then
-    those with only an end (as `Recording.episodes` orders them). Steps keep file order; an
-    episode with several ends keeps the first.
+    those with only an end (as `Recording.episodes` orders them). Steps keep file order, each
+    episode's steps contiguous (as the reader checks); an episode with several ends keeps the first.
     """
-    grouped: dict[int, list[Step]] = {}
-    for step in steps:
-        grouped.setdefault(step.episode, []).append(step)
+    if isinstance(steps, StepTable):
+        numbers = steps.column("episode")
+    else:
+        numbers = np.array([step.episode for step in steps], dtype=np.int64)
+    starts = [0, *(np.flatnonzero(np.diff(numbers)) + 1).tolist()] if len(numbers) else []
+    bounds = zip(starts, [*starts[1:], len(numbers)])
+    runs: dict[int, Sequence[Step]] = {
+        int(numbers[start]): steps.window(start, stop) if isinstance(steps, StepTable) else tuple(steps[start:stop])
+        for start, stop in bounds
+    }
     end_of: dict[int, EpisodeEnd] = {}
     for end in ends:
-        grouped.setdefault(end.episode, [])
+        runs.setdefault(end.episode, ())
         end_of.setdefault(end.episode, end)
-    return [Episode(number, tuple(episode_steps), end_of.get(number)) for number, episode_steps in grouped.items()]
+    return [Episode(number, episode_steps, end_of.get(number)) for number, episode_steps in runs.items()]
 
 
 class ReplayCursor:
@@ -94,14 +108,12 @@ class ReplayCursor:
 
     def __init__(self, episodes: Sequence[Episode]) -> None:
         self.episodes = list(episodes)
-        self.frames: list[Frame] = []
+        # An episode of n steps has 2n + 1 frames; these are the positions of each one's first.
         self._episode_start: list[int] = []
-        for index, episode in enumerate(self.episodes):
-            self._episode_start.append(len(self.frames))
-            for t in range(len(episode.steps)):
-                self.frames.append(Frame(episode, index, t, "before"))
-                self.frames.append(Frame(episode, index, t, "after"))
-            self.frames.append(Frame(episode, index, len(episode.steps), "end"))
+        self._frames = 0
+        for episode in self.episodes:
+            self._episode_start.append(self._frames)
+            self._frames += 2 * len(episode.steps) + 1
         self.position = 0
 
     @classmethod
@@ -109,11 +121,18 @@ class ReplayCursor:
         return cls(group_episodes(recording.steps, recording.episode_ends))
 
     def __len__(self) -> int:
-        return len(self.frames)
+        return self._frames
 
     @property
     def frame(self) -> Frame | None:
-        return self.frames[self.position] if self.frames else None
+        if not self._frames:
+            return None
+        index = bisect_right(self._episode_start, self.position) - 1
+        episode = self.episodes[index]
+        offset = self.position - self._episode_start[index]
+        if offset == 2 * len(episode.steps):
+            return Frame(episode, index, len(episode.steps), "end")
+        return Frame(episode, index, offset // 2, "before" if offset % 2 == 0 else "after")
 
     @property
     def at_start(self) -> bool:
@@ -121,11 +140,11 @@ class ReplayCursor:
 
     @property
     def at_end(self) -> bool:
-        return self.position >= len(self.frames) - 1
+        return self.position >= self._frames - 1
 
     def go_to(self, position: int) -> bool:
         """Move to frame `position`, clamped to the frames; whether the position changed."""
-        new = max(0, min(position, len(self.frames) - 1))
+        new = max(0, min(position, self._frames - 1))
         changed = new != self.position
         self.position = new
         return changed
@@ -157,4 +176,4 @@ class ReplayCursor:
         return self.go_to(0)
 
     def to_end(self) -> bool:
-        return self.go_to(len(self.frames) - 1)
+        return self.go_to(self._frames - 1)

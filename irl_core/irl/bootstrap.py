@@ -153,7 +153,7 @@ def bootstrap(
         with contextlib.ExitStack() as stack:
             with _stderr_with_a_descriptor():  # the pool starts its helpers and workers here
                 pool = stack.enter_context(ProcessPoolExecutor(
-                    max_workers=workers, mp_context=_context(), initializer=_install, initargs=(refit, by_episode)))
+                    max_workers=workers, mp_context=process_context(), initializer=_install, initargs=(refit, by_episode)))
                 futures = {pool.submit(_refit_chunk, weights[chunk]): chunk for chunk in chunks}
             for future in as_completed(futures):
                 chunk = futures[future]
@@ -216,7 +216,7 @@ def _stderr_with_a_descriptor() -> Iterator[None]:
         sys.stderr = saved
 
 
-def _context() -> multiprocessing.context.BaseContext:
+def process_context() -> multiprocessing.context.BaseContext:
     """Fork when this process has one thread (quick, and a script without a main guard still
     works); otherwise fork from a server that has imported this module (forking beside other
     threads, such as the fit view's, can deadlock)."""

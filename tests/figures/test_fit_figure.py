@@ -136,3 +136,25 @@ def test_playing_and_the_command_line_do_not_import_matplotlib():
             "careful_tui.render.figures; print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert json.loads(out.replace("'", '"')) == []
+
+
+def test_confidence_intervals_are_labelled_and_drawn_as_the_json_says(tmp_path):
+    from careful_tui.render.figures.fit_figure import fit_figure
+    from irl_core.demonstrations import Demonstrations
+    from irl_core.irl import fit
+
+    path = tmp_path / "noisy.jsonl"
+    assert main(["simulate", "--world", "mud", "--policy", "boltzmann", "--beta", "0.5", "--episodes", "30",
+                 "--seed", "2", "--out", str(path)]) == 0
+    result = fit(Demonstrations.read([path]), method="maxent", beta="auto", tie=True, intervals=True,
+                 resamples=20, workers=1)
+    data = result.to_json()
+    assert data["interval_kind"] == "confidence"
+    ax = next(a for a in fit_figure(result).axes if a.get_label() == "intervals")
+    assert ax.get_title().startswith("95% confidence intervals")
+    labels = [t.get_text() for t in ax.get_yticklabels()]
+    bars = sorted((p for p in ax.patches if type(p).__name__ == "Rectangle"), key=lambda p: p.get_y())
+    first_cell = {"cliff": (3, 1), "mud": (1, 1), "goal": (3, 5)}
+    for label, bar in zip(labels, bars):
+        r, c = first_cell[label]
+        assert (bar.get_x(), bar.get_x() + bar.get_width()) == pytest.approx(tuple(data["interval"][r][c]))

@@ -30,6 +30,7 @@ LAYERS = (
     ("careful_tui.screens", 5),
     ("careful_tui.app", 6),
     ("careful_tui.commands", 7),
+    ("careful_tui.study_report", 7),
     ("careful_tui.cli", 8),
 )
 

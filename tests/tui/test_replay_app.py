@@ -282,7 +282,7 @@ def test_a_good_recording_without_a_terminal_exits_2(tmp_path: Path, capsys) -> 
 
 
 @pytest.mark.parametrize(("realised", "shown"), [
-    ("up", "slipped! went up into the edge instead of right, and stayed put"),
+    ("up", "slipped! went up into the edge instead of right"),
     (None, "slipped! stayed put instead of going right"),  # an older file: no direction to read
 ])
 def test_a_slip_into_the_edge_is_shown_with_the_way_it_went(tmp_path: Path, realised, shown) -> None:

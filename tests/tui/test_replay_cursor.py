@@ -139,3 +139,26 @@ def test_a_recorded_session_gives_two_frames_a_step_and_one_an_episode() -> None
     c.to_end()
     assert c.frame.episode.end == recording.episode_ends[-1]
     assert c.frame.player == recording.steps[-1].next_state
+
+
+def test_a_long_recording_is_replayed_without_building_its_steps(tmp_path: Path, monkeypatch) -> None:
+    from irl_core.experts import optimal_policy, rollouts, write_rollouts
+    from irl_core.mdp import build_mdp
+    from irl_core.step_table import StepTable
+    from irl_core.summary import summarise
+    from irl_core.world import BUILTIN_WORLDS
+
+    mdp = build_mdp(BUILTIN_WORLDS["paper"])
+    path = write_rollouts(tmp_path / "long.jsonl", mdp, rollouts(mdp, optimal_policy(mdp), episodes=2000, seed=0),
+                          player="x", seed=0)
+    recording = read_recording(path)
+    built = []
+    real = StepTable.__getitem__
+    monkeypatch.setattr(StepTable, "__getitem__", lambda self, i: built.append(i) or real(self, i))
+    c = ReplayCursor.from_recording(recording)
+    summary = summarise(recording)
+    c.to_end()
+    c.back()
+    assert len(built) <= 2  # the summary's last step, the frame shown
+    assert where(c) == (1999, len(c.episodes[-1].steps) - 1, "after")
+    assert summary.steps == len(recording.steps) and len(c) == 2 * summary.steps + 2000

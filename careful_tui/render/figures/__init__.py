@@ -12,6 +12,8 @@ writes one in the format its path's suffix names.
 - `intervals`: one row per unknown, interval as a bar, estimate as a dot, truth as a mark.
 - `carefulness`: mean carefulness against distance to the nearest terminal cell.
 - `fit_figure`: the panels of one `careful fit` result in one figure.
+- `small_multiples`: a small panel per participant (rewards, carefulness) on shared scales.
+- `study_figures`: the figures of `careful study report`, named as their files.
 
 This file imports no matplotlib: `careful fit` checks a `--figure` suffix before fitting.
 """

@@ -38,10 +38,10 @@ def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: fl
     separation = interval_result(figure, result)
     if separation is not None:
         rows = separation_rows(separation, figure, board)
+        bound = separation.rmax if separation.rmax is not None else rmax
         if separation.kind == "confidence":
-            # The stage's own bound is not part of its result: the axis follows the values instead.
-            return interval_figure([("", rows)], kind="confidence", confidence=NOISY_CONFIDENCE, rmax=None)
-        return interval_figure([("", rows)], kind=separation.kind, rmax=rmax)
+            return interval_figure([("", rows)], kind="confidence", confidence=NOISY_CONFIDENCE, rmax=bound)
+        return interval_figure([("", rows)], kind=separation.kind, rmax=bound)
     if figure.values is not None:
         return reward_figure([("", figure.values)], board, vmax=shared_scale(result))
     return policy_figure([policy_from_labels(figure, board)], board, levels=figure.world.levels,
@@ -62,9 +62,13 @@ def interval_result(figure: Figure, result: ExperimentResult) -> Separation | No
 
 
 def shared_scale(result: ExperimentResult) -> float:
-    """One colour-scale end for every reward figure of a run: the largest |reward| any of them shows."""
-    grids = [f.values for f in result.figures if f.values is not None]
-    grids += [Board.of(f.world).rewards(f.world) for f in result.figures]
+    """One colour-scale end for every reward figure of a run: the largest |reward| any of them shows.
+
+    Interval figures are not heatmaps, so their values (whose fits may use another bound) do not count.
+    """
+    heatmaps = [f for f in result.figures if interval_result(f, result) is None]
+    grids = [f.values for f in heatmaps if f.values is not None]
+    grids += [Board.of(f.world).rewards(f.world) for f in heatmaps]
     return reward_limit(*grids)
 
 

@@ -29,12 +29,12 @@ from careful_tui.render.figures.intervals import (
     IntervalRow,
     draw_intervals,
     interval_legend,
-    kind_label,
     worst_first,
 )
 from careful_tui.render.figures.policy import NOTE_HEIGHT, draw_policy, policy_note, policy_panel
 from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure
 from careful_tui.render.grid import SYMBOL_NAMES
+from careful_tui.render.intervals import interval_title
 from irl_core.irl import FitResult
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
@@ -69,10 +69,10 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
 
 
 def fitted_cells(result: FitResult) -> str:
-    """Which cells the fit estimated: "ground fixed at 0, the rest fitted", "every cell fitted, one value per symbol"."""
+    """Which cells the fit estimated: "ground fixed at 0", "every cell fitted; one value per symbol"."""
     options = result.options
-    cells = "every cell fitted" if options.reward_cells == "all" else "ground fixed at 0, the rest fitted"
-    return f"{cells}{', one value per symbol' if options.tie else ''}"
+    cells = "every cell fitted" if options.reward_cells == "all" else "ground fixed at 0"
+    return f"{cells}{'; one value per symbol' if options.tie else ''}"
 
 
 def interval_kind(result: FitResult) -> tuple[str, float | None]:
@@ -130,7 +130,7 @@ def fit_figure(result: FitResult) -> Figure:
             ax_careful[0].set_label("carefulness")
         if interval_row:
             ax_int = interval_row[0].subplots()
-            title = f"reward intervals: {kind_label(kind, confidence)}{' (hull per symbol)' if hulls else ''}"
+            title = f"{interval_title(result)}{' (hull per symbol)' if hulls else ''}"
             draw_intervals(ax_int, worst_first(interval_data), rmax=rmax, title=title)
             ax_int.set_label("intervals")
             legend = interval_legend(interval_data, kind=kind, confidence=confidence, rmax=rmax)

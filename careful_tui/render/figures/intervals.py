@@ -9,6 +9,8 @@ An end at ±rmax is not a bound from the data, only the fit's box: a triangle ma
 
 from __future__ import annotations
 
+import math
+
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -106,6 +108,9 @@ def draw_intervals(ax: Axes, rows: Sequence[IntervalRow], *, rmax: float | None,
                 markeredgecolor=INK, markeredgewidth=0.9, zorder=5)
     ax.set_xscale("symlog", linthresh=linthresh, linscale=0.5)
     ticks = symlog_ticks(limit, linthresh=linthresh, ends=False)
+    if limit > 2 * max(ticks) and len(ticks) > 5:
+        # A bound past the last power of ten squeezes the decades: "−1000" would touch "−100".
+        ticks = [t for t in ticks if t == 0 or round(math.log10(abs(t))) % 2 == 1]
     ax.set_xticks(ticks, [value_label(t) for t in ticks])
     ax.xaxis.set_minor_locator(_no_minor())
     ax.set_xlim(-limit * 2.5, limit * 2.5)
@@ -137,8 +142,10 @@ def interval_legend(rows: Sequence[IntervalRow], *, kind: str, confidence: float
         handles.append(Line2D([], [], linestyle="", marker="|", markersize=8, markeredgewidth=1.4,
                               color=INK, label="truth"))
     if any(at_bound(row.low, rmax) or at_bound(row.high, rmax) for row in rows):
+        # An identified set's end on the box is no bound at all; a confidence interval's is the box's.
+        meaning = "no bound" if kind == "identified" else "the fit's bound"
         handles.append(Line2D([], [], linestyle="", marker=">", markersize=4, color="#777777",
-                              label=f"at ±{value_label(rmax)}: no bound"))
+                              label=f"at ±{value_label(rmax)}: {meaning}"))
     return handles
 
 

@@ -1,0 +1,101 @@
+"""Small multiples: one small panel per participant, on shared scales, for a study's report.
+
+- `reward_multiples`: a fitted reward grid per panel (`heatmap.draw_reward`), one colour scale
+  and one colour bar for all, so the same colour is the same reward in every panel.
+- `carefulness_multiples`: mean carefulness against distance to danger per panel
+  (`carefulness.draw_carefulness`), on shared axes, with a reference line (everyone pooled)
+  drawn faintly in each panel so that each participant reads against the group.
+Panels fill rows of `columns` from the top left; a page wide.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from careful_tui.render.figures.board import Board
+from careful_tui.render.figures.carefulness import CarefulnessByDistance, draw_carefulness
+from careful_tui.render.figures.heatmap import (
+    COLOUR_BAR_WIDTH,
+    TITLE_HEIGHT,
+    add_colour_bar,
+    cell_width,
+    draw_reward,
+    reward_limit,
+    reward_norm,
+)
+from careful_tui.render.figures.style import PAGE_WIDTH, QUIET, figure_style, new_figure
+
+SUPTITLE_HEIGHT = 0.3  # inches
+CAREFULNESS_PANEL_HEIGHT = 0.95  # inches per row of carefulness panels
+AXIS_LABEL_HEIGHT = 0.35  # inches for the shared axis labels
+
+
+def _grid_shape(panels: int, columns: int) -> tuple[int, int]:
+    columns = max(1, min(columns, panels))
+    return math.ceil(panels / columns), columns
+
+
+def reward_multiples(panels: Sequence[tuple[str, np.ndarray]], board: Board, *, vmax: float | None = None,
+                     columns: int = 6, title: str | None = None) -> Figure:
+    """Reward grids in rows of `columns`, one colour scale, one colour bar.
+
+    Args:
+        panels: (title, values (rows, cols)) per grid, e.g. [("true", R), ("p01", R_1), ...].
+        vmax: the colour scale's end (default: `reward_limit` of every panel).
+    """
+    n_rows, n_cols = _grid_shape(len(panels), columns)
+    rows, cols = board.shape
+    vmax = reward_limit(*(values for _, values in panels)) if vmax is None else vmax
+    grid_width = (PAGE_WIDTH - COLOUR_BAR_WIDTH) / n_cols * 0.94
+    height = n_rows * (grid_width * rows / cols + TITLE_HEIGHT) + (SUPTITLE_HEIGHT if title else 0.05)
+    with figure_style():
+        figure = new_figure(PAGE_WIDTH, height)
+        axes = figure.subplots(n_rows, n_cols, squeeze=False)
+        norm = reward_norm(vmax)
+        image = None
+        for ax, (label, values) in zip(axes.ravel(), panels):
+            image = draw_reward(ax, values, board, norm=norm, title=label, width=cell_width(grid_width, cols))
+        for ax in axes.ravel()[len(panels):]:
+            ax.set_visible(False)
+        add_colour_bar(figure, image, axes.ravel().tolist(), vmax=vmax)
+        if title:
+            figure.suptitle(title, fontsize=7)
+    return figure
+
+
+def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *, levels: int,
+                          reference: tuple[str, CarefulnessByDistance] | None = None, columns: int = 6,
+                          title: str | None = None) -> Figure:
+    """Mean carefulness against distance to danger, a panel per participant on shared axes.
+
+    Args:
+        panels: (title, data) per panel.
+        levels: L, the top of every y axis.
+        reference: (label, data) drawn faintly in every panel (e.g. everyone pooled).
+    """
+    n_rows, n_cols = _grid_shape(len(panels), columns)
+    height = n_rows * CAREFULNESS_PANEL_HEIGHT + AXIS_LABEL_HEIGHT + SUPTITLE_HEIGHT * 2
+    with figure_style():
+        figure = new_figure(PAGE_WIDTH, height)
+        axes = figure.subplots(n_rows, n_cols, squeeze=False, sharex=True, sharey=True)
+        for ax, (label, data) in zip(axes.ravel(), panels):
+            if reference is not None:
+                ax.plot(reference[1].distance, reference[1].mean, color=QUIET, linewidth=1.6, alpha=0.6, zorder=1)
+            draw_carefulness(ax, [(label, data)], levels=levels, title=label)
+            ax.get_legend().remove()
+            ax.set_xlabel("")
+            ax.set_ylabel("")
+        for ax in axes.ravel()[len(panels):]:
+            ax.set_visible(False)
+        figure.supxlabel("steps to the nearest terminal cell", fontsize=7)
+        figure.supylabel("mean carefulness level", fontsize=7)
+        # The key goes under the title as words: a legend box collides with the title or the axis label.
+        key = "blue: the participant's mean carefulness ± 95% interval"
+        if reference is not None:
+            key += f"; grey: {reference[0]}"
+        figure.suptitle(f"{title}\n{key}" if title else key, fontsize=7)
+    return figure

@@ -1,0 +1,100 @@
+"""The figures of a study's report (`careful study report`), named as the files they become.
+
+Per world ``w<i>-<world>``:
+- ``rewards-...``: the fitted reward of each participant as small multiples, beside the
+  world file's reward and the pooled fit, on one colour scale;
+- ``carefulness-...`` (worlds with carefulness levels): mean carefulness against distance to
+  danger, a panel per participant, everyone pooled as the faint reference line.
+And ``intervals-pooled``: the pooled fit's interval per symbol, a panel per world, labelled with
+the kind of interval (one file per kind when worlds differ: ``intervals-pooled-identified``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from careful_tui.render.figures.board import Board
+from careful_tui.render.figures.carefulness import carefulness_by_distance, state_distances
+from careful_tui.render.figures.intervals import IntervalRow, interval_figure
+from careful_tui.render.figures.small_multiples import carefulness_multiples, reward_multiples
+from careful_tui.render.grid import SYMBOL_NAMES
+from irl_core.demonstrations import slug
+from irl_core.safe_text import printable
+from irl_core.study_report import POOLED, CellFit, StudyData
+
+
+def plain(text: str, *, limit: int = 40) -> str:
+    """Text from a file for a figure: control characters escaped, and `$` kept from starting mathtext."""
+    return printable(text, limit=limit).replace("$", r"\$")
+
+
+def world_key(data: StudyData, world_index: int) -> str:
+    """``w0-paper``: the world's index in the study file and its name, as a file-name piece."""
+    return f"w{world_index}-{slug(data.study.worlds[world_index].name, default='world')}"
+
+
+def method_phrase(fits: list[CellFit]) -> str:
+    """How the fits were made, from the fits themselves: "maxent, beta estimated", "lp and maxent"."""
+    methods = sorted({f.method for f in fits if not f.error})
+    text = " and ".join(methods) or "no fit"
+    if any(f.beta_auto for f in fits):
+        text += ", beta estimated"
+    return text
+
+
+def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figure]]:
+    """(file name without suffix, figure) for every figure of the report."""
+    figures = []
+    for world_index, world in enumerate(data.study.worlds):
+        mine = [(cell, fit) for cell, fit in zip(data.cells, fits) if cell.world_index == world_index]
+        board = Board.of(world)
+        key = world_key(data, world_index)
+        name = plain(world.name)
+        panels = [("true (world file)", board.rewards(world))] if world.rewards else []
+        panels += [(_who(cell), fit.reward_grid) for cell, fit in mine if fit.reward_grid is not None]
+        if panels:
+            how = method_phrase([f for _, f in mine])
+            title = f"{name}: fitted reward per participant ({how}, one value per symbol)"
+            figures.append((f"rewards-{key}", reward_multiples(panels, board, title=title)))
+        played = [cell for cell, _ in mine if cell.demos is not None]
+        if world.levels > 1 and played:
+            distances = state_distances(played[0].demos.mdp)
+            series = {cell.participant: carefulness_by_distance(cell.demos.counts, distances, levels=world.levels)
+                      for cell in played}
+            pool = next((cell for cell in played if cell.participant == POOLED), None)
+            reference = (f"everyone pooled ({pool.participants})", series.pop(POOLED)) if pool else None
+            if series:
+                title = f"{name}: carefulness by distance to danger, per participant (main episodes)"
+                figures.append((f"carefulness-{key}", carefulness_multiples(
+                    list(series.items()), levels=world.levels, reference=reference, title=title)))
+    figures += _pooled_interval_figures(data, fits)
+    return figures
+
+
+def _who(cell) -> str:
+    return f"pooled ({cell.participants})" if cell.participant == POOLED else cell.participant
+
+
+def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figure]]:
+    by_kind: dict[str, list[tuple[str, list[IntervalRow]]]] = {}
+    confidence = None
+    for cell, fit in zip(data.cells, fits):
+        if cell.participant != POOLED or fit.intervals is None:
+            continue
+        rows = [IntervalRow(SYMBOL_NAMES.get(symbol, plain(symbol)), symbol, float(low), float(high),
+                            float(estimate), float(truth))
+                for symbol, (low, high), estimate, truth in zip(fit.symbols, fit.intervals, fit.estimate, fit.truth)]
+        world = data.study.worlds[cell.world_index]
+        title = f"{plain(world.name)}: pooled over {cell.participants} participants, {cell.episodes} episodes"
+        by_kind.setdefault(fit.interval_kind, []).append((title, rows))
+        if fit.interval_kind == "confidence":
+            confidence = fit.confidence
+    figures = []
+    for kind, panels in by_kind.items():
+        name = "intervals-pooled" if len(by_kind) == 1 else f"intervals-pooled-{kind}"
+        # A confidence interval's axis follows the values; an identified set's runs to the fits' ±rmax.
+        rmax = None if kind == "confidence" else next(f.rmax for f in fits if f.interval_kind == kind)
+        figures.append((name, interval_figure(panels, kind=kind, confidence=confidence, rmax=rmax,
+                                              width=3.2)))
+    return figures

@@ -1,0 +1,214 @@
+"""`careful study report STUDY.toml`: per participant and pooled fits per world (SPEC section 8).
+
+The computation is `irl_core.study_report`; this module prints it with Rich (a progress bar
+on stderr, the table on stdout) and writes the CSV and the figures under ``<out>/report/``
+(or ``--out``), every file through the output guard. A file that cannot be used is named on
+stderr (``file:line: field: problem``) and left out; the report goes on with the rest.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rich import box
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+from rich.text import Text
+
+from careful_tui.errors import EXIT_OK, UsageError
+from careful_tui.render.grid import SYMBOL_NAMES, format_value
+from irl_core.safe_files import check_output_folder, write_output
+from irl_core.safe_text import printable
+from irl_core.study import StudyError, load_study
+from irl_core.study_report import (
+    POOLED,
+    STEP_LIMIT,
+    CellFit,
+    StudyData,
+    csv_text,
+    gather,
+    report_options,
+    report_rows,
+    report_symbols,
+    run_fits,
+)
+
+FIGURE_FORMATS = (".png", ".pdf")
+TABLE_WIDTH = 200
+
+
+@dataclass
+class Timings:
+    """Seconds each part of a report took."""
+
+    reading: float = 0.0
+    fits: float = 0.0
+    figures: float = 0.0
+    written: list[Path] = field(default_factory=list)
+
+
+def run_study(args: argparse.Namespace) -> int:
+    """`careful study COMMAND`: only ``report`` is built (``run`` needs the one-app screens)."""
+    return run_study_report(args)
+
+
+def run_study_report(args: argparse.Namespace) -> int:
+    err = Console(stderr=True, highlight=False)
+    options = report_options(resamples=args.resamples, seed=args.seed, rmax=args.rmax)
+    if problem := options.problem():
+        raise UsageError(problem)
+    try:
+        study = load_study(args.study)
+    except StudyError as exc:
+        raise UsageError(str(exc)) from None
+    out = check_output_folder(args.out if args.out is not None else study.report_folder, option="--out")
+    timings = Timings()
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), console=err, transient=True) as progress:
+        task = progress.add_task("reading participants", total=None)
+        start = time.perf_counter()
+        data = gather(study, progress=lambda done, total: progress.update(task, completed=done, total=total))
+        timings.reading = time.perf_counter() - start
+        if not data.participants:
+            raise UsageError(f"{study.out}: no participant folders: nothing to report (run the study, or write "
+                             "simulated participants, first)")
+        for problem in data.problems:
+            err.print(Text(f"warning: {printable(problem, limit=400)}", style="yellow"), soft_wrap=True)
+        progress.update(task, description="fitting (per participant and pooled, with intervals)", completed=0,
+                        total=len(data.cells))
+        start = time.perf_counter()
+        fits = run_fits(list(data.cells), options, workers=args.workers,
+                        progress=lambda done, total: progress.update(task, completed=done))
+        timings.fits = time.perf_counter() - start
+        progress.update(task, description="drawing figures", completed=0, total=None)
+        start = time.perf_counter()
+        try:
+            timings.written = write_report(data, fits, out)
+        except OSError as exc:
+            raise UsageError(f"--out {printable(str(out), limit=160)}: cannot write there "
+                             f"({exc.strerror or exc})") from None
+        timings.figures = time.perf_counter() - start
+    # The table goes out once the progress display on stderr is gone, so the two never interleave.
+    out_console = Console(highlight=False)
+    if not out_console.is_terminal:
+        out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
+    out_console.print(report_table(data, fits))
+    left_out = sum(data.left_out.values())
+    err.print(Text(
+        f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
+        f"{len(data.participants)} participants, {len(fits)} fits; reading {timings.reading:.1f} s, "
+        f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s"
+        + (f"; {left_out} file{'s' * (left_out != 1)} left out (named above the table)" if left_out else "")),
+        soft_wrap=True)
+    return EXIT_OK
+
+
+def write_report(data: StudyData, fits: list[CellFit], out: Path) -> list[Path]:
+    """The CSV and every figure, in `out` (through the output guard); returns the files written."""
+    inputs = [data.study.path]
+    out.mkdir(parents=True, exist_ok=True)
+    columns, rows = report_rows(data, fits)
+    written = [write_output(out / "report.csv", csv_text(columns, rows), option="--out", inputs=inputs)]
+    from careful_tui.render.figures.study_figures import report_figures
+    from careful_tui.render.figures.style import save_figure
+
+    for name, figure in report_figures(data, fits):
+        for suffix in FIGURE_FORMATS:
+            path = out / f"{name}{suffix}"
+            save_figure(figure, path, option="--out", inputs=inputs)
+            written.append(path)
+    return written
+
+
+def symbol_name(symbol: str) -> str:
+    return SYMBOL_NAMES.get(symbol, printable(symbol))
+
+
+def interval_caption(fits: list[CellFit]) -> str:
+    """What the bracketed intervals are, from the kinds this report holds."""
+    kinds = []
+    if any(f.interval_kind == "confidence" for f in fits):
+        confidence = next(f.confidence for f in fits if f.interval_kind == "confidence")
+        kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes) for maxent and loss fits")
+    if any(f.interval_kind == "identified" for f in fits):
+        kinds.append("identified set for lp fits")
+    return "[low, high]: " + "; ".join(kinds) if kinds else "No intervals could be computed"
+
+
+def table_caption(data: StudyData, fits: list[CellFit]) -> str:
+    """What the table's brackets, columns and marks mean, as far as this report has them."""
+    parts = [interval_caption(fits), "Careful: mean carefulness one step from a terminal cell",
+             "Interrupted episodes are counted, not fitted"]
+    boxed = [f for f in fits if f.intervals is not None and (abs(f.intervals) >= f.rmax * (1 - 1e-9)).any()]
+    if boxed:
+        parts.append(f"An end at ±{boxed[0].rmax:g} is the fit's bound (--rmax), not a bound from the data")
+    if data.left_out:
+        parts.append("*: a file of this participant was left out (named above the table)")
+    return ". ".join(parts) + "."
+
+
+def report_table(data: StudyData, fits: list[CellFit]) -> Table:
+    """A row per participant and world, then the world's pooled fit; rewards per symbol with intervals."""
+    study = data.study
+    symbols = report_symbols(study, fits)
+    table = Table(title=Text(f"study {printable(study.study.name, limit=80)}: main-phase episodes, fitted per "
+                             "participant and pooled"),
+                  caption=Text(table_caption(data, fits)),
+                  header_style="bold", box=box.SIMPLE_HEAD, padding=(0, 1))
+    for name in ("participant", "world", "episodes", "steps", "outcomes", "careful", "fit"):
+        table.add_column(name, justify="right" if name in ("episodes", "steps", "careful") else "left")
+    for symbol in symbols:
+        table.add_column(symbol_name(symbol), justify="right")
+    previous_world = None
+    for cell, result in zip(data.cells, fits):
+        world = study.worlds[cell.world_index]
+        if previous_world is not None and cell.world_index != previous_world:
+            table.add_section()
+        previous_world = cell.world_index
+        pooled = cell.participant == POOLED
+        who = f"pooled ({cell.participants})" if pooled else cell.participant
+        if not pooled and data.left_out.get(cell.participant):
+            who += " *"
+        table.add_row(
+            Text(who, style="bold" if pooled else ""), Text(printable(world.name, limit=40)),
+            str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted)),
+            "" if cell.careful_next_to_terminal is None else f"{cell.careful_next_to_terminal:.1f}",
+            Text(fit_text(result), style="red" if result.error else ""),
+            *(Text(reward_text(result, symbol)) for symbol in symbols),
+            style="bold" if pooled else None,
+        )
+    return table
+
+
+def outcomes_text(outcomes: dict[str, int], interrupted: int) -> str:
+    """ "G 8, C 1, limit 1; 1 interrupted" """
+    parts = [f"{printable(k)} {v}" for k, v in sorted(outcomes.items()) if k != STEP_LIMIT]
+    if outcomes.get(STEP_LIMIT):
+        parts.append(f"limit {outcomes[STEP_LIMIT]}")
+    text = ", ".join(parts) or "-"
+    return text + (f"; {interrupted} interrupted" if interrupted else "")
+
+
+def fit_text(result: CellFit) -> str:
+    """The method and its beta ("maxent β 0.43"), or why there is no fit."""
+    if result.error:
+        return printable(result.error, limit=60)
+    if result.beta is not None:
+        return f"{result.method} β {result.beta:.2g}{'' if result.beta_auto else ' (fixed)'}"
+    return result.method
+
+
+def reward_text(result: CellFit, symbol: str) -> str:
+    """ "-1020 [-1800, -600]", or "-" where this fit has no such symbol."""
+    if symbol not in result.symbols:
+        return ""
+    j = result.symbols.index(symbol)
+    text = format_value(float(result.estimate[j]))
+    if result.intervals is not None:
+        low, high = result.intervals[j]
+        text += f" [{format_value(float(low))}, {format_value(float(high))}]"
+    return text

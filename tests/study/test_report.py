@@ -1,0 +1,149 @@
+"""`careful study report` on simulated participants: rows, pools, CSV and figures; practice and
+interrupted episodes never fitted; a corrupt file named and the rest reported."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from careful_tui.cli import main
+from irl_core.simulated_study import simulated_participants, write_simulated_participant
+from irl_core.study import load_study
+from irl_core.study_report import POOLED, fit_cell, gather, report_options, run_fits
+from study.conftest import write_block, write_study
+
+PARTICIPANTS = simulated_participants(3, betas=(0.3, 1.5))
+
+
+@pytest.fixture(scope="module")
+def study_path(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("study")
+    path = write_study(folder, practice=1, episodes=4)
+    study = load_study(path)
+    for who in PARTICIPANTS:
+        write_simulated_participant(study, who)
+    # sim01 also has a main episode of paper cut off by a crash; sim02's folder holds a corrupt file.
+    write_block(study, "sim01", 0, "main", name="crashed.jsonl", first=4, then="crash")
+    good = next(study.participant_folder("sim02").glob("*-main.jsonl")).read_text().splitlines()
+    step = json.loads(good[1])
+    step["direction"] = "sideways"
+    (study.participant_folder("sim02") / "corrupt.jsonl").write_text("\n".join([good[0], json.dumps(step), ""]))
+    return path
+
+
+def finished_steps(path):
+    """Steps of the finished episodes of a recording, counted from its lines (independently of the reader)."""
+    lines = [json.loads(line) for line in path.read_text().splitlines()]
+    finished = {line["episode"] for line in lines if line["kind"] == "episode_end" and line["outcome"] != "quit"}
+    return sum(1 for line in lines if line["kind"] == "step" and line["episode"] in finished)
+
+
+def test_only_finished_main_episodes_are_gathered(study_path):
+    study = load_study(study_path)
+    data = gather(study)
+    assert data.participants == ("sim01", "sim02", "sim03")
+    assert [(c.participant, c.world_index) for c in data.cells] == [
+        ("sim01", 0), ("sim02", 0), ("sim03", 0), (POOLED, 0), ("sim01", 1), ("sim02", 1), ("sim03", 1), (POOLED, 1)]
+    for cell in data.cells:
+        mains = [] if cell.participant == POOLED else list(
+            study.participant_folder(cell.participant).glob(f"*-w{cell.world_index}-main.jsonl"))
+        if cell.participant != POOLED:
+            assert cell.episodes == 4 and cell.demos.episodes == 4  # the practice episode is not among them
+            assert cell.steps == cell.demos.steps == sum(finished_steps(p) for p in mains)
+    assert data.cell("sim01", 0).interrupted == 1 and data.cell("sim02", 0).interrupted == 0
+    pooled = data.cell(POOLED, 0)
+    assert (pooled.episodes, pooled.interrupted, pooled.participants) == (12, 1, 3)
+    assert pooled.steps == sum(data.cell(p, 0).steps for p in data.participants)
+    assert sum(pooled.outcomes.values()) == 12
+
+
+def test_a_corrupt_file_is_named_and_its_participant_still_reported(study_path):
+    data = gather(load_study(study_path))
+    corrupt = [p for p in data.problems if "corrupt.jsonl" in p]
+    assert len(corrupt) == 1 and ":2: direction: " in corrupt[0] and corrupt[0].endswith("left out")
+    assert data.left_out == {"sim02": 1}
+    assert data.cell("sim02", 0).episodes == 4
+
+
+def test_parallel_fits_equal_serial_ones(study_path):
+    data = gather(load_study(study_path))
+    cells = [data.cell("sim03", 1), data.cell(POOLED, 0)]
+    options = report_options(resamples=20)
+    parallel = run_fits(cells, options, workers=2)
+    for cell, fit in zip(cells, parallel):
+        serial = fit_cell(cell, options)
+        assert fit.symbols == serial.symbols
+        np.testing.assert_allclose(fit.estimate, serial.estimate)
+        np.testing.assert_allclose(fit.intervals, serial.intervals)
+
+
+def test_study_report_prints_a_row_per_participant_and_world_and_writes_csv_and_figures(study_path, capsys):
+    code = main(["study", "report", str(study_path), "--resamples", "20", "--workers", "2"])
+    out, err = capsys.readouterr()
+    assert code == 0
+    report = study_path.parent / "data" / "report"
+    # The table: each participant in each world, and each world's pool.
+    table = [line for line in out.splitlines() if line.strip().startswith(("sim0", "pooled"))]
+    assert len(table) == 8
+    assert sum("pooled (3)" in line for line in table) == 2
+    assert "95% confidence interval" in out
+    assert "corrupt.jsonl:2: direction:" in err.replace("\n", "")
+    rows = list(csv.DictReader((report / "report.csv").open()))
+    assert [(r["participant"], r["world"]) for r in rows] == [
+        ("sim01", "paper"), ("sim02", "paper"), ("sim03", "paper"), ("pooled", "paper"),
+        ("sim01", "mud"), ("sim02", "mud"), ("sim03", "mud"), ("pooled", "mud")]
+    for row in rows:
+        assert row["study"] == "pilot" and row["method"] == "maxent" and row["interval_kind"] == "confidence"
+        assert float(row["reward_C_low"]) <= float(row["reward_C"]) <= float(row["reward_C_high"])
+        assert (row["reward_U"] != "") == (row["world"] == "mud")
+        assert int(row["ended_C"]) + int(row["ended_G"]) + int(row["step_limit"]) == int(row["episodes"])
+    assert rows[0]["interrupted"] == "1" and rows[1]["files_left_out"] == "1" and rows[3]["files_left_out"] == ""
+    for name in ("rewards-w0-paper", "rewards-w1-mud", "carefulness-w0-paper", "carefulness-w1-mud",
+                 "intervals-pooled"):
+        for suffix in (".png", ".pdf"):
+            assert (report / f"{name}{suffix}").stat().st_size > 1000
+
+
+def test_a_bad_study_file_or_no_participants_exits_2_with_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('worlds = ["nowhere"]\n')
+    assert main(["study", "report", str(bad)]) == 2
+    assert "bad.toml: worlds[0]: 'nowhere' is neither a built-in world" in capsys.readouterr().err
+    empty = write_study(tmp_path)
+    assert main(["study", "report", str(empty)]) == 2
+    assert "no participant folders" in capsys.readouterr().err
+    assert main(["study", "report", str(empty), "--resamples", "5"]) == 2
+    assert "--resamples must be at least 20" in capsys.readouterr().err
+
+
+def test_the_figures_show_each_participant_the_pool_and_the_truth(study_path):
+    """Figures drawn from given fits (no fitting): which panels there are, and what the cells hold."""
+    from careful_tui.render.figures.study_figures import plain, report_figures
+    from irl_core.study_report import CellFit
+
+    data = gather(load_study(study_path))
+    fits = []
+    for cell in data.cells:
+        world = data.study.worlds[cell.world_index]
+        symbols = tuple(s for s in ("C", "U", "G") if s in world.layout)
+        estimate = np.array([-900.0 - cell.world_index, -30.0, 90.0][: len(symbols)] if len(symbols) == 3
+                            else [-900.0, 90.0])
+        grid = np.array([[estimate[symbols.index(ch)] if ch in symbols else 0.0 for ch in row] for row in world.grid])
+        fits.append(CellFit(method="maxent", beta=0.5, beta_auto=True, symbols=symbols, estimate=estimate,
+                            intervals=np.stack([estimate - 50, estimate + 50], axis=1), truth=estimate,
+                            interval_kind="confidence", rmax=5000.0, reward_grid=grid))
+    figures = dict(report_figures(data, fits))
+    assert sorted(figures) == ["carefulness-w0-paper", "carefulness-w1-mud", "intervals-pooled",
+                               "rewards-w0-paper", "rewards-w1-mud"]
+    titles = [ax.get_title() for ax in figures["rewards-w1-mud"].axes if ax.get_visible() and ax.get_title()]
+    assert titles == ["true (world file)", "sim01", "sim02", "sim03", "pooled (3)"]
+    sim02 = next(ax for ax in figures["rewards-w1-mud"].axes if ax.get_title() == "sim02")
+    assert sim02.images[0].get_array()[3, 1] == -901.0  # the cliff cell shows that participant's fitted cliff
+    careful = [ax.get_title() for ax in figures["carefulness-w0-paper"].axes if ax.get_visible()]
+    assert careful == ["sim01", "sim02", "sim03"]
+    panels = [ax for ax in figures["intervals-pooled"].axes if ax.get_title()]
+    assert [ax.get_title() for ax in panels] == ["paper: pooled over 3 participants, 12 episodes",
+                                                 "mud: pooled over 3 participants, 12 episodes"]
+    assert [t.get_text() for t in panels[1].get_yticklabels()] == ["cliff", "mud", "goal"]
+    assert plain("a$b\x1b") == "a\\$b\\x1b"
