@@ -194,7 +194,34 @@ class PendingHold:
     first_repeat: float | None = None
 
 
-class HoldDetector:
+class SilenceEnded:
+    """What the hold detector and the tap counter share: one pending move that a silence ends.
+
+    Subclasses say when (`_deadline`) and make the move (`_end`, which clears `_pending`).
+    """
+
+    _pending: PendingHold | None
+    _clock: Clock
+
+    def poll(self) -> list[Hold]:
+        """End the pending move if the silence since its last key event reached the deadline."""
+        pending = self._pending
+        if pending is None or self._clock() < self._deadline(pending):
+            return []
+        return [self._end(pending)]
+
+    def deadline(self) -> float | None:
+        """Clock time at which `poll` ends the pending move (None when there is none)."""
+        return None if self._pending is None else self._deadline(self._pending)
+
+    def _deadline(self, pending: PendingHold) -> float:
+        raise NotImplementedError
+
+    def _end(self, pending: PendingHold) -> Hold:
+        raise NotImplementedError
+
+
+class HoldDetector(SilenceEnded):
     """Hold mode: the level grows with how long an arrow is held.
 
     `press(key, repeat=...)`: `repeat` is None when the terminal cannot tell a press from an
@@ -248,18 +275,6 @@ class HoldDetector:
         hold_ms = (self._clock() - pending.started) * 1000.0
         return [self._hold(pending, hold_ms, exact=True)]
 
-    def poll(self) -> list[Hold]:
-        """End the hold if the silence since its last key event reached the release timeout."""
-        pending = self._pending
-        if pending is None or self._clock() < self._deadline(pending):
-            return []
-        self._pending = None
-        return [self._infer(pending)]
-
-    def deadline(self) -> float | None:
-        """Clock time at which `poll` ends the current hold (None when nothing is held)."""
-        return None if self._pending is None else self._deadline(self._pending)
-
     def current(self) -> ActiveHold | None:
         """The hold in progress, with the level it would have if released now."""
         pending = self._pending
@@ -298,6 +313,11 @@ class HoldDetector:
         else:
             timeout_ms = self.profile.repeat_timeout_ms(self._period_ms(pending))
         return pending.last + timeout_ms / 1000.0
+
+    def _end(self, pending: PendingHold) -> Hold:
+        """The hold ended by the release timeout, its length inferred."""
+        self._pending = None
+        return self._infer(pending)
 
     def _infer(self, pending: PendingHold) -> Hold:
         if pending.repeats == 0:

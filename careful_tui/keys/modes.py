@@ -18,11 +18,12 @@ from careful_tui.keys.hold import (
     HoldProfile,
     MoveInput,
     PendingHold,
+    SilenceEnded,
     check_key,
 )
 
 
-class TapCounter:
+class TapCounter(SilenceEnded):
     """Tap mode (`--input tap`): tap the same arrow k times quickly for level k.
 
     A pause of `tap_window_ms` (default 400) after the last tap, or a different arrow, commits
@@ -59,24 +60,13 @@ class TapCounter:
             pending.last = now
             return done
         if pending is not None:
-            done.append(self._commit(pending))
+            done.append(self._end(pending))
         self._pending = PendingHold(key=key, started=now, last=now)
         return done
 
     def release(self, key: str) -> list[Hold]:
         """Releases carry no meaning in tap mode."""
         return []
-
-    def poll(self) -> list[Hold]:
-        """Commit the taps if the pause since the last one reached the tap window."""
-        pending = self._pending
-        if pending is None or self._clock() < self._deadline(pending):
-            return []
-        return [self._commit(pending)]
-
-    def deadline(self) -> float | None:
-        """Clock time at which `poll` commits the taps (None when there are none)."""
-        return None if self._pending is None else self._deadline(self._pending)
 
     def current(self) -> ActiveHold | None:
         """The taps so far and the level they give."""
@@ -104,7 +94,7 @@ class TapCounter:
     def _level(self, pending: PendingHold) -> int:
         return min(self.profile.levels, pending.repeats + 1)
 
-    def _commit(self, pending: PendingHold) -> Hold:
+    def _end(self, pending: PendingHold) -> Hold:
         self._pending = None
         return Hold(
             key=pending.key,

@@ -52,26 +52,20 @@ def _open_ends(low: float, high: float, rmax: float) -> tuple[bool, bool]:
 
 def interval_reading(low: float, high: float, rmax: float) -> str:
     """A plain sentence for one interval; an end at ±rmax is no bound at all."""
-    open_low, open_high = _open_ends(low, high, rmax)
-    if open_low and open_high:
-        return "not bounded by the demonstrations"
-    if open_low:
-        return f"at most {format_value(high)}; no lower bound"
-    if open_high:
-        return f"at least {format_value(low)}; no upper bound"
-    return f"between {format_value(low)} and {format_value(high)}"
+    return _phrase(low, high, rmax, ("not bounded by the demonstrations", "at most {high}; no lower bound",
+                                     "at least {low}; no upper bound", "between {low} and {high}"))
 
 
 def interval_span(low: float, high: float, rmax: float) -> str:
     """An interval in a few characters: "-49.3..-14.8", "≤ -661", "≥ 89.7", "any"."""
+    return _phrase(low, high, rmax, ("any", "≤ {high}", "≥ {low}", "{low}..{high}"))
+
+
+def _phrase(low: float, high: float, rmax: float, phrases: tuple[str, str, str, str]) -> str:
+    """One of `phrases` (both ends open, low open, high open, both bounded) with the ends filled in."""
     open_low, open_high = _open_ends(low, high, rmax)
-    if open_low and open_high:
-        return "any"
-    if open_low:
-        return f"≤ {format_value(high)}"
-    if open_high:
-        return f"≥ {format_value(low)}"
-    return f"{format_value(low)}..{format_value(high)}"
+    phrase = phrases[0 if open_low and open_high else 1 if open_low else 2 if open_high else 3]
+    return phrase.format(low=format_value(low), high=format_value(high))
 
 
 def symbol_name(symbol: str) -> str:

@@ -11,6 +11,7 @@ their differences by the app's type (`ReplayApp #gauge { ... }`). Each app lists
 from __future__ import annotations
 
 from textual.app import App
+from textual.binding import Binding
 from textual.theme import Theme
 
 from careful_tui.render.palette import BACKGROUND, BAD, FRAME, GOOD, INK, NOTE, PANEL, SLIP, SURFACE, WARN
@@ -37,6 +38,13 @@ CAREFUL_THEME = Theme(
         "frame": FRAME,
     },
 )
+
+
+# Every app quits with q, Ctrl+C or Ctrl+Q (subclasses end their BINDINGS with these).
+QUIT_BINDINGS = [
+    Binding("q", "quit", "quit", priority=True),
+    Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
+]
 
 
 class CarefulApp(App[None]):

@@ -46,7 +46,7 @@ from careful_tui.render.grid import diverging_colour, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, signed_log_value
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
 from careful_tui.render.session import legend
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -141,8 +141,7 @@ class FitApp(CarefulApp):
         Binding("tab", "next_method", "next method", priority=True, show=False),
         Binding("i", "toggle_intervals", "intervals", priority=True),
         Binding("s", "save_svg", "save SVG", priority=True),
-        Binding("q", "quit", "quit", priority=True),
-        Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
+        *QUIT_BINDINGS,
     ]
 
     def __init__(

@@ -47,7 +47,7 @@ from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_text
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import SessionRecorder
@@ -82,8 +82,7 @@ class PlayApp(CarefulApp):
         Binding("backspace", "move('digits')", "fix", key_display="⌫"),
         Binding("space,enter", "next_episode", "next episode", key_display="space"),
         Binding("c", "calibrate", "calibrate"),
-        Binding("q", "quit", "quit", priority=True),
-        Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
+        *QUIT_BINDINGS,
     ]
 
     def __init__(

@@ -27,7 +27,7 @@ from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import plural, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.screens.replay_cursor import Frame, ReplayCursor
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording, Step
@@ -81,16 +81,15 @@ class ReplayApp(CarefulApp):
     BINDINGS = [
         Binding("space", "toggle_play('pause')", "pause", priority=True),
         Binding("space", "toggle_play('play')", "play", priority=True),
-        Binding("left", "back", "step back", key_display="←", priority=True, group=STEP),
-        Binding("right", "forward", "step", key_display="→", priority=True, group=STEP),
-        Binding("up,n", "next_episode", "next episode", key_display="↑", priority=True, group=EPISODE),
-        Binding("down,p", "previous_episode", "previous episode", key_display="↓", priority=True, group=EPISODE),
+        Binding("left", "go('back')", "step back", key_display="←", priority=True, group=STEP),
+        Binding("right", "go('forward')", "step", key_display="→", priority=True, group=STEP),
+        Binding("up,n", "go('next_episode')", "next episode", key_display="↑", priority=True, group=EPISODE),
+        Binding("down,p", "go('previous_episode')", "previous episode", key_display="↓", priority=True, group=EPISODE),
         Binding("plus,equals_sign", "faster", "faster", key_display="+", priority=True, group=SPEED),
         Binding("minus,underscore", "slower", "slower", key_display="-", priority=True, group=SPEED),
-        Binding("home", "to_start", "start", priority=True, group=JUMP),
-        Binding("end", "to_end", "end", priority=True, group=JUMP),
-        Binding("q", "quit", "quit", priority=True),
-        Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
+        Binding("home", "go('to_start')", "start", priority=True, group=JUMP),
+        Binding("end", "go('to_end')", "end", priority=True, group=JUMP),
+        *QUIT_BINDINGS,
     ]
 
     # What is on screen: playing or paused, the speed, and the cursor's frame. Their watchers
@@ -199,33 +198,12 @@ class ReplayApp(CarefulApp):
         self._end_ticks = 0
         self.playing = not self.playing and len(self.cursor) > 1
 
-    def _moved(self) -> None:
+    def action_go(self, move: str) -> None:
+        """Move the cursor (`forward`, `back`, `next_episode`, `previous_episode`, `to_start`,
+        `to_end`: `ReplayCursor`'s moves) and show where it is."""
+        getattr(self.cursor, move)()
         self._end_ticks = 0
         self.position = self.cursor.position
-
-    def action_forward(self) -> None:
-        self.cursor.forward()
-        self._moved()
-
-    def action_back(self) -> None:
-        self.cursor.back()
-        self._moved()
-
-    def action_next_episode(self) -> None:
-        self.cursor.next_episode()
-        self._moved()
-
-    def action_previous_episode(self) -> None:
-        self.cursor.previous_episode()
-        self._moved()
-
-    def action_to_start(self) -> None:
-        self.cursor.to_start()
-        self._moved()
-
-    def action_to_end(self) -> None:
-        self.cursor.to_end()
-        self._moved()
 
     def action_faster(self) -> None:
         self.speed_index = min(self.speed_index + 1, len(SPEEDS) - 1)
