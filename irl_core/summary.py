@@ -67,8 +67,11 @@ def outcome_label(outcome: str, symbol: str | None, world: World) -> str:
     return names.get(symbol or "", f"ended on {symbol}")
 
 
-def summarise(recording: Recording) -> SessionSummary:
-    """The session at a glance, from the recording's step columns (no `Step` is built per step)."""
+def summarise(recording: Recording, *, distances: dict[tuple[int, int], int] | None = None) -> SessionSummary:
+    """The session at a glance, from the recording's step columns (no `Step` is built per step).
+
+    `distances`: `distance_to_terminal` of the recording's world, when the caller has it already.
+    """
     world = recording.world
     ended = {end.episode: end for end in recording.episode_ends}
     outcomes = Counter(
@@ -86,7 +89,7 @@ def summarise(recording: Recording) -> SessionSummary:
         candidates.append(((end.episode, True, 0), end.score))
     last_score = max(candidates)[1] if candidates else None
     grid = np.full((world.rows, world.cols), -1, dtype=np.int64)
-    for cell, d in distance_to_terminal(world).items():
+    for cell, d in (distance_to_terminal(world) if distances is None else distances).items():
         grid[cell] = d
     distance = grid[steps.column("row"), steps.column("col")]
     reached = distance >= 0

@@ -104,8 +104,9 @@ class ReplayApp(CarefulApp):
         self.recording = recording
         self.world = recording.world
         self.cursor = ReplayCursor.from_recording(recording)
-        self.summary = summarise(recording)
+        # One MDP for the replay: the distances the panel and the summary both use.
         self.distances = distance_to_terminal(self.world)
+        self.summary = summarise(recording, distances=self.distances)
         self.set_reactive(ReplayApp.playing, playing)
         self.frame_seconds = frame_seconds
         self._end_ticks = 0
