@@ -8,8 +8,8 @@ world's own R_S beside it on the same scale, how far the demonstrations pin each
 
 Keys switch the method (a for auto, l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
 view (s) and quit (q). A refit runs in a thread worker while the last result stays on screen,
-dimmed, under a "fitting…" status; the thread hands back a `Fitted` message, and only the
-answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
+dimmed, under a "fitting…" status; the thread posts `FitApp.Progress` while it works and
+hands back a `FitApp.Fitted`, and only the answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
 demonstrations, a solver that gives up) is reported in the status line and the view keeps
 the last result.
 
@@ -99,24 +99,6 @@ def default_svg_name(world: str, method: str, folder: Path) -> Path:
     return path
 
 
-@dataclass
-class Fitted(Message):
-    """A fit has ended (sent from the fitting thread): its result, or the error it ended with."""
-
-    request: int
-    options: FitOptions
-    result: FitResult | None
-    error: Exception | None
-
-
-@dataclass
-class FitProgress(Message):
-    """How far a fit has got (sent from the fitting thread): "round 3", "interval LP 12 of 62"."""
-
-    request: int
-    phrase: str
-
-
 class FitApp(CarefulApp):
     """The fit view of one set of demonstrations (the CLI and the tests build it the same way).
 
@@ -130,6 +112,29 @@ class FitApp(CarefulApp):
             drawn; without it `s` saves `careful-fit-WORLD-METHOD.svg` in the current folder.
         show_times: show the fit's seconds (snapshot tests turn it off: times vary).
     """
+
+    @dataclass
+    class Fitted(Message):
+        """A fit has ended (sent from the fitting thread): its result, or the error it ended with."""
+
+        request: int
+        options: FitOptions
+        result: FitResult | None
+        error: Exception | None
+
+    @dataclass
+    class Progress(Message):
+        """How far a fit has got (sent from the fitting thread): "round 3", "interval LP 12 of 62".
+
+        Progress comes fast (a message per interval LP or resample); a newer one replaces one
+        still queued, so the queue never backs up behind a long fit.
+        """
+
+        request: int
+        phrase: str
+
+        def can_replace(self, message: Message) -> bool:
+            return isinstance(message, FitApp.Progress) and message.request == self.request
 
     TITLE = "careful fit"
     METHOD = Binding.Group("auto/lp/loss/maxent")
@@ -238,14 +243,14 @@ class FitApp(CarefulApp):
     @work(thread=True, group="fit")
     def _fit(self, request: int, options: FitOptions) -> None:
         try:
-            heard = lambda *done: self.post_message(FitProgress(request, progress_phrase(*done)))  # noqa: E731
+            heard = lambda *done: self.post_message(FitApp.Progress(request, progress_phrase(*done)))  # noqa: E731
             result, error = fit(self.demos, options, progress=heard), None
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
-        self.post_message(Fitted(request, options, result, error))
+        self.post_message(FitApp.Fitted(request, options, result, error))
 
-    @on(FitProgress)
-    def _progressed(self, message: FitProgress) -> None:
+    @on(Progress)
+    def _progressed(self, message: Progress) -> None:
         if message.request == self._request and self._fitting is not None:
             self._progress = f": {message.phrase}"
             for status in self.query("#status").results(Static):  # none once the view is closing
