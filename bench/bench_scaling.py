@@ -176,9 +176,9 @@ def growth_exponent(rows: list[dict], stage: str) -> float:
 def _effort(row: dict) -> str:
     parts = []
     if row.get("rounds"):
-        parts.append(f"{row['rounds']} rounds")
+        parts.append(f"fit in {row['rounds']} rounds")
     if row.get("intervals"):
-        parts.append(f"{row['intervals']} LPs")
+        parts.append(f"{row['intervals']} interval LPs")
     return f", {', '.join(parts)}" if parts else ""
 
 
