@@ -29,9 +29,8 @@ from irl_core.irl.highs import LinearProgram
 from irl_core.irl.lp import LPConstraints, Progress, RowGeneration, margin_lp
 
 # HiGHS chooses the simplex (primal after a new cost, dual after new rows); Dantzig pricing
-# for both and no presolve, as for the margin (`lp.MARGIN_OPTIONS`).
+# for both, as for the margin (`lp.MARGIN_OPTIONS`).
 INTERVAL_OPTIONS = {
-    "presolve": "off",
     "simplex_strategy": 0,
     "simplex_dual_edge_weight_strategy": 0,
     "simplex_primal_edge_weight_strategy": 0,
