@@ -176,9 +176,9 @@ def growth_exponent(rows: list[dict], stage: str) -> float:
 def _effort(row: dict) -> str:
     parts = []
     if row.get("rounds"):
-        parts.append(f"{row['rounds']} rounds")
+        parts.append(f"fit in {row['rounds']} rounds")
     if row.get("intervals"):
-        parts.append(f"{row['intervals']} LPs")
+        parts.append(f"{row['intervals']} interval LPs")
     return f", {', '.join(parts)}" if parts else ""
 
 
@@ -208,6 +208,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sizes", default=",".join(SIZES))
     parser.add_argument("--stages", default=",".join(STAGES))
+    parser.add_argument("--timeout", type=float, default=1800, help="seconds allowed per stage (default 1800)")
     parser.add_argument("--check", metavar="SIZE", help="compare row generation with the whole LP on one size")
     parser.add_argument("--conditioning", metavar="SIZE", help="where the margin LP's large duals sit")
     parser.add_argument("--whole", default="", help="with --conditioning: also solve the whole LP by these "
@@ -227,7 +228,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     print("scaling on generated cliff worlds with 14 levels (each stage in a fresh process; "
           "VI = one value iteration of the same world, timed in the same process):")
-    rows = measure(args.sizes.split(","), args.stages.split(","))
+    rows = measure(args.sizes.split(","), args.stages.split(","), timeout=args.timeout)
     print()
     print(table(rows))
 

@@ -243,7 +243,7 @@ class HighsModel:
                 # Presolve cannot tell which: the simplex without it can.
                 highs.setOptionValue("presolve", "off")
                 highs.run()
-                highs.setOptionValue("presolve", "choose")
+                highs.setOptionValue("presolve", self.options.get("presolve", "choose"))
                 status = highs.getModelStatus()
             word, kind = OUTCOMES.get(status, ("unknown", "failure"))
             if kind != "failure":

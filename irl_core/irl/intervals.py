@@ -29,7 +29,7 @@ from irl_core.irl.highs import LinearProgram
 from irl_core.irl.lp import LPConstraints, Progress, RowGeneration, margin_lp
 
 # HiGHS chooses the simplex (primal after a new cost, dual after new rows); Dantzig pricing
-# for both, as for the margin (steepest edge weights cost more than they save here).
+# for both, as for the margin (`lp.MARGIN_OPTIONS`).
 INTERVAL_OPTIONS = {
     "simplex_strategy": 0,
     "simplex_dual_edge_weight_strategy": 0,

@@ -279,7 +279,8 @@ def solve_margin_lp(
 
 # Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
 # on its weights than it saves here (a 64x64 world's first round: 23 s against over 150 s;
-# devex: over 6 minutes).
+# devex: over 6 minutes). HiGHS's presolve stays on: without it a 64x64 world's fit took over
+# 4 minutes instead of 16 s (but with tied rewards, the reverse: over 6 minutes with it, 34 s without).
 MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
 
 

@@ -98,3 +98,14 @@ def test_stdout_of_careful_fit_carries_only_its_output(tmp_path):
         capture_output=True, text=True, timeout=60, check=True,
     )
     assert library.stdout == "ok\n"
+
+
+def test_an_lp_the_simplex_cannot_finish_is_answered_by_ipx_with_the_same_optimum(mud_demos):
+    constraints = lp_constraints(build_qmap(mud_demos.mdp, build_unknowns(mud_demos.mdp)), mud_demos.most_frequent,
+                                 rmax=1000.0)
+    problem = margin_lp(constraints).full()
+    # No simplex iterations allowed: the simplex attempts all stop at their limit, IPX does not.
+    _, report = HighsModel(problem, options={"simplex_iteration_limit": 0}).solve()
+    _, reference = HighsModel(problem).solve()
+    assert (report.kind, report.solver) == ("answer", "ipx")
+    assert report.objective == pytest.approx(reference.objective, rel=1e-7)
