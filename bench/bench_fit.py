@@ -27,7 +27,8 @@ from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.loss import fit_loss, loss_constraints, loss_problem
+from irl_core.irl.loss import fit_loss
+from irl_core.irl.loss_model import loss_constraints, loss_problem
 from irl_core.irl.lp import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp

@@ -16,7 +16,9 @@ from careful_tui.keys.modes import make_input
 from careful_tui.screens.fit import FitApp
 from careful_tui.screens.play import PlayApp
 from careful_tui.version import app_version
-from irl_core.demonstrations import Demonstrations, SessionHeader, SessionRecorder
+from irl_core.demonstrations import Demonstrations
+from irl_core.recording_lines import SessionHeader
+from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Game
 from irl_core.irl import FitResult
 from irl_core.world import World

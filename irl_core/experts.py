@@ -18,7 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.demonstrations import Demonstrations, EpisodeEnd, RecordingWriter, SessionHeader, Step, episode_matrix
+from irl_core.demonstrations import Demonstrations, episode_matrix
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import RecordingWriter
 from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
 from irl_core.planning import Plan, soft_value_iteration, value_iteration
 

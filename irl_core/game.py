@@ -19,8 +19,8 @@ episode end     ``terminal`` (entered a terminal cell), ``step_limit`` (after
                 recorded)
 ==============  ==============================================================
 
-The sink `careful play` uses is `irl_core.demonstrations.SessionRecorder` (all file IO lives
-with the reader, in `irl_core.demonstrations`).
+The sink `careful play` uses is `irl_core.recording_writer.SessionRecorder` (all file IO lives
+with the recordings: the writer there, the reader in `irl_core.demonstrations`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import Protocol
 
 import numpy as np
 
-from irl_core.demonstrations import EpisodeEnd, Step
+from irl_core.recording_lines import EpisodeEnd, Step
 from irl_core.mdp import DIRECTIONS, action_index, build_mdp
 from irl_core.world import World
 

@@ -1,6 +1,6 @@
 """The three kinds of line in a recording (SPEC section 2), as pydantic models: the ``session``
-header, a ``step`` and an ``episode_end``. `irl_core.demonstrations` writes and reads them;
-`irl_core.step_table` builds `Step`s from its columns.
+header, a ``step`` and an ``episode_end``. `irl_core.recording_writer` writes them,
+`irl_core.demonstrations` reads them; `irl_core.step_table` builds `Step`s from its columns.
 """
 
 from __future__ import annotations

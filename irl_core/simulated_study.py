@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.demonstrations import StudyTag
+from irl_core.recording_lines import StudyTag
 from irl_core.experts import boltzmann_policy, expert_name, rollouts, session_header, write_rollouts
 from irl_core.mdp import build_mdp
 from irl_core.study import LoadedStudy, Phase, world_order

@@ -33,7 +33,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from irl_core.demonstrations import EmptyRecording, Recording, RecordingError, StudyTag, read_recording, slug
+from irl_core.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
+from irl_core.recording_lines import StudyTag
+from irl_core.recording_writer import slug
 from irl_core.safe_files import open_regular
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world

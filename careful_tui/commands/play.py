@@ -9,7 +9,7 @@ import secrets
 from careful_tui.app import make_play_app
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
-from irl_core.demonstrations import check_writable
+from irl_core.recording_writer import check_writable
 from irl_core.safe_text import printable
 from irl_core.world import load_world
 

@@ -11,7 +11,8 @@ from rich.text import Text
 
 from careful_tui.render.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, format_value
 from careful_tui.render.palette import BAD, GOOD, HERE, NOTE, SLIP, WARN, level_colour
-from irl_core.demonstrations import EpisodeEnd, Recording
+from irl_core.demonstrations import Recording
+from irl_core.recording_lines import EpisodeEnd
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.summary import SessionSummary
 from irl_core.world import World

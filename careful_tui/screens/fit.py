@@ -50,7 +50,8 @@ from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import Demonstrations, slug
+from irl_core.demonstrations import Demonstrations
+from irl_core.recording_writer import slug
 from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError, fit
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable

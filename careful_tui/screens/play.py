@@ -50,7 +50,7 @@ from careful_tui.screens.game_layout import compose_game, minimum_size as game_m
 from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import SessionRecorder
+from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Game, MoveResult
 from irl_core.safe_text import printable
 from irl_core.world import World

@@ -30,7 +30,8 @@ from careful_tui.screens.replay_cursor import Frame, ReplayCursor
 from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import Recording, Step
+from irl_core.demonstrations import Recording
+from irl_core.recording_lines import Step
 from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.summary import distance_to_terminal, outcome_label, summarise

@@ -30,7 +30,8 @@ from typing import Literal
 
 import numpy as np
 
-from irl_core.demonstrations import EpisodeEnd, Recording, Step
+from irl_core.demonstrations import Recording
+from irl_core.recording_lines import EpisodeEnd, Step
 from irl_core.step_table import StepTable
 
 Cell = tuple[int, int]

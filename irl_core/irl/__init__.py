@@ -7,7 +7,8 @@ reached through `fit`:
 ==========  ====================================================================
 ``lp``      the simple IRL agent: rewards under which the most frequent actions are
             optimal, maximising the margin to the next best action (`lp`)
-``loss``    the loss IRL agent: a convex loss for noisy demonstrations (`loss`)
+``loss``    the loss IRL agent: a convex loss for noisy demonstrations (`loss_model`
+            states it, `loss` solves it)
 ``maxent``  maximum-likelihood maximum-entropy IRL, the paper's baseline (`maxent`),
             with beta given or estimated with the rewards
 ``auto``    lp for a deterministic expert whose lp is feasible, else maxent with beta

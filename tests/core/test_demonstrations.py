@@ -6,15 +6,9 @@ from datetime import datetime, timezone
 import numpy as np
 import pytest
 
-from irl_core.demonstrations import (
-    Demonstrations,
-    EpisodeEnd,
-    RecordingError,
-    RecordingWriter,
-    SessionHeader,
-    Step,
-    read_recording,
-)
+from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import RecordingWriter
 from irl_core.world import BUILTIN_WORLDS
 
 

@@ -6,7 +6,8 @@ from datetime import datetime, timezone
 import numpy as np
 
 from careful_tui.cli import main
-from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import RecordingWriter
 from irl_core.experiment import Estimate, Separation, _interval_caption, severity
 from irl_core.mdp import DIRECTIONS, build_mdp
 from irl_core.world import BUILTIN_WORLDS

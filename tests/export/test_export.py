@@ -15,7 +15,9 @@ import pytest
 
 from careful_tui.cli import main
 from irl_core import export
-from irl_core.demonstrations import RecordingError, RecordingWriter, SessionHeader, read_recording
+from irl_core.demonstrations import RecordingError, read_recording
+from irl_core.recording_lines import SessionHeader
+from irl_core.recording_writer import RecordingWriter
 from irl_core.export import CSV_COLUMNS, STUDY_COLUMNS, csv_columns, csv_rows, recorded_episodes
 from irl_core.game import Game
 from irl_core.mdp import DIRECTIONS, action_index, build_mdp

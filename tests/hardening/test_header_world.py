@@ -13,15 +13,9 @@ from importlib.util import find_spec
 import numpy as np
 import pytest
 
-from irl_core.demonstrations import (
-    Demonstrations,
-    EpisodeEnd,
-    RecordingError,
-    RecordingWriter,
-    SessionHeader,
-    Step,
-    read_recording,
-)
+from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import RecordingWriter
 from irl_core.world import BUILTIN_WORLDS, World
 
 # "paper" as an older careful might have defined it: 5x5 with mud, other rewards, 5 levels.

@@ -39,7 +39,9 @@ from pathlib import Path
 
 import pytest
 
-from irl_core.demonstrations import Demonstrations, Recording, SessionHeader, SessionRecorder, read_recording
+from irl_core.demonstrations import Demonstrations, Recording, read_recording
+from irl_core.recording_lines import SessionHeader
+from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Game
 from irl_core.world import World
 from hardening_checks import tiny_filesystem

@@ -44,15 +44,16 @@ import pytest
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-import irl_core.demonstrations
+import irl_core.recording_writer
 from careful_tui.keys.hold import HoldProfile
 from careful_tui.keys.kitty import KeyRelease, KittyParser
 from careful_tui.app import make_play_app
 from careful_tui.screens.play import PlayApp
 from careful_tui.screens.replay import ReplayApp
 from careful_tui.screens.calibration import CalibrationScreen
-from irl_core.demonstrations import Recording, SessionHeader, read_recording
-from irl_core.demonstrations import SessionRecorder
+from irl_core.demonstrations import Recording, read_recording
+from irl_core.recording_lines import SessionHeader
+from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Game, MoveResult
 from irl_core.world import World
 
@@ -462,7 +463,7 @@ def test_two_games_in_the_same_second_write_two_files(tmp_path: Path, monkeypatc
         def now(cls, tz=None):
             return instant
 
-    monkeypatch.setattr(irl_core.demonstrations, "datetime", Frozen)
+    monkeypatch.setattr(irl_core.recording_writer, "datetime", Frozen)
     one, one_clock, one_moves = new_app(tmp_path)
     two, two_clock, two_moves = new_app(tmp_path)
 

@@ -18,7 +18,9 @@ from pathlib import Path
 import pytest
 
 from hardening_checks import RAW_CONTROL, fill, tiny_filesystem
-from irl_core.demonstrations import RecordingWriter, SessionHeader, SessionRecorder, read_recording
+from irl_core.demonstrations import read_recording
+from irl_core.recording_lines import SessionHeader
+from irl_core.recording_writer import RecordingWriter, SessionRecorder
 from irl_core.game import Game
 from irl_core.world import World
 from tmux_terminal import needs_tmux, terminal

@@ -17,7 +17,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from irl_core.demonstrations import Demonstrations, RecordingError, RecordingWriter, SessionHeader, read_recording
+from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recording_lines import SessionHeader
+from irl_core.recording_writer import RecordingWriter
 from irl_core.mdp import build_mdp
 from irl_core.world import World, WorldError, load_world, world_from_dict
 

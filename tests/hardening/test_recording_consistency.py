@@ -19,7 +19,9 @@ from pathlib import Path
 import pytest
 
 from hardening_checks import RAW_CONTROL, assert_refused, careful, careful_process, digest
-from irl_core.demonstrations import EpisodeEnd, SessionHeader, Step, read_recording, to_json_line
+from irl_core.demonstrations import read_recording
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import to_json_line
 from irl_core.world import World
 
 # Start top-left, no slip: right, right, down reaches the goal; right, down falls off the cliff.

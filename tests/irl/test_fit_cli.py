@@ -7,7 +7,8 @@ import pytest
 
 import careful_tui.commands.fit as fit_command
 from careful_tui.cli import main
-from irl_core.demonstrations import RecordingWriter, SessionHeader, Step
+from irl_core.recording_lines import SessionHeader, Step
+from irl_core.recording_writer import RecordingWriter
 from irl_core.experts import optimal_policy, rollouts, write_rollouts
 from irl_core.irl import SolverError
 from irl_core.mdp import build_mdp

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from careful_tui.cli import main
-from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import RecordingWriter
 from irl_core.experts import optimal_policy
 from irl_core.mdp import DIRECTIONS, build_mdp
 from irl_core.world import BUILTIN_WORLDS

@@ -9,7 +9,8 @@ import pytest
 from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
-from irl_core.irl.loss import fit_loss, loss_constraints, loss_problem, loss_value, relu_terms
+from irl_core.irl.loss import fit_loss
+from irl_core.irl.loss_model import loss_constraints, loss_problem, loss_value, relu_terms
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import action_index, build_mdp
 from irl_core.world import BUILTIN_WORLDS

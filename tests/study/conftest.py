@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step, StudyTag
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step, StudyTag
+from irl_core.recording_writer import RecordingWriter
 from irl_core.study import LoadedStudy, load_study
 
 STUDY_TOML = """\

@@ -5,7 +5,9 @@ from datetime import datetime, timezone
 
 import pytest
 
-from irl_core.demonstrations import RecordingError, RecordingWriter, SessionHeader, StudyTag, read_recording
+from irl_core.demonstrations import RecordingError, read_recording
+from irl_core.recording_lines import SessionHeader, StudyTag
+from irl_core.recording_writer import RecordingWriter
 from irl_core.world import BUILTIN_WORLDS
 
 TAG = {"name": "pilot", "participant": "p7", "phase": "main", "world_index": 1}

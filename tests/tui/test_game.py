@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from irl_core.demonstrations import EpisodeEnd, SessionHeader, Step, read_recording
-from irl_core.demonstrations import SessionRecorder, check_writable
+from irl_core.demonstrations import read_recording
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import SessionRecorder, check_writable
 from irl_core.game import Game, GameOver
 from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.world import World, load_world

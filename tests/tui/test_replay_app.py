@@ -16,7 +16,9 @@ from textual.widgets import Static
 from careful_tui.cli import main
 from careful_tui.screens.replay import END_TICKS, ReplayApp, minimum_size
 from careful_tui.widgets import Board, Gauge
-from irl_core.demonstrations import EpisodeEnd, RecordingWriter, SessionHeader, Step, read_recording
+from irl_core.demonstrations import read_recording
+from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recording_writer import RecordingWriter
 from irl_core.world import World
 
 # Start top-left; the goal is right, right, down; the cliff is right, down.

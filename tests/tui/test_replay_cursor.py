@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from careful_tui.screens.replay_cursor import ReplayCursor, group_episodes
-from irl_core.demonstrations import EpisodeEnd, Step, read_recording
+from irl_core.demonstrations import read_recording
+from irl_core.recording_lines import EpisodeEnd, Step
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 

@@ -19,7 +19,7 @@ from careful_tui.render.figures.carefulness import carefulness_by_distance, stat
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.small_multiples import carefulness_multiples, reward_multiples
 from careful_tui.render.grid import SYMBOL_NAMES
-from irl_core.demonstrations import slug
+from irl_core.recording_writer import slug
 from irl_core.safe_text import printable
 from irl_core.study_report import POOLED, CellFit, StudyData
 
