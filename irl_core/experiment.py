@@ -35,7 +35,7 @@ from irl_core.experts import (
 from irl_core.irl.fit import fit
 from irl_core.irl.options import FitOptions
 from irl_core.irl.result import FitResult
-from irl_core.mdp import ARROWS, MDP, action_parts, build_mdp
+from irl_core.mdp import MDP, action_parts, build_mdp
 from irl_core.planning import value_iteration
 from irl_core.world import BUILTIN_WORLDS, World
 
@@ -63,13 +63,13 @@ NOISY_CONFIDENCE = 0.95
 
 @dataclass(frozen=True)
 class Figure:
-    """One picture: a world with values per cell and/or a label per cell."""
+    """One picture: a world with values per cell and/or an action per cell."""
 
     key: str
     title: str
     world: World
     values: np.ndarray | None = None
-    labels: dict[Cell, str] = field(default_factory=dict)
+    policy: dict[Cell, tuple[str, int]] = field(default_factory=dict)  # (direction, carefulness level)
     caption: str = ""
 
 
@@ -161,20 +161,16 @@ class ExperimentResult:
 Progress = Callable[[str], None]
 
 
-def policy_labels(mdp: MDP, actions: Iterable[int], where: np.ndarray | None = None) -> dict[Cell, str]:
-    """"→8"-style labels: each acting cell's action as an arrow and a carefulness level.
+def policy_cells(mdp: MDP, actions: Iterable[int], where: np.ndarray | None = None) -> dict[Cell, tuple[str, int]]:
+    """Each acting cell's action as (direction, carefulness level); the render layer draws it.
 
     Args:
         actions: (S,) an action per state.
         where: (S,) bool, the states to label (default: every state where the agent acts).
     """
     where = mdp.nonterminal if where is None else where
-    labels = {}
-    for s, a in enumerate(actions):
-        if s < len(mdp.cells) and where[s]:
-            direction, c = action_parts(int(a), mdp.levels)
-            labels[mdp.cells[s]] = f"{ARROWS[direction]}{c}" if mdp.levels > 1 else ARROWS[direction]
-    return labels
+    return {mdp.cells[s]: action_parts(int(a), mdp.levels)
+            for s, a in enumerate(actions) if s < len(mdp.cells) and where[s]}
 
 
 def symbol_mean(result: FitResult, symbol: str) -> float:
@@ -238,7 +234,7 @@ def run_experiment(
     paper = build_mdp(BUILTIN_WORLDS["paper"])
     plan = value_iteration(paper)
     out.figures.append(Figure("fig3-optimal-policy", "Figure 3: optimal policy, 14 levels of carefulness",
-                              paper.world, labels=policy_labels(paper, plan.greedy),
+                              paper.world, policy=policy_cells(paper, plan.greedy),
                               caption=_carefulness_caption(paper, plan.greedy)))
     out.figures.append(Figure("fig4-true-reward", "Figure 4: true reward", paper.world,
                               values=paper.grid_of(paper.R_S), caption=_reward_caption(paper.world)))
@@ -282,7 +278,7 @@ def run_experiment(
     result = fit(demos, method="loss")
     out.estimates.append(_estimate("loss, noisy", data, result, time.perf_counter() - t))
     out.figures.append(Figure("fig7-demonstrated-policy", "Figure 7: the demonstrated policy (most frequent action)",
-                              paper.world, labels=policy_labels(paper, demos.counts.argmax(axis=1), demos.demonstrated),
+                              paper.world, policy=policy_cells(paper, demos.counts.argmax(axis=1), demos.demonstrated),
                               caption=data))
     out.figures.append(_fitted(result, "Figure 8: loss IRL from noisy demonstrations", "fig8-loss",
                                severity(out.estimates[-1])))

@@ -27,7 +27,6 @@ import scipy.sparse as sp
 from irl_core.world import World
 
 DIRECTIONS: tuple[str, ...] = ("up", "right", "down", "left")
-ARROWS: dict[str, str] = {"up": "↑", "right": "→", "down": "↓", "left": "←"}
 # (row, col) offsets in the order of DIRECTIONS.
 OFFSETS = np.array([(-1, 0), (0, 1), (1, 0), (0, -1)])
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from irl_core.demonstrations import Recording
 from irl_core.mdp import build_mdp
+from irl_core.recording_lines import EpisodeEnd
 from irl_core.world import World
 
 
@@ -42,7 +43,7 @@ class SessionSummary:
 
     Attributes:
         episodes: number of episodes (finished or not).
-        outcomes: count per outcome label: "goal G", "cliff C", "quit", "step limit", "unfinished".
+        outcomes: episodes per `outcome_code`: a terminal symbol, "quit", "step_limit", "unfinished".
         final_score: the score after the last step or episode end (None if nothing was played).
         steps: number of steps.
         slips: number of steps that slipped.
@@ -57,14 +58,12 @@ class SessionSummary:
     carefulness_by_distance: dict[int, tuple[float, int]]
 
 
-def outcome_label(outcome: str, symbol: str | None, world: World) -> str:
-    """A reader's name for how an episode ended: "fell off the cliff", "reached the goal", ..."""
-    if outcome == "quit":
-        return "quit"
-    if outcome == "step_limit":
-        return "step limit"
-    names = {"C": "fell off the cliff", "G": "reached the goal"}
-    return names.get(symbol or "", f"ended on {symbol}")
+def outcome_code(end: EpisodeEnd | None) -> str:
+    """How an episode ended, as data: its terminal symbol ("G", "C", ...), "quit",
+    "step_limit", or "unfinished" (no end recorded). The render layer words it."""
+    if end is None:
+        return "unfinished"
+    return (end.terminal_symbol or "?") if end.outcome == "terminal" else end.outcome
 
 
 def summarise(recording: Recording, *, distances: dict[tuple[int, int], int] | None = None) -> SessionSummary:
@@ -74,10 +73,7 @@ def summarise(recording: Recording, *, distances: dict[tuple[int, int], int] | N
     """
     world = recording.world
     ended = {end.episode: end for end in recording.episode_ends}
-    outcomes = Counter(
-        outcome_label(ended[e].outcome, ended[e].terminal_symbol, world) if e in ended else "unfinished"
-        for e in recording.episodes
-    )
+    outcomes = Counter(outcome_code(ended.get(e)) for e in recording.episodes)
     steps = recording.steps
     # The reader keeps lines in order, so the session's last line is its last step or its last end.
     candidates = []

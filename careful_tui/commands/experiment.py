@@ -17,14 +17,15 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.errors import UsageError
-from careful_tui.render.grid import WorldGrid, format_value, symbol_legend
+from careful_tui.render.grid import WorldGrid, action_label, format_value, symbol_legend
 from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, _interval_caption, run_experiment as run_stages
 from irl_core.irl import FitOptions
 from irl_core.safe_files import check_output_folder
 
 
 def figure_panel(figure: Figure) -> Panel:
-    grid = WorldGrid(figure.world, values=figure.values, labels=figure.labels)
+    labels = {cell: action_label(*action, levels=figure.world.levels) for cell, action in figure.policy.items()}
+    grid = WorldGrid(figure.world, values=figure.values, labels=labels)
     parts = [grid, symbol_legend(figure.world)]
     if figure.caption:
         parts.append(Text(figure.caption, style="italic"))

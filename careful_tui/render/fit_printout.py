@@ -14,11 +14,10 @@ from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
 
-from careful_tui.render.grid import SYMBOL_NAMES, WorldGrid, format_value
+from careful_tui.render.grid import ARROWS, SYMBOL_NAMES, WorldGrid, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import FitResult
-from irl_core.mdp import ARROWS
 from irl_core.safe_text import printable
 
 

@@ -31,6 +31,7 @@ SYMBOL_COLOURS: dict[str, str] = {
     WALL: "#1c1c1c",
 }
 SYMBOL_NAMES: dict[str, str] = {".": "ground", "C": "cliff", "G": "goal", "U": "mud", WALL: "wall"}
+ARROWS: dict[str, str] = {"up": "↑", "right": "→", "down": "↓", "left": "←"}
 OTHER_SYMBOL_COLOUR = "#4a4a6a"
 NEGATIVE = (178, 34, 34)  # firebrick
 POSITIVE = (34, 139, 34)  # forest green
@@ -170,3 +171,8 @@ def symbol_legend(world: World) -> Text:
         terminal = " (ends)" if symbol in world.terminal else ""
         legend.append(f" {name}{reward}{terminal}   ")
     return legend
+
+
+def action_label(direction: str, level: int, *, levels: int) -> str:
+    """An action as a cell label: "→8" (arrow, carefulness level), or "→" when the world has one level."""
+    return f"{ARROWS[direction]}{level}" if levels > 1 else ARROWS[direction]

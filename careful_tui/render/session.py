@@ -14,23 +14,22 @@ from careful_tui.render.palette import BAD, GOOD, HERE, NOTE, SLIP, WARN, level_
 from irl_core.demonstrations import Recording
 from irl_core.recording_lines import EpisodeEnd
 from irl_core.safe_text import VALUE_LIMIT, printable
-from irl_core.summary import SessionSummary
+from irl_core.summary import SessionSummary, outcome_code
 from irl_core.world import World
 
 MEAN_BAR = 5
 
 
-def outcome_text(end: EpisodeEnd) -> str:
+def outcome_text(end: EpisodeEnd | None) -> str:
     """How an episode ended, for a person: "reached the goal", "fell off the cliff", ..."""
-    if end.outcome == "quit":
-        return "quit"
-    if end.outcome == "step_limit":
-        return "ran out of steps"
-    if end.terminal_symbol == "G":
-        return "reached the goal"
-    if end.terminal_symbol == "C":
-        return "fell off the cliff"
-    return f"ended on {SYMBOL_NAMES.get(end.terminal_symbol or '', repr(end.terminal_symbol))}"
+    return outcome_words(outcome_code(end))
+
+
+def outcome_words(code: str) -> str:
+    """An `irl_core.summary.outcome_code` in words, the one wording play, replay and the summary use."""
+    words = {"quit": "quit", "step_limit": "ran out of steps", "unfinished": "unfinished",
+             "G": "reached the goal", "C": "fell off the cliff"}
+    return words.get(code) or f"ended on {SYMBOL_NAMES.get(code, repr(code))}"
 
 
 def legend(world: World) -> Text:
@@ -71,9 +70,9 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     session.add_column(justify="right", style="bold", no_wrap=True)
     session.add_column()
     session.add_row(*plural(summary.episodes, "episode").split(" ", 1))
-    for label, count in sorted(summary.outcomes.items(), key=lambda item: -item[1]):
-        colour = GOOD if label == "reached the goal" else BAD if label == "fell off the cliff" else NOTE
-        session.add_row(Text(str(count), style=colour), Text(label, style=colour))
+    for code, count in sorted(summary.outcomes.items(), key=lambda item: -item[1]):
+        colour = GOOD if code == "G" else BAD if code == "C" else NOTE
+        session.add_row(Text(str(count), style=colour), Text(outcome_words(code), style=colour))
     session.add_row(*plural(summary.steps, "step").split(" ", 1))
     session.add_row(Text(str(summary.slips), style=SLIP if summary.slips else ""),
                     "slip" if summary.slips == 1 else "slips")

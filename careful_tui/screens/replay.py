@@ -24,7 +24,7 @@ from textual.widgets import Static
 
 from careful_tui.render.grid import format_value
 from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
-from careful_tui.render.session import plural, summary_panel
+from careful_tui.render.session import outcome_text, plural, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.screens.replay_cursor import Frame, ReplayCursor
 from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
@@ -34,7 +34,7 @@ from irl_core.demonstrations import Recording
 from irl_core.recording_lines import Step
 from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.safe_text import VALUE_LIMIT, printable
-from irl_core.summary import distance_to_terminal, outcome_label, summarise
+from irl_core.summary import distance_to_terminal, summarise
 from irl_core.world import World
 
 FRAME_S = 0.5
@@ -275,7 +275,7 @@ class ReplayApp(CarefulApp):
                 status.append("unfinished: the recording stops here", style=f"bold {WARN}")
             else:
                 colour = GOOD if end.terminal_symbol == "G" else BAD if end.outcome == "terminal" else NOTE
-                status.append(f"{outcome_label(end.outcome, end.terminal_symbol, self.world)}!", style=f"bold {colour}")
+                status.append(f"{outcome_text(end)}!", style=f"bold {colour}")
                 status.append("   score ", style="dim")
                 status.append(format_value(end.score), style=f"bold {colour}")
         status.append("\n")

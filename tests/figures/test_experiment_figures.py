@@ -7,7 +7,7 @@ import pytest
 from matplotlib.patches import Rectangle
 
 from careful_tui.render.figures.board import Board
-from careful_tui.render.figures.experiment_figures import draw_experiment_figure, policy_from_labels
+from careful_tui.render.figures.experiment_figures import draw_experiment_figure, policy_panel
 from irl_core.experiment import ExperimentResult, Figure, Separation
 from irl_core.world import BUILTIN_WORLDS
 
@@ -19,7 +19,7 @@ def result():
     fitted[3, 1:5] = -800.0
     return ExperimentResult(
         figures=[
-            Figure("fig3-optimal-policy", "optimal policy", paper, labels={(0, 0): "→2", (2, 0): "↑3", (3, 0): "↑8"}),
+            Figure("fig3-optimal-policy", "optimal policy", paper, policy={(0, 0): ("right", 2), (2, 0): ("up", 3), (3, 0): ("up", 8)}),
             Figure("fig4-true-reward", "true reward", paper, values=Board.of(paper).rewards(paper)),
             Figure("intervals-mud", "intervals on mud", mud, values=fitted),
         ],
@@ -49,7 +49,7 @@ def test_reward_figures_share_one_colour_scale(result):
 
 def test_policy_labels_become_arrows(result):
     figure = result.figures[0]
-    panel = policy_from_labels(figure, Board.of(figure.world))
+    panel = policy_panel(figure, Board.of(figure.world))
     assert panel.direction[0, 0] == 1 and panel.carefulness[0, 0] == 2
     assert panel.direction[3, 0] == 0 and panel.carefulness[3, 0] == 8
     assert (panel.direction == -1).sum() == panel.direction.size - 3

@@ -6,13 +6,11 @@ What a figure holds decides how it is drawn, so new stages need no new code here
   labelled identified set or confidence interval as the result's `kind` says);
 - a figure with values: a reward heatmap, on one colour scale shared by every figure of the
   run, so the same colour is the same reward in figure 4 (true) and figures 5, 6 and 8 (fitted);
-- a figure with labels ("→8" per cell): a policy, arrows sized by carefulness.
+- a figure with a policy (an action per cell): arrows sized by carefulness.
 Each is one panel a third of a page wide, without a title (the paper's caption is the title).
 """
 
 from __future__ import annotations
-
-import re
 
 import numpy as np
 from matplotlib.figure import Figure as PlotFigure
@@ -23,10 +21,7 @@ from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.policy import PolicyPanel, policy_figure
 from careful_tui.render.grid import SYMBOL_NAMES
 from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
-from irl_core.mdp import ARROWS, DIRECTIONS
-
-DIRECTION_OF_ARROW = {arrow: DIRECTIONS.index(direction) for direction, arrow in ARROWS.items()}
-
+from irl_core.mdp import DIRECTIONS
 
 def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: float) -> PlotFigure:
     """The paper figure for one of the experiment's figures (see the module docstring).
@@ -44,7 +39,7 @@ def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: fl
         return interval_figure([("", rows)], kind=separation.kind, rmax=bound)
     if figure.values is not None:
         return reward_figure([("", figure.values)], board, vmax=shared_scale(result))
-    return policy_figure([policy_from_labels(figure, board)], board, levels=figure.world.levels,
+    return policy_figure([policy_panel(figure, board)], board, levels=figure.world.levels,
                          background=board.rewards(figure.world), vmax=shared_scale(result))
 
 
@@ -82,12 +77,11 @@ def separation_rows(separation: Separation, figure: Figure, board: Board) -> lis
     return rows
 
 
-def policy_from_labels(figure: Figure, board: Board) -> PolicyPanel:
-    """A policy panel from a figure's "→8" labels (arrow, then the level when there are levels)."""
+def policy_panel(figure: Figure, board: Board) -> PolicyPanel:
+    """A policy panel from a figure's actions (direction, carefulness level) per cell."""
     direction = np.full(board.shape, -1)
     carefulness = np.ones(board.shape, dtype=int)
-    for (r, c), label in figure.labels.items():
-        level = re.match(r"\d*", label[1:]).group()
-        direction[r, c] = DIRECTION_OF_ARROW[label[0]]
-        carefulness[r, c] = int(level) if level else 1
+    for (r, c), (name, level) in figure.policy.items():
+        direction[r, c] = DIRECTIONS.index(name)
+        carefulness[r, c] = level
     return PolicyPanel("", direction, carefulness)
