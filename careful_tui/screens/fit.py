@@ -8,8 +8,8 @@ world's own R_S beside it on the same scale, how far the demonstrations pin each
 
 Keys switch the method (a for auto, l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
 view (s) and quit (q). A refit runs in a thread worker while the last result stays on screen,
-dimmed, under a "fitting…" status; the thread posts `FitApp.Progress` while it works and
-hands back a `FitApp.Fitted`, and only the answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
+dimmed, under a "fitting…" status; the thread posts `FitScreen.Progress` while it works and
+hands back a `FitScreen.Fitted`, and only the answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
 demonstrations, a solver that gives up) is reported in the status line and the view keeps
 the last result.
 
@@ -28,10 +28,10 @@ from rich.console import Group
 from rich.text import Text
 from textual import on, work
 from textual.app import ComposeResult
-from textual.driver import Driver
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
+from textual.screen import Screen
 from textual.widgets import Static
 
 from careful_tui.render.fit_printout import (
@@ -46,7 +46,6 @@ from careful_tui.render.grid import diverging_colour, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, signed_log_value
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
 from careful_tui.render.session import legend
-from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -99,8 +98,9 @@ def default_svg_name(world: str, method: str, folder: Path) -> Path:
     return path
 
 
-class FitApp(CarefulApp):
-    """The fit view of one set of demonstrations (the CLI and the tests build it the same way).
+class FitScreen(Screen[None]):
+    """The fit view of one set of demonstrations (the CLI and the tests build its app with
+    `careful_tui.app.make_fit_app`).
 
     Args:
         demos: the pooled demonstrations.
@@ -134,7 +134,7 @@ class FitApp(CarefulApp):
         phrase: str
 
         def can_replace(self, message: Message) -> bool:
-            return isinstance(message, FitApp.Progress) and message.request == self.request
+            return isinstance(message, FitScreen.Progress) and message.request == self.request
 
     TITLE = "careful fit"
     METHOD = Binding.Group("auto/lp/loss/maxent")
@@ -146,7 +146,6 @@ class FitApp(CarefulApp):
         Binding("tab", "next_method", "next method", priority=True, show=False),
         Binding("i", "toggle_intervals", "intervals", priority=True),
         Binding("s", "save_svg", "save SVG", priority=True),
-        *QUIT_BINDINGS,
     ]
 
     def __init__(
@@ -158,9 +157,8 @@ class FitApp(CarefulApp):
         sources: Sequence[Path] = (),
         svg: Path | None = None,
         show_times: bool = True,
-        driver_class: type[Driver] | None = None,
     ) -> None:
-        super().__init__(driver_class=driver_class)
+        super().__init__()
         self.demos = demos
         self.world = demos.mdp.world
         self.options = options
@@ -174,6 +172,7 @@ class FitApp(CarefulApp):
         self._fitting: FitOptions | None = None
         self._progress = ""
         self._save_first = svg is not None
+        self._too_small = False
 
     # ------------------------------------------------------------------ layout
 
@@ -201,7 +200,7 @@ class FitApp(CarefulApp):
         self.query_one("#true", Board).display = bool(self.world.rewards)
         policy = self.query_one("#policy", Board)
         self.query_one("#policy-key", Static).update(self._policy_key())
-        self._layout(*self.size)
+        self._layout(*self.app.size)
         self.query_one("#body").focus()
         if self.result is None:
             self._start(self.options)
@@ -212,7 +211,7 @@ class FitApp(CarefulApp):
                 self.call_after_refresh(self._save_first_svg)
 
     def on_resize(self) -> None:
-        self._layout(*self.size)
+        self._layout(*self.app.size)
 
     def _layout(self, width: int, height: int) -> None:
         """Boards side by side when two fit, else stacked; the board sizes; the too-small check."""
@@ -243,11 +242,11 @@ class FitApp(CarefulApp):
     @work(thread=True, group="fit")
     def _fit(self, request: int, options: FitOptions) -> None:
         try:
-            heard = lambda *done: self.post_message(FitApp.Progress(request, progress_phrase(*done)))  # noqa: E731
+            heard = lambda *done: self.post_message(FitScreen.Progress(request, progress_phrase(*done)))  # noqa: E731
             result, error = fit(self.demos, options, progress=heard), None
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
-        self.post_message(FitApp.Fitted(request, options, result, error))
+        self.post_message(FitScreen.Fitted(request, options, result, error))
 
     @on(Progress)
     def _progressed(self, message: Progress) -> None:
@@ -316,7 +315,7 @@ class FitApp(CarefulApp):
 
     def _save(self, path: Path) -> None:
         try:
-            write_output(path, self.export_screenshot(title=self._svg_title()), option="--svg", inputs=self.sources)
+            write_output(path, self.app.export_screenshot(title=self._svg_title()), option="--svg", inputs=self.sources)
         except OutputError as exc:
             self.notify(printable(str(exc)), title="save SVG", severity="error", markup=False)
             return
