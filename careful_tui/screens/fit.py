@@ -31,6 +31,7 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
+from textual.reactive import reactive
 from textual.screen import Screen
 from textual.widgets import Static
 
@@ -136,6 +137,14 @@ class FitScreen(Screen[None]):
         def can_replace(self, message: Message) -> bool:
             return isinstance(message, FitScreen.Progress) and message.request == self.request
 
+    # What the view shows: the fit (compared by identity: its arrays have no single truth value),
+    # its settings, the error of the last refit and the settings being fitted now. Their watchers
+    # redraw; `set_reactive` in __init__ sets them before there is anything to draw.
+    result: reactive[FitResult | None] = reactive(None, init=False, always_update=True)
+    options: reactive[FitOptions] = reactive(FitOptions, init=False)
+    error: reactive[str | None] = reactive(None, init=False)
+    fitting: reactive[FitOptions | None] = reactive(None, init=False)
+
     TITLE = "careful fit"
     METHOD = Binding.Group("auto/lp/loss/maxent")
     BINDINGS = [
@@ -161,15 +170,13 @@ class FitScreen(Screen[None]):
         super().__init__()
         self.demos = demos
         self.world = demos.mdp.world
-        self.options = options
-        self.result = result
+        self.set_reactive(FitScreen.options, options)
+        self.set_reactive(FitScreen.result, result)
         self.sources = list(sources)
         self.svg = svg
         self.show_times = show_times
-        self.error: str | None = None
         self.saved: list[Path] = []
         self._request = 0
-        self._fitting: FitOptions | None = None
         self._progress = ""
         self._save_first = svg is not None
         self._too_small = False
@@ -233,11 +240,10 @@ class FitScreen(Screen[None]):
     def _start(self, options: FitOptions) -> None:
         """Fit with `options` in the worker; the answer to an earlier request is then ignored."""
         self._request += 1
-        self._fitting = options
         self._progress = ""
         self.error = None
+        self.fitting = options
         self._fit(self._request, options)
-        self.show()
 
     @work(thread=True, group="fit")
     def _fit(self, request: int, options: FitOptions) -> None:
@@ -250,7 +256,7 @@ class FitScreen(Screen[None]):
 
     @on(Progress)
     def _progressed(self, message: Progress) -> None:
-        if message.request == self._request and self._fitting is not None:
+        if message.request == self._request and self.fitting is not None:
             self._progress = f": {message.phrase}"
             for status in self.query("#status").results(Static):  # none once the view is closing
                 status.update(self._status())
@@ -259,28 +265,27 @@ class FitScreen(Screen[None]):
     def _fitted(self, message: Fitted) -> None:
         if message.request != self._request:
             return
-        self._fitting = None
+        self.fitting = None
         self.options = message.options
         if message.result is None:
             self.error = error_message(message.error)
             self.notify(printable(self.error), title=f"{message.options.method} failed", severity="error", timeout=8,
                         markup=False)
         else:
-            self.result = message.result
             if not self.query_one("#policy", Board).labels:
                 self.query_one("#policy", Board).labels = policy_labels(message.result)
-        self.show()
+            self.result = message.result
         if self._save_first and self.result is not None:
             self.call_after_refresh(self._save_first_svg)
 
     @property
     def busy(self) -> bool:
-        return self._fitting is not None
+        return self.fitting is not None
 
     def action_method(self, method: str) -> None:
         """Refit with `method` (intervals as now); nothing to do if it is already shown."""
         shown = self.result is not None and self._asked_method() == method and self.error is None
-        if (shown and not self.busy) or (self._fitting is not None and self._fitting.method == method):
+        if (shown and not self.busy) or (self.fitting is not None and self.fitting.method == method):
             return
         self._start(dataclasses.replace(self._wanted(), method=method))
 
@@ -297,11 +302,10 @@ class FitScreen(Screen[None]):
             self._start(wanted)
             return
         self.options = wanted
-        self.show()
 
     def _wanted(self) -> FitOptions:
         """The settings being fitted, else those of the view."""
-        return self._fitting or self.options
+        return self.fitting or self.options
 
     # ------------------------------------------------------------------ saving
 
@@ -337,8 +341,20 @@ class FitScreen(Screen[None]):
 
     # ------------------------------------------------------------------ drawing
 
+    def watch_result(self) -> None:
+        self.show()
+
+    def watch_options(self) -> None:
+        self.show()
+
+    def watch_error(self) -> None:
+        self.show()
+
+    def watch_fitting(self) -> None:
+        self.show()
+
     def show(self) -> None:
-        """Draw the current result, the busy state or error, and the keys."""
+        """Draw the current result, the busy state or error, and the keys (the watchers call it)."""
         result = self.result
         self.query_one("#title", Static).update(self._title())
         self.query_one("#status", Static).update(self._status())
@@ -370,8 +386,8 @@ class FitScreen(Screen[None]):
         )
 
     def _status(self) -> Text:
-        if self._fitting is not None:
-            return Text(f"⟳ fitting {self._fitting.describe()}…{self._progress}", style=f"bold {WARN}")
+        if self.fitting is not None:
+            return Text(f"⟳ fitting {self.fitting.describe()}…{self._progress}", style=f"bold {WARN}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
             return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
