@@ -12,7 +12,7 @@
 6. The same question for noisy (Boltzmann) experts: maxent with beta estimated and 95%
    bootstrap confidence intervals (`NOISY_RESAMPLES` resamples, to keep the run quick).
 
-Every caption and note is written from the run's own numbers (`severity`, `_interval_caption`):
+Every caption and note is written from the run's own numbers (`severity`, `interval_caption`):
 a stage that does not recover the cliff says so.
 """
 
@@ -295,7 +295,7 @@ def run_experiment(
                                           time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes",
                                           rmax=result.options.rmax))
         out.figures.append(_fitted(result, f"Intervals on {name}: lp estimate", f"intervals-{name}",
-                                   _interval_caption(out.separations[-1])))
+                                   interval_caption(out.separations[-1])))
 
     # 6. The same with noisy experts: confidence intervals.
     for name in ("mud", "mud-simple"):
@@ -316,7 +316,7 @@ def run_experiment(
                                           time.perf_counter() - t, kind="confidence", data=data,
                                           rmax=options.rmax))
         out.figures.append(_fitted(result, f"Confidence intervals on {name}: maxent from noisy experts",
-                                   f"intervals-noisy-{name}", _interval_caption(out.separations[-1])))
+                                   f"intervals-noisy-{name}", interval_caption(out.separations[-1])))
         out.notes += [f"noisy {name}: {note}" for note in result.notes if "not identified" in note]
 
     out.seconds = time.perf_counter() - started
@@ -367,7 +367,7 @@ def _reward_caption(world: World) -> str:
 SYMBOL_WORDS = {"C": "cliff", "G": "goal", "U": "mud"}
 
 
-def _interval_caption(s: Separation) -> str:
+def interval_caption(s: Separation) -> str:
     what = "95% confidence intervals" if s.kind == "confidence" else "identified by the demonstrations"
     if s.separated:
         verdict = ("disjoint: the cliff is shown to be worse than the mud" if s.cliff[1] < s.mud[0]

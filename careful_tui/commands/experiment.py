@@ -18,7 +18,7 @@ from rich.text import Text
 
 from careful_tui.errors import UsageError
 from careful_tui.render.grid import WorldGrid, action_label, format_value, symbol_legend
-from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, _interval_caption, run_experiment as run_stages
+from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption, run_experiment as run_stages
 from irl_core.irl import FitOptions
 from irl_core.safe_files import check_output_folder
 
@@ -119,7 +119,7 @@ def report_markdown(result: ExperimentResult) -> str:
     for s in result.separations:
         lines.append(f"| {s.world} | {s.kind} | {s.data} | {s.cliff[0]:.0f} .. {s.cliff[1]:.0f} | "
                      f"{s.mud[0]:.0f} .. {s.mud[1]:.0f} | {'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
-    lines += [""] + [f"- {s.world} ({s.kind}): {_verdict(s)}" for s in result.separations]
+    lines += [""] + [f"- {s.world} ({s.kind}): {interval_caption(s)}" for s in result.separations]
     lines += ["", "## Figures", "", *how_to_read(result), ""]
     for figure in result.figures:
         lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.png)", "",
@@ -128,11 +128,6 @@ def report_markdown(result: ExperimentResult) -> str:
         lines += ["## Notes", "", *(f"- {note}" for note in result.notes), ""]
     lines += [f"Total time: {result.seconds:.1f} s.", ""]
     return "\n".join(lines)
-
-
-def _verdict(s) -> str:
-    """The interval caption of a stage, from its numbers (the figure's caption)."""
-    return _interval_caption(s)
 
 
 def run_experiment(args: argparse.Namespace) -> int:

@@ -8,7 +8,7 @@ import numpy as np
 from careful_tui.cli import main
 from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recording_writer import RecordingWriter
-from irl_core.experiment import Estimate, Separation, _interval_caption, severity
+from irl_core.experiment import Estimate, Separation, interval_caption, severity
 from irl_core.mdp import DIRECTIONS, build_mdp
 from irl_core.world import BUILTIN_WORLDS
 
@@ -29,9 +29,16 @@ def test_the_cliff_caption_follows_the_estimate():
 def test_the_interval_caption_follows_the_intervals():
     apart = Separation("mud", (-1000.0, -600.0), (-50.0, -10.0), 0.0)
     overlap = Separation("mud-simple", (-1000.0, 30.0), (-100.0, 40.0), 0.0, kind="confidence")
-    assert "disjoint: the cliff is shown to be worse" in _interval_caption(apart)
-    assert "identified by the demonstrations" in _interval_caption(apart)
-    assert "overlapping" in _interval_caption(overlap) and "95% confidence" in _interval_caption(overlap)
+    assert "disjoint: the cliff is shown to be worse" in interval_caption(apart)
+    assert "identified by the demonstrations" in interval_caption(apart)
+    assert "overlapping" in interval_caption(overlap) and "95% confidence" in interval_caption(overlap)
+
+
+def test_an_interval_end_at_the_bound_is_said_to_be_the_bounds():
+    at_bound = Separation("mud-simple", (-5000.0, -4756.0), (-173.0, -87.0), 0.0, kind="confidence", rmax=5000.0)
+    inside = Separation("mud", (-1397.0, -579.0), (-88.0, -25.0), 0.0, kind="confidence", rmax=5000.0)
+    assert "the cliff's -5000 is the bound of the fit, not a value the data set" in interval_caption(at_bound)
+    assert "bound" not in interval_caption(inside)
 
 
 def careless_person(folder):
