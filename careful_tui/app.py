@@ -1,4 +1,5 @@
-"""The apps' factories: the command line and the tests build every app here, the same way."""
+"""The app's factories: the command line and the tests build the careful app here, the same way,
+each opening it on its first screen (play, replay or the fit view)."""
 
 from __future__ import annotations
 
@@ -13,10 +14,12 @@ from careful_tui.arguments import options_from_args
 
 from careful_tui.keys.hold import Clock, HoldProfile
 from careful_tui.keys.modes import make_input
-from careful_tui.screens.fit import FitApp
-from careful_tui.screens.play import PlayApp
+from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.fit import FitScreen
+from careful_tui.screens.play import PlayScreen
+from careful_tui.screens.replay import FRAME_S, ReplayScreen
 from careful_tui.version import app_version
-from irl_core.demonstrations import Demonstrations
+from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.recording_lines import SessionHeader
 from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Game
@@ -34,8 +37,8 @@ def make_play_app(
     clock: Clock = time.monotonic,
     calibrate: bool = False,
     driver_class: type[Driver] | None = None,
-) -> PlayApp:
-    """The play app, recording to a new file in `out` (the CLI and the tests both build it here)."""
+) -> CarefulApp:
+    """The app on the play screen, recording to a new file in `out` (the CLI and the tests both build it here)."""
     profile = HoldProfile(levels=world.levels)
     header = SessionHeader(
         world=world,
@@ -47,12 +50,21 @@ def make_play_app(
     )
     recorder = SessionRecorder(out, header)
     game = Game(world, seed=seed, sink=recorder)
-    return PlayApp(game, recorder, input_mode=input_mode, profile=profile, clock=clock,
-                   calibrate=calibrate, player=player, driver_class=driver_class)
+    screen = PlayScreen(game, recorder, input_mode=input_mode, profile=profile, clock=clock,
+                        calibrate=calibrate, player=player)
+    return CarefulApp(screen, driver_class=driver_class)
+
+
+def make_replay_app(recording: Recording, *, playing: bool = False, frame_seconds: float = FRAME_S,
+                    driver_class: type[Driver] | None = None) -> CarefulApp:
+    """The app on the replay screen of `recording` (the CLI plays at once; the tests start paused)."""
+    return CarefulApp(ReplayScreen(recording, playing=playing, frame_seconds=frame_seconds),
+                      driver_class=driver_class)
 
 
 def make_fit_app(args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,
-                 *, show_times: bool = True, driver_class: type[Driver] | None = None) -> FitApp:
-    """The fit view `careful fit` opens for its parsed `args` (the CLI and the tests build it here)."""
-    return FitApp(demos, options_from_args(args), result=result, sources=args.files, svg=args.svg,
-                  show_times=show_times, driver_class=driver_class)
+                 *, show_times: bool = True, driver_class: type[Driver] | None = None) -> CarefulApp:
+    """The app on the fit view `careful fit` opens for its parsed `args` (the CLI and the tests build it here)."""
+    screen = FitScreen(demos, options_from_args(args), result=result, sources=args.files, svg=args.svg,
+                       show_times=show_times)
+    return CarefulApp(screen, driver_class=driver_class)

@@ -112,7 +112,7 @@ def run_fit(args: argparse.Namespace) -> int:
         # The kitty-aware driver: Textual's own crashes on key-event sequences some terminals send.
         app = make_fit_app(args, demos, result, driver_class=PassiveKittyDriver)
         app.run()
-        for path in dict.fromkeys(app.saved):
+        for path in dict.fromkeys(app.first_screen.saved):
             print(f"saved {printable(str(path))}")
         return EXIT_OK
     console = Console(record=args.svg is not None, highlight=False)

@@ -38,18 +38,19 @@ def run_play(args: argparse.Namespace) -> int:
     player = args.player or default_player()
     app = make_play_app(world, out=args.out, player=player, seed=seed, input_mode=args.input,
                         calibrate=args.calibrate, driver_class=KittyDriver)
+    play = app.first_screen
     try:
         app.run()
     finally:
-        app.record_quit()
-    recorder = app.recorder
+        play.record_quit()
+    recorder = play.recorder
     for path in recorder.lost:
         print(f"{printable(str(path))} was deleted during the session; its steps were written again below")
     for path in recorder.paths:
         print(f"recorded to {printable(str(path))}")
-    if app.write_error is not None:
+    if play.write_error is not None:
         kept = "the steps before it are kept" if recorder.paths else "nothing was recorded"
-        problem = getattr(app.write_error, "strerror", None) or app.write_error
+        problem = getattr(play.write_error, "strerror", None) or play.write_error
         raise UsageError(f"cannot write the recording in {args.out} ({problem}); the game stopped and {kept}")
     if not recorder.paths:
         print("nothing was played, so nothing was recorded")

@@ -1,5 +1,5 @@
-"""The screens: play, replay, the fit view and the calibration dialog, with what they share:
-`careful_app` (the theme, `careful.tcss`, the quit keys), `game_layout` (the layout of play
+"""The screens: play, replay, the fit view and the calibration dialog, all `Screen`s of one
+`careful_app.CarefulApp` (the theme, `careful.tcss`, the driver, the quit keys), `game_layout` (the layout of play
 and replay, and its minimum size) and the replay's position in a recording (`replay_cursor`,
 no Textual).
 

@@ -8,8 +8,8 @@ world's own R_S beside it on the same scale, how far the demonstrations pin each
 
 Keys switch the method (a for auto, l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
 view (s) and quit (q). A refit runs in a thread worker while the last result stays on screen,
-dimmed, under a "fitting…" status; the thread posts `FitApp.Progress` while it works and
-hands back a `FitApp.Fitted`, and only the answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
+dimmed, under a "fitting…" status; the thread posts `FitScreen.Progress` while it works and
+hands back a `FitScreen.Fitted`, and only the answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
 demonstrations, a solver that gives up) is reported in the status line and the view keeps
 the last result.
 
@@ -28,10 +28,11 @@ from rich.console import Group
 from rich.text import Text
 from textual import on, work
 from textual.app import ComposeResult
-from textual.driver import Driver
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
+from textual.reactive import reactive
+from textual.screen import Screen
 from textual.widgets import Static
 
 from careful_tui.render.fit_printout import (
@@ -46,7 +47,6 @@ from careful_tui.render.grid import diverging_colour, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, signed_log_value
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
 from careful_tui.render.session import legend
-from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -100,8 +100,9 @@ def default_svg_name(world: str, method: str, folder: Path) -> Path:
     return path
 
 
-class FitApp(CarefulApp):
-    """The fit view of one set of demonstrations (the CLI and the tests build it the same way).
+class FitScreen(Screen[None]):
+    """The fit view of one set of demonstrations (the CLI and the tests build its app with
+    `careful_tui.app.make_fit_app`).
 
     Args:
         demos: the pooled demonstrations.
@@ -135,7 +136,15 @@ class FitApp(CarefulApp):
         phrase: str
 
         def can_replace(self, message: Message) -> bool:
-            return isinstance(message, FitApp.Progress) and message.request == self.request
+            return isinstance(message, FitScreen.Progress) and message.request == self.request
+
+    # What the view shows: the fit (compared by identity: its arrays have no single truth value),
+    # its settings, the error of the last refit and the settings being fitted now. Their watchers
+    # redraw; `set_reactive` in __init__ sets them before there is anything to draw.
+    result: reactive[FitResult | None] = reactive(None, init=False, always_update=True)
+    options: reactive[FitOptions] = reactive(FitOptions, init=False)
+    error: reactive[str | None] = reactive(None, init=False)
+    fitting: reactive[FitOptions | None] = reactive(None, init=False)
 
     TITLE = "careful fit"
     METHOD = Binding.Group("auto/lp/loss/maxent")
@@ -147,7 +156,6 @@ class FitApp(CarefulApp):
         Binding("tab", "next_method", "next method", priority=True, show=False),
         Binding("i", "toggle_intervals", "intervals", priority=True),
         Binding("s", "save_svg", "save SVG", priority=True),
-        *QUIT_BINDINGS,
     ]
 
     def __init__(
@@ -159,22 +167,20 @@ class FitApp(CarefulApp):
         sources: Sequence[Path] = (),
         svg: Path | None = None,
         show_times: bool = True,
-        driver_class: type[Driver] | None = None,
     ) -> None:
-        super().__init__(driver_class=driver_class)
+        super().__init__()
         self.demos = demos
         self.world = demos.mdp.world
-        self.options = options
-        self.result = result
+        self.set_reactive(FitScreen.options, options)
+        self.set_reactive(FitScreen.result, result)
         self.sources = list(sources)
         self.svg = svg
         self.show_times = show_times
-        self.error: str | None = None
         self.saved: list[Path] = []
         self._request = 0
-        self._fitting: FitOptions | None = None
         self._progress = ""
         self._save_first = svg is not None
+        self._too_small = False
 
     # ------------------------------------------------------------------ layout
 
@@ -202,7 +208,7 @@ class FitApp(CarefulApp):
         self.query_one("#true", Board).display = bool(self.world.rewards)
         policy = self.query_one("#policy", Board)
         self.query_one("#policy-key", Static).update(self._policy_key())
-        self._layout(*self.size)
+        self._layout(*self.app.size)
         self.query_one("#body").focus()
         if self.result is None:
             self._start(self.options)
@@ -213,7 +219,7 @@ class FitApp(CarefulApp):
                 self.call_after_refresh(self._save_first_svg)
 
     def on_resize(self) -> None:
-        self._layout(*self.size)
+        self._layout(*self.app.size)
 
     def _layout(self, width: int, height: int) -> None:
         """Boards side by side when two fit, else stacked; the board sizes; the too-small check."""
@@ -235,24 +241,23 @@ class FitApp(CarefulApp):
     def _start(self, options: FitOptions) -> None:
         """Fit with `options` in the worker; the answer to an earlier request is then ignored."""
         self._request += 1
-        self._fitting = options
         self._progress = ""
         self.error = None
+        self.fitting = options
         self._fit(self._request, options)
-        self.show()
 
     @work(thread=True, group="fit")
     def _fit(self, request: int, options: FitOptions) -> None:
         try:
-            heard = lambda *done: self.post_message(FitApp.Progress(request, progress_phrase(*done)))  # noqa: E731
+            heard = lambda *done: self.post_message(FitScreen.Progress(request, progress_phrase(*done)))  # noqa: E731
             result, error = fit(self.demos, options, progress=heard), None
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
-        self.post_message(FitApp.Fitted(request, options, result, error))
+        self.post_message(FitScreen.Fitted(request, options, result, error))
 
     @on(Progress)
     def _progressed(self, message: Progress) -> None:
-        if message.request == self._request and self._fitting is not None:
+        if message.request == self._request and self.fitting is not None:
             self._progress = f": {message.phrase}"
             for status in self.query("#status").results(Static):  # none once the view is closing
                 status.update(self._status())
@@ -261,28 +266,27 @@ class FitApp(CarefulApp):
     def _fitted(self, message: Fitted) -> None:
         if message.request != self._request:
             return
-        self._fitting = None
+        self.fitting = None
         self.options = message.options
         if message.result is None:
             self.error = error_message(message.error)
             self.notify(printable(self.error), title=f"{message.options.method} failed", severity="error", timeout=8,
                         markup=False)
         else:
-            self.result = message.result
             if not self.query_one("#policy", Board).labels:
                 self.query_one("#policy", Board).labels = policy_labels(message.result)
-        self.show()
+            self.result = message.result
         if self._save_first and self.result is not None:
             self.call_after_refresh(self._save_first_svg)
 
     @property
     def busy(self) -> bool:
-        return self._fitting is not None
+        return self.fitting is not None
 
     def action_method(self, method: str) -> None:
         """Refit with `method` (intervals as now); nothing to do if it is already shown."""
         shown = self.result is not None and self._asked_method() == method and self.error is None
-        if (shown and not self.busy) or (self._fitting is not None and self._fitting.method == method):
+        if (shown and not self.busy) or (self.fitting is not None and self.fitting.method == method):
             return
         self._start(dataclasses.replace(self._wanted(), method=method))
 
@@ -299,11 +303,10 @@ class FitApp(CarefulApp):
             self._start(wanted)
             return
         self.options = wanted
-        self.show()
 
     def _wanted(self) -> FitOptions:
         """The settings being fitted, else those of the view."""
-        return self._fitting or self.options
+        return self.fitting or self.options
 
     # ------------------------------------------------------------------ saving
 
@@ -317,7 +320,7 @@ class FitApp(CarefulApp):
 
     def _save(self, path: Path) -> None:
         try:
-            write_output(path, self.export_screenshot(title=self._svg_title()), option="--svg", inputs=self.sources)
+            write_output(path, self.app.export_screenshot(title=self._svg_title()), option="--svg", inputs=self.sources)
         except OutputError as exc:
             self.notify(printable(str(exc)), title="save SVG", severity="error", markup=False)
             return
@@ -339,8 +342,20 @@ class FitApp(CarefulApp):
 
     # ------------------------------------------------------------------ drawing
 
+    def watch_result(self) -> None:
+        self.show()
+
+    def watch_options(self) -> None:
+        self.show()
+
+    def watch_error(self) -> None:
+        self.show()
+
+    def watch_fitting(self) -> None:
+        self.show()
+
     def show(self) -> None:
-        """Draw the current result, the busy state or error, and the keys."""
+        """Draw the current result, the busy state or error, and the keys (the watchers call it)."""
         result = self.result
         self.query_one("#title", Static).update(self._title())
         self.query_one("#status", Static).update(self._status())
@@ -372,8 +387,8 @@ class FitApp(CarefulApp):
         )
 
     def _status(self) -> Text:
-        if self._fitting is not None:
-            return Text(f"⟳ fitting {self._fitting.describe()}…{self._progress}", style=f"bold {WARN}")
+        if self.fitting is not None:
+            return Text(f"⟳ fitting {self.fitting.describe()}…{self._progress}", style=f"bold {WARN}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
             return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))

@@ -7,7 +7,7 @@ exactly). The rules and the recording live in `irl_core.game`; this module is th
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
 default), shared by the input detector, the live gauge and the calibration screen. A 30 Hz
-timer runs only while a move is being entered; it calls `PlayApp.tick`, which tests call
+timer runs only while a move is being entered; it calls `PlayScreen.tick`, which tests call
 directly after advancing a fake clock.
 
 Recording: the session file (`recordings/<time>-<player>.jsonl`) is created at the first
@@ -35,7 +35,7 @@ from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.driver import Driver
+from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
 
@@ -47,7 +47,6 @@ from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_text
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
-from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.recording_writer import SessionRecorder
@@ -65,8 +64,8 @@ def minimum_size(world: World) -> tuple[int, int]:
     return game_minimum_size(world, side_padding=5)
 
 
-class PlayApp(CarefulApp):
-    """The play screen. Build it with `careful_tui.app.make_play_app`, which the CLI and the tests share.
+class PlayScreen(Screen[None]):
+    """The play screen. Build its app with `careful_tui.app.make_play_app`, which the CLI and the tests share.
 
     Keys are read in `on_key`, which sees every press and autorepeat a hold needs (and is what
     the tests call); the bindings below name the keys in the footer, and `check_action` shows
@@ -82,7 +81,6 @@ class PlayApp(CarefulApp):
         Binding("backspace", "move('digits')", "fix", key_display="⌫"),
         Binding("space,enter", "next_episode", "next episode", key_display="space"),
         Binding("c", "calibrate", "calibrate"),
-        *QUIT_BINDINGS,
     ]
 
     def __init__(
@@ -95,9 +93,8 @@ class PlayApp(CarefulApp):
         clock: Clock = time.monotonic,
         calibrate: bool = False,
         player: str = "player",
-        driver_class: type[Driver] | None = None,
     ) -> None:
-        super().__init__(driver_class=driver_class)
+        super().__init__()
         self.game = game
         self.recorder = recorder
         self.world = game.world
@@ -116,6 +113,7 @@ class PlayApp(CarefulApp):
         self._flash: Timer | None = None
         self._title_shows: str | None = None
         self.write_error: OSError | ValueError | None = None
+        self._too_small = False
 
     # ------------------------------------------------------------------ layout
 
@@ -125,9 +123,9 @@ class PlayApp(CarefulApp):
     def on_mount(self) -> None:
         self._ticker = self.set_interval(TICK_S, self.tick, pause=True)
         self.game.begin_episode()
-        self._check_size(*self.size)
+        self._check_size(*self.app.size)
         self._refresh_all()
-        if not self.is_headless:
+        if not self.app.is_headless:
             loop = asyncio.get_running_loop()
             loop.add_signal_handler(signal.SIGHUP, self.hang_up)
             loop.add_signal_handler(signal.SIGTERM, self.action_quit_game)
@@ -201,7 +199,7 @@ class PlayApp(CarefulApp):
         self.write_error = error
         self.input.reset()
         self.game.live = False
-        self.exit()
+        self.app.exit()
 
     def _show_notices(self) -> None:
         """Tell the player what the recorder did on its own (a deleted folder recreated)."""
@@ -232,10 +230,7 @@ class PlayApp(CarefulApp):
 
     def action_quit_game(self) -> None:
         self.record_quit()
-        self.exit()
-
-    def action_quit(self) -> None:
-        self.action_quit_game()
+        self.app.exit()
 
     def hang_up(self) -> None:
         """The terminal was closed: record the quit and leave at once.
@@ -261,7 +256,7 @@ class PlayApp(CarefulApp):
             self.notify("Calibrate before an episode's first move or after it ends.", title="calibrate")
             return
         self.input.reset()
-        self.push_screen(CalibrationScreen(self.profile, clock=self.clock), self.use_profile)
+        self.app.push_screen(CalibrationScreen(self.profile, clock=self.clock), self.use_profile)
 
     def use_profile(self, profile: HoldProfile | None) -> None:
         """Play on with `profile` (a calibration's result); None keeps the current one."""

@@ -6,7 +6,7 @@ framed in the slip colour); the gauge shows the step's recorded level and hold t
 panel summarises the session (`irl_core.summary`), with mean carefulness by distance from
 the nearest terminal cell. Where the replay is lives in `careful_tui.screens.replay_cursor`.
 
-Time: a Textual interval timer calls `ReplayApp.advance` once a frame while playing (two
+Time: a Textual interval timer calls `ReplayScreen.advance` once a frame while playing (two
 frames a step, an episode's end held for `END_TICKS`); tests call `advance` directly and
 pass a `frame_seconds` long enough that the timer never fires on its own.
 """
@@ -17,8 +17,8 @@ from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.driver import Driver
 from textual.reactive import reactive
+from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
 
@@ -27,7 +27,6 @@ from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_text, plural, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.screens.replay_cursor import Frame, ReplayCursor
-from careful_tui.screens.careful_app import QUIT_BINDINGS, CarefulApp
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording
@@ -63,15 +62,14 @@ def minimum_size(world: World) -> tuple[int, int]:
     return game_minimum_size(world, side_padding=2, panel_width=PANEL_WIDTH, side_lines=3)
 
 
-class ReplayApp(CarefulApp):
-    """The replay screen for one recording (the CLI and the tests build it the same way).
+class ReplayScreen(Screen[None]):
+    """The replay screen for one recording (the CLI and the tests build its app with
+    `careful_tui.app.make_replay_app`).
 
     Args:
         recording: the session to watch.
         playing: start playing at once (the CLI does; the tests start paused).
         frame_seconds: seconds a frame stays on screen at speed ×1.
-        driver_class: the terminal driver (the CLI passes `PassiveKittyDriver`: a replay has
-            no use for key releases, but must survive a terminal that sends them).
     """
 
     TITLE = "careful replay"
@@ -90,7 +88,6 @@ class ReplayApp(CarefulApp):
         Binding("minus,underscore", "slower", "slower", key_display="-", priority=True, group=SPEED),
         Binding("home", "go('to_start')", "start", priority=True, group=JUMP),
         Binding("end", "go('to_end')", "end", priority=True, group=JUMP),
-        *QUIT_BINDINGS,
     ]
 
     # What is on screen: playing or paused, the speed, and the cursor's frame. Their watchers
@@ -99,20 +96,20 @@ class ReplayApp(CarefulApp):
     speed_index: reactive[int] = reactive(SPEEDS.index(1.0), init=False)
     position: reactive[int] = reactive(0, init=False)
 
-    def __init__(self, recording: Recording, *, playing: bool = False, frame_seconds: float = FRAME_S,
-                 driver_class: type[Driver] | None = None) -> None:
-        super().__init__(driver_class=driver_class)
+    def __init__(self, recording: Recording, *, playing: bool = False, frame_seconds: float = FRAME_S) -> None:
+        super().__init__()
         self.recording = recording
         self.world = recording.world
         self.cursor = ReplayCursor.from_recording(recording)
         # One MDP for the replay: the distances the panel and the summary both use.
         self.distances = distance_to_terminal(self.world)
         self.summary = summarise(recording, distances=self.distances)
-        self.set_reactive(ReplayApp.playing, playing)
+        self.set_reactive(ReplayScreen.playing, playing)
         self.frame_seconds = frame_seconds
         self._end_ticks = 0
         self._timer: Timer | None = None
         self._panel_shows: tuple[int | None] | None = None
+        self._too_small = False
 
     @property
     def speed(self) -> float:
@@ -133,7 +130,7 @@ class ReplayApp(CarefulApp):
         self._start_timer()
         for warning in self.recording.warnings:
             self.notify(printable(warning, limit=400), title="recording", severity="warning", timeout=10, markup=False)
-        self._check_size(*self.size)
+        self._check_size(*self.app.size)
         self.draw()
 
     def on_resize(self, event: events.Resize) -> None:

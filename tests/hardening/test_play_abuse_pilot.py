@@ -47,9 +47,8 @@ from textual.widgets import Static
 import irl_core.recording_writer
 from careful_tui.keys.hold import HoldProfile
 from careful_tui.keys.kitty import KeyRelease, KittyParser
-from careful_tui.app import make_play_app
-from careful_tui.screens.play import PlayApp
-from careful_tui.screens.replay import ReplayApp
+from careful_tui.app import make_play_app, make_replay_app
+from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.calibration import CalibrationScreen
 from irl_core.demonstrations import Recording, read_recording
 from irl_core.recording_lines import SessionHeader
@@ -77,18 +76,18 @@ class FakeClock:
         self.now += seconds
 
 
-def new_app(tmp_path: Path, **options) -> tuple[PlayApp, FakeClock, list[MoveResult]]:
+def new_app(tmp_path: Path, **options) -> tuple[CarefulApp, FakeClock, list[MoveResult]]:
     """A play app on a fake clock, and the list of every move its game makes."""
     clock = FakeClock()
     app = make_play_app(WORLD, out=tmp_path / "rec", player="abuse", seed=1, clock=clock, **options)
     moves: list[MoveResult] = []
-    move = app.game.move
+    move = app.first_screen.game.move
 
     def counted(*args, **kwargs) -> MoveResult:
         moves.append(result := move(*args, **kwargs))
         return result
 
-    app.game.move = counted
+    app.first_screen.game.move = counted
     return app, clock, moves
 
 
@@ -116,7 +115,7 @@ async def feed(pilot: Pilot, parser: KittyParser, data: str) -> None:
 async def settle(pilot: Pilot, clock: FakeClock) -> None:
     """Let go of everything: the release timeout passes and the hold in progress ends."""
     clock.advance(1.0)
-    pilot.app.tick()
+    pilot.app.first_screen.tick()
     await pilot.pause()
 
 
@@ -126,13 +125,13 @@ async def repeats(pilot: Pilot, clock: FakeClock, key: str, count: int) -> None:
         await pilot.press(key)
 
 
-def status(app: PlayApp) -> str:
+def status(app: CarefulApp) -> str:
     return str(app.query_one("#status", Static).render())
 
 
-def steps(app: PlayApp) -> list[tuple]:
+def steps(app: CarefulApp) -> list[tuple]:
     """(direction, level, hold_ms, exact) of every step in the app's file."""
-    (path,) = app.recorder.paths
+    (path,) = app.first_screen.recorder.paths
     return [(s.direction, s.carefulness, s.hold_ms, s.hold_exact) for s in read_recording(path).steps]
 
 
@@ -165,12 +164,12 @@ def test_two_arrows_held_at_once_commit_two_moves(tmp_path: Path) -> None:
         # Down pressed while right is still down: autorepeat now follows down.
         clock.advance(PERIOD)
         await pilot.press("down")
-        assert app.game.t == 1, "the second press ends the first hold at once"
+        assert app.first_screen.game.t == 1, "the second press ends the first hold at once"
         clock.advance(0.5)
         await pilot.press("down")
         await repeats(pilot, clock, "down", 20)
         await settle(pilot, clock)
-        assert app.game.t == 2 and "step 2/200" in status(app)
+        assert app.first_screen.game.t == 2 and "step 2/200" in status(app)
 
     run(app, body)
     right_ms = (0.5 + 12 * PERIOD) * 1000 + PERIOD * 1000 / 2
@@ -180,7 +179,7 @@ def test_two_arrows_held_at_once_commit_two_moves(tmp_path: Path) -> None:
         ("down", PROFILE.level_for(down_ms), pytest.approx(down_ms, abs=0.1), False),
     ]
     assert [PROFILE.level_for(right_ms), PROFILE.level_for(down_ms)] == [4, 6]
-    assert_file_matches(read_recording(app.recorder.paths[0]), moves)
+    assert_file_matches(read_recording(app.first_screen.recorder.paths[0]), moves)
 
 
 def test_fast_interleaved_presses_are_one_move_each(tmp_path: Path) -> None:
@@ -192,9 +191,9 @@ def test_fast_interleaved_presses_are_one_move_each(tmp_path: Path) -> None:
         for n, key in enumerate(["left", "up", "left", "up"], start=2):
             clock.advance(0.01)
             await pilot.press(key)
-            assert app.game.t == n
+            assert app.first_screen.game.t == n
         await settle(pilot, clock)
-        assert app.game.t == 6
+        assert app.first_screen.game.t == 6
 
     run(app, body)
     assert steps(app)[2:] == [(key, 1, 0.0, False) for key in ["left", "up", "left", "up"]]
@@ -213,24 +212,24 @@ def test_kitty_two_arrows_end_the_first_by_the_second_press_and_the_second_by_it
             clock.advance(0.04)
         # Down pressed over right: right ends now, by inference (its release comes later).
         await feed(pilot, parser, kitty("down", 1))
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
         clock.advance(0.5)
         for _ in range(3):
             await feed(pilot, parser, kitty("down", 2))
             clock.advance(0.05)
         await feed(pilot, parser, kitty("right", 3))  # the first key's release: not the hold's key
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
         await feed(pilot, parser, kitty("down", 3))
-        assert app.game.t == 2
+        assert app.first_screen.game.t == 2
         # Two explicit presses of one key are two moves, however close.
         await feed(pilot, parser, kitty("left", 1))
         clock.advance(0.1)
         await feed(pilot, parser, kitty("left", 1))
-        assert app.game.t == 3
+        assert app.first_screen.game.t == 3
         clock.advance(0.1)
         await feed(pilot, parser, kitty("left", 3))
         await settle(pilot, clock)
-        assert app.game.t == 4 and app.is_running
+        assert app.first_screen.game.t == 4 and app.is_running
 
     run(app, body)
     # Right: the press, 0.5 s, 6 repeats 40 ms apart; the last repeat at 700 ms, + half a period.
@@ -238,7 +237,7 @@ def test_kitty_two_arrows_end_the_first_by_the_second_press_and_the_second_by_it
     assert steps(app) == [("right", PROFILE.level_for(720.0), pytest.approx(720.0), False),
                           ("down", PROFILE.level_for(650.0), pytest.approx(650.0), True),
                           ("left", 1, 0.0, False), ("left", 1, pytest.approx(100.0), True)]
-    assert_file_matches(read_recording(app.recorder.paths[0]), moves)
+    assert_file_matches(read_recording(app.first_screen.recorder.paths[0]), moves)
 
 
 def kitty_zoo() -> list[str]:
@@ -277,14 +276,14 @@ def test_every_kitty_sequence_never_crashes_and_moves_only_on_arrows(tmp_path: P
         for start in range(0, len(zoo), 50):
             await feed(pilot, parser, "".join(zoo[start:start + 50]))
             clock.advance(0.05)
-            app.tick()
-            if not app.game.live:
+            app.first_screen.tick()
+            if not app.first_screen.game.live:
                 await pilot.press("space")
         await settle(pilot, clock)
         assert app.is_running and isinstance(app.screen, type(app.default_screen))
 
     run(app, body)
-    rec = read_recording(app.recorder.paths[0])
+    rec = read_recording(app.first_screen.recorder.paths[0])
     assert_file_matches(rec, moves)
     assert moves, "plain arrows (and arrows with caps/num lock) in the zoo move"
     assert {m.step.direction for m in moves} <= {"up", "right", "down", "left"}
@@ -312,17 +311,17 @@ def test_a_seeded_storm_keeps_the_file_and_the_screen_in_step(tmp_path: Path, se
     def send(data: str) -> None:
         for event in parser.feed(data):
             if isinstance(event, KeyRelease):
-                app.on_key_release(event)
+                app.first_screen.on_key_release(event)
             else:
-                app.on_key(event)
+                app.first_screen.on_key(event)
 
     def check() -> None:
         if not moves:
-            assert app.recorder.paths == []
+            assert app.first_screen.recorder.paths == []
             return
-        rec = read_recording(app.recorder.paths[-1])
+        rec = read_recording(app.first_screen.recorder.paths[-1])
         assert_file_matches(rec, moves)
-        game = app.game
+        game = app.first_screen.game
         if game.live:
             assert sum(s.episode == game.episode for s in rec.steps) == game.t
             assert f"step {game.t}/{WORLD.max_steps}" in status(app)
@@ -339,7 +338,7 @@ def test_a_seeded_storm_keeps_the_file_and_the_screen_in_step(tmp_path: Path, se
                 send(kitty(key, rng.choice([1, 2, 2, 3])))
             elif action == "wait":
                 clock.advance(rng.choice([0.01, PERIOD, 0.05, 0.1, 0.3, 0.8]))
-                app.tick()
+                app.first_screen.tick()
             elif action == "resize" and rng.random() < 0.3:
                 await pilot.resize_terminal(*rng.choice(sizes))
                 await pilot.pause()
@@ -354,8 +353,8 @@ def test_a_seeded_storm_keeps_the_file_and_the_screen_in_step(tmp_path: Path, se
         await pilot.press("q")
 
     run(app, body)
-    assert app.return_code == 0 and not app.game.live
-    rec = read_recording(app.recorder.paths[-1])
+    assert app.return_code == 0 and not app.first_screen.game.live
+    rec = read_recording(app.first_screen.recorder.paths[-1])
     assert_file_matches(rec, moves)
     assert len(moves) > 30 and len(rec.episodes) > 1 and any(s.hold_exact for s in rec.steps)
     assert rec.episode_ends[-1].episode == rec.steps[-1].episode, "quitting ends the last episode"
@@ -379,13 +378,13 @@ def test_a_hold_across_a_resize_is_kept_and_keys_wait_while_too_small(tmp_path: 
         await repeats(pilot, clock, "right", 10)
         await pilot.press("down")
         await settle(pilot, clock)
-        assert app.game.t == 1, "the hold entered before the window shrank is a move"
+        assert app.first_screen.game.t == 1, "the hold entered before the window shrank is a move"
         await pilot.resize_terminal(*BIG)
         await pilot.pause()
         assert not app.screen.has_class("-too-small") and "step 1/200" in status(app)
         await pilot.press("down")
         await settle(pilot, clock)
-        assert app.game.t == 2
+        assert app.first_screen.game.t == 2
 
     run(app, body)
     right_ms = (0.5 + 4 * PERIOD) * 1000 + PERIOD * 1000 / 2
@@ -408,7 +407,7 @@ def test_resizing_with_the_calibration_screen_open(tmp_path: Path) -> None:
         assert not isinstance(app.screen, CalibrationScreen) and not app.screen.has_class("-too-small")
         await pilot.press("right")
         await settle(pilot, clock)
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
 
     run(app, body)
     assert [m.step.direction for m in moves] == ["right"]
@@ -426,7 +425,7 @@ def test_tiny_terminals_never_crash_play_or_replay(tmp_path: Path, size: tuple[i
         assert app.screen.has_class("-too-small")
         await pilot.press("right")
         await settle(pilot, clock)
-        assert app.game.t == 0
+        assert app.first_screen.game.t == 0
         for tiny in TINY:
             await pilot.resize_terminal(*tiny)
         await pilot.resize_terminal(*BIG)
@@ -434,15 +433,15 @@ def test_tiny_terminals_never_crash_play_or_replay(tmp_path: Path, size: tuple[i
         await pilot.press("right")
         await pilot.resize_terminal(*size)
         await settle(pilot, clock)
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
 
     run(app, play, size=size)
-    replay = ReplayApp(read_recording(app.recorder.paths[0]), playing=True, frame_seconds=3600)
+    replay = make_replay_app(read_recording(app.first_screen.recorder.paths[0]), playing=True, frame_seconds=3600)
 
     async def watch(pilot: Pilot) -> None:
         assert replay.screen.has_class("-too-small")
         for tiny in TINY:
-            replay.advance()
+            replay.first_screen.advance()
             await pilot.resize_terminal(*tiny)
         await pilot.press("left", "home", "end", "plus", "space")
         await pilot.resize_terminal(*BIG)
@@ -467,7 +466,7 @@ def test_two_games_in_the_same_second_write_two_files(tmp_path: Path, monkeypatc
     one, one_clock, one_moves = new_app(tmp_path)
     two, two_clock, two_moves = new_app(tmp_path)
 
-    async def drive(app: PlayApp, clock: FakeClock, keys: list[str]) -> None:
+    async def drive(app: CarefulApp, clock: FakeClock, keys: list[str]) -> None:
         async with app.run_test(size=BIG) as pilot:
             await pilot.pause()
             for key in keys:
@@ -484,7 +483,7 @@ def test_two_games_in_the_same_second_write_two_files(tmp_path: Path, monkeypatc
     names = sorted(path.name for path in (tmp_path / "rec").iterdir())
     assert names == ["20260304-050607-abuse-2.jsonl", "20260304-050607-abuse.jsonl"]
     for app, moves in [(one, one_moves), (two, two_moves)]:
-        (path,) = app.recorder.paths
+        (path,) = app.first_screen.recorder.paths
         rec = read_recording(path)
         assert_file_matches(rec, moves)
         assert [e.outcome for e in rec.episode_ends] == ["quit"]
@@ -530,18 +529,18 @@ def replay_recording(tmp_path: Path) -> Recording:
 
 
 def test_replay_reads_kitty_repeats_as_keys_and_drops_releases(tmp_path: Path) -> None:
-    app = ReplayApp(replay_recording(tmp_path), frame_seconds=3600)
+    app = make_replay_app(replay_recording(tmp_path), frame_seconds=3600)
     parser = KittyParser()
 
     async def body(pilot: Pilot) -> None:
         await feed(pilot, parser, kitty("right", 3) + "\x1b[113;1:3u" + "\x1b[1;1:9C" + "\x1b[99999999u")
-        assert app.cursor.position == 0 and app.is_running
+        assert app.first_screen.cursor.position == 0 and app.is_running
         await feed(pilot, parser, kitty("right", 2) + kitty("right", 2))
-        assert app.cursor.position == 2
+        assert app.first_screen.cursor.position == 2
         await feed(pilot, parser, kitty("right", 1) + kitty("right", 3))
-        assert app.cursor.position == 3
+        assert app.first_screen.cursor.position == 3
         await feed(pilot, parser, kitty("up", 1))
-        assert app.cursor.frame.index == 1
+        assert app.first_screen.cursor.frame.index == 1
         zoo = kitty_zoo()
         for start in range(0, len(zoo), 50):
             await feed(pilot, parser, "".join(zoo[start:start + 50]))
@@ -551,18 +550,18 @@ def test_replay_reads_kitty_repeats_as_keys_and_drops_releases(tmp_path: Path) -
 
 
 def test_replay_resized_while_playing_plays_on_and_shows_the_right_frame(tmp_path: Path) -> None:
-    app = ReplayApp(replay_recording(tmp_path), playing=True, frame_seconds=3600)
+    app = make_replay_app(replay_recording(tmp_path), playing=True, frame_seconds=3600)
 
     async def body(pilot: Pilot) -> None:
-        app.advance()
+        app.first_screen.advance()
         await pilot.resize_terminal(*SMALL)
         await pilot.pause()
         assert app.screen.has_class("-too-small")
         for _ in range(3):
-            app.advance()
+            app.first_screen.advance()
         await pilot.resize_terminal(*BIG)
         await pilot.pause()
-        assert not app.screen.has_class("-too-small") and app.cursor.position == 4
+        assert not app.screen.has_class("-too-small") and app.first_screen.cursor.position == 4
         text = str(app.query_one("#status", Static).render())
         assert "Episode 1/2" in text and "step 3/4" in text and "playing" in text
 

@@ -15,8 +15,7 @@ from pathlib import Path
 import pytest
 
 from careful_tui.screens.fit import default_svg_name
-from careful_tui.app import make_play_app
-from careful_tui.screens.replay import ReplayApp
+from careful_tui.app import make_play_app, make_replay_app
 from hardening_checks import RAW_CONTROL, assert_refused, careful, digest, recording
 from irl_core.demonstrations import read_recording
 from irl_core.safe_text import MESSAGE_LIMIT, cut, one_line, printable
@@ -125,7 +124,7 @@ def _screenshot(app) -> str:
 
 
 def test_replay_shows_hostile_names_as_text(tmp_path):
-    svg = _screenshot(ReplayApp(read_recording(evil_recording(tmp_path)), playing=False, frame_seconds=60))
+    svg = _screenshot(make_replay_app(read_recording(evil_recording(tmp_path)), playing=False, frame_seconds=60))
     assert "pwned" in svg and "\x1b" not in svg and "\x07" not in svg
     assert "[/]" in svg.replace("&#160;", " ")
 
@@ -170,18 +169,19 @@ def test_player_names_that_are_not_utf8_are_refused_before_anything_is_written(t
 
 def test_the_fit_view_shows_a_hostile_world_name_as_text_and_saves_beside_it(tmp_path, monkeypatch):
     from irl_core.irl import FitOptions
-    from careful_tui.screens.fit import FitApp
+    from careful_tui.screens.careful_app import CarefulApp
+    from careful_tui.screens.fit import FitScreen
     from irl_core.demonstrations import Demonstrations
 
     path = evil_recording(tmp_path)
     monkeypatch.chdir(tmp_path)
-    app = FitApp(Demonstrations.read([path]), FitOptions(), sources=[path])
+    app = CarefulApp(FitScreen(Demonstrations.read([path]), FitOptions(), sources=[path]))
 
     async def main() -> str:
         async with app.run_test(size=(140, 45)) as pilot:
             for _ in range(100):
                 await pilot.pause(0.05)
-                if app.result is not None:
+                if app.first_screen.result is not None:
                     break
             await pilot.press("s")
             await pilot.pause()
@@ -189,5 +189,5 @@ def test_the_fit_view_shows_a_hostile_world_name_as_text_and_saves_beside_it(tmp
 
     svg = asyncio.run(main())
     assert "pwned" in svg and "\x1b" not in svg and "\x07" not in svg
-    (saved,) = app.saved
+    (saved,) = app.first_screen.saved
     assert saved.parent == tmp_path and saved.exists() and "\x1b" not in saved.read_text()

@@ -153,10 +153,10 @@ def opened(monkeypatch):
     """`careful fit` sees a terminal on standard input and output; the fit views it runs are collected."""
     from types import SimpleNamespace
 
-    from careful_tui.screens.fit import FitApp
+    from careful_tui.screens.careful_app import CarefulApp
 
     apps = []
-    monkeypatch.setattr(FitApp, "run", lambda app: apps.append(app))
+    monkeypatch.setattr(CarefulApp, "run", lambda app: apps.append(app))
     monkeypatch.setattr(fit_command, "sys", SimpleNamespace(stdin=Terminal(), stdout=Terminal()))
     return apps
 
@@ -166,7 +166,7 @@ def test_a_terminal_opens_the_view_after_writing_json(tmp_path, capsys, opened, 
     code, out, err = run(capsys, mud_file, "--method", "loss", "--json", out_json, "--svg", svg)
     assert code == 0, err
     [app] = opened
-    assert app.result.method == "loss" and app.options.method == "loss" and app.svg == svg
+    assert app.first_screen.result.method == "loss" and app.first_screen.options.method == "loss" and app.first_screen.svg == svg
     assert json.loads(out_json.read_text())["method"] == "loss"
     assert not svg.exists()  # the view saves it once drawn; the printout is not made
     assert "fitted R_S" not in out

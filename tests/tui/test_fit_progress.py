@@ -7,7 +7,8 @@ import threading
 
 import careful_tui.screens.fit
 from careful_tui.render.fit_printout import progress_phrase
-from careful_tui.screens.fit import FitApp
+from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.fit import FitScreen
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, fit
 from irl_core.mdp import build_mdp
@@ -34,7 +35,7 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
         return real_refit(demos, options, progress=progress)
 
     monkeypatch.setattr(careful_tui.screens.fit, "fit", slow_refit)
-    app = FitApp(demos, FitOptions(), result=first)
+    app = CarefulApp(FitScreen(demos, FitOptions(), result=first))
     seen = []
 
     async def go():
@@ -42,13 +43,13 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
             await pilot.press("i")
             for _ in range(200):
                 await pilot.pause(0.02)
-                if "interval LP" in str(app._status()):
+                if "interval LP" in str(app.first_screen._status()):
                     break
-            seen.append(str(app._status()))
+            seen.append(str(app.first_screen._status()))
             release.set()
             await app.workers.wait_for_complete()
             await pilot.pause()
-            seen.append(str(app._status()))
+            seen.append(str(app.first_screen._status()))
 
     asyncio.run(go())
     assert seen[0].endswith("interval LP 3 of 8")

@@ -17,7 +17,8 @@ from careful_tui.cli import build_parser, main
 from careful_tui.app import make_fit_app
 from careful_tui.commands.fit import fit_from_args
 from careful_tui.render.intervals import interval_span
-from careful_tui.screens.fit import FitApp, board_width
+from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.fit import board_width
 from careful_tui.render.grid import format_value
 from careful_tui.widgets import Board, KeyBar
 from irl_core.demonstrations import Demonstrations
@@ -43,7 +44,7 @@ def noisy_file(tmp_path_factory):
     return simulate(tmp_path_factory.mktemp("noisy"), "--policy", "boltzmann", "--beta", "0.5", "--episodes", "30")
 
 
-def make_app(*argv, fitted=True, **kwargs) -> FitApp:
+def make_app(*argv, fitted=True, **kwargs) -> CarefulApp:
     """The view as `careful fit ARGV` opens it (the first fit made before, as the CLI does)."""
     args = build_parser().parse_args(["fit", *map(str, argv)])
     if fitted:
@@ -62,11 +63,11 @@ def text_of(widget) -> str:
     return console.export_text()
 
 
-def shown(app: FitApp, selector: str) -> str:
+def shown(app: CarefulApp, selector: str) -> str:
     return text_of(app.query_one(selector))
 
 
-def drive(app: FitApp, body, size=(100, 40)) -> None:
+def drive(app: CarefulApp, body, size=(100, 40)) -> None:
     """Run the view in a `size` terminal and hand it to `body(pilot)`."""
 
     async def go() -> None:
@@ -131,22 +132,22 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
         monkeypatch.setattr(fit_screen, "fit", slow_fit)
         await pilot.press("o")
         # Busy: the last result stays, dimmed, under a "fitting" status.
-        assert app.busy and "fitting loss" in shown(app, "#status")
-        assert app.query_one("#body").has_class("-busy") and app.result.method == "lp"
+        assert app.first_screen.busy and "fitting loss" in shown(app, "#status")
+        assert app.query_one("#body").has_class("-busy") and app.first_screen.result.method == "lp"
         release.set()
         await settle(app, pilot)
-        assert not app.busy and app.result.method == "loss"
+        assert not app.first_screen.busy and app.first_screen.result.method == "loss"
         assert "loss on mud" in shown(app, "#title") and "fitted R_S · loss" in app.query_one("#fitted").border_title
         loss_values = app.query_one("#fitted", Board).values
-        np.testing.assert_allclose(loss_values, app.result.reward_grid)
+        np.testing.assert_allclose(loss_values, app.first_screen.result.reward_grid)
         assert not np.allclose(loss_values, lp_values)
         assert NUMBER.findall(shown(app, "#fitted")) == [format_value(v) for v in loss_values.ravel()]
         await pilot.press("tab")
         await settle(app, pilot)
-        assert app.result.method == "maxent" and "β 1" in shown(app, "#status")
+        assert app.first_screen.result.method == "maxent" and "β 1" in shown(app, "#status")
         await pilot.press("tab")
         await settle(app, pilot)
-        assert app.result.method == "lp"
+        assert app.first_screen.result.method == "lp"
         np.testing.assert_allclose(app.query_one("#fitted", Board).values, lp_values)
     drive(app, body, size=(100, 40))
 
@@ -156,23 +157,23 @@ def test_intervals_toggle(mud_file):
     app = make_app(mud_file, "--resamples", "20")
 
     async def body(pilot):
-        assert app.result.intervals is None and "press i" in shown(app, "#intervals")
+        assert app.first_screen.result.intervals is None and "press i" in shown(app, "#intervals")
         await pilot.press("i")
         await settle(app, pilot)
-        assert app.result.intervals is not None and app.result.method == "lp"
+        assert app.first_screen.result.intervals is not None and app.first_screen.result.method == "lp"
         intervals = shown(app, "#intervals")
         assert "Cliff: at most" in intervals and "catastrophic next to mud's" in intervals
         assert "Goal: between" in intervals and "● fitted" in intervals
         await pilot.press("i")
         await pilot.pause()
-        assert not app.busy and "press i" in shown(app, "#intervals")
+        assert not app.first_screen.busy and "press i" in shown(app, "#intervals")
         # Back on: the intervals are there already; nothing to refit.
         await pilot.press("i")
-        assert not app.busy and "Cliff:" in shown(app, "#intervals")
+        assert not app.first_screen.busy and "Cliff:" in shown(app, "#intervals")
         await pilot.press("o")
         await settle(app, pilot)
-        assert app.result.method == "loss" and app.result.intervals is not None
-        assert app.result.interval_kind == "confidence" and "95% confidence" in shown(app, "#intervals")
+        assert app.first_screen.result.method == "loss" and app.first_screen.result.intervals is not None
+        assert app.first_screen.result.interval_kind == "confidence" and "95% confidence" in shown(app, "#intervals")
     drive(app, body, size=(100, 40))
 
 
@@ -183,14 +184,14 @@ def test_an_infeasible_refit_is_shown_and_the_view_keeps_running(noisy_file):
         loss_values = app.query_one("#fitted", Board).values.copy()
         await pilot.press("l")
         await settle(app, pilot)
-        assert app.is_running and app.result.method == "loss"
+        assert app.is_running and app.first_screen.result.method == "loss"
         status = shown(app, "#status")
         assert "✗ lp" in status and "not optimal for any reward" in status and "press o" in status
         assert "showing loss" in status
         np.testing.assert_allclose(app.query_one("#fitted", Board).values, loss_values)
         await pilot.press("o")
         await settle(app, pilot)
-        assert app.error is None and "✓" in shown(app, "#status")
+        assert app.first_screen.error is None and "✓" in shown(app, "#status")
     drive(app, body, size=(100, 40))
 
 
@@ -199,7 +200,7 @@ def test_a_first_fit_in_the_worker(mud_file):
 
     async def body(pilot):
         await settle(app, pilot)
-        assert app.result.method == "maxent" and "maxent on mud" in shown(app, "#title")
+        assert app.first_screen.result.method == "maxent" and "maxent on mud" in shown(app, "#title")
         assert app.query_one("#policy", Board).labels
     drive(app, body, size=(100, 40))
 
@@ -211,8 +212,8 @@ def test_s_saves_an_svg(tmp_path, mud_file, monkeypatch):
     async def body(pilot):
         await pilot.press("s")
         await pilot.press("s")
-        assert app.saved == [tmp_path / "careful-fit-mud-lp.svg", tmp_path / "careful-fit-mud-lp-2.svg"]
-        svg = app.saved[0].read_text().replace("&#160;", " ")
+        assert app.first_screen.saved == [tmp_path / "careful-fit-mud-lp.svg", tmp_path / "careful-fit-mud-lp-2.svg"]
+        svg = app.first_screen.saved[0].read_text().replace("&#160;", " ")
         assert svg.startswith("<svg") and "careful fit: lp on mud" in svg
     drive(app, body, size=(100, 40))
 
@@ -223,12 +224,12 @@ def test_svg_option_saves_once_the_first_fit_is_drawn(tmp_path, mud_file):
 
     async def body(pilot):
         await pilot.pause()
-        assert app.saved == [path]
+        assert app.first_screen.saved == [path]
         svg = path.read_text().replace("&#160;", " ")
         assert "fitted R_S" in svg and "catastrophic" in svg
         # `s` saves to the same path.
         await pilot.press("s")
-        assert app.saved == [path, path]
+        assert app.first_screen.saved == [path, path]
     drive(app, body, size=(100, 40))
 
 
@@ -276,7 +277,7 @@ def test_a_noisy_recording_opens_on_auto_maxent_with_confidence_intervals(noisy_
     app = make_app(noisy_file, "--intervals", "--resamples", "20")
 
     async def body(pilot):
-        result = app.result
+        result = app.first_screen.result
         assert result.options.method == "auto" and result.method == "maxent" and result.beta_auto
         notes = shown(app, "#notes")
         assert "An agent trained on this reward falls off the cliff in" in notes and "auto chose maxent" in notes
@@ -285,9 +286,9 @@ def test_a_noisy_recording_opens_on_auto_maxent_with_confidence_intervals(noisy_
         # Back to auto after another method: a refit, and the same answer.
         await pilot.press("m")  # maxent as asked: beta fixed at 1
         await settle(app, pilot)
-        assert app.result.method == "maxent" and not app.result.beta_auto and app.result.beta == 1.0
+        assert app.first_screen.result.method == "maxent" and not app.first_screen.result.beta_auto and app.first_screen.result.beta == 1.0
         await pilot.press("a")
         await settle(app, pilot)
-        assert app.result.method == "maxent" and app.result.options.method == "auto"
-        np.testing.assert_allclose(app.result.intervals, result.intervals)
+        assert app.first_screen.result.method == "maxent" and app.first_screen.result.options.method == "auto"
+        np.testing.assert_allclose(app.first_screen.result.intervals, result.intervals)
     drive(app, body, size=(100, 40))

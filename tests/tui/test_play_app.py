@@ -13,7 +13,8 @@ from textual.widgets import Static
 from careful_tui.keys.hold import HoldProfile
 from careful_tui.keys.kitty import KittyParser
 from careful_tui.app import make_play_app
-from careful_tui.screens.play import PlayApp, minimum_size
+from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.play import minimum_size
 from careful_tui.widgets import Board, Gauge
 from careful_tui.screens.calibration import CalibrationScreen
 from irl_core.demonstrations import Recording, read_recording
@@ -45,13 +46,13 @@ class FakeClock:
         self.now += seconds
 
 
-def new_app(tmp_path: Path, world: World = WALK, **options) -> tuple[PlayApp, FakeClock]:
+def new_app(tmp_path: Path, world: World = WALK, **options) -> tuple[CarefulApp, FakeClock]:
     clock = FakeClock()
     app = make_play_app(world, out=tmp_path / "rec", player="tester", seed=1, clock=clock, **options)
     return app, clock
 
 
-def run(app: PlayApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)) -> None:
+def run(app: CarefulApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)) -> None:
     async def main() -> None:
         async with app.run_test(size=size) as pilot:
             await pilot.pause()
@@ -79,17 +80,17 @@ async def hold(pilot: Pilot, clock: FakeClock, key: str, seconds: float) -> floa
     """Hold `key` for about `seconds`, let go, and let the hold end; the hold_ms it should record."""
     last = await press_repeats(pilot, clock, key, seconds)
     clock.advance(1.0)
-    pilot.app.tick()
+    pilot.app.first_screen.tick()
     await pilot.pause()
     return 0.0 if last == 0 else last * 1000 + PERIOD * 1000 / 2
 
 
-def recording(app: PlayApp) -> Recording:
-    assert len(app.recorder.paths) == 1
-    return read_recording(app.recorder.paths[0])
+def recording(app: CarefulApp) -> Recording:
+    assert len(app.first_screen.recorder.paths) == 1
+    return read_recording(app.first_screen.recorder.paths[0])
 
 
-def status(app: PlayApp) -> str:
+def status(app: CarefulApp) -> str:
     return str(app.query_one("#status", Static).render())
 
 
@@ -100,9 +101,9 @@ def test_an_episode_played_by_holding_keys_reaches_the_goal(tmp_path: Path) -> N
     async def body(pilot: Pilot) -> None:
         holds.append(await hold(pilot, clock, "right", 0.2))
         holds.append(await hold(pilot, clock, "right", 1.0))
-        assert app.game.cell == (0, 2) and app.game.live
+        assert app.first_screen.game.cell == (0, 2) and app.first_screen.game.live
         holds.append(await hold(pilot, clock, "down", 2.6))
-        assert not app.game.live
+        assert not app.first_screen.game.live
         assert "reached the goal" in status(app).lower()
 
     run(app, body)
@@ -116,7 +117,7 @@ def test_an_episode_played_by_holding_keys_reaches_the_goal(tmp_path: Path) -> N
     assert rec.steps[-1].next_state == (1, 2)
     (end,) = rec.episode_ends
     assert end.outcome == "terminal" and end.terminal_symbol == "G"
-    assert end.score == 200 - sum(levels) + 100 == app.game.score
+    assert end.score == 200 - sum(levels) + 100 == app.first_screen.game.score
     assert rec.header.player == "tester" and rec.header.seed == 1
     assert rec.header.input == {"mode": "hold", **PROFILE.to_header()}
 
@@ -130,10 +131,10 @@ def test_falling_off_the_cliff_and_starting_again(tmp_path: Path) -> None:
         assert "fell off the cliff" in status(app).lower()
         # Between episodes arrows do nothing; space starts the next episode.
         await hold(pilot, clock, "right", 0.0)
-        assert app.game.episode == 0 and not app.game.live
+        assert app.first_screen.game.episode == 0 and not app.first_screen.game.live
         await pilot.press("space")
-        assert app.game.live and app.game.episode == 1 and app.game.cell == (0, 0)
-        assert app.game.score == 200
+        assert app.first_screen.game.live and app.first_screen.game.episode == 1 and app.first_screen.game.cell == (0, 0)
+        assert app.first_screen.game.score == 200
         assert "Last episode (1): fell off the cliff, score -802" in status(app)
 
     run(app, body)
@@ -168,7 +169,7 @@ def test_quitting_before_any_move_records_nothing(tmp_path: Path) -> None:
         await pilot.press("q")
 
     run(app, body)
-    assert app.recorder.paths == [] and not (tmp_path / "rec").exists()
+    assert app.first_screen.recorder.paths == [] and not (tmp_path / "rec").exists()
 
 
 def test_the_gauge_and_arrow_follow_a_hold_live(tmp_path: Path) -> None:
@@ -178,7 +179,7 @@ def test_the_gauge_and_arrow_follow_a_hold_live(tmp_path: Path) -> None:
         gauge, board = app.query_one(Gauge), app.query_one(Board)
         await pilot.press("up")
         clock.advance(0.3)
-        app.tick()
+        app.first_screen.tick()
         # No autorepeat yet: a tap so far, so level 1 and the next row filling.
         assert gauge.level == 1 and 1.0 < gauge.fill < 2.0
         assert board.arrow is not None and board.arrow.direction == "up"
@@ -187,18 +188,18 @@ def test_the_gauge_and_arrow_follow_a_hold_live(tmp_path: Path) -> None:
         for _ in range(20):
             clock.advance(0.033)
             await pilot.press("up")
-        app.tick()
+        app.first_screen.tick()
         assert gauge.level == 6 and 6.0 <= gauge.fill < 7.0
         assert board.arrow.level == gauge.fill
         assert f"held {(0.5 + 20 * 0.033) * 1000:.0f} ms" in str(app.query_one("#hold-info", Static).render())
         # After the last repeat the gauge stops within one period, where the move will land.
         clock.advance(0.09)
-        app.tick()
+        app.first_screen.tick()
         assert gauge.level == 6
         clock.advance(0.5)
-        app.tick()
+        app.first_screen.tick()
         assert gauge.level is None and gauge.fill == 0 and board.arrow is None
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
 
     run(app, body)
     assert recording(app).steps[0].carefulness == 6
@@ -220,15 +221,15 @@ def test_kitty_release_sequences_end_a_hold_exactly_and_never_crash(tmp_path: Pa
         for _ in range(10):
             await feed(pilot, "\x1b[1;1:2C")  # repeats
             clock.advance(0.04)
-        app.tick()
+        app.first_screen.tick()
         assert app.query_one(Gauge).level == PROFILE.level_for(900.0)  # releases seen: the clock decides
         clock.advance(0.1)
         await feed(pilot, "\x1b[1;1:3C")  # release after exactly 1000 ms
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
         await feed(pilot, "\x1b[1;1:2C\x1b[1;1:3C")  # a repeat after the release never starts a hold
         clock.advance(1.0)
-        app.tick()
-        assert app.game.t == 1 and app.is_running
+        app.first_screen.tick()
+        assert app.first_screen.game.t == 1 and app.is_running
 
     run(app, body)
     (step,) = recording(app).steps
@@ -244,9 +245,9 @@ def test_fallback_inputs_record_the_same_steps(tmp_path: Path, mode: str, keys: 
             await pilot.press(key)
             clock.advance(0.1)
         clock.advance(1.0)
-        app.tick()
+        app.first_screen.tick()
         await pilot.pause()
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
         footer = str(app.query_one("#keys").render())
         assert ("tap" in footer) if mode == "tap" else ("1-9" in footer)
 
@@ -263,12 +264,12 @@ def test_a_slip_is_shown(tmp_path: Path) -> None:
 
     async def body(pilot: Pilot) -> None:
         for _ in range(30):
-            if not app.game.live:
+            if not app.first_screen.game.live:
                 await pilot.press("space")
             await hold(pilot, clock, "left", 0.0)
-            if app.last_move is not None and app.last_move.slipped:
+            if app.first_screen.last_move is not None and app.first_screen.last_move.slipped:
                 seen.append(status(app))
-                assert app.query_one(Board).highlight == {app.last_move.step.next_state: "#ff9f1c"}
+                assert app.query_one(Board).highlight == {app.first_screen.last_move.step.next_state: "#ff9f1c"}
                 break
 
     run(app, body)
@@ -291,7 +292,7 @@ def test_calibration_before_the_first_move_goes_into_the_header(tmp_path: Path) 
         screen.tick()
         await pilot.press("enter")
         assert not isinstance(app.screen, CalibrationScreen)
-        assert app.game.cell == (0, 0)  # calibrating moved nobody
+        assert app.first_screen.game.cell == (0, 0)  # calibrating moved nobody
         await hold(pilot, clock, "right", 0.0)
 
     run(app, body)
@@ -299,7 +300,7 @@ def test_calibration_before_the_first_move_goes_into_the_header(tmp_path: Path) 
     assert profile["calibrated"] is True
     assert profile["initial_delay_ms"] == pytest.approx(400.0)
     assert profile["repeat_period_ms"] == pytest.approx(30.0)
-    assert app.profile.calibrated
+    assert app.first_screen.profile.calibrated
 
 
 def test_calibration_is_offered_between_episodes_only(tmp_path: Path) -> None:
@@ -323,7 +324,7 @@ def test_calibration_is_offered_between_episodes_only(tmp_path: Path) -> None:
 
 def test_a_small_terminal_asks_to_be_enlarged_and_resizing_works(tmp_path: Path) -> None:
     app, clock = new_app(tmp_path, world=load_world("paper"))
-    need = minimum_size(app.world)
+    need = minimum_size(app.first_screen.world)
     assert need[0] <= 80 and need[1] <= 24
 
     async def body(pilot: Pilot) -> None:
@@ -332,13 +333,13 @@ def test_a_small_terminal_asks_to_be_enlarged_and_resizing_works(tmp_path: Path)
         assert "make the window larger" in str(message.render()).lower()
         await pilot.press("right")  # moves wait for a large enough terminal
         clock.advance(1.0)
-        app.tick()
-        assert app.game.t == 0
+        app.first_screen.tick()
+        assert app.first_screen.game.t == 0
         await pilot.resize_terminal(80, 24)
         await pilot.pause()
         assert not app.screen.has_class("-too-small") and app.query_one(Board).display
         await hold(pilot, clock, "right", 0.0)
-        assert app.game.t == 1
+        assert app.first_screen.game.t == 1
 
     run(app, body, size=(need[0] - 1, need[1]))
 

@@ -32,8 +32,8 @@ def test_play_screen_mid_hold(snap_compare) -> None:
         for _ in range(26):
             await pilot.press("right")
             clock.now += 0.033
-        app.tick()
+        app.first_screen.tick()
         await pilot.pause()
 
     assert snap_compare(app, run_before=hold_right, terminal_size=(100, 35))
-    assert app.game.t == 0 and not Path("never-created").exists()
+    assert app.first_screen.game.t == 0 and not Path("never-created").exists()

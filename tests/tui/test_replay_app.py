@@ -14,7 +14,9 @@ from textual.pilot import Pilot
 from textual.widgets import Static
 
 from careful_tui.cli import main
-from careful_tui.screens.replay import END_TICKS, ReplayApp, minimum_size
+from careful_tui.app import make_replay_app
+from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.replay import END_TICKS, minimum_size
 from careful_tui.widgets import Board, Gauge
 from irl_core.demonstrations import read_recording
 from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
@@ -59,7 +61,7 @@ def write_walk(path: Path, *, truncate: bool = False) -> Path:
     return path
 
 
-def run(app: ReplayApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)) -> None:
+def run(app: CarefulApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)) -> None:
     async def go() -> None:
         async with app.run_test(size=size, notifications=True) as pilot:
             await pilot.pause()
@@ -68,18 +70,18 @@ def run(app: ReplayApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)
     asyncio.run(go())
 
 
-def new_app(path: Path) -> ReplayApp:
+def new_app(path: Path) -> CarefulApp:
     # A frame lasts longer than any test: the timer never fires, the tests call advance().
-    return ReplayApp(read_recording(path), frame_seconds=3600)
+    return make_replay_app(read_recording(path), frame_seconds=3600)
 
 
-def text(app: ReplayApp, selector: str) -> str:
+def text(app: CarefulApp, selector: str) -> str:
     console = Console(width=200, record=True, file=io.StringIO())
     console.print(app.query_one(selector, Static).content)
     return console.export_text()
 
 
-def view(app: ReplayApp) -> tuple:
+def view(app: CarefulApp) -> tuple:
     """(player cell, arrow direction or None, gauge level, slip-highlighted cells)."""
     board, gauge = app.query_one(Board), app.query_one(Gauge)
     return board.player, None if board.arrow is None else board.arrow.direction, gauge.level, set(board.highlight)
@@ -115,24 +117,24 @@ def test_episode_keys_jump_between_episodes_and_home_end_to_either_end(tmp_path:
     async def body(pilot: Pilot) -> None:
         await pilot.press("right")
         await pilot.press("up")
-        assert app.cursor.frame.index == 1 and view(app) == ((0, 0), "right", 2, set())
+        assert app.first_screen.cursor.frame.index == 1 and view(app) == ((0, 0), "right", 2, set())
         assert "Episode 2/3" in text(app, "#status")
         await pilot.press("n")
-        assert app.cursor.frame.index == 2 and view(app) == ((0, 0), "right", 3, set())
+        assert app.first_screen.cursor.frame.index == 2 and view(app) == ((0, 0), "right", 3, set())
         # The slip: the arrow says right, the player lands below, framed in the slip colour.
         await pilot.press("right")
         assert view(app) == ((1, 0), None, 3, {(1, 0)})
         assert "slipped! went down instead of right" in text(app, "#status")
         await pilot.press("right")
-        assert "unfinished" in text(app, "#status") and app.cursor.at_end
+        assert "unfinished" in text(app, "#status") and app.first_screen.cursor.at_end
         await pilot.press("down")
-        assert app.cursor.frame.index == 1 and app.cursor.frame.t == 0
+        assert app.first_screen.cursor.frame.index == 1 and app.first_screen.cursor.frame.t == 0
         await pilot.press("p")
-        assert app.cursor.at_start
+        assert app.first_screen.cursor.at_start
         await pilot.press("end")
-        assert app.cursor.at_end and view(app)[0] == (1, 0)
+        assert app.first_screen.cursor.at_end and view(app)[0] == (1, 0)
         await pilot.press("home")
-        assert app.cursor.at_start and view(app) == ((0, 0), "right", 1, set())
+        assert app.first_screen.cursor.at_start and view(app) == ((0, 0), "right", 1, set())
 
     run(app, body)
 
@@ -141,47 +143,47 @@ def test_space_plays_with_advance_and_pauses(tmp_path: Path) -> None:
     app = new_app(write_walk(tmp_path / "walk.jsonl"))
 
     async def body(pilot: Pilot) -> None:
-        app.advance()
-        assert app.cursor.position == 0, "paused: advance does nothing"
+        app.first_screen.advance()
+        assert app.first_screen.cursor.position == 0, "paused: advance does nothing"
         await pilot.press("space")
-        assert app.playing and "playing" in text(app, "#status")
-        app.advance()
-        app.advance()
+        assert app.first_screen.playing and "playing" in text(app, "#status")
+        app.first_screen.advance()
+        app.first_screen.advance()
         await pilot.pause()
-        assert app.cursor.position == 2 and view(app)[:3] == ((0, 1), "right", 5)
+        assert app.first_screen.cursor.position == 2 and view(app)[:3] == ((0, 1), "right", 5)
         await pilot.press("space")
-        assert not app.playing and "paused" in text(app, "#status")
-        app.advance()
-        assert app.cursor.position == 2
+        assert not app.first_screen.playing and "paused" in text(app, "#status")
+        app.first_screen.advance()
+        assert app.first_screen.cursor.position == 2
         # Playing on: an episode's end stays on screen for END_TICKS ticks.
         await pilot.press("space")
         for _ in range(4):
-            app.advance()
-        assert app.cursor.frame.phase == "end"
+            app.first_screen.advance()
+        assert app.first_screen.cursor.frame.phase == "end"
         for _ in range(END_TICKS - 1):
-            app.advance()
-            assert app.cursor.frame.phase == "end"
-        app.advance()
-        assert app.cursor.frame.index == 1
+            app.first_screen.advance()
+            assert app.first_screen.cursor.frame.phase == "end"
+        app.first_screen.advance()
+        assert app.first_screen.cursor.frame.index == 1
         # Playback stops at the last frame; space there starts again from the first.
         for _ in range(50):
-            app.advance()
-        assert app.cursor.at_end and not app.playing
+            app.first_screen.advance()
+        assert app.first_screen.cursor.at_end and not app.first_screen.playing
         await pilot.press("space")
-        assert app.playing and app.cursor.at_start
+        assert app.first_screen.playing and app.first_screen.cursor.at_start
 
     run(app, body)
 
 
 def test_the_timer_plays_on_its_own(tmp_path: Path) -> None:
-    app = ReplayApp(read_recording(write_walk(tmp_path / "walk.jsonl")), playing=True, frame_seconds=0.01)
+    app = make_replay_app(read_recording(write_walk(tmp_path / "walk.jsonl")), playing=True, frame_seconds=0.01)
 
     async def body(pilot: Pilot) -> None:
         for _ in range(200):
-            if app.cursor.at_end:
+            if app.first_screen.cursor.at_end:
                 break
             await asyncio.sleep(0.01)
-        assert app.cursor.at_end and not app.playing
+        assert app.first_screen.cursor.at_end and not app.first_screen.playing
 
     run(app, body)
 
@@ -190,14 +192,14 @@ def test_plus_and_minus_change_the_speed_and_show_it(tmp_path: Path) -> None:
     app = new_app(write_walk(tmp_path / "walk.jsonl"))
 
     async def body(pilot: Pilot) -> None:
-        assert app.speed == 1 and "speed ×1" in text(app, "#status")
+        assert app.first_screen.speed == 1 and "speed ×1" in text(app, "#status")
         await pilot.press("plus", "plus")
-        assert app.speed == 4 and "speed ×4" in text(app, "#status")
+        assert app.first_screen.speed == 4 and "speed ×4" in text(app, "#status")
         await pilot.press("minus", "minus", "minus")
-        assert app.speed == 0.5 and "speed ×0.5" in text(app, "#status")
+        assert app.first_screen.speed == 0.5 and "speed ×0.5" in text(app, "#status")
         for _ in range(10):
             await pilot.press("minus")
-        assert app.speed == 0.25
+        assert app.first_screen.speed == 0.25
 
     run(app, body)
 
@@ -218,11 +220,11 @@ def test_the_panel_summarises_the_session(tmp_path: Path) -> None:
 def test_a_truncated_recording_opens_with_its_warning_shown(tmp_path: Path) -> None:
     path = write_walk(tmp_path / "walk.jsonl", truncate=True)
     app = new_app(path)
-    assert app.recording.warnings
+    assert app.first_screen.recording.warnings
 
     async def body(pilot: Pilot) -> None:
         assert "line 10: the last line is truncated and was skipped" in text(app, "#summary")
-        assert [n.message for n in app._notifications] == app.recording.warnings
+        assert [n.message for n in app._notifications] == app.first_screen.recording.warnings
         await pilot.press("end")
         assert "unfinished" in text(app, "#status")
 
@@ -236,7 +238,7 @@ def test_a_recording_without_steps_opens_and_says_so(tmp_path: Path) -> None:
 
     async def body(pilot: Pilot) -> None:
         await pilot.press("right", "up", "end", "space")
-        assert "no steps" in text(app, "#status") and not app.playing
+        assert "no steps" in text(app, "#status") and not app.first_screen.playing
         assert view(app) == (None, None, None, set())
 
     run(app, body)

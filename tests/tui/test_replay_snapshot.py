@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from careful_tui.screens.replay import ReplayApp
+from careful_tui.app import make_replay_app
 from irl_core.demonstrations import read_recording
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
@@ -15,9 +15,9 @@ SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 
 def test_replay_screen_at_a_slip(snap_compare) -> None:
     # Paused, and a frame outlasts the test: only the keys move the replay.
-    app = ReplayApp(read_recording(SAMPLE), frame_seconds=3600)
+    app = make_replay_app(read_recording(SAMPLE), frame_seconds=3600)
     # The second episode's fourth step: down, at level 3, slipped up.
     keys = ["up", *["right"] * 7]
     assert snap_compare(app, press=keys, terminal_size=(80, 24))
-    frame = app.cursor.frame
+    frame = app.first_screen.cursor.frame
     assert (frame.index, frame.t, frame.phase) == (1, 3, "after") and frame.step.slipped
