@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
 
@@ -55,10 +56,11 @@ def make_play_app(
     return CarefulApp(screen, driver_class=driver_class)
 
 
-def make_replay_app(recording: Recording, *, playing: bool = False, frame_seconds: float = FRAME_S,
-                    driver_class: type[Driver] | None = None) -> CarefulApp:
-    """The app on the replay screen of `recording` (the CLI plays at once; the tests start paused)."""
-    return CarefulApp(ReplayScreen(recording, playing=playing, frame_seconds=frame_seconds),
+def make_replay_app(*recordings: Recording, skipped: Sequence[str] = (), playing: bool = False,
+                    frame_seconds: float = FRAME_S, driver_class: type[Driver] | None = None) -> CarefulApp:
+    """The app on the replay screen of `recordings`, watched in that order (`skipped`: a line per
+    file left out; the CLI plays at once; the tests start paused)."""
+    return CarefulApp(ReplayScreen(recordings, skipped=skipped, playing=playing, frame_seconds=frame_seconds),
                       driver_class=driver_class)
 
 

@@ -101,8 +101,14 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--seed", type=seed_int, default=None, help="seed for the world's randomness (default: random)")
     play.add_argument("--calibrate", action="store_true", help="measure your keyboard's autorepeat before playing")
 
-    replay = commands.add_parser("replay", help="watch a recorded session", description="Watch a recorded session step by step or animated.")
-    replay.add_argument("file", type=Path, metavar="FILE")
+    replay = commands.add_parser("replay", help="watch recorded sessions", description=(
+        "Watch recorded sessions step by step or animated, one file after another: files in the order "
+        "given, a folder's *.jsonl files in name order (numbers by value, so s-2 comes before s-10). "
+        "careful play names its files YYYYMMDD-HHMMSS-PLAYER.jsonl, so a folder of them replays in the "
+        "order they were recorded. Each file is shown in its own world. A file that cannot be read is "
+        "named (file, line, field) and left out, and the others replay."))
+    replay.add_argument("files", type=Path, nargs="+", metavar="FILE|FOLDER",
+                        help="recordings, or folders of recordings (not searched below the folder)")
 
     fit = commands.add_parser("fit", help="fit a reward to recordings (inverse RL)", description=(
         "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "

@@ -1,4 +1,4 @@
-"""`careful replay FILE`: watch a recorded session, step by step or animated (SPEC sections 2 and 4).
+"""`careful replay FILE...`: watch recorded sessions, step by step or animated (SPEC sections 2 and 4).
 
 The screen is the play screen's, reused: the board shows the player where the step starts
 with the arrow of the recorded direction and carefulness, then where the move went (a slip
@@ -6,12 +6,18 @@ framed in the slip colour); the gauge shows the step's recorded level and hold t
 panel summarises the session (`irl_core.summary`), with mean carefulness by distance from
 the nearest terminal cell. Where the replay is lives in `careful_tui.screens.replay_cursor`.
 
+Several files are watched one after another, each in its own world: the title and the panel
+say which file (n of m) is on screen, and coming to a file recorded in another world than the
+last one recomposes the screen for it.
+
 Time: a Textual interval timer calls `ReplayScreen.advance` once a frame while playing (two
 frames a step, an episode's end held for `END_TICKS`); tests call `advance` directly and
 pass a `frame_seconds` long enough that the timer never fires on its own.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 from rich.text import Text
 from textual import events
@@ -26,7 +32,7 @@ from careful_tui.render.grid import format_value
 from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_text, plural, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
-from careful_tui.screens.replay_cursor import Frame, ReplayCursor
+from careful_tui.screens.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording
@@ -63,11 +69,12 @@ def minimum_size(world: World) -> tuple[int, int]:
 
 
 class ReplayScreen(Screen[None]):
-    """The replay screen for one recording (the CLI and the tests build its app with
-    `careful_tui.app.make_replay_app`).
+    """The replay screen for one or more recordings, watched in the order given (the CLI and
+    the tests build its app with `careful_tui.app.make_replay_app`).
 
     Args:
-        recording: the session to watch.
+        recordings: the sessions to watch, each in its own world.
+        skipped: one line per file that could not be read (shown once, as a notification).
         playing: start playing at once (the CLI does; the tests start paused).
         frame_seconds: seconds a frame stays on screen at speed ×1.
     """
@@ -77,6 +84,7 @@ class ReplayScreen(Screen[None]):
     EPISODE = Binding.Group("episode")
     SPEED = Binding.Group("speed")
     JUMP = Binding.Group("jump")
+    FILE = Binding.Group("file")
     BINDINGS = [
         Binding("space", "toggle_play('pause')", "pause", priority=True),
         Binding("space", "toggle_play('play')", "play", priority=True),
@@ -88,55 +96,121 @@ class ReplayScreen(Screen[None]):
         Binding("minus,underscore", "slower", "slower", key_display="-", priority=True, group=SPEED),
         Binding("home", "go('to_start')", "start", priority=True, group=JUMP),
         Binding("end", "go('to_end')", "end", priority=True, group=JUMP),
+        # With several files the file keys take the jump keys' place in the key bar (80 columns
+        # hold one of the two chips); the jump keys still work, unlisted.
+        Binding("home", "go('to_start', 'unlisted')", "start", priority=True, show=False),
+        Binding("end", "go('to_end', 'unlisted')", "end", priority=True, show=False),
+        Binding("pageup,left_square_bracket", "go('previous_file')", "previous file", key_display="PgUp",
+                priority=True, group=FILE),
+        Binding("pagedown,right_square_bracket", "go('next_file')", "next file", key_display="PgDn",
+                priority=True, group=FILE),
     ]
 
-    # What is on screen: playing or paused, the speed, and the cursor's frame. Their watchers
-    # redraw; `set_reactive` in __init__ sets them before there is anything to draw.
+    # What is on screen: playing or paused, the speed, and the place (file, frame). Their
+    # watchers redraw; `set_reactive` in __init__ sets them before there is anything to draw.
     playing: reactive[bool] = reactive(False, init=False)
     speed_index: reactive[int] = reactive(SPEEDS.index(1.0), init=False)
-    position: reactive[int] = reactive(0, init=False)
+    place: reactive[tuple[int, int]] = reactive((0, 0), init=False)
 
-    def __init__(self, recording: Recording, *, playing: bool = False, frame_seconds: float = FRAME_S) -> None:
+    def __init__(self, recordings: Sequence[Recording], *, skipped: Sequence[str] = (), playing: bool = False,
+                 frame_seconds: float = FRAME_S) -> None:
         super().__init__()
-        self.recording = recording
-        self.world = recording.world
-        self.cursor = ReplayCursor.from_recording(recording)
-        # One MDP for the replay: the distances the panel and the summary both use.
-        self.distances = distance_to_terminal(self.world)
-        self.summary = summarise(recording, distances=self.distances)
+        self.files = ReplayFiles(recordings)
+        self.skipped = list(skipped)
         self.set_reactive(ReplayScreen.playing, playing)
         self.frame_seconds = frame_seconds
         self._end_ticks = 0
         self._timer: Timer | None = None
-        self._panel_shows: tuple[int | None] | None = None
         self._too_small = False
+        self._warned: set[int] = set()
+        self._recomposing = False
+        self._distances_world: World | None = None
+        self._read_file()
 
     @property
     def speed(self) -> float:
         return SPEEDS[self.speed_index]
 
+    @property
+    def cursor(self) -> ReplayCursor:
+        """Where the replay is in the file on screen."""
+        return self.files.cursor
+
+    @property
+    def recording(self) -> Recording:
+        """The file on screen."""
+        return self.files.recording
+
+    @property
+    def world(self) -> World:
+        return self.files.recording.world
+
+    def _read_file(self) -> None:
+        """The summary of the file on screen, and its world's distances (kept while the world stays)."""
+        if self._distances_world != self.world:
+            # One MDP per world: the distances the panel and the summary both use.
+            self.distances = distance_to_terminal(self.world)
+            self._distances_world = self.world
+        self.summary = summarise(self.recording, distances=self.distances)
+        self._file_shown: int | None = None
+        self._panel_shows: tuple[int | None] | None = None
+
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
-        panel = Static(id="summary")
-        panel.border_title = "session"
-        yield from compose_game(self.world, panel=panel)
+        self._composed_world = self.world
+        yield from compose_game(self.world, panel=Static(id="summary"))
 
     def on_mount(self) -> None:
-        self.query_one("#title", Static).update(Text.assemble(
-            ("careful replay", f"bold {NOTE}"), " · ", (printable(self.recording.path.name, limit=VALUE_LIMIT), "bold"),
-            (f" · {plural(self.summary.episodes, 'episode')}, {plural(self.summary.steps, 'step')}", "dim"),
-        ))
         self._start_timer()
-        for warning in self.recording.warnings:
-            self.notify(printable(warning, limit=400), title="recording", severity="warning", timeout=10, markup=False)
+        if self.skipped:
+            self.notify(printable("\n".join(self.skipped), limit=1200), title=f"left out: {plural(len(self.skipped), 'file')}",
+                        severity="warning", timeout=15, markup=False)
         self._check_size(*self.app.size)
         self.draw()
+
+    def _enter_file(self) -> None:
+        """The replay has come to another file: its summary, and the screen recomposed (after
+        this returns) if the file's world is not the one on screen."""
+        self._read_file()
+        if self._composed_world != self.world:
+            self._recomposing = True
+            self.call_next(self._recompose_for_world)
+        else:
+            self._check_size(*self.app.size)
+
+    async def _recompose_for_world(self) -> None:
+        try:
+            await self.recompose()
+        finally:
+            self._recomposing = False
+        self._check_size(*self.app.size)
+        self.draw()
+
+    def _show_file(self) -> None:
+        """The title and the panel's name for the file on screen, and its warnings (once per file)."""
+        index, count = self.files.index, len(self.files)
+        title = Text.assemble(("careful replay", f"bold {NOTE}"), " · ")
+        if count > 1:
+            title.append(f"file {index + 1}/{count} ", style=f"bold {NOTE}")
+        title.append_text(Text.assemble(
+            (printable(self.recording.path.name, limit=VALUE_LIMIT), "bold"),
+            (f" · {plural(self.summary.episodes, 'episode')}, {plural(self.summary.steps, 'step')}", "dim"),
+        ))
+        self.query_one("#title", Static).update(title)
+        self.query_one("#summary", Static).border_title = "session" if count == 1 else f"session {index + 1}/{count}"
+        if index not in self._warned:
+            self._warned.add(index)
+            for warning in self.recording.warnings:
+                self.notify(printable(warning, limit=400), title="recording", severity="warning", timeout=10,
+                            markup=False)
 
     def on_resize(self, event: events.Resize) -> None:
         self._check_size(event.size.width, event.size.height)
 
     def _check_size(self, width: int, height: int) -> None:
+        if self._recomposing:
+            return
         self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world),
                                                          command="careful replay")
         self.refresh_bindings()
@@ -156,13 +230,13 @@ class ReplayScreen(Screen[None]):
         if not self.playing:
             return
         frame = self.cursor.frame
-        if frame is not None and frame.phase == "end" and self._end_ticks < END_TICKS - 1 and not self.cursor.at_end:
+        if frame is not None and frame.phase == "end" and self._end_ticks < END_TICKS - 1 and not self.files.at_end:
             self._end_ticks += 1
             return
         self._end_ticks = 0
-        self.cursor.forward()
-        self.position = self.cursor.position
-        if self.cursor.at_end:
+        self.files.forward()
+        self.place = self.files.place
+        if self.files.at_end:
             self.playing = False
 
     def watch_playing(self, playing: bool) -> None:
@@ -179,30 +253,38 @@ class ReplayScreen(Screen[None]):
         self._start_timer()
         self.draw()
 
-    def watch_position(self) -> None:
+    def watch_place(self, old: tuple[int, int], new: tuple[int, int]) -> None:
+        if old[0] != new[0]:
+            self._enter_file()
         self.draw()
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
-        """Space says what it does now: pause while playing, play while paused."""
+        """Space says what it does now: pause while playing, play while paused. The file keys
+        are there when there are several files, and then the jump keys are unlisted."""
         if action == "toggle_play" and parameters:
             return parameters == (("pause",) if self.playing else ("play",))
+        if action == "go" and parameters and parameters[0] in ("next_file", "previous_file"):
+            return len(self.files) > 1
+        if action == "go" and parameters and parameters[0] in ("to_start", "to_end"):
+            return (parameters[1:] == ("unlisted",)) == (len(self.files) > 1)
         return super().check_action(action, parameters)
 
     def action_toggle_play(self, shown: str = "") -> None:
-        """Play or pause; playing from the last frame starts again from the first (`shown`:
-        what the key bar called it)."""
-        if not self.playing and self.cursor.at_end:
-            self.cursor.to_start()
-            self.position = self.cursor.position
+        """Play or pause; playing from the last frame starts again from the first file's first
+        (`shown`: what the key bar called it)."""
+        if not self.playing and self.files.at_end:
+            self.files.go_to_file(0)
+            self.place = self.files.place
         self._end_ticks = 0
-        self.playing = not self.playing and len(self.cursor) > 1
+        self.playing = not self.playing and not self.files.at_end
 
-    def action_go(self, move: str) -> None:
-        """Move the cursor (`forward`, `back`, `next_episode`, `previous_episode`, `to_start`,
-        `to_end`: `ReplayCursor`'s moves) and show where it is."""
-        getattr(self.cursor, move)()
+    def action_go(self, move: str, listed: str = "") -> None:
+        """Move (`forward`, `back`, `next_episode`, `previous_episode`, `to_start`, `to_end`,
+        `next_file`, `previous_file`: `ReplayFiles`' moves) and show where the replay is
+        (`listed`: whether the key bar shows the key)."""
+        getattr(self.files, move)()
         self._end_ticks = 0
-        self.position = self.cursor.position
+        self.place = self.files.place
 
     def action_faster(self) -> None:
         self.speed_index = min(self.speed_index + 1, len(SPEEDS) - 1)
@@ -213,7 +295,13 @@ class ReplayScreen(Screen[None]):
     # ------------------------------------------------------------------ drawing
 
     def draw(self) -> None:
-        """Draw the current frame: board, gauge, hold time, status, panel and keys (the watchers call it)."""
+        """Draw the current frame: board, gauge, hold time, status, panel and keys (the watchers
+        call it; while the screen is recomposed for another world, the recomposition draws)."""
+        if self._recomposing:
+            return
+        if self._file_shown != self.files.index:
+            self._file_shown = self.files.index
+            self._show_file()
         frame = self.cursor.frame
         board, gauge = self.query_one(Board), self.query_one(Gauge)
         step = None if frame is None else frame.step

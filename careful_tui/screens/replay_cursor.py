@@ -1,4 +1,5 @@
-"""Where a replay is: a position in a recording's steps, with the episode ends in between.
+"""Where a replay is: a position in a recording's steps, with the episode ends in between, and
+in which of several recordings replayed one after another.
 
 No Textual here: the replay screen draws whatever frame the cursor is on, and the tests
 drive the cursor directly.
@@ -19,6 +20,9 @@ Episodes are taken in the order they first appear in the file, steps in file ord
 reader checks that an episode's steps are contiguous and in order). Nothing is built per step
 in advance: an episode's steps are a window on the recording's step columns, and a frame is
 worked out from its position, so a recording of millions of steps replays in little memory.
+
+Several recordings are watched one after another (`ReplayFiles`): the moves carry on from one
+file's frames into the next file's, and only the current file has a cursor.
 """
 
 from __future__ import annotations
@@ -171,10 +175,106 @@ class ReplayCursor:
         frame = self.frame
         if frame is None:
             return False
-        return self.go_to(self._episode_start[max(0, frame.index - 1)])
+        return self.to_episode(frame.index - 1)
+
+    def to_episode(self, index: int) -> bool:
+        """To the first frame of episode `index` (a position in `episodes`, clamped to them)."""
+        if not self.episodes:
+            return False
+        return self.go_to(self._episode_start[max(0, min(index, len(self.episodes) - 1))])
 
     def to_start(self) -> bool:
         return self.go_to(0)
 
     def to_end(self) -> bool:
         return self.go_to(self._frames - 1)
+
+
+class ReplayFiles:
+    """A position in several recordings watched one after another: which file, and a
+    `ReplayCursor` in it.
+
+    The cursor's moves carry on across files: a step on from a file's last frame is the next
+    file's first frame, a step back from its first frame the previous file's last; the next
+    episode after a file's last episode is the next file's first, the previous episode before
+    its first is the previous file's last. `to_start` and `to_end` stay in the file;
+    `next_file` and `previous_file` go to a file's first frame. Every move returns whether the
+    place changed. Only the current file has a cursor (built when the replay comes to it).
+    """
+
+    def __init__(self, recordings: Sequence[Recording]) -> None:
+        if not recordings:
+            raise ValueError("nothing to replay: no recordings")
+        self.recordings = list(recordings)
+        self.index = 0
+        self.cursor = ReplayCursor.from_recording(self.recordings[0])
+
+    def __len__(self) -> int:
+        return len(self.recordings)
+
+    @property
+    def recording(self) -> Recording:
+        return self.recordings[self.index]
+
+    @property
+    def place(self) -> tuple[int, int]:
+        """(file index, frame position in that file)."""
+        return self.index, self.cursor.position
+
+    @property
+    def at_end(self) -> bool:
+        """At the last frame of the last file."""
+        return self.index == len(self.recordings) - 1 and self.cursor.at_end
+
+    @property
+    def last_file(self) -> bool:
+        return self.index == len(self.recordings) - 1
+
+    def go_to_file(self, index: int) -> bool:
+        """To the first frame of file `index` (clamped to the files)."""
+        index = max(0, min(index, len(self.recordings) - 1))
+        if index == self.index:
+            return self.cursor.to_start()
+        self.index = index
+        self.cursor = ReplayCursor.from_recording(self.recordings[index])
+        return True
+
+    def next_file(self) -> bool:
+        """To the next file's first frame; in the last file, to its end."""
+        return self.cursor.to_end() if self.last_file else self.go_to_file(self.index + 1)
+
+    def previous_file(self) -> bool:
+        """To the previous file's first frame; in the first file, to its start."""
+        return self.go_to_file(self.index - 1)
+
+    def forward(self) -> bool:
+        if self.cursor.at_end and not self.last_file:
+            return self.go_to_file(self.index + 1)
+        return self.cursor.forward()
+
+    def back(self) -> bool:
+        if self.cursor.at_start and self.index > 0:
+            self.go_to_file(self.index - 1)
+            self.cursor.to_end()
+            return True
+        return self.cursor.back()
+
+    def next_episode(self) -> bool:
+        frame = self.cursor.frame
+        if (frame is None or frame.index == len(self.cursor.episodes) - 1) and not self.last_file:
+            return self.go_to_file(self.index + 1)
+        return self.cursor.next_episode()
+
+    def previous_episode(self) -> bool:
+        frame = self.cursor.frame
+        if (frame is None or frame.index == 0) and self.index > 0:
+            self.go_to_file(self.index - 1)
+            self.cursor.to_episode(len(self.cursor.episodes) - 1)
+            return True
+        return self.cursor.previous_episode()
+
+    def to_start(self) -> bool:
+        return self.cursor.to_start()
+
+    def to_end(self) -> bool:
+        return self.cursor.to_end()

@@ -1,12 +1,14 @@
-"""The replay cursor: frames of steps and episode ends, moved by step, episode and to either end."""
+"""The replay cursor: frames of steps and episode ends, moved by step, episode and to either end;
+and several files watched one after another (`ReplayFiles`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from careful_tui.screens.replay_cursor import ReplayCursor, group_episodes
-from irl_core.demonstrations import read_recording
+from careful_tui.screens.replay_cursor import ReplayCursor, ReplayFiles, group_episodes
+from irl_core.demonstrations import Recording, read_recording
 from irl_core.recording_lines import EpisodeEnd, Step
+from irl_core.step_table import StepTable
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 
@@ -163,3 +165,83 @@ def test_a_long_recording_is_replayed_without_building_its_steps(tmp_path: Path,
     assert len(built) <= 2  # the summary's last step, the frame shown
     assert where(c) == (1999, len(c.episodes[-1].steps) - 1, "after")
     assert summary.steps == len(recording.steps) and len(c) == 2 * summary.steps + 2000
+
+
+# ---------------------------------------------------------------------------- several files
+
+
+def files(*recordings: Recording) -> ReplayFiles:
+    return ReplayFiles(recordings)
+
+
+def recording(name: str, steps: list[Step], ends: list[EpisodeEnd]) -> Recording:
+    table = StepTable()
+    for line in steps:
+        table.append(line)
+    return Recording(path=Path(name), header=read_recording(SAMPLE).header, steps=table, episode_ends=ends)
+
+
+# Three steps in two episodes; one step in one episode; nothing at all (a header only).
+FIRST = recording("a.jsonl", STEPS[:3], ENDS[:1])
+SECOND = recording("b.jsonl", STEPS[3:], ENDS[1:])
+EMPTY = recording("empty.jsonl", [], [])
+
+
+def at(f: ReplayFiles) -> tuple[str, tuple[int, int, str] | None]:
+    """(file name, (episode index, t, phase) in it, or None in a file without frames)."""
+    return f.recording.path.name, None if f.cursor.frame is None else where(f.cursor)
+
+
+def test_stepping_forward_runs_through_every_file_in_order_then_stops() -> None:
+    f = files(FIRST, EMPTY, SECOND)
+    seen = [at(f)]
+    while f.forward():
+        seen.append(at(f))
+    assert seen == [
+        ("a.jsonl", (0, 0, "before")), ("a.jsonl", (0, 0, "after")), ("a.jsonl", (0, 1, "before")),
+        ("a.jsonl", (0, 1, "after")), ("a.jsonl", (0, 2, "end")),
+        ("a.jsonl", (1, 0, "before")), ("a.jsonl", (1, 0, "after")), ("a.jsonl", (1, 1, "end")),
+        ("empty.jsonl", None),
+        ("b.jsonl", (0, 0, "before")), ("b.jsonl", (0, 0, "after")), ("b.jsonl", (0, 1, "end")),
+    ]
+    assert f.at_end and not f.forward() and at(f) == ("b.jsonl", (0, 1, "end"))
+    # And back again, frame for frame, to the very first.
+    back = [at(f)]
+    while f.back():
+        back.append(at(f))
+    assert back == seen[::-1] and f.place == (0, 0)
+
+
+def test_episode_keys_cross_into_the_next_and_previous_file() -> None:
+    f = files(FIRST, SECOND)
+    assert f.next_episode() and at(f) == ("a.jsonl", (1, 0, "before"))
+    # From a file's last episode the next episode is the next file's first.
+    assert f.next_episode() and at(f) == ("b.jsonl", (0, 0, "before"))
+    # In the last file's last episode: to its end, then nowhere.
+    assert f.next_episode() and at(f) == ("b.jsonl", (0, 1, "end"))
+    assert not f.next_episode()
+    # Back from a file's first episode: the previous file's last episode, at its start.
+    assert f.previous_episode() and at(f) == ("a.jsonl", (1, 0, "before"))
+    assert f.previous_episode() and at(f) == ("a.jsonl", (0, 0, "before"))
+    assert not f.previous_episode()
+
+
+def test_file_keys_go_to_a_files_start_and_stop_at_either_end() -> None:
+    f = files(FIRST, SECOND)
+    f.forward()
+    assert f.previous_file() and f.place == (0, 0)
+    assert not f.previous_file()
+    assert f.next_file() and f.place == (1, 0)
+    # In the last file, next file goes to its end; home and end stay in the file.
+    assert f.next_file() and f.at_end and not f.next_file()
+    assert f.to_start() and f.place == (1, 0)
+    assert f.to_end() and f.place == (1, len(f.cursor) - 1)
+
+
+def test_a_single_file_moves_as_its_cursor_does() -> None:
+    f, c = files(FIRST), ReplayCursor.from_recording(FIRST)
+    for move in ["forward", "next_episode", "back", "previous_episode", "to_end", "previous_episode", "to_start",
+                 "next_file", "previous_file"]:
+        moved = getattr(f, move)()
+        expected = getattr(c, {"next_file": "to_end", "previous_file": "to_start"}.get(move, move))()
+        assert (moved, f.cursor.position) == (expected, c.position), move
