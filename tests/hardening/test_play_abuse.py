@@ -488,3 +488,30 @@ def test_replay_survives_resizing_and_kitty_sequences(tmp_path: Path) -> None:
         term.send("q")
         assert term.wait_exit() == 0
     assert path.read_bytes() == before
+
+
+@needs_tmux
+def test_replay_of_a_folder_steps_from_file_to_file_and_names_a_bad_one(tmp_path: Path) -> None:
+    # Two sessions of one player started in the same second: the second is named ...-abuse-2.jsonl.
+    first, second = write_replay_recording(tmp_path), write_replay_recording(tmp_path)
+    assert second.name == first.name.replace(".jsonl", "-2.jsonl")
+    bad = tmp_path / "rec" / "zz-bad.jsonl"
+    bad.write_text('{"kind": "session", "schema": 1}\n')
+    before = {path: path.read_bytes() for path in (first, second, bad)}
+    with terminal(tmp_path, ["replay", "rec"]) as term:
+        screen = term.wait_for(f"file 1/2 {first.name}")
+        assert "left out: 1 file" in term.wait_for("left out: 1 file")
+        term.send("Space")
+        term.wait_for("paused")
+        term.send("PageDown")
+        screen = term.wait_for(f"file 2/2 {second.name}")
+        assert "session 2/2" in screen and "PgUp PgDn" in screen and "file" in screen.splitlines()[-1]
+        term.send("Home", "Right", "Right")
+        term.wait_for("step 2/4")
+        term.send("PageUp")
+        term.wait_for(f"file 1/2 {first.name}")
+        term.send("q")
+        assert term.wait_exit() == 0
+        # The line naming the bad file stays on the terminal once the screen is gone.
+        assert "zz-bad.jsonl:1: world: missing; left out" in term.wait_for("; left out")
+    assert {path: path.read_bytes() for path in before} == before
