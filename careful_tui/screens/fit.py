@@ -140,7 +140,8 @@ class FitScreen(Screen[None]):
 
     # What the view shows: the fit (compared by identity: its arrays have no single truth value),
     # its settings, the error of the last refit and the settings being fitted now. Their watchers
-    # redraw; `set_reactive` in __init__ sets them before there is anything to draw.
+    # ask for one redraw after the next refresh, however many of them change at once (a fit's
+    # end sets three); `set_reactive` in __init__ sets them before there is anything to draw.
     result: reactive[FitResult | None] = reactive(None, init=False, always_update=True)
     options: reactive[FitOptions] = reactive(FitOptions, init=False)
     error: reactive[str | None] = reactive(None, init=False)
@@ -181,6 +182,7 @@ class FitScreen(Screen[None]):
         self._progress = ""
         self._save_first = svg is not None
         self._too_small = False
+        self._redraw_asked = False
 
     # ------------------------------------------------------------------ layout
 
@@ -215,8 +217,6 @@ class FitScreen(Screen[None]):
         else:
             policy.labels = policy_labels(self.result)
             self.show()
-            if self._save_first:
-                self.call_after_refresh(self._save_first_svg)
 
     def on_resize(self) -> None:
         self._layout(*self.app.size)
@@ -276,8 +276,6 @@ class FitScreen(Screen[None]):
             if not self.query_one("#policy", Board).labels:
                 self.query_one("#policy", Board).labels = policy_labels(message.result)
             self.result = message.result
-        if self._save_first and self.result is not None:
-            self.call_after_refresh(self._save_first_svg)
 
     @property
     def busy(self) -> bool:
@@ -315,6 +313,8 @@ class FitScreen(Screen[None]):
         self._save(path)
 
     def _save_first_svg(self) -> None:
+        if not self._save_first:
+            return
         self._save_first = False
         self._save(self.svg)
 
@@ -343,19 +343,27 @@ class FitScreen(Screen[None]):
     # ------------------------------------------------------------------ drawing
 
     def watch_result(self) -> None:
-        self.show()
+        self._ask_redraw()
 
     def watch_options(self) -> None:
-        self.show()
+        self._ask_redraw()
 
     def watch_error(self) -> None:
-        self.show()
+        self._ask_redraw()
 
     def watch_fitting(self) -> None:
-        self.show()
+        self._ask_redraw()
+
+    def _ask_redraw(self) -> None:
+        """`show` once after the next refresh, for every change asked for before it."""
+        if not self._redraw_asked:
+            self._redraw_asked = True
+            self.call_after_refresh(self.show)
 
     def show(self) -> None:
-        """Draw the current result, the busy state or error, and the keys (the watchers call it)."""
+        """Draw the current result, the busy state or error, and the keys (on mount, then once after
+        the watchers' changes); the first fit drawn is saved as SVG when `svg` was given."""
+        self._redraw_asked = False
         result = self.result
         self.query_one("#title", Static).update(self._title())
         self.query_one("#status", Static).update(self._status())
@@ -376,6 +384,9 @@ class FitScreen(Screen[None]):
         intervals.border_title = (interval_title(result) if self.options.intervals and result.intervals is not None
                                   else "how sure the fit is of each reward")
         intervals.update(self._intervals(result))
+        if self._save_first:
+            # After the refresh that lays out what was just drawn.
+            self.call_after_refresh(self._save_first_svg)
 
     def _title(self) -> Text:
         demos = self.demos

@@ -292,3 +292,33 @@ def test_a_noisy_recording_opens_on_auto_maxent_with_confidence_intervals(noisy_
         assert app.first_screen.result.method == "maxent" and app.first_screen.result.options.method == "auto"
         np.testing.assert_allclose(app.first_screen.result.intervals, result.intervals)
     drive(app, body, size=(100, 40))
+
+
+def test_each_change_redraws_the_view_once(mud_file, monkeypatch):
+    # A refit sets `fitting` as it starts, and `fitting`, `options` and `result` as it ends: one
+    # redraw each time, not one per reactive.
+    draws = []
+    show = fit_screen.FitScreen.show
+    monkeypatch.setattr(fit_screen.FitScreen, "show", lambda screen: (draws.append(screen.busy), show(screen)))
+    release = threading.Event()
+
+    def slow_fit(*args, **kwargs):
+        assert release.wait(10)
+        return fit(*args, **kwargs)
+
+    app = make_app(mud_file, "--resamples", "20")
+
+    async def body(pilot):
+        assert draws == [False]  # on mount
+        monkeypatch.setattr(fit_screen, "fit", slow_fit)
+        await pilot.press("i")
+        await pilot.pause()
+        assert draws == [False, True] and "fitting auto" in shown(app, "#status")
+        release.set()
+        await settle(app, pilot)
+        assert draws == [False, True, False] and "Cliff: at most" in shown(app, "#intervals")
+        # Hiding the intervals changes only the options: one more.
+        await pilot.press("i")
+        await pilot.pause()
+        assert len(draws) == 4 and "press i" in shown(app, "#intervals")
+    drive(app, body, size=(100, 40))
