@@ -21,12 +21,12 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
+from careful_tui.render.session import outcome_words
 from irl_core.safe_files import check_output_folder, write_output
 from irl_core.safe_text import printable
 from irl_core.study import StudyError, load_study
 from irl_core.study_report import (
     POOLED,
-    STEP_LIMIT,
     CellFit,
     StudyData,
     csv_text,
@@ -142,7 +142,7 @@ def interval_caption(fits: list[CellFit]) -> str:
 def table_caption(data: StudyData, fits: list[CellFit]) -> str:
     """What the table's brackets, columns and marks mean, as far as this report has them."""
     parts = [interval_caption(fits), "Careful: mean carefulness one step from a terminal cell",
-             "Interrupted episodes are counted, not fitted"]
+             "Episodes quit or unfinished are counted, not fitted"]
     boxed = [f for f in fits if f.intervals is not None and (abs(f.intervals) >= f.rmax * (1 - 1e-9)).any()]
     if boxed:
         parts.append(f"An end at ±{boxed[0].rmax:g} is the fit's bound (--rmax), not a bound from the data")
@@ -175,7 +175,7 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
             who += " *"
         table.add_row(
             Text(who, style="bold" if pooled else ""), Text(printable(world.name, limit=40)),
-            str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted)),
+            str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted_outcomes)),
             "" if cell.careful_next_to_terminal is None else f"{cell.careful_next_to_terminal:.1f}",
             Text(fit_text(result), style="red" if result.error else ""),
             *(Text(reward_text(result, symbol)) for symbol in symbols),
@@ -184,13 +184,16 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
     return table
 
 
-def outcomes_text(outcomes: dict[str, int], interrupted: int) -> str:
-    """ "G 8, C 1, limit 1; 1 interrupted" """
-    parts = [f"{printable(k)} {v}" for k, v in sorted(outcomes.items()) if k != STEP_LIMIT]
-    if outcomes.get(STEP_LIMIT):
-        parts.append(f"limit {outcomes[STEP_LIMIT]}")
-    text = ", ".join(parts) or "-"
-    return text + (f"; {interrupted} interrupted" if interrupted else "")
+def outcomes_text(outcomes: dict[str, int], interrupted: dict[str, int]) -> str:
+    """How episodes ended, in the words replay and play use, the fitted ones first:
+    "8 reached the goal, 1 ran out of steps; 1 quit, 1 unfinished" (by `outcome_code`)."""
+    def counted(by_code: dict[str, int]) -> str:
+        # Terminal symbols in name order, then the step limit (or quit, then unfinished).
+        codes = sorted(by_code, key=lambda code: (code in ("step_limit", "unfinished"), code))
+        return ", ".join(f"{by_code[code]} {printable(outcome_words(code))}" for code in codes if by_code[code])
+
+    text = counted(outcomes) or "-"
+    return text + (f"; {counted(interrupted)}" if any(interrupted.values()) else "")
 
 
 def fit_text(result: CellFit) -> str:

@@ -27,10 +27,9 @@ from irl_core.irl.bootstrap import process_context
 from irl_core.step_table import StepTable
 from irl_core.study import REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
     interrupted_episodes, read_participant
-from irl_core.summary import distance_to_terminal
+from irl_core.summary import distance_to_terminal, outcome_code
 
 POOLED = "pooled"
-STEP_LIMIT = "step limit"
 
 
 def report_options(*, resamples: int = 200, seed: int = 0, rmax: float = 5000.0) -> FitOptions:
@@ -49,8 +48,10 @@ class Cell:
         demos: the finished main episodes as demonstrations (None when there are none).
         episodes: finished main episodes (the ones fitted).
         steps: their steps.
-        interrupted: main episodes recorded but not finished (not fitted).
-        outcomes: finished episodes per terminal symbol, and `STEP_LIMIT`.
+        outcomes: finished episodes per `irl_core.summary.outcome_code` (a terminal symbol, or
+            ``step_limit``).
+        interrupted_outcomes: main episodes with steps that did not finish (not fitted), per
+            outcome code (``quit``, or ``unfinished``: no end recorded).
         careful_next_to_terminal: mean carefulness of the steps taken next to a terminal cell
             (one grid step away), or None when there were none.
         participants: how many participants the cell holds (1, or how many have episodes in the pool).
@@ -61,10 +62,15 @@ class Cell:
     demos: Demonstrations | None
     episodes: int
     steps: int
-    interrupted: int
     outcomes: dict[str, int]
+    interrupted_outcomes: dict[str, int]
     careful_next_to_terminal: float | None
     participants: int = 1
+
+    @property
+    def interrupted(self) -> int:
+        """Main episodes quit or cut off (counted, not fitted)."""
+        return sum(self.interrupted_outcomes.values())
 
 
 @dataclass(frozen=True)
@@ -143,20 +149,20 @@ def _finished_only(recording: Recording) -> Recording:
 
 
 def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: list[Recording]) -> Cell:
-    interrupted = sum(len(interrupted_episodes(r)) for r in recordings)
+    interrupted: Counter[str] = Counter()
+    for recording in recordings:
+        ends = {end.episode: end for end in recording.episode_ends}
+        interrupted.update(outcome_code(ends.get(episode)) for episode in interrupted_episodes(recording))
     finished = [_finished_only(r) for r in recordings]
-    outcomes: Counter[str] = Counter()
-    for recording in finished:
-        for end in recording.episode_ends:
-            outcomes[end.terminal_symbol if end.outcome == "terminal" else STEP_LIMIT] += 1
+    outcomes = Counter(outcome_code(end) for recording in finished for end in recording.episode_ends)
     world = study.worlds[world_index]
     near = {cell for cell, d in distance_to_terminal(world).items() if d == 1}
     levels = [step.carefulness for r in finished for step in r.steps if step.state in near]
     steps = sum(len(r.steps) for r in finished)
     demos = Demonstrations.from_recordings(finished) if steps else None
     return Cell(participant=participant, world_index=world_index, demos=demos,
-                episodes=sum(len(r.episode_ends) for r in finished), steps=steps, interrupted=interrupted,
-                outcomes=dict(outcomes), careful_next_to_terminal=float(np.mean(levels)) if levels else None)
+                episodes=sum(len(r.episode_ends) for r in finished), steps=steps, outcomes=dict(outcomes),
+                interrupted_outcomes=dict(interrupted), careful_next_to_terminal=float(np.mean(levels)) if levels else None)
 
 
 # ---------------------------------------------------------------------------- fits
@@ -275,7 +281,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
         terminal_counts = [str(cell.outcomes.get(t, 0)) if t in world.terminal else "" for t in terminals]
         rows.append([
             study.study.name, cell.participant, str(cell.world_index), world.name, str(cell.episodes),
-            str(cell.steps), str(cell.interrupted), *terminal_counts, str(cell.outcomes.get(STEP_LIMIT, 0)),
+            str(cell.steps), str(cell.interrupted), *terminal_counts, str(cell.outcomes.get("step_limit", 0)),
             _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",

@@ -2,15 +2,19 @@
 interrupted episodes never fitted; a corrupt file named and the rest reported."""
 
 import csv
+import io
 import json
 
 import numpy as np
 import pytest
+from rich.console import Console
 
 from careful_tui.cli import main
+from careful_tui.render.session import outcome_words
+from careful_tui.study_report import outcomes_text, report_table
 from irl_core.simulated_study import simulated_participants, write_simulated_participant
 from irl_core.study import load_study
-from irl_core.study_report import POOLED, fit_cell, gather, report_options, run_fits
+from irl_core.study_report import POOLED, CellFit, fit_cell, gather, report_options, run_fits
 from study.conftest import write_block, write_study
 
 PARTICIPANTS = simulated_participants(3, betas=(0.3, 1.5))
@@ -147,3 +151,21 @@ def test_the_figures_show_each_participant_the_pool_and_the_truth(study_path):
                                                  "mud: pooled over 3 participants, 12 episodes"]
     assert [t.get_text() for t in panels[1].get_yticklabels()] == ["cliff", "mud", "goal"]
     assert plain("a$b\x1b") == "a\\$b\\x1b"
+
+
+def test_outcomes_are_worded_as_replay_and_play_word_them(study, capsys):
+    # Two falls, then a quit mid-episode; another file's episode cut off without an end.
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=2, then="quit")
+    write_block(study, "p1", 0, "main", name="b.jsonl", first=3, then="crash")
+    data = gather(study)
+    cell = data.cell("p1", 0)
+    assert (cell.outcomes, cell.interrupted_outcomes, cell.interrupted) == ({"C": 2}, {"quit": 1, "unfinished": 1}, 2)
+    console = Console(width=250, file=io.StringIO(), record=True)
+    console.print(report_table(data, [CellFit(error="not fitted here")] * len(data.cells)))
+    row = next(line for line in console.export_text().splitlines() if line.strip().startswith("p1"))
+    # The words of the replay's panel and play's status, not codes of its own.
+    assert "2 fell off the cliff; 1 quit, 1 unfinished" in row
+    assert [outcome_words(code) for code in ("C", "quit", "unfinished")] == ["fell off the cliff", "quit", "unfinished"]
+    assert outcomes_text({"G": 8, "C": 1, "step_limit": 1}, {}) == \
+        "1 fell off the cliff, 8 reached the goal, 1 ran out of steps"
+    assert outcomes_text({}, {}) == "-"
