@@ -3,14 +3,10 @@ each file in its own world; and the command reading a folder in time order, leav
 
 from __future__ import annotations
 
-import asyncio
-import io
-from collections.abc import Awaitable, Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
-from rich.console import Console
 from textual.pilot import Pilot
 from textual.widgets import Static
 
@@ -25,6 +21,7 @@ from irl_core.demonstrations import Recording, read_recording
 from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recording_writer import RecordingWriter
 from irl_core.world import World
+from test_replay_app import run, text  # the Pilot helpers of the one-file replay tests
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 # A small world of its own: right, right to the goal.
@@ -48,21 +45,6 @@ def write_lane(path: Path, *, episodes: int = 1, header: SessionHeader | None = 
             writer.end_episode(EpisodeEnd(episode=episode, outcome="terminal", terminal_symbol="G", steps=2,
                                           return_=score + 100 - 200, score=score + 100))
     return path
-
-
-def run(app: CarefulApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)) -> None:
-    async def go() -> None:
-        async with app.run_test(size=size, notifications=True) as pilot:
-            await pilot.pause()
-            await body(pilot)
-
-    asyncio.run(go())
-
-
-def text(app: CarefulApp, selector: str) -> str:
-    console = Console(width=200, record=True, file=io.StringIO())
-    console.print(app.query_one(selector, Static).content)
-    return console.export_text()
 
 
 def shown(app: CarefulApp) -> tuple[str, str, int, str]:
