@@ -47,6 +47,8 @@ SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 # Ticks an episode's end stays on screen while playing (the outcome is worth a look).
 END_TICKS = 3
 PANEL_WIDTH = 19
+# Files left out that the notice on screen names (stderr names them all).
+SKIPPED_SHOWN = 3
 
 
 def speed_text(speed: float) -> str:
@@ -164,7 +166,10 @@ class ReplayScreen(Screen[None]):
     def on_mount(self) -> None:
         self._start_timer()
         if self.skipped:
-            self.notify(printable("\n".join(self.skipped), limit=1200), title=f"left out: {plural(len(self.skipped), 'file')}",
+            lines = [printable(line, limit=200) for line in self.skipped[:SKIPPED_SHOWN]]
+            if len(self.skipped) > SKIPPED_SHOWN:
+                lines.append(f"and {len(self.skipped) - SKIPPED_SHOWN} more (each named on stderr)")
+            self.notify("\n".join(lines), title=f"left out: {plural(len(self.skipped), 'file')}",
                         severity="warning", timeout=15, markup=False)
         self._check_size(*self.app.size)
         self.draw()

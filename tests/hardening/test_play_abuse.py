@@ -508,6 +508,10 @@ def test_replay_of_a_folder_steps_from_file_to_file_and_names_a_bad_one(tmp_path
         assert "session 2/2" in screen and "PgUp PgDn" in screen and "file" in screen.splitlines()[-1]
         term.send("Home", "Right", "Right")
         term.wait_for("step 2/4")
+        term.send("[")
+        term.wait_for(f"file 1/2 {first.name}")
+        term.send("]")
+        term.wait_for(f"file 2/2 {second.name}")
         term.send("PageUp")
         term.wait_for(f"file 1/2 {first.name}")
         term.send("q")

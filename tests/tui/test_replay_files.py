@@ -164,6 +164,18 @@ def test_files_left_out_are_named_once_on_screen(tmp_path: Path) -> None:
         assert [(n.title, n.message) for n in app._notifications] == [("left out: 1 file", skipped[0])]
 
     run(app, body)
+    # Many: the first three as text (a control character escaped), and how many more.
+    skipped = [f"bad-{n}.jsonl: the file is empty: no session header; left out" for n in range(5)]
+    skipped[0] = "bad\x1b[31m.jsonl:1: not valid JSON; left out"
+    app = make_replay_app(read_recording(SAMPLE), skipped=skipped, frame_seconds=3600)
+
+    async def body(pilot: Pilot) -> None:
+        ((title, message),) = [(n.title, n.message) for n in app._notifications]
+        assert title == "left out: 5 files" and "\x1b" not in message
+        assert message.splitlines() == ["bad\\x1b[31m.jsonl:1: not valid JSON; left out", *skipped[1:3],
+                                         "and 2 more (each named on stderr)"]
+
+    run(app, body)
 
 
 # ---------------------------------------------------------------------------- the command
