@@ -178,6 +178,8 @@ class ReplayScreen(Screen[None]):
         """The replay has come to another file: its summary, and the screen recomposed (after
         this returns) if the file's world is not the one on screen."""
         self._read_file()
+        if self._recomposing:
+            return  # the recomposition under way ends in the world of the file on screen then
         if self._composed_world != self.world:
             self._recomposing = True
             self.call_next(self._recompose_for_world)
@@ -185,10 +187,12 @@ class ReplayScreen(Screen[None]):
             self._check_size(*self.app.size)
 
     async def _recompose_for_world(self) -> None:
-        try:
-            await self.recompose()
-        finally:
-            self._recomposing = False
+        await self.recompose()
+        if self.is_attached and self._composed_world != self.world:
+            # The replay went on to a file of yet another world while this one was composed.
+            self.call_next(self._recompose_for_world)
+            return
+        self._recomposing = False
         self._check_size(*self.app.size)
         self.draw()
 

@@ -91,6 +91,25 @@ def test_the_file_keys_go_from_file_to_file_each_in_its_own_world(tmp_path: Path
     run(app, body)
 
 
+def test_file_keys_faster_than_the_screen_recomposes_end_on_the_right_world(tmp_path: Path) -> None:
+    app = two_worlds(tmp_path)
+
+    async def body(pilot: Pilot) -> None:
+        for keys in (["pagedown", "pageup"] * 5, ["pagedown", "pageup"] * 4 + ["pagedown"]):
+            for key in keys:
+                await app.first_screen.run_action(
+                    "go('next_file')" if key == "pagedown" else "go('previous_file')")
+            await pilot.pause()
+            await pilot.pause()
+            screen = app.first_screen
+            world = "lane" if keys[-1] == "pagedown" else "paper"
+            assert screen.world.name == world and shown(app)[2] == world and len(app.query(Board)) == 1
+            assert f"file {screen.files.index + 1}/2" in text(app, "#title")
+            assert app.query_one(Board).player == screen.cursor.frame.player
+
+    run(app, body)
+
+
 def test_stepping_on_from_a_files_end_is_the_next_files_start_and_back(tmp_path: Path) -> None:
     app = two_worlds(tmp_path)
 
