@@ -290,7 +290,7 @@ class ReplayScreen(Screen[None]):
     def action_go(self, move: str, listed: str = "") -> None:
         """Move (`forward`, `back`, `next_episode`, `previous_episode`, `to_start`, `to_end`,
         `next_file`, `previous_file`: `ReplayFiles`' moves) and show where the replay is
-        (`listed`: whether the key bar shows the key)."""
+        (`listed` is "unlisted" for the jump keys the key bar leaves out: see `check_action`)."""
         getattr(self.files, move)()
         self._end_ticks = 0
         self.place = self.files.place
