@@ -102,14 +102,14 @@ def instructions_text(protocol: Protocol) -> Group:
     """The first screen: the study's own instructions, the plan, where a returning participant stands."""
     study = protocol.study.study
     parts: list[Text] = [Text(printable(study.name, limit=80), style=f"bold {NOTE}")]
-    if study.instructions.strip():
-        parts.append(Text(printable(study.instructions.strip(), limit=4000, keep_newlines=True)))
-    parts.append(plan_text(protocol))
     if protocol.started:
         done, total = protocol.progress
         back = Text(f"Welcome back: {done} of {total} episodes are done. You go on with: ", style=f"bold {GOOD}")
         back.append_text(where_next(protocol))
         parts.append(back)
+    if study.instructions.strip():
+        parts.append(Text(printable(study.instructions.strip(), limit=4000, keep_newlines=True)))
+    parts.append(plan_text(protocol))
     parts.extend(problems_text(protocol))
     parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
     return _spaced(parts)

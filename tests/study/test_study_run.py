@@ -21,39 +21,8 @@ from careful_tui.screens.play import PlayScreen
 from careful_tui.screens.study import StudyScreen
 from irl_core.demonstrations import read_recording
 from irl_core.study import load_study, read_protocol
+from study.study_run_files import write_study
 
-# Two worlds where one move ends an episode: in "right" the goal is to the right of the start,
-# in "left" the cliff is to its left. Moving up from either start bumps the top edge: the
-# episode goes on.
-RIGHT = """\
-name = "right"
-layout = "..G"
-levels = 5
-slip = "none"
-start = [0, 1]
-[rewards]
-G = 100.0
-"""
-LEFT = """\
-name = "left"
-layout = "C.."
-levels = 9
-slip = "none"
-start = [0, 1]
-[rewards]
-C = -1000.0
-"""
-STUDY = """\
-name = "pilot"
-instructions = \"\"\"Welcome. [bold]This is not markup[/bold] \\u001b[31m
-Reach the goal.\"\"\"
-worlds = ["right.toml", "left.toml"]
-order = "fixed"
-practice_episodes = {practice}
-episodes = 2
-input = "digits"
-out = "data"
-"""
 ENDING_MOVE = {"right": "right", "left": "left"}
 
 
@@ -63,14 +32,6 @@ class FakeClock:
 
     def __call__(self) -> float:
         return self.now
-
-
-def write_study(folder: Path, *, practice: int = 1) -> Path:
-    (folder / "right.toml").write_text(RIGHT)
-    (folder / "left.toml").write_text(LEFT)
-    path = folder / "pilot.toml"
-    path.write_text(STUDY.format(practice=practice))
-    return path
 
 
 def new_app(path: Path, participant: str = "p01") -> CarefulApp:
