@@ -27,10 +27,15 @@ def run_study_run(args: argparse.Namespace) -> int:
         print(f"participant {args.participant} has finished study {name!r}: every episode is recorded in "
               f"{printable(str(protocol.folder))}; nothing is left to play")
         return 0
+    # The study's folder, not the participant's: that is made at the first move, so a participant
+    # who leaves before it leaves no empty folder for the report to count.
+    if protocol.folder.exists() and not protocol.folder.is_dir():
+        raise UsageError(f"{printable(str(protocol.folder))} is a file, not the participant's folder; move it away")
+    target = protocol.folder if protocol.folder.is_dir() else study.out
     try:
-        check_writable(protocol.folder)
+        check_writable(target)
     except OSError as exc:
-        raise UsageError(f"cannot write recordings to {printable(str(protocol.folder))} "
+        raise UsageError(f"cannot write recordings to {printable(str(target))} "
                          f"({exc.strerror or exc}); check the study's out folder") from None
     require_terminal("study run")
     app = make_study_app(study, args.participant, driver_class=KittyDriver)

@@ -242,7 +242,10 @@ def test_a_finished_participant_is_told_so_and_bad_input_is_one_line(tmp_path: P
     out = capsys.readouterr().out
     assert out.startswith("participant p01 has finished study 'pilot'") and "nothing is left to play" in out
 
+    (tmp_path / "data" / "p03").write_text("not a folder")
     for argv, fragment in [
+        (["study", "run", str(path), "--participant", "p02"], "needs an interactive terminal"),
+        (["study", "run", str(path), "--participant", "p03"], "is a file, not the participant's folder"),
         (["study", "run", str(path), "--participant", "../x"], "cannot name a folder"),
         (["study", "run", str(path), "--participant", "report"], "is taken"),
         (["study", "run", str(tmp_path / "missing.toml"), "--participant", "p01"], "cannot read the study file"),
@@ -250,6 +253,7 @@ def test_a_finished_participant_is_told_so_and_bad_input_is_one_line(tmp_path: P
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert fragment in err and err.count("\n") == 1
+    assert not (tmp_path / "data" / "p02").exists()  # no empty folder for the report to count
 
 
 @pytest.mark.parametrize("argv", [["study", "run", "--help"], ["study", "--help"]])
@@ -260,3 +264,68 @@ def test_help_explains_running_a_participant(argv: list[str], capsys) -> None:
     out = " ".join(capsys.readouterr().out.split())
     assert "careful study run" in out or "--participant ID" in out
     assert "not built yet" not in out
+
+
+def test_tiny_terminals_never_crash_the_study_screens(tmp_path: Path) -> None:
+    app = new_app(write_study(tmp_path))
+
+    async def body(pilot: Pilot) -> None:
+        for size in [(1, 1), (0, 0), (10, 3), (100, 35)]:
+            await pilot.resize_terminal(*size)
+            await pilot.pause()
+        await pilot.press("space")
+        await play_block(pilot, "3")
+        for size in [(1, 1), (20, 5), (100, 35)]:
+            await pilot.resize_terminal(*size)
+            await pilot.pause()
+        assert app.first_screen.stage == "practice_over" and "Practice is over." in shown(app)
+        await pilot.press("space")
+        await pilot.pause()
+        assert "Episode 1 of 2" in status(app)
+
+    run(app, body)
+
+
+def test_a_calibration_in_a_hold_study_carries_over_to_the_next_world_with_its_levels(tmp_path: Path) -> None:
+    path = write_study(tmp_path, practice=0)
+    path.write_text(path.read_text().replace('input = "digits"', 'input = "hold"').replace("episodes = 2", "episodes = 1"))
+    clock = FakeClock()
+    app = make_study_app(load_study(path), "p01", clock=clock, seed=5)
+
+    async def tap(pilot: Pilot, key: str) -> None:
+        """A tap (level 1), ended by the silence after it."""
+        await pilot.press(key)
+        clock.now += 1.0
+        play_screen(app).tick()
+        await pilot.pause()
+
+    async def body(pilot: Pilot) -> None:
+        await pilot.press("space")
+        await pilot.pause()
+        await pilot.press("c")
+        calibration = app.screen
+        await pilot.press("up")
+        clock.now += 0.4
+        for _ in range(8):
+            await pilot.press("up")
+            clock.now += 0.03
+        clock.now += 0.5
+        calibration.tick()
+        await pilot.press("enter")
+        await tap(pilot, "right")
+        await pilot.press("space")  # the block's one episode is played: go on
+        await pilot.pause()
+        assert app.first_screen.stage == "next_world"
+        await pilot.press("space")
+        await pilot.pause()
+        profile = play_screen(app).profile
+        assert profile.calibrated and profile.levels == 9
+        await tap(pilot, "left")
+
+    run(app, body)
+    blocks = files_by_block(tmp_path / "data" / "p01")
+    for key in [(0, "main"), (1, "main")]:
+        (recording,) = blocks[key]
+        assert recording.header.input["calibrated"] is True
+        assert recording.header.input["initial_delay_ms"] == pytest.approx(400.0)
+    assert [step.carefulness for step in blocks[(1, "main")][0].steps] == [1]
