@@ -173,11 +173,13 @@ def build_parser() -> argparse.ArgumentParser:
     run = study_commands.add_parser("run", help="take one participant through the study", description=(
         "Take one participant through the study in this terminal: the study's instructions (space to "
         "begin), then for each world, in the participant's order, its practice episodes and its main "
-        "episodes, a short screen between worlds, and an end screen. Recordings go to <out>/<ID>/, one "
-        "file per block, each header tagged with the study, the phase and the world. q leaves at any "
+        "episodes, a short screen between worlds, and an end screen. Recordings go to <out>/<ID>/, a new "
+        "file each time a block starts, its header tagged with the study, the phase and the world. q leaves at any "
         "time and keeps what was recorded; running the same participant again goes on where they "
         "stopped (an episode left mid-way is played again; nothing is overwritten). A participant who "
-        "has finished is told so (exit 0)."))
+        "has finished is told so (exit 0)."),
+        epilog="Example: careful study run pilot.toml --participant p07; when everyone has played, "
+        "careful study report pilot.toml.")
     run.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
     run.add_argument("--participant", required=True, metavar="ID", type=text_argument,
                      help="the participant's id, their folder's name: 1 to 80 letters, digits and _ . = -")

@@ -233,7 +233,9 @@ class StudyScreen(Screen[None]):
             return parameters == (shown,)
         return super().check_action(action, parameters)
 
-    def action_go_on(self, stage: str) -> None:
+    def action_go_on(self, shown_on: str) -> None:
+        """Space: begin or go on with the next block, or leave at the end (`shown_on` only picks
+        which binding the key bar shows; `check_action` matches it to the stage)."""
         if self.stage == "end":
             self.app.exit()
             return
