@@ -9,7 +9,7 @@ back, the protocol is read again from the folder, so what comes next is always w
 say: a note when practice ends and the main episodes begin, a short screen between worlds, and
 the end screen when nothing is left.
 
-`q` leaves from any screen, keeping what was recorded (the play screen records a running
+`q` (or SIGTERM) leaves from any screen, keeping what was recorded (the play screen records a running
 episode as ``quit``); running the same participant again resumes where the files say, and an
 interrupted episode is played again. A calibration made in hold mode carries over to the next
 blocks.
@@ -20,6 +20,9 @@ escaped and nothing is read as markup.
 
 from __future__ import annotations
 
+import asyncio
+import os
+import signal
 from collections.abc import Callable
 from typing import Literal
 
@@ -214,6 +217,16 @@ class StudyScreen(Screen[None]):
             (f" · recording → {printable(str(self.protocol.folder), limit=200)}", "dim"),
         ))
         self.stage = "end" if self.protocol.finished else "instructions"
+        if not self.app.is_headless:
+            # Until a play screen puts in its own (which record the running episode first).
+            loop = asyncio.get_running_loop()
+            loop.add_signal_handler(signal.SIGTERM, self.app.exit)
+            loop.add_signal_handler(signal.SIGHUP, self.hang_up)
+
+    def hang_up(self) -> None:
+        """The terminal was closed before any episode began: nothing to record, leave at once
+        (Textual's orderly exit would block writing to the closed terminal; status 129)."""
+        os._exit(128 + signal.SIGHUP)
 
     def watch_stage(self, stage: Stage) -> None:
         if stage == "instructions":

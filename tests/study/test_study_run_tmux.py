@@ -141,3 +141,13 @@ def test_a_participant_goes_through_the_study_and_a_killed_one_resumes_without_l
     assert len(blocks[(0, "main")]) == 2 and all(len(blocks[key]) == 1 for key in blocks if key != (0, "main"))
     assert read_protocol(study, "p02").finished
     assert [(b.done, b.target) for b in read_protocol(study, "p02").blocks] == [(1, 1), (2, 2), (1, 1), (2, 2)]
+
+
+def test_sigterm_before_the_first_episode_leaves_cleanly_and_creates_nothing(tmp_path: Path) -> None:
+    write_study(tmp_path)
+    with study_run(tmp_path, "p03") as session:
+        session.wait_for("Press space to begin.")
+        os.kill(session.pid(), signal.SIGTERM)
+        assert session.wait_exit() == 0
+        assert "participant p03: 0 of 6 episodes of study 'pilot' done; run the same command to go on" in session.history()
+    assert not (tmp_path / "data" / "p03").exists()
