@@ -90,7 +90,7 @@ class PlayScreen(Screen[None]):
 
     TITLE = "careful play"
     BINDINGS = [
-        Binding("up,right,down,left", "move('hold')", "move · hold longer: more careful (costs more, slips less)", key_display="←↑→↓"),
+        Binding("up,right,down,left", "move('hold')", "move · hold longer: more careful", key_display="←↑→↓"),
         Binding("up,right,down,left", "move('tap')", "move · tap ×k: level k", key_display="←↑→↓"),
         Binding("1,2,3,4,5,6,7,8,9", "move('digits')", "level", key_display="1-9"),
         Binding("up,right,down,left", "move('digits')", "move", key_display="←↑→↓"),
