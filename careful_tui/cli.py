@@ -173,9 +173,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     study = commands.add_parser("study", help="studies: one protocol for many participants, one report", description=(
         "Studies (a study file names the worlds, their order, practice and main episodes per world). "
-        "'careful study report' fits every participant and the pool of them; running participants "
-        "('careful study run') is not built yet."))
+        "'careful study run' takes one participant through the study; 'careful study report' fits "
+        "every participant and the pool of them."))
     study_commands = study.add_subparsers(dest="study_command", metavar="COMMAND", required=True)
+    run = study_commands.add_parser("run", help="take one participant through the study", description=(
+        "Take one participant through the study in this terminal: the study's instructions (space to "
+        "begin), then for each world, in the participant's order, its practice episodes and its main "
+        "episodes, a short screen between worlds, and an end screen. Recordings go to <out>/<ID>/, a new "
+        "file each time a block starts, its header tagged with the study, the phase and the world. q leaves at any "
+        "time and keeps what was recorded; running the same participant again goes on where they "
+        "stopped (an episode left mid-way is played again; nothing is overwritten). A participant who "
+        "has finished is told so (exit 0)."),
+        epilog="Example: careful study run pilot.toml --participant p07; when everyone has played, "
+        "careful study report pilot.toml.")
+    run.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
+    run.add_argument("--participant", required=True, metavar="ID", type=text_argument,
+                     help="the participant's id, their folder's name: 1 to 80 letters, digits and _ . = -")
     report = study_commands.add_parser("report", help="fit every participant and the pool, per world", description=(
         "Fit the main-phase episodes of every participant folder under the study's out folder, per world, and "
         "every world's pool of them, with 95% confidence intervals (maxent, beta estimated, one reward per symbol; "
@@ -242,7 +255,11 @@ COMMANDS = {
     "worlds": _lazy("careful_tui.commands.worlds", "run_worlds"),
     "experiment": _lazy("careful_tui.commands.experiment", "run_experiment"),
     "export": _lazy("careful_tui.commands.export", "run_export"),
-    "study": _lazy("careful_tui.study_report", "run_study"),
+    "study": lambda args: STUDY_COMMANDS[args.study_command](args),
+}
+STUDY_COMMANDS = {
+    "run": _lazy("careful_tui.commands.study_run", "run_study_run"),
+    "report": _lazy("careful_tui.study_report", "run_study_report"),
 }
 
 

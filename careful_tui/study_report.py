@@ -51,11 +51,6 @@ class Timings:
     written: list[Path] = field(default_factory=list)
 
 
-def run_study(args: argparse.Namespace) -> int:
-    """`careful study COMMAND`: only ``report`` is built (``run`` needs the one-app screens)."""
-    return run_study_report(args)
-
-
 def run_study_report(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     options = report_options(resamples=args.resamples, seed=args.seed, rmax=args.rmax)

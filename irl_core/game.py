@@ -5,9 +5,9 @@ them in the world's MDP with one seeded numpy Generator. It keeps the score and 
 step and every episode end to a `RecordingSink` the moment it happens.
 
 ==============  ==============================================================
-episode         numbered 0, 1, 2, ... for the whole game; starts at a start cell
-                drawn from the world (a fixed cell, or uniform over non-terminal
-                cells)
+episode         numbered 0, 1, 2, ... for the whole game (or on from
+                ``first_episode``); starts at a start cell drawn from the world
+                (a fixed cell, or uniform over non-terminal cells)
 score           undiscounted, reset to ``initial_score`` at each episode start;
                 a step adds R(s, a) = R_S(s) + R_A(a); entering a terminal cell
                 adds its R_S once, at the episode end
@@ -31,7 +31,7 @@ from typing import Protocol
 import numpy as np
 
 from irl_core.recording_lines import EpisodeEnd, Step
-from irl_core.mdp import DIRECTIONS, action_index, build_mdp
+from irl_core.mdp import DIRECTIONS, action_index, build_mdp, direction_probabilities
 from irl_core.world import World
 
 Cell = tuple[int, int]
@@ -72,6 +72,15 @@ def level_costs(world: World) -> list[float]:
     return [world.cost_per_level * c for c in range(1, world.levels + 1)]
 
 
+def level_slip_chances(world: World) -> list[float]:
+    """The chance that a move of each carefulness level 1..L goes another way than chosen.
+
+    With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0.
+    """
+    levels = range(1, world.levels + 1)
+    return [float(1.0 - p[0]) for p in direction_probabilities(list(levels), slip=world.slip)]
+
+
 class GameOver(RuntimeError):
     """A move was asked for when no episode is running (a programmer's error)."""
 
@@ -83,9 +92,11 @@ class Game:
         world: the world to play.
         seed: seeds the one Generator behind start cells and slips.
         sink: receives every step and episode end.
+        first_episode: the number of the first episode (a resumed study block continues its
+            numbering, so no number is used twice).
     """
 
-    def __init__(self, world: World, *, seed: int, sink: RecordingSink) -> None:
+    def __init__(self, world: World, *, seed: int, sink: RecordingSink, first_episode: int = 0) -> None:
         self.world = world
         self.mdp = build_mdp(world)
         self.seed = seed
@@ -93,7 +104,8 @@ class Game:
         self._rng = np.random.default_rng(seed)
         self._reward = self.mdp.reward_matrix()
         self._starts = [self.mdp.state_of[cell] for cell in world.start_cells]
-        self.episode = -1
+        self.first_episode = first_episode
+        self.episode = first_episode - 1
         self.t = 0
         self.cell: Cell | None = None
         self.score = world.initial_score

@@ -304,6 +304,12 @@ class Protocol:
         return self.next is None
 
     @property
+    def progress(self) -> tuple[int, int]:
+        """(finished episodes that count, episodes the protocol asks for), practice included."""
+        return (sum(min(block.done, block.target) for block in self.blocks),
+                sum(block.target for block in self.blocks))
+
+    @property
     def started(self) -> bool:
         return any(block.done or block.interrupted for block in self.blocks)
 

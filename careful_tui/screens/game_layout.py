@@ -18,17 +18,20 @@ from careful_tui.render.session import legend
 from careful_tui.widgets import Board, Gauge, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.game import level_costs
+from irl_core.game import level_costs, level_slip_chances
 from irl_core.safe_text import printable
 from irl_core.world import World
 
 STATUS_LINES = 3
 
 
-def carefulness_gauge(world: World) -> Gauge:
-    """The gauge of the play and replay screens: one step per level, each with its cost."""
-    gauge = Gauge(level_costs(world), id="gauge")
+def carefulness_gauge(world: World, *, slips: bool = False) -> Gauge:
+    """The gauge of the play and replay screens: one step per level, each with its cost (and with
+    `slips` the chance that a move of that level slips, from the world's dynamics)."""
+    gauge = Gauge(level_costs(world), slips=level_slip_chances(world) if slips else None, id="gauge")
     gauge.border_title = "carefulness"
+    if slips:
+        gauge.border_subtitle = "cost slip"
     return gauge
 
 
@@ -40,12 +43,13 @@ def world_board(world: World) -> Board:
     return board
 
 
-def compose_game(world: World, *, panel: Widget | None = None) -> ComposeResult:
-    """Title, gauge and hold info, board and status (and `panel` on the right), the key bar."""
+def compose_game(world: World, *, panel: Widget | None = None, slips: bool = False) -> ComposeResult:
+    """Title, gauge (with `slips`, each level's slip chance) and hold info, board and status (and
+    `panel` on the right), the key bar."""
     yield Static(id="title")
     with Horizontal(id="main"):
         with Vertical(id="side"):
-            yield carefulness_gauge(world)
+            yield carefulness_gauge(world, slips=slips)
             yield Static(id="hold-info")
         with Vertical(id="right"):
             yield world_board(world)
@@ -56,13 +60,15 @@ def compose_game(world: World, *, panel: Widget | None = None) -> ComposeResult:
     yield KeyBar(id="keys")
 
 
-def minimum_size(world: World, *, side_padding: int, panel_width: int = 0, side_lines: int = 0) -> tuple[int, int]:
+def minimum_size(world: World, *, side_padding: int, panel_width: int = 0, side_lines: int = 0,
+                 slips: bool = False) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the layout fits in, for `world`.
 
     `side_padding`: columns the gauge's border, padding and margin add to it; `panel_width`: the
-    columns of a panel on the right; `side_lines`: lines under the gauge that must show.
+    columns of a panel on the right; `side_lines`: lines under the gauge that must show; `slips`:
+    the gauge shows slip chances.
     """
-    gauge_width = Gauge(level_costs(world)).get_content_width(None, None)
+    gauge_width = carefulness_gauge(world, slips=slips).get_content_width(None, None)
     cell_width, cell_height = MIN_CELL
     # A title bar and a key bar; the board's border and the status lines under it.
     width = (gauge_width + side_padding) + (world.cols * cell_width + 2) + panel_width

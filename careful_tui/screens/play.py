@@ -58,10 +58,22 @@ FLASH_S = 0.8
 TICK_S = 1 / 30
 
 
+def mode_help(input_mode: str, levels: int) -> str:
+    """Under the gauge before the first move: how to choose a level in `input_mode` (the key bar
+    says it too), with an example. Lines of at most 17 characters, the width under the narrowest
+    gauge; the first alone must make sense, as a terminal of the minimum size shows only that."""
+    k = min(3, levels)
+    return {
+        "hold": "hold = careful\nlet go: move",
+        "tap": f"tap k× = level k\n{'→' * k}: right at {k}",
+        "digits": f"level, then arrow\n{k} →: right at {k}",
+    }[input_mode]
+
+
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
-    # As in play.tcss: the gauge's border, padding and margin.
-    return game_minimum_size(world, side_padding=5)
+    # As in play.tcss: the gauge's border, padding and margin; the gauge shows slip chances.
+    return game_minimum_size(world, side_padding=5, slips=True)
 
 
 class PlayScreen(Screen[None]):
@@ -70,16 +82,21 @@ class PlayScreen(Screen[None]):
     Keys are read in `on_key`, which sees every press and autorepeat a hold needs (and is what
     the tests call); the bindings below name the keys in the footer, and `check_action` shows
     those that do something now.
+
+    A study plays a set number of episodes on it: `episodes` (then space dismisses the screen),
+    `episodes_done` of the `episodes_done + episodes` already played before, each called an
+    `episode_word` ("Practice episode 1 of 2"), under the title `heading`.
     """
 
     TITLE = "careful play"
     BINDINGS = [
-        Binding("up,right,down,left", "move('hold')", "move · hold longer: more careful (costs more)", key_display="←↑→↓"),
+        Binding("up,right,down,left", "move('hold')", "move · hold longer: more careful", key_display="←↑→↓"),
         Binding("up,right,down,left", "move('tap')", "move · tap ×k: level k", key_display="←↑→↓"),
         Binding("1,2,3,4,5,6,7,8,9", "move('digits')", "level", key_display="1-9"),
         Binding("up,right,down,left", "move('digits')", "move", key_display="←↑→↓"),
         Binding("backspace", "move('digits')", "fix", key_display="⌫"),
         Binding("space,enter", "next_episode", "next episode", key_display="space"),
+        Binding("space,enter", "next_episode('last')", "go on", key_display="space"),
         Binding("c", "calibrate", "calibrate"),
     ]
 
@@ -93,8 +110,16 @@ class PlayScreen(Screen[None]):
         clock: Clock = time.monotonic,
         calibrate: bool = False,
         player: str = "player",
+        heading: str = "careful play",
+        episodes: int | None = None,
+        episodes_done: int = 0,
+        episode_word: str = "Episode",
     ) -> None:
         super().__init__()
+        self.heading = heading
+        self.episodes = episodes
+        self.episodes_done = episodes_done
+        self.episode_word = episode_word
         self.game = game
         self.recorder = recorder
         self.world = game.world
@@ -118,7 +143,7 @@ class PlayScreen(Screen[None]):
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
-        yield from compose_game(self.world)
+        yield from compose_game(self.world, slips=True)
 
     def on_mount(self) -> None:
         self._ticker = self.set_interval(TICK_S, self.tick, pause=True)
@@ -215,15 +240,32 @@ class PlayScreen(Screen[None]):
         if action == "move":
             return self.game.live and parameters == (self.input_mode,)
         if action == "next_episode":
-            return not self.game.live
+            return not self.game.live and self.all_played == (parameters == ("last",))
         if action == "calibrate":
-            return not self.game.live or self.game.t == 0
+            return self.input_mode == "hold" and (not self.game.live or self.game.t == 0)
         return super().check_action(action, parameters)
 
     def action_move(self, mode: str) -> None:
         """Nothing: `on_key` reads the move keys (these bindings only name them in the footer)."""
 
-    def action_next_episode(self) -> None:
+    @property
+    def all_played(self) -> bool:
+        """Whether the episodes this screen was given to play (if any) have all ended."""
+        played = self.game.episode + 1 - self.game.first_episode
+        return self.episodes is not None and not self.game.live and played >= self.episodes
+
+    def episode_number(self, episode: int) -> str:
+        """How the screen numbers episode `episode` of the game: from 1 ("3"), or within the
+        episodes it was given ("1 of 2")."""
+        if self.episodes is None:
+            return f"{episode + 1}"
+        number = self.episodes_done + episode - self.game.first_episode + 1
+        return f"{number} of {self.episodes_done + self.episodes}"
+
+    def action_next_episode(self, last: str = "") -> None:
+        if self.all_played:
+            self.dismiss(None)
+            return
         self.game.begin_episode()
         self.message = Text()
         self._refresh_all()
@@ -252,6 +294,10 @@ class PlayScreen(Screen[None]):
             self.write_error = self.write_error or exc
 
     def action_calibrate(self) -> None:
+        if self.input_mode != "hold":
+            self.notify(f"Calibration measures how your keyboard repeats a held key; {self.input_mode} input "
+                        "does not time holds.", title="calibrate")
+            return
         if self.game.live and self.game.t > 0:
             self.notify("Calibrate before an episode's first move or after it ends.", title="calibrate")
             return
@@ -340,7 +386,7 @@ class PlayScreen(Screen[None]):
 
     def _idle_info(self) -> Text:
         if self.last_move is None:
-            return Text("hold longer:\nmore careful", style="dim")
+            return Text(mode_help(self.input_mode, self.world.levels), style="dim")
         step = self.last_move.step
         text = Text.assemble(("last move\n", "dim"), (f"{step.direction} ", "bold"),
                              (f"level {step.carefulness}", f"bold {level_colour(step.carefulness, self.world.levels)}"))
@@ -359,36 +405,37 @@ class PlayScreen(Screen[None]):
         if where != self._title_shows:
             self._title_shows = where
             self.query_one("#title", Static).update(Text.assemble(
-                ("careful play", f"bold {NOTE}"), " · player ", (printable(self.player, limit=40), "bold"),
+                (printable(self.heading, limit=60), f"bold {NOTE}"), " · player ", (printable(self.player, limit=40), "bold"),
                 f" · {self.input_mode} input", (f" · recording → {printable(where, limit=200)}", "dim"),
             ), layout=False)
 
         status = Text()
         if game.live or game.last_end is None:
-            status.append(f"Episode {game.episode + 1}", style="bold")
+            status.append(f"{self.episode_word} {self.episode_number(game.episode)}", style="bold")
             status.append(f"   step {game.t}/{self.world.max_steps}   score ", style="dim")
             status.append(format_value(game.score), style="bold " + (GOOD if game.score >= self.world.initial_score else WARN))
             status.append("\n")
             if game.last_end is not None:
                 end = game.last_end
-                status.append(f"Last episode ({end.episode + 1}): ", style="dim")
+                status.append(f"Last {self.episode_word.lower()} ({self.episode_number(end.episode)}): ", style="dim")
                 status.append(outcome_text(end), style=GOOD if end.terminal_symbol == "G" else BAD)
                 status.append(f", score {format_value(end.score)}", style="dim")
             else:
-                status.append("Reach the goal; don't fall off the cliff.", style="dim")
+                status.append("Careful moves cost more and slip less.", style="dim")
             status.append("\n")
             status.append_text(self.message)
         else:
             end = game.last_end
             colour = GOOD if end.terminal_symbol == "G" else BAD
-            status.append(f"Episode {end.episode + 1}: ", style="bold")
+            status.append(f"{self.episode_word} {self.episode_number(end.episode)}: ", style="bold")
             status.append(f"{outcome_text(end)}!", style=f"bold {colour}")
             status.append("   score ", style="dim")
             status.append(format_value(end.score), style=f"bold {colour}")
             status.append("\n")
             status.append_text(self.message)
             status.append("\n")
-            status.append("Press space for the next episode.", style="dim")
+            status.append("Press space to go on." if self.all_played else "Press space for the next episode.",
+                          style="dim")
         self.query_one("#status", Static).update(status, layout=False)
         self._refresh_keys()
 

@@ -1,4 +1,5 @@
-"""The carefulness gauge: one row per level, level L at the top, each level's cost beside it.
+"""The carefulness gauge: one row per level, level L at the top, each level's cost beside it
+(and, where given, the chance that a move of that level slips: goes another way than chosen).
 
 It fills from the bottom while a key is held; `fill` is fractional so that the row being
 reached fills smoothly (lower-block characters), and the level a move would get now is
@@ -8,6 +9,7 @@ marked. Play, replay and the fit view share it.
 from __future__ import annotations
 
 import math
+from decimal import ROUND_HALF_UP, Decimal
 from collections.abc import Sequence
 
 from rich.segment import Segment
@@ -29,6 +31,8 @@ class Gauge(Widget):
 
     Args:
         costs: the cost of each level 1..L, as positive numbers (shown negated: "-5").
+        slips: the chance that a move of each level 1..L slips (0.5 is shown "50%"), or None
+            for no such column.
 
     Reactives:
         fill: how far the gauge is filled, in levels: 0 is empty, 3.5 is levels 1-3 full and
@@ -42,12 +46,19 @@ class Gauge(Widget):
     fill: reactive[float] = reactive(0.0, repaint=False)
     level: reactive[int | None] = reactive(None, repaint=False)
 
-    def __init__(self, costs: Sequence[float], *, name: str | None = None, id: str | None = None,
-                 classes: str | None = None) -> None:
+    def __init__(self, costs: Sequence[float], *, slips: Sequence[float] | None = None, name: str | None = None,
+                 id: str | None = None, classes: str | None = None) -> None:
         super().__init__(name=name, id=id, classes=classes)
         self.costs = list(costs)
         label_width = max(len(format_value(-cost)) for cost in self.costs)
         self._labels = [(format_value(-cost) if cost else "0").rjust(label_width) for cost in self.costs]
+        if slips is not None:
+            if len(slips) != len(self.costs):
+                raise ValueError(f"{len(slips)} slip chances for {len(self.costs)} levels")
+            chances = [format_chance(p) for p in slips]
+            chance_width = max(len(chance) for chance in chances)
+            self._labels = [f"{label} {chance.rjust(chance_width)}" for label, chance in zip(self._labels, chances)]
+            label_width += 1 + chance_width
         self._number_width = len(str(self.levels))
         self._width = self._number_width + 1 + BAR_WIDTH + 1 + label_width + 2
         self._rows = [(0, False)] * self.levels
@@ -86,6 +97,22 @@ class Gauge(Widget):
 
     def get_content_height(self, container, viewport, width: int) -> int:
         return self.levels
+
+
+def format_chance(p: float) -> str:
+    """A probability as a short percentage, halves rounded up: two significant digits from 1 %
+    ("50%", "13%", "6.3%"), one below ("0.8%", "0.006%"), "<0.001%" below that; never shown as
+    0 % or 100 % unless it is."""
+    percent = Decimal(repr(100.0 * p))
+    if percent <= 0 or percent >= 100:
+        return f"{percent:.0f}%"
+    if percent < Decimal("0.001"):
+        return "<0.001%"
+    digits = 2 if percent >= 1 else 1
+    shown = percent.quantize(Decimal(1).scaleb(percent.adjusted() - digits + 1), rounding=ROUND_HALF_UP)
+    if shown >= 100:
+        return ">99%"
+    return f"{shown.normalize():f}%"
 
 
 _STRIPS: dict[tuple, Strip] = {}

@@ -1,0 +1,75 @@
+"""`careful study run`: check the study and the participant, run them through it, then say what
+was recorded and where they stand."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from careful_tui.app import make_study_app
+from careful_tui.errors import UsageError, require_terminal
+from careful_tui.keys.kitty import KittyDriver
+from irl_core.recording_writer import check_writable
+from irl_core.safe_text import printable
+from irl_core.study import LoadedStudy, StudyError, load_study, read_protocol
+
+
+def run_study_run(args: argparse.Namespace) -> int:
+    """`careful study run STUDY.toml --participant ID` (exit 0 also when they had finished already)."""
+    try:
+        study = load_study(args.study)
+        protocol = read_protocol(study, args.participant)
+    except StudyError as exc:
+        raise UsageError(str(exc)) from None
+    name = printable(study.study.name, limit=80)
+    if protocol.finished:
+        report_problems(protocol.problems)
+        print(f"participant {args.participant} has finished study {name!r}: every episode is recorded in "
+              f"{printable(str(protocol.folder))}; nothing is left to play")
+        return 0
+    # The study's folder, not the participant's: that is made at the first move, so a participant
+    # who leaves before it leaves no empty folder for the report to count.
+    if protocol.folder.exists() and not protocol.folder.is_dir():
+        raise UsageError(f"{printable(str(protocol.folder))} is a file, not the participant's folder; move it away")
+    target = protocol.folder if protocol.folder.is_dir() else study.out
+    try:
+        check_writable(target)
+    except OSError as exc:
+        raise UsageError(f"cannot write recordings to {printable(str(target))} "
+                         f"({exc.strerror or exc}); check the study's out folder") from None
+    require_terminal("study run")
+    app = make_study_app(study, args.participant, driver_class=KittyDriver)
+    flow = app.first_screen
+    try:
+        app.run()
+    finally:
+        flow.record_quit()
+    for play in flow.plays:
+        for path in play.recorder.lost:
+            print(f"{printable(str(path))} was deleted during the session; its steps were written again below")
+        for path in play.recorder.paths:
+            print(f"recorded to {printable(str(path))}")
+    errors = [play.write_error for play in flow.plays if play.write_error is not None]
+    if errors:
+        problem = getattr(errors[0], "strerror", None) or errors[0]
+        raise UsageError(f"cannot write the recording in {printable(str(protocol.folder))} ({problem}); "
+                         "the study stopped; run the same command to go on from the last finished episode")
+    print(standing(study, args.participant))
+    return 0
+
+
+def standing(study: LoadedStudy, participant: str) -> str:
+    """Where the participant stands now, in one line."""
+    protocol = read_protocol(study, participant)
+    report_problems(protocol.problems)
+    name = printable(study.study.name, limit=80)
+    if protocol.finished:
+        return f"participant {participant} has finished study {name!r}"
+    done, total = protocol.progress
+    return (f"participant {participant}: {done} of {total} episodes of study {name!r} done; "
+            "run the same command to go on")
+
+
+def report_problems(problems: tuple[str, ...]) -> None:
+    for problem in problems:
+        print(f"not counted: {printable(problem)}", file=sys.stderr)
