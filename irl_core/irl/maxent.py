@@ -95,25 +95,29 @@ def soft_bellman(
 ) -> SoftPlan:
     """Soft-optimal V, Q and pi for state rewards R_S (S,) by soft policy iteration.
 
-    Raises `SolverError` if max|V_k - V_{k-1}| is not below tol * max(1, |V|) after max_iter solves.
+    Raises `SolverError` if the Bellman residual max|T(V) - V| is not below tol * max(1, |V|) after
+    max_iter solves.
     """
     return _soft_bellman(mdp, mdp.reward_matrix(R_S), beta=beta, V0=V0, tol=tol, max_iter=max_iter)
 
 
 def _soft_bellman(mdp: MDP, R: np.ndarray, *, beta: float, V0: np.ndarray | None, tol: float = SOFT_TOLERANCE,
                   max_iter: int = SOFT_MAX_ITER) -> SoftPlan:
-    """`soft_bellman` for the reward matrix R (S, A)."""
+    """`soft_bellman` for the reward matrix R (S, A).
+
+    Each solve's V is checked by its Bellman residual, max|T(V) - V| with T the soft Bellman
+    operator, which the next step's Q and pi give for free; V is then within residual / (1 - gamma)
+    of the fixed point. (Checking the change between two solves instead costs one more solve.)
+    """
     V = np.zeros(mdp.n_states) if V0 is None else np.asarray(V0, dtype=float)
+    Q = R + mdp.gamma * _expected_next(mdp, V)
+    pi, log_pi, _ = _soft_policy(beta * Q)
     for iteration in range(1, max_iter + 1):
+        V = _solve(policy_system(mdp, pi), (pi * R).sum(axis=1) - (pi * log_pi).sum(axis=1) / beta)
         Q = R + mdp.gamma * _expected_next(mdp, V)
-        pi, log_pi = _soft_policy(beta * Q)
-        entropy = -(pi * log_pi).sum(axis=1)
-        V_new = _solve(policy_system(mdp, pi), (pi * R).sum(axis=1) + entropy / beta)
-        change = float(np.abs(V_new - V).max())
-        V = V_new
-        if change <= tol * max(1.0, float(np.abs(V).max())):
-            Q = R + mdp.gamma * _expected_next(mdp, V)
-            pi, log_pi = _soft_policy(beta * Q)
+        pi, log_pi, soft_max = _soft_policy(beta * Q)
+        residual = float(np.abs(soft_max / beta - V).max())
+        if residual <= tol * max(1.0, float(np.abs(V).max())):
             return SoftPlan(V=V, Q=Q, policy=pi, iterations=iteration, log_policy=log_pi)
     raise SolverError(
         f"maxent's soft Bellman equations did not converge in {max_iter} solves (beta {beta:.3g}); "
@@ -121,13 +125,16 @@ def _soft_bellman(mdp: MDP, R: np.ndarray, *, beta: float, V0: np.ndarray | None
     )
 
 
-def _soft_policy(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """softmax and log softmax of scores (S, A) along the actions (scipy's softmax and logsumexp,
-    without their per-call checks, which cost more than the arithmetic on a world this size)."""
-    shifted = scores - scores.max(axis=1, keepdims=True)
+def _soft_policy(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """softmax, log softmax and logsumexp of scores (S, A) along the actions ((S, A), (S, A), (S,);
+    scipy's softmax and logsumexp without their per-call checks, which cost more than the
+    arithmetic on a world this size)."""
+    top = scores.max(axis=1, keepdims=True)
+    shifted = scores - top
     exponentials = np.exp(shifted)
     totals = exponentials.sum(axis=1, keepdims=True)
-    return exponentials / totals, shifted - np.log(totals)
+    log_totals = np.log(totals)
+    return exponentials / totals, shifted - log_totals, (top + log_totals)[:, 0]
 
 
 def log_likelihood(
