@@ -3,8 +3,10 @@
 What `careful study report` does, part by part, on the cores of this machine: reading every
 participant folder, the 42 fits (20 participants and the pool, per world; maxent with beta
 estimated and 200 bootstrap resamples each, in one process pool), and the figures (PNG and PDF).
-Target: the whole under 2 minutes on 2 cores. The baseline in the same process is one fit
-of one participant with its 200 resamples, so the fits' ratio says how well the pool spreads them.
+Target: the whole under 2 minutes on 2 cores, and under 60 s of CPU, so that it holds when
+the two cores are shared with other work (half of 2 cores for 2 minutes is 120 CPU seconds). The
+baseline in the same process is one fit of one participant with its 200 resamples, so the fits'
+ratio says how well the pool spreads them.
 
 Run: .venv/bin/python -m bench bench_study
 """
@@ -33,6 +35,7 @@ out = "data"
 """
 PARTICIPANTS = 20
 TARGET_S = 120.0
+TARGET_CPU_S = 60.0
 
 
 def cpu_seconds() -> float:
@@ -54,6 +57,7 @@ def main() -> None:
         options = report_options(resamples=200)
 
         cpu = {}
+        load_before = os.getloadavg()[0]
         start, start_cpu = time.perf_counter(), cpu_seconds()
         data = gather(study)
         reading, cpu["reading"] = time.perf_counter() - start, cpu_seconds() - start_cpu
@@ -70,14 +74,16 @@ def main() -> None:
         baseline = time.perf_counter() - start
         total = reading + fitting + figures
         print(f"{PARTICIPANTS} participants x 2 worlds x 10 main episodes; {len(fits)} fits with 200 resamples "
-              f"({cores} cores, load {os.getloadavg()[0]:.1f})")
+              f"({cores} cores, load {load_before:.1f} before, {os.getloadavg()[0]:.1f} after)")
         print(f"  simulating the participants {simulate:7.1f} s  (not part of the report)")
         print(f"  reading                     {reading:7.1f} s wall  {cpu['reading']:7.1f} s CPU")
         print(f"  fits                        {fitting:7.1f} s wall  {cpu['fits']:7.1f} s CPU  "
               f"{fitting / baseline:5.1f}x one participant's fit ({baseline:.2f} s)")
         print(f"  figures ({len(written) - 1} files)         {figures:7.1f} s wall  {cpu['figures']:7.1f} s CPU")
-        print(f"  report                      {total:7.1f} s wall  {sum(cpu.values()):7.1f} s CPU  (target < "
-              f"{TARGET_S:.0f} s wall: {'met' if total < TARGET_S else 'NOT met'} at this load)")
+        used = sum(cpu.values())
+        print(f"  report                      {total:7.1f} s wall  {used:7.1f} s CPU  (targets < {TARGET_S:.0f} s wall: "
+              f"{'met' if total < TARGET_S else 'NOT met'} at this load; < {TARGET_CPU_S:.0f} s CPU: "
+              f"{'met' if used < TARGET_CPU_S else 'NOT met'})")
 
 
 if __name__ == "__main__":

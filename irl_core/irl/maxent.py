@@ -54,8 +54,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import minimize
-from scipy.special import logsumexp, softmax
-from threadpoolctl import threadpool_limits
+from scipy.linalg.lapack import dgesv
+from threadpoolctl import ThreadpoolController
 
 from irl_core.irl.qmap import Unknowns
 from irl_core.irl.result import SolverError
@@ -75,12 +75,13 @@ LOG_BETA_BOUNDS = (float(np.log(1e-4)), float(np.log(1e3)))
 
 @dataclass(frozen=True)
 class SoftPlan:
-    """The soft Bellman fixed point: V (S,), Q (S, A), pi (S, A), solves used."""
+    """The soft Bellman fixed point: V (S,), Q (S, A), pi (S, A), log pi (S, A), solves used."""
 
     V: np.ndarray
     Q: np.ndarray
     policy: np.ndarray
     iterations: int
+    log_policy: np.ndarray | None = None
 
 
 def soft_bellman(
@@ -94,83 +95,146 @@ def soft_bellman(
 ) -> SoftPlan:
     """Soft-optimal V, Q and pi for state rewards R_S (S,) by soft policy iteration.
 
-    Raises `SolverError` if max|V_k - V_{k-1}| is not below tol * max(1, |V|) after max_iter solves.
+    Raises `SolverError` if the Bellman residual max|T(V) - V| is not below tol * max(1, |V|) after
+    max_iter solves.
     """
-    R = mdp.reward_matrix(R_S)
+    return _soft_bellman(mdp, mdp.reward_matrix(R_S), beta=beta, V0=V0, tol=tol, max_iter=max_iter)
+
+
+def _soft_bellman(mdp: MDP, R: np.ndarray, *, beta: float, V0: np.ndarray | None, tol: float = SOFT_TOLERANCE,
+                  max_iter: int = SOFT_MAX_ITER) -> SoftPlan:
+    """`soft_bellman` for the reward matrix R (S, A).
+
+    Each solve's V is checked by its Bellman residual, max|T(V) - V| with T the soft Bellman
+    operator, which the next step's Q and pi give for free; V is then within residual / (1 - gamma)
+    of the fixed point. (Checking the change between two solves instead costs one more solve.)
+    """
     V = np.zeros(mdp.n_states) if V0 is None else np.asarray(V0, dtype=float)
+    Q = R + mdp.gamma * _expected_next(mdp, V)
+    pi, log_pi, _ = _soft_policy(beta * Q)
     for iteration in range(1, max_iter + 1):
-        Q = R + mdp.gamma * mdp.expected_next(V)
-        pi = softmax(beta * Q, axis=1)
-        entropy = -(pi * np.log(np.where(pi > 0, pi, 1.0))).sum(axis=1)
-        V_new = _solve(policy_system(mdp, pi), (pi * R).sum(axis=1) + entropy / beta)
-        change = float(np.abs(V_new - V).max())
-        V = V_new
-        if change <= tol * max(1.0, float(np.abs(V).max())):
-            Q = R + mdp.gamma * mdp.expected_next(V)
-            return SoftPlan(V=V, Q=Q, policy=softmax(beta * Q, axis=1), iterations=iteration)
+        V = _solve(policy_system(mdp, pi), (pi * R).sum(axis=1) - (pi * log_pi).sum(axis=1) / beta)
+        Q = R + mdp.gamma * _expected_next(mdp, V)
+        pi, log_pi, soft_max = _soft_policy(beta * Q)
+        residual = float(np.abs(soft_max / beta - V).max())
+        if residual <= tol * max(1.0, float(np.abs(V).max())):
+            return SoftPlan(V=V, Q=Q, policy=pi, iterations=iteration, log_policy=log_pi)
     raise SolverError(
         f"maxent's soft Bellman equations did not converge in {max_iter} solves (beta {beta:.3g}); "
         "the rewards may be too large for this beta: try a smaller --rmax or another --beta"
     )
 
 
+def _soft_policy(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """softmax, log softmax and logsumexp of scores (S, A) along the actions ((S, A), (S, A), (S,);
+    scipy's softmax and logsumexp without their per-call checks, which cost more than the
+    arithmetic on a world this size)."""
+    top = scores.max(axis=1, keepdims=True)
+    shifted = scores - top
+    exponentials = np.exp(shifted)
+    totals = exponentials.sum(axis=1, keepdims=True)
+    log_totals = np.log(totals)
+    return exponentials / totals, shifted - log_totals, (top + log_totals)[:, 0]
+
+
 def log_likelihood(
     mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None = None
 ) -> tuple[float, np.ndarray, SoftPlan]:
     """LL(R_S) and its gradient dLL/dR_S (S,) for demonstrated counts N (S, A)."""
-    ll, G, plan = _likelihood(mdp, counts, R_S, beta=beta, V0=V0)
+    ll, G, plan, _ = _likelihood(mdp, counts, R_S, beta=beta, V0=V0)
     grad = beta * G.sum(axis=1)
     grad[mdp.exit_state] = 0.0  # the exit's reward is fixed at 0
     return ll, grad, plan
 
 
 def log_likelihood_beta(
-    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None = None
+    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None = None,
+    drive: np.ndarray | None = None,
 ) -> tuple[float, np.ndarray, float, SoftPlan]:
-    """LL(R_S, beta), dLL/dR_S (S,) and dLL/d log beta, for demonstrated counts N (S, A)."""
-    ll, G, plan = _likelihood(mdp, counts, R_S, beta=beta, V0=V0)
+    """LL(R_S, beta), dLL/dR_S (S,) and dLL/d log beta, for demonstrated counts N (S, A)
+    (`drive`: `demonstration_drive` of the counts, when the caller keeps it)."""
+    ll, G, plan, R = _likelihood(mdp, counts, R_S, beta=beta, V0=V0, drive=drive)
     grad = beta * G.sum(axis=1)
     grad[mdp.exit_state] = 0.0
-    return ll, grad, float((G * (beta * mdp.reward_matrix(R_S))).sum()), plan
+    return ll, grad, float((G * (beta * R)).sum()), plan
+
+
+def demonstration_drive(mdp: MDP, counts: np.ndarray) -> np.ndarray:
+    """(S,) m - n: the demonstrations' discounted successors minus their visits (see the module's text)."""
+    return mdp.gamma * (counts.ravel() @ mdp.P) - counts.sum(axis=1)
 
 
 def _likelihood(
-    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None
-) -> tuple[float, np.ndarray, SoftPlan]:
-    """LL and G (S, A) = dLL/dR(s, a) at beta 1 for the scaled reward beta R (see the module's text)."""
-    plan = soft_bellman(mdp, R_S, beta=beta, V0=V0)
+    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None,
+    drive: np.ndarray | None = None,
+) -> tuple[float, np.ndarray, SoftPlan, np.ndarray]:
+    """LL, G (S, A) = dLL/dR(s, a) at beta 1 for the scaled reward beta R (see the module's text),
+    the soft plan and R (S, A)."""
+    R = mdp.reward_matrix(R_S)
+    plan = _soft_bellman(mdp, R, beta=beta, V0=V0)
     acting = mdp.nonterminal
-    log_pi = beta * plan.Q - logsumexp(beta * plan.Q, axis=1, keepdims=True)
-    ll = float((counts[acting] * log_pi[acting]).sum())
-
-    visits = counts.sum(axis=1)
-    successors = mdp.gamma * (counts.ravel() @ mdp.P)
-    y = _solve(policy_system(mdp, plan.policy).T, successors - visits)
-    return ll, counts + y[:, None] * plan.policy, plan
+    ll = float((counts[acting] * plan.log_policy[acting]).sum())
+    if drive is None:
+        drive = demonstration_drive(mdp, counts)
+    y = _solve(policy_system(mdp, plan.policy).T, drive)
+    return ll, counts + y[:, None] * plan.policy, plan, R
 
 
-# Worlds up to this many states keep P as a dense (S, A, S) array: their solves are then a
-# LAPACK call each instead of a sparse matrix built and factorised in Python (5x faster on
-# the built-in worlds); larger ones stay sparse.
+# Worlds up to this many states keep P as a dense (S, A, S) array: their expectations and
+# policy systems are then one matrix product each and their solves a LAPACK call, instead of
+# sparse matrices built and factorised in Python (5x faster on the built-in worlds); larger
+# ones stay sparse.
 DENSE_STATES = 150
 _DENSE_P: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def policy_system(mdp: MDP, pi: np.ndarray) -> np.ndarray | sp.csc_matrix:
-    """(S, S) I - gamma P^pi for the policy pi (S, A): dense in small worlds, sparse in large ones."""
-    if mdp.n_states > DENSE_STATES:
-        P_pi, _ = policy_matrix(mdp, pi)
-        return (sp.identity(mdp.n_states, format="csc") - mdp.gamma * P_pi).tocsc()
+def _dense_P(mdp: MDP) -> np.ndarray:
+    """(S, A, S) P(s' | s, a), dense."""
     P = _DENSE_P.get(mdp)
     if P is None:
         P = _DENSE_P[mdp] = mdp.P.toarray().reshape(mdp.n_states, mdp.n_actions, mdp.n_states)
-    return np.identity(mdp.n_states) - mdp.gamma * np.einsum("sa,sat->st", pi, P)
+    return P
+
+
+def _expected_next(mdp: MDP, V: np.ndarray) -> np.ndarray:
+    """(S, A) sum_s' P(s' | s, a) V(s'), as `MDP.expected_next`."""
+    if mdp.n_states > DENSE_STATES:
+        return mdp.expected_next(V)
+    return _dense_P(mdp) @ V
+
+
+def policy_system(mdp: MDP, pi: np.ndarray) -> np.ndarray | sp.csc_matrix:
+    """(S, S) I - gamma P^pi for the policy pi (S, A): dense in small worlds, sparse in large ones."""
+    S = mdp.n_states
+    if S > DENSE_STATES:
+        P_pi, _ = policy_matrix(mdp, pi)
+        return (sp.identity(S, format="csc") - mdp.gamma * P_pi).tocsc()
+    system = np.matmul(pi[:, None, :], _dense_P(mdp))[:, 0, :]  # row s: sum_a pi(s, a) P(. | s, a)
+    system *= -mdp.gamma
+    system[np.diag_indices(S)] += 1.0
+    return system
 
 
 def _solve(system: np.ndarray | sp.spmatrix, b: np.ndarray) -> np.ndarray:
     if isinstance(system, np.ndarray):
-        return np.linalg.solve(system, b)
+        _, _, x, info = dgesv(system, b)
+        if info != 0:
+            raise SolverError(f"maxent's policy system is singular (LAPACK info {info})")
+        return x
     return spla.spsolve(system.tocsc(), b)
+
+
+_BLAS: list[ThreadpoolController] = []
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread. The fits' BLAS calls are tiny: on several
+    threads they spend more time waking threads than computing (5x slower on a busy 2-core
+    machine). The libraries are looked up once per process (each lookup reads the process's
+    memory map, which took longer than a resample's refit)."""
+    if not _BLAS:
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0].limit(limits=1, user_api="blas")
 
 
 def identification(mdp: MDP) -> str | None:
@@ -234,8 +298,9 @@ def fit_maxent(
     if unknowns.k == 0 and not estimate:
         ll, _, plan = log_likelihood(mdp, counts, unknowns.fixed, beta=float(beta))
         return MaxEntSolution(np.zeros(0), float(beta), plan.V, ll / total, True, 0, "no unknowns")
-    basis = unknowns.basis.tocsc()
+    basis_T = unknowns.basis.T.tocsr()  # (k, S), transposed once, not at every evaluation
     warm = {"V": start_V}
+    drive = demonstration_drive(mdp, counts)
 
     def negative(z: np.ndarray) -> tuple[float, np.ndarray]:
         value, gradient = _negative(z * unit)
@@ -246,11 +311,11 @@ def fit_maxent(
         R_S = unknowns.state_rewards(theta)
         if estimate:
             ll, grad, grad_log_beta, plan = log_likelihood_beta(mdp, counts, R_S, beta=float(np.exp(z[-1])),
-                                                                V0=warm["V"])
-            gradient = np.append(basis.T @ grad, grad_log_beta)
+                                                                V0=warm["V"], drive=drive)
+            gradient = np.append(basis_T @ grad, grad_log_beta)
         else:
             ll, grad, plan = log_likelihood(mdp, counts, R_S, beta=float(beta), V0=warm["V"])
-            gradient = basis.T @ grad
+            gradient = basis_T @ grad
         warm["V"] = plan.V
         return -ll / total, -gradient / total
 
@@ -262,9 +327,7 @@ def fit_maxent(
     unit = np.ones(z0.size) if scale is None else np.asarray(scale, dtype=float)
     z0 = z0 / unit
     bounds = [(low / u, high / u) for (low, high), u in zip(bounds, unit)]
-    # L-BFGS-B's and the solves' BLAS calls are tiny: on several BLAS threads they spend more time
-    # waking threads than computing (5x slower on a busy 2-core machine).
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         result = minimize(
             negative,
             z0,
@@ -308,7 +371,7 @@ def curvature_scale(
         return -(basis.T @ grad) / total
 
     curvature = np.empty(z.size)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         for j in range(z.size):
             h = 1e-4 * max(1.0, abs(z[j]))
             step = np.zeros(z.size)
