@@ -21,7 +21,7 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
-from careful_tui.render.session import outcome_words
+from careful_tui.render.session import outcome_words, plural
 from irl_core.safe_files import check_output_folder, write_output
 from irl_core.safe_text import printable
 from irl_core.study import StudyError, load_study
@@ -95,7 +95,7 @@ def run_study_report(args: argparse.Namespace) -> int:
     left_out = sum(data.left_out.values())
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
-        f"{len(data.participants)} participants, {len(fits)} fits; reading {timings.reading:.1f} s, "
+        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')}; reading {timings.reading:.1f} s, "
         f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s"
         + (f"; {left_out} file{'s' * (left_out != 1)} left out (named above the table)" if left_out else "")),
         soft_wrap=True)

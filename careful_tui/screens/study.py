@@ -37,6 +37,7 @@ from textual.widgets import Static
 
 from careful_tui.keys.hold import HoldProfile
 from careful_tui.render.palette import GOOD, NOTE, WARN
+from careful_tui.render.session import plural
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
 from irl_core.safe_text import printable
@@ -67,10 +68,6 @@ def block_play_options(protocol: Protocol, block: Block) -> dict[str, object]:
         "episodes_done": block.done,
         "episode_word": "Practice episode" if block.phase == "practice" else "Episode",
     }
-
-
-def plural(count: int, word: str) -> str:
-    return f"{count} {word}" if count == 1 else f"{count} {word}s"
 
 
 def where_next(protocol: Protocol) -> Text:
