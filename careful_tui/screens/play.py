@@ -151,9 +151,8 @@ class PlayScreen(Screen[None]):
         they chose: no move is better than a move at a level nobody saw.
         """
         self.input.reset()
+        self.query_one(TooSmall).tell("The move being entered was cancelled.")
         self.message = Text("Move cancelled (window too small).", style=WARN)
-        self.notify("The window became too small while a move was being entered: no move was made.",
-                    title="move cancelled", severity="warning", timeout=8, markup=False)
         self._refresh_all()
 
     # ------------------------------------------------------------------ input

@@ -18,7 +18,13 @@ from textual.widgets import Static
 
 class TooSmall(Static):
     """Hidden until `check` finds the terminal smaller than needed; then the screen gets the
-    `-too-small` class (its .tcss hides the rest) and this says how large to make it."""
+    `-too-small` class (its .tcss hides the rest) and this says how large to make it, and any
+    `tell` note (play: the move being entered was cancelled) until the terminal is large enough."""
+
+    def __init__(self, *, id: str | None = None) -> None:
+        super().__init__(id=id)
+        self._need = ""
+        self._note = ""
 
     def check(self, width: int, height: int, need: tuple[int, int], *, command: str) -> bool:
         """Whether a `width` x `height` terminal is smaller than `need` (columns, rows); the screen
@@ -27,7 +33,18 @@ class TooSmall(Static):
         too_small = width < need_w or height < need_h
         self.screen.set_class(too_small, "-too-small")
         if too_small:
-            self.update(Text(f"The terminal is {width}x{height}; {command} needs {need_w}x{need_h}.\n"
-                             "Make the window larger (q quits).", justify="center"))
+            self._need = (f"The terminal is {width}x{height}; {command} needs {need_w}x{need_h}.\n"
+                          "Make the window larger (q quits).")
+            self._show()
+        else:
+            self._note = ""
         self.screen.refresh()
         return too_small
+
+    def tell(self, note: str) -> None:
+        """Add `note` under the message while the terminal stays too small."""
+        self._note = note
+        self._show()
+
+    def _show(self) -> None:
+        self.update(Text("\n\n".join(filter(None, (self._need, self._note))), justify="center"))

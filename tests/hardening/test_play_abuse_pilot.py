@@ -92,10 +92,9 @@ def new_app(tmp_path: Path, **options) -> tuple[CarefulApp, FakeClock, list[Move
     return app, clock, moves
 
 
-def run(app, body: Callable[[Pilot], Awaitable[None]], size: tuple[int, int] = BIG, *,
-        notifications: bool = False) -> None:
+def run(app, body: Callable[[Pilot], Awaitable[None]], size: tuple[int, int] = BIG) -> None:
     async def main() -> None:
-        async with app.run_test(size=size, notifications=notifications) as pilot:
+        async with app.run_test(size=size) as pilot:
             await pilot.pause()
             await body(pilot)
 
@@ -379,7 +378,7 @@ def test_a_hold_across_a_shrink_is_cancelled_and_keys_wait_while_too_small(tmp_p
         assert app.screen.has_class("-too-small")
         # The hold being entered when the window shrank is dropped, and the player is told.
         assert app.first_screen.input.current() is None
-        assert [n.message for n in app._notifications] == ["The window became too small while a move was being entered: no move was made."]
+        assert "The move being entered was cancelled." in str(app.query_one("#too-small", Static).render())
         # The key is still down, but the window is too small to play in: the repeats do nothing.
         await repeats(pilot, clock, "right", 10)
         await pilot.press("down")
@@ -394,7 +393,7 @@ def test_a_hold_across_a_shrink_is_cancelled_and_keys_wait_while_too_small(tmp_p
         await settle(pilot, clock)
         assert app.first_screen.game.t == 1
 
-    run(app, body, notifications=True)
+    run(app, body)
     assert steps(app) == [("down", 1, 0.0, False)]
 
 

@@ -110,6 +110,7 @@ def test_shrinking_mid_move_cancels_it_and_says_so(tmp_path: Path, mode: str, ke
         await pilot.resize_terminal(*SMALL)
         await pilot.pause()
         assert screen.has_class("-too-small") and screen.input.current() is None
+        assert "The move being entered was cancelled." in str(app.query_one("#too-small").render())
         clock.advance(2.0)
         screen.tick()
         await pilot.resize_terminal(100, 35)
