@@ -33,8 +33,8 @@ async def tick_at(pilot: Pilot, clock: FakeClock, at: float, started: float) -> 
     await pilot.pause()
 
 
-def steps(app: CarefulApp) -> list[tuple[str, int, float]]:
-    """(direction, level, seconds since the first step's start) of every step in the file."""
+def steps(app: CarefulApp) -> list[tuple[str, int]]:
+    """(direction, level) of every step in the app's files."""
     paths = app.first_screen.recorder.paths
     return [(s.direction, s.carefulness) for path in paths for s in read_recording(path).steps]
 
