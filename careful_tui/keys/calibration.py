@@ -5,7 +5,10 @@ from __future__ import annotations
 import statistics
 from dataclasses import replace
 
-from careful_tui.keys.hold import HoldProfile
+from careful_tui.keys.hold import SHORTEST_AUTOREPEAT_DELAY_MS, HoldProfile
+
+# The robust standard deviation of normal jitter is 1.4826 median absolute deviations.
+MAD_TO_SIGMA = 1.4826
 
 
 class Calibration:
@@ -16,11 +19,22 @@ class Calibration:
     repeats (the median shrugs off a gap stretched by a busy event loop). A different key, or a
     silence longer than `restart_after_s` (longer than any delay we accept), starts over: the
     user is trying again.
+
+    Knowing the delay D, the first autorepeat is expected at D give or take a margin m, the
+    larger of `MIN_MARGIN_MS`, 3 repeat periods (the silence that ends a hold once repeats run)
+    and 6 times the spread of the repeat gaps (their robust standard deviation: how late this
+    machine delivers key events). A tap then becomes a move after D + m instead of the
+    uncalibrated 500 + 200 ms, and the same arrow again before D - m is a second press. D is
+    one measurement; the margin's floor covers a first repeat delivered up to 100 ms late while
+    calibrating, which would make D too long.
     """
 
-    DELAY_RANGE_MS = (150.0, 1000.0)
+    DELAY_RANGE_MS = (SHORTEST_AUTOREPEAT_DELAY_MS, 1000.0)
     PERIOD_RANGE_MS = (10.0, 200.0)
     MIN_REPEATS = 3
+    MIN_MARGIN_MS = 100.0
+    MARGIN_PERIODS = 3.0
+    MARGIN_SPREADS = 6.0
 
     def __init__(self, base: HoldProfile, *, restart_after_s: float = 1.5) -> None:
         self.base = base
@@ -41,7 +55,7 @@ class Calibration:
         return max(0, len(self._times) - 1)
 
     def result(self) -> HoldProfile:
-        """The base profile with the measured delay and period, marked calibrated.
+        """The base profile with the measured delay, period and margin, marked calibrated.
 
         Raises:
             ValueError: fewer than `MIN_REPEATS` autorepeats were seen (message for the user).
@@ -49,13 +63,17 @@ class Calibration:
         if self.repeats < self.MIN_REPEATS:
             raise ValueError("no autorepeat seen: hold the key down for 2 seconds")
         times = self._times
-        delay_ms = (times[1] - times[0]) * 1000.0
+        delay_ms = _clamp((times[1] - times[0]) * 1000.0, self.DELAY_RANGE_MS)
         gaps_ms = [(b - a) * 1000.0 for a, b in zip(times[1:], times[2:])]
-        period_ms = statistics.median(gaps_ms)
+        period_ms = _clamp(statistics.median(gaps_ms), self.PERIOD_RANGE_MS)
+        spread_ms = MAD_TO_SIGMA * statistics.median(abs(gap - statistics.median(gaps_ms)) for gap in gaps_ms)
+        margin_ms = max(self.MIN_MARGIN_MS, self.MARGIN_PERIODS * period_ms, self.MARGIN_SPREADS * spread_ms)
         return replace(
             self.base,
-            initial_delay_ms=_clamp(delay_ms, self.DELAY_RANGE_MS),
-            repeat_period_ms=_clamp(period_ms, self.PERIOD_RANGE_MS),
+            initial_delay_ms=delay_ms,
+            repeat_period_ms=period_ms,
+            first_repeat_margin_ms=margin_ms,
+            earliest_repeat_ms=max(0.0, delay_ms - margin_ms),
             calibrated=True,
         )
 

@@ -32,6 +32,9 @@ DIRECTIONS: tuple[str, ...] = ("up", "right", "down", "left")
 
 DIGITS: tuple[str, ...] = tuple("0123456789")
 
+SHORTEST_AUTOREPEAT_DELAY_MS = 150.0
+"""No keyboard starts repeating sooner after a press (the calibration accepts no shorter delay)."""
+
 Clock = Callable[[], float]
 """Returns the current time in seconds (monotonic)."""
 
@@ -57,11 +60,17 @@ class HoldProfile:
 
     | state                  | timeout                                                  |
     |------------------------|----------------------------------------------------------|
-    | no repeat seen yet     | D + `first_repeat_margin_ms` (200): covers X11's 660 ms  |
-    |                        | default delay with the uncalibrated 500 ms profile, and  |
-    |                        | scheduling jitter with a calibrated one                  |
+    | no repeat seen yet     | D + `first_repeat_margin_ms`: the wait before a tap is a |
+    |                        | move. Uncalibrated 200 (covers X11's 660 ms default      |
+    |                        | delay with the assumed 500 ms); calibrated, the margin   |
+    |                        | `Calibration` sets from the measured rhythm and spread   |
     | after repeats started  | max(`min_repeat_timeout_ms` (60), 3 repeat periods); 60  |
     |                        | ms keeps a fast (10 ms) repeat from ending on jitter     |
+
+    `earliest_repeat_ms`: the same arrow again sooner than this after the press, with no
+    repeat yet, cannot be an autorepeat, so it is a second press (a second move). Uncalibrated,
+    `SHORTEST_AUTOREPEAT_DELAY_MS` (the delay is not known, so only what no keyboard repeats
+    that fast is sure); calibrated, D minus the same margin.
     """
 
     initial_delay_ms: float = 500.0
@@ -70,6 +79,7 @@ class HoldProfile:
     levels: int = 14
     calibrated: bool = False
     first_repeat_margin_ms: float = 200.0
+    earliest_repeat_ms: float = SHORTEST_AUTOREPEAT_DELAY_MS
     repeat_timeout_periods: float = 3.0
     min_repeat_timeout_ms: float = 60.0
 
@@ -113,6 +123,8 @@ class HoldProfile:
             "repeat_period_ms": self.repeat_period_ms,
             "ms_per_level": self.ms_per_level,
             "calibrated": self.calibrated,
+            "tap_wait_ms": self.first_repeat_timeout_ms,
+            "second_press_within_ms": self.earliest_repeat_ms,
         }
 
 
@@ -226,9 +238,17 @@ class HoldDetector(SilenceEnded):
 
     `press(key, repeat=...)`: `repeat` is None when the terminal cannot tell a press from an
     autorepeat (legacy input: the same key again extends the hold unless the release timeout has
-    passed), True for an explicit kitty repeat (extends the hold; a repeat never starts one, as it
-    is the tail of a hold already committed) and False for an explicit press (a new hold even on
-    the same key).
+    passed, or it came before any autorepeat could), True for an explicit kitty repeat (extends
+    the hold; a repeat never starts one, as it is the tail of a hold already committed) and False
+    for an explicit press (a new hold even on the same key).
+
+    A second tap of the held arrow: with no repeat yet, the same arrow sooner than the profile's
+    `earliest_repeat_ms` after the press is a second press. The first is then a tap (level 1,
+    committed at once) and the second starts a hold of its own, so a participant tapping an
+    arrow twice makes two moves instead of one silently merged into a hold. Once repeats have
+    come, the same arrow always extends the hold: the key is down, and a release and press again
+    within the repeat timeout (about 3 periods, 100 ms) cannot be told from repeats that a busy
+    machine delivered late or bunched, so the rhythm says nothing safe there.
 
     The inferred length of a hold that saw repeats is the last repeat's time since the press plus
     half a repeat period: the release fell somewhere in the period after the last repeat (or a
@@ -252,7 +272,7 @@ class HoldDetector(SilenceEnded):
         done: list[Hold] = []
         pending = self._pending
         if pending is not None and pending.key == key and repeat is not False:
-            if repeat or now < self._deadline(pending):
+            if repeat or (now < self._deadline(pending) and not self._too_soon_for_a_repeat(pending, now)):
                 self._extend(pending, now)
                 return done
         if pending is not None:
@@ -301,6 +321,10 @@ class HoldDetector(SilenceEnded):
         if pending.first_repeat is None:
             pending.first_repeat = now
         pending.last = now
+
+    def _too_soon_for_a_repeat(self, pending: PendingHold, now: float) -> bool:
+        """Whether the same arrow at `now` came before any first autorepeat could (a second press)."""
+        return pending.repeats == 0 and (now - pending.started) * 1000.0 < self.profile.earliest_repeat_ms
 
     def _period_ms(self, pending: PendingHold) -> float:
         if pending.repeats >= 2 and pending.first_repeat is not None:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from rich.console import Group
 from rich.text import Text
-from textual import on, work
+from textual import events, on, work
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
@@ -218,8 +218,8 @@ class FitScreen(Screen[None]):
             policy.labels = policy_labels(self.result)
             self.show()
 
-    def on_resize(self) -> None:
-        self._layout(*self.app.size)
+    def on_resize(self, event: events.Resize) -> None:
+        self._layout(event.size.width, event.size.height)
 
     def _layout(self, width: int, height: int) -> None:
         """Boards side by side when two fit, else stacked; the board sizes; the too-small check."""

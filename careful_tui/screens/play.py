@@ -165,7 +165,20 @@ class PlayScreen(Screen[None]):
 
     def _check_size(self, width: int, height: int) -> None:
         self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command="careful play")
+        if self._too_small and self.input.current() is not None:
+            self._cancel_move()
         self._refresh_keys()
+
+    def _cancel_move(self) -> None:
+        """The window shrank while a move was being entered: drop it, and say so.
+
+        The player cannot see the gauge any more, so the level they were aiming for is not one
+        they chose: no move is better than a move at a level nobody saw.
+        """
+        self.input.reset()
+        self.query_one(TooSmall).tell("The move being entered was cancelled.")
+        self.message = Text("Move cancelled (window too small).", style=WARN)
+        self._refresh_all()
 
     # ------------------------------------------------------------------ input
 

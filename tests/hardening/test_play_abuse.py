@@ -9,9 +9,10 @@ runs the real command in a terminal of its own (`tests/tmux_terminal.py`).
 |                                               | episode still counts                               |
 | `test_two_games_started_at_once_...`          | same second, player and folder: two files          |
 | `test_an_unwritable_recordings_folder_...`    | refused at start (exit 2, one line), no screen     |
-| `test_resizing_during_play_...`               | too-small message comes and goes; steps before,    |
-|                                               | during (a hold) and after the resize are recorded; |
-|                                               | stale COLUMNS/LINES do not fool it                 |
+| `test_resizing_during_play_...`               | too-small message comes and goes; a hold across    |
+|                                               | the shrink is cancelled, steps before and after    |
+|                                               | are recorded; a storm of resizes leaves the screen |
+|                                               | whole; stale COLUMNS/LINES do not fool it          |
 | `test_kitty_release_and_repeat_...`           | play reads them (exact holds), never crashes       |
 | `test_holding_two_arrows_at_once_...`         | two held arrows, L U L U: every committed move is  |
 |                                               | on screen and in the file                          |
@@ -78,6 +79,11 @@ def fills_the_window(screen: str) -> bool:
     """Whether the key bar is on the window's last line (not on line 24, as LINES=24 would say)."""
     lines = screen.splitlines()
     return len(lines) >= SIZE[1] and "quit" in lines[SIZE[1] - 1]
+
+
+def drawn(screen: str) -> bool:
+    """The first frame is on the screen, down to its key bar (not a frame still being drawn)."""
+    return "carefulness" in screen and "quit" in screen
 
 
 def play_args(tmp_path: Path, *extra: str) -> list[str]:
@@ -302,17 +308,17 @@ def test_an_unwritable_recordings_folder_is_refused_at_start(tmp_path: Path, cas
 
 
 @needs_tmux
-@pytest.mark.xfail(strict=False, reason=(
-    "known bug, found in the second round: after a storm of resizes down to 1x1 the play screen is "
-    "sometimes (about 1 run in 5) left showing only its title until the next resize; to be fixed"))
 def test_resizing_during_play_loses_nothing(tmp_path: Path) -> None:
+    """Passed 40 runs of 40 after the fix (20 of them with two busy loops on the two cores). Before
+    it, 4 runs of 8 failed: 3 left blank but for the title by the storm (`test_play_abuse_resize.py`
+    reproduces that deterministically), 1 reading a first frame still being drawn."""
     out = tmp_path / "rec"
     too_small = "careful play needs 64x19"
     with terminal(tmp_path, play_args(tmp_path), env=STALE_SIZE) as term:
-        assert fills_the_window(term.wait_for("carefulness"))
+        assert fills_the_window(term.wait_for(drawn))
         term.send("Down", "Right")
         assert settle(term, 2) == 2
-        # Shrink in the middle of a hold: the hold entered so far is still a move.
+        # Shrink in the middle of a hold: the hold is cancelled, no move (the gauge was not seen).
         term.send("Down")
         time.sleep(0.5)
         term.repeat("Down", 0.3)
@@ -326,7 +332,9 @@ def test_resizing_during_play_loses_nothing(tmp_path: Path) -> None:
         term.resize(*SIZE)
         screen = term.wait_for("Episode 1 ")
         assert "Make the window larger" not in screen
-        during = settle(term, 3)
+        during = settle(term, 2)
+        if during == 2:  # else a stalled autorepeat split the hold, and a part was made before the shrink
+            assert "Move cancelled" in term.screen()
         # A storm of resizes, down to a single cell and back, none waited for.
         for size in [SMALL, SIZE, (1, 1), (30, 10), SIZE, (64, 19), (63, 19), (64, 18), SMALL, SIZE]:
             term.resize(*size)
@@ -341,8 +349,7 @@ def test_resizing_during_play_loses_nothing(tmp_path: Path) -> None:
     assert len(rec.steps) == after and rec.episode_ends[0].steps == after
     directions = [s.direction for s in rec.steps]
     assert directions[:2] == ["down", "right"]
-    assert runs(directions[2:during]) == ["down"] and directions[during:] == ["right", "up"]
-    assert rec.steps[2].carefulness >= 2  # the hold across the resize
+    assert runs(directions[2:during]) in ([], ["down"]) and directions[during:] == ["right", "up"]
 
 
 KITTY_JUNK = [
@@ -450,7 +457,7 @@ def test_replay_survives_resizing_and_kitty_sequences(tmp_path: Path) -> None:
     before = path.read_bytes()
     too_small = "careful replay needs 80x21"
     with terminal(tmp_path, ["replay", str(path)], env=STALE_SIZE) as term:
-        assert fills_the_window(term.wait_for("Episode 1/2"))
+        assert fills_the_window(term.wait_for(lambda s: "Episode 1/2" in s and "quit" in s))
         # Slowest speed (2 s a frame): playback cannot reach the end while the test runs.
         term.send("Space")
         term.send_bytes(b"--")

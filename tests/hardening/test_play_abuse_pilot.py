@@ -16,8 +16,9 @@ is exact, so the tests can say which move each key event makes:
 | `test_a_seeded_storm_...`                         | random keys, kitty events, resizes, ticks:  |
 |                                                   | at every moment the file on disk holds      |
 |                                                   | exactly the moves made, as the screen says  |
-| `test_a_hold_across_a_resize_...`                 | shrinking mid-hold keeps the hold, ignores  |
-|                                                   | keys while too small, plays on after        |
+| `test_a_hold_across_a_shrink_...`                 | shrinking mid-hold cancels the hold and     |
+|                                                   | says so, ignores keys while too small,      |
+|                                                   | plays on after                              |
 | `test_resizing_with_the_calibration_screen_open`  | no crash; play goes on                      |
 | `test_tiny_terminals_...`                         | 0x0 .. 63x19, play and replay: no crash     |
 | `test_two_games_in_the_same_second_...`           | two apps at once, same second, player and   |
@@ -363,33 +364,37 @@ def test_a_seeded_storm_keeps_the_file_and_the_screen_in_step(tmp_path: Path, se
 # ---------------------------------------------------------------------------- resizing
 
 
-def test_a_hold_across_a_resize_is_kept_and_keys_wait_while_too_small(tmp_path: Path) -> None:
-    app, clock, _ = new_app(tmp_path)
+def test_a_hold_across_a_shrink_is_cancelled_and_keys_wait_while_too_small(tmp_path: Path) -> None:
+    app, clock, moves = new_app(tmp_path)
 
     async def body(pilot: Pilot) -> None:
         await pilot.press("right")
         clock.advance(0.5)
         await pilot.press("right")
         await repeats(pilot, clock, "right", 4)
+        assert app.first_screen.input.current() is not None
         await pilot.resize_terminal(*SMALL)
         await pilot.pause()
         assert app.screen.has_class("-too-small")
+        # The hold being entered when the window shrank is dropped, and the player is told.
+        assert app.first_screen.input.current() is None
+        assert "The move being entered was cancelled." in str(app.query_one("#too-small", Static).render())
         # The key is still down, but the window is too small to play in: the repeats do nothing.
         await repeats(pilot, clock, "right", 10)
         await pilot.press("down")
         await settle(pilot, clock)
-        assert app.first_screen.game.t == 1, "the hold entered before the window shrank is a move"
+        assert app.first_screen.game.t == 0 and moves == [], "a hold cut short by a shrink is no move"
         await pilot.resize_terminal(*BIG)
         await pilot.pause()
-        assert not app.screen.has_class("-too-small") and "step 1/200" in status(app)
+        shown = status(app)
+        assert not app.screen.has_class("-too-small") and "step 0/200" in shown
+        assert "Move cancelled (window too small)." in shown
         await pilot.press("down")
         await settle(pilot, clock)
-        assert app.first_screen.game.t == 2
+        assert app.first_screen.game.t == 1
 
     run(app, body)
-    right_ms = (0.5 + 4 * PERIOD) * 1000 + PERIOD * 1000 / 2
-    assert steps(app) == [("right", PROFILE.level_for(right_ms), pytest.approx(right_ms, abs=0.1), False),
-                          ("down", 1, 0.0, False)]
+    assert steps(app) == [("down", 1, 0.0, False)]
 
 
 def test_resizing_with_the_calibration_screen_open(tmp_path: Path) -> None:
@@ -430,6 +435,9 @@ def test_tiny_terminals_never_crash_play_or_replay(tmp_path: Path, size: tuple[i
             await pilot.resize_terminal(*tiny)
         await pilot.resize_terminal(*BIG)
         await pilot.pause()
+        await pilot.press("right")
+        await settle(pilot, clock)
+        # A move being entered when the window shrinks is cancelled.
         await pilot.press("right")
         await pilot.resize_terminal(*size)
         await settle(pilot, clock)

@@ -120,6 +120,8 @@ def test_header_gives_the_timing_profile() -> None:
         "repeat_period_ms": 33.0,
         "ms_per_level": 150.0,
         "calibrated": False,
+        "tap_wait_ms": 700.0,
+        "second_press_within_ms": 150.0,
     }
 
 
@@ -243,15 +245,20 @@ def test_the_repeat_timeout_has_a_floor() -> None:
 
 @given(gaps=st.lists(st.floats(0.001, 1.0), min_size=1, max_size=30), probe=st.floats(0, 1.5))
 def test_deadline_says_when_poll_ends_the_hold(gaps: list[float], probe: float) -> None:
+    """A press ends the hold after its deadline, or as a second press before any repeat could come."""
     clock = FakeClock()
-    detector = HoldDetector(HoldProfile(), clock=clock)
+    profile = HoldProfile()
+    detector = HoldDetector(profile, clock=clock)
     detector.press("up")
+    started, repeats = clock.now, 0
     for gap in gaps:
         deadline = detector.deadline()
         assert deadline is not None
         clock.now += gap
-        ends = clock.now >= deadline
+        second_press = repeats == 0 and (clock.now - started) * 1000 < profile.earliest_repeat_ms
+        ends = clock.now >= deadline or second_press
         assert (detector.press("up") != []) == ends
+        started, repeats = (clock.now, 0) if ends else (started, repeats + 1)
     deadline = detector.deadline()
     assert deadline is not None
     clock.now += probe
