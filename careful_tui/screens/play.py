@@ -85,7 +85,8 @@ class PlayScreen(Screen[None]):
 
     A study plays a set number of episodes on it: `episodes` (then space dismisses the screen),
     `episodes_done` of the `episodes_done + episodes` already played before, each called an
-    `episode_word` ("Practice episode 1 of 2"), under the title `heading`.
+    `episode_word` ("Practice episode 1 of 2"), under the title `heading`; `command` names what a
+    too-small terminal is told needs more room.
     """
 
     TITLE = "careful play"
@@ -114,9 +115,11 @@ class PlayScreen(Screen[None]):
         episodes: int | None = None,
         episodes_done: int = 0,
         episode_word: str = "Episode",
+        command: str = "careful play",
     ) -> None:
         super().__init__()
         self.heading = heading
+        self.command = command
         self.episodes = episodes
         self.episodes_done = episodes_done
         self.episode_word = episode_word
@@ -164,7 +167,7 @@ class PlayScreen(Screen[None]):
         self._check_size(event.size.width, event.size.height)
 
     def _check_size(self, width: int, height: int) -> None:
-        self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command="careful play")
+        self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command=self.command)
         if self._too_small and self.input.current() is not None:
             self._cancel_move()
         self._refresh_keys()

@@ -67,6 +67,7 @@ def block_play_options(protocol: Protocol, block: Block) -> dict[str, object]:
         "episodes": block.remaining,
         "episodes_done": block.done,
         "episode_word": "Practice episode" if block.phase == "practice" else "Episode",
+        "command": "careful study run",
     }
 
 

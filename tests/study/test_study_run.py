@@ -19,6 +19,7 @@ from careful_tui.cli import main
 from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.play import PlayScreen
 from careful_tui.screens.study import StudyScreen
+from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import read_recording
 from irl_core.study import load_study, read_protocol
 from study.study_run_files import write_study
@@ -284,6 +285,10 @@ def test_tiny_terminals_never_crash_the_study_screens(tmp_path: Path) -> None:
         await pilot.press("space")
         await pilot.pause()
         assert "Episode 1 of 2" in status(app)
+        await pilot.resize_terminal(20, 5)
+        await pilot.pause()
+        told = str(app.screen.query_one(TooSmall).render())
+        assert "careful study run needs" in told and "careful play" not in told
 
     run(app, body)
 
