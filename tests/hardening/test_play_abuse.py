@@ -32,6 +32,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager, nullcontext
 from datetime import datetime
@@ -44,7 +45,8 @@ from irl_core.demonstrations import Demonstrations, Recording, read_recording
 from irl_core.recording_lines import SessionHeader
 from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Game
-from irl_core.world import World
+from careful_tui.screens.play import minimum_size as play_minimum_size
+from irl_core.world import World, world_from_dict
 from hardening_checks import tiny_filesystem
 from tmux_terminal import SIZE, TIMEOUT_S, Terminal, needs_tmux, terminal
 
@@ -64,7 +66,9 @@ start = [0, 0]
 C = -1000.0
 G = 100.0
 """
-SMALL = (60, 20)  # play needs 64x19 for this world, replay 80x21
+# The smallest window play fits in for this world (the gauge's cost and slip columns decide the width).
+PLAY_NEEDS = play_minimum_size(world_from_dict(tomllib.loads(WORLD_TOML)))
+SMALL = (60, 20)  # too small for play (PLAY_NEEDS) and for replay (80x21)
 STEP = re.compile(r"step (\d+)/200")
 # Stale sizes in the environment, as a launcher leaves them (pytest imports readline, which
 # puts COLUMNS and LINES in the environment its subprocesses inherit): the game must ask the
@@ -313,7 +317,7 @@ def test_resizing_during_play_loses_nothing(tmp_path: Path) -> None:
     it, 4 runs of 8 failed: 3 left blank but for the title by the storm (`test_play_abuse_resize.py`
     reproduces that deterministically), 1 reading a first frame still being drawn."""
     out = tmp_path / "rec"
-    too_small = "careful play needs 64x19"
+    too_small = "careful play needs {}x{}".format(*PLAY_NEEDS)
     with terminal(tmp_path, play_args(tmp_path), env=STALE_SIZE) as term:
         assert fills_the_window(term.wait_for(drawn))
         term.send("Down", "Right")
@@ -336,7 +340,8 @@ def test_resizing_during_play_loses_nothing(tmp_path: Path) -> None:
         if during == 2:  # else a stalled autorepeat split the hold, and a part was made before the shrink
             assert "Move cancelled" in term.screen()
         # A storm of resizes, down to a single cell and back, none waited for.
-        for size in [SMALL, SIZE, (1, 1), (30, 10), SIZE, (64, 19), (63, 19), (64, 18), SMALL, SIZE]:
+        width, height = PLAY_NEEDS
+        for size in [SMALL, SIZE, (1, 1), (30, 10), SIZE, PLAY_NEEDS, (width - 1, height), (width, height - 1), SMALL, SIZE]:
             term.resize(*size)
         term.wait_for(lambda s: "Episode 1 " in s and "Make the window larger" not in s)
         assert settle(term, during) == during

@@ -51,6 +51,7 @@ from careful_tui.keys.kitty import KeyRelease, KittyParser
 from careful_tui.app import make_play_app, make_replay_app
 from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.calibration import CalibrationScreen
+from careful_tui.screens.play import minimum_size
 from irl_core.demonstrations import Recording, read_recording
 from irl_core.recording_lines import SessionHeader
 from irl_core.recording_writer import SessionRecorder
@@ -306,7 +307,8 @@ def test_a_seeded_storm_keeps_the_file_and_the_screen_in_step(tmp_path: Path, se
     parser = KittyParser()
     rng = random.Random(seed)
     arrows = list(ARROW_FINAL)
-    sizes = [BIG, BIG, SMALL, (64, 19), (63, 19), (1, 1), (80, 24)]
+    width, height = minimum_size(WORLD)
+    sizes = [BIG, BIG, SMALL, (width, height), (width - 1, height), (1, 1), (80, 24)]
     zoo = kitty_zoo()
 
     def send(data: str) -> None:
