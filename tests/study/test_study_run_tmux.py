@@ -121,7 +121,8 @@ def test_a_participant_goes_through_the_study_and_a_killed_one_resumes_without_l
     # p02 again: goes on with the episode that was cut off, numbered after it, then the rest.
     with study_run(tmp_path, "p02") as session:
         session.wait_for("Welcome back: 2 of 6 episodes are done.")
-        assert "You go on with: World 1 of 2 (right): episode 2 of 2." in " ".join(session.screen().split())
+        # The greeting's lines may be drawn in more than one frame: wait for the one asserted.
+        session.wait_for(lambda screen: "You go on with: World 1 of 2 (right): episode 2 of 2." in " ".join(screen.split()))
         session.send("Space")
         session.wait_for("Episode 2 of 2")
         play_episode(session, 0, "4")
