@@ -35,7 +35,7 @@ from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.reactive import reactive
+from textual.reactive import var
 from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
@@ -95,19 +95,19 @@ class PlayScreen(Screen[None]):
     # redraws: the watchers below move the board's player, arrow and flash and the gauge, the
     # status and the hold's numbers are bound to them (`compose`) and repaint once in the next
     # frame, and the keys that change what `check_action` answers refresh the key bar.
-    cell: reactive[Cell | None] = reactive(None, init=False)
-    episode: reactive[int] = reactive(0, init=False)
-    step: reactive[int] = reactive(0, init=False)
-    score: reactive[float] = reactive(0.0, init=False)
-    live: reactive[bool] = reactive(False, init=False, bindings=True)
-    last_end: reactive[EpisodeEnd | None] = reactive(None, init=False)
-    all_played: reactive[bool] = reactive(False, init=False)
-    last_move: reactive[MoveResult | None] = reactive(None, init=False)
-    message: reactive[Text] = reactive(Text, init=False)
-    hold: reactive[HoldView | None] = reactive(None, init=False)
-    slipped_to: reactive[Cell | None] = reactive(None, init=False)
-    too_small: reactive[bool] = reactive(False, init=False, bindings=True)
-    recording: reactive[str] = reactive("", init=False)
+    cell: var[Cell | None] = var(None, init=False)
+    episode: var[int] = var(0, init=False)
+    step: var[int] = var(0, init=False)
+    score: var[float] = var(0.0, init=False)
+    live: var[bool] = var(False, init=False, bindings=True)
+    last_end: var[EpisodeEnd | None] = var(None, init=False)
+    all_played: var[bool] = var(False, init=False)
+    last_move: var[MoveResult | None] = var(None, init=False)
+    message: var[Text] = var(Text, init=False)
+    hold: var[HoldView | None] = var(None, init=False)
+    slipped_to: var[Cell | None] = var(None, init=False)
+    too_small: var[bool] = var(False, init=False, bindings=True)
+    recording: var[str] = var("", init=False)
 
     def __init__(
         self,
