@@ -320,8 +320,9 @@ class PlayScreen(Screen[None]):
         self.profile = profile
         self.input = make_input(self.input_mode, profile, clock=self.clock)
         self.recorder.set_header(self.recorder.header.model_copy(update={"input": self.input.header()}))
-        self.message = Text(f"Calibrated: autorepeat after {profile.initial_delay_ms:.0f} ms, "
-                            f"every {profile.repeat_period_ms:.0f} ms.", style=NOTE)
+        # One line of at most 42 characters: the status at the smallest terminal.
+        self.message = Text(f"Calibrated: a tap is a move after {profile.first_repeat_timeout_ms:.0f} ms.", style=NOTE)
+        self._mirror()  # a file that has steps is closed: the next move starts a new one
 
     # ------------------------------------------------------------------ what is shown
 
