@@ -3,7 +3,9 @@
 The player moves with the arrow keys and holds a key longer to be more careful. While a key is
 held the gauge fills and the arrow on the player grows; the move is made when the hold ends
 (`careful_tui.keys.hold` infers the end from the autorepeat rhythm, or a kitty release event ends it
-exactly). The rules and the recording live in `irl_core.game`; this module is the screen.
+exactly). The rules and the recording live in `irl_core.game`; this module is the screen, which
+mirrors what it shows in reactives whose changes redraw it (the status and the hold's numbers
+are drawn by `careful_tui.widgets.play_status`).
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
 default), shared by the input detector, the live gauge and the calibration screen. A 30 Hz
@@ -61,7 +63,7 @@ TICK_S = 1 / 30
 
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
-    # As in play.tcss: the gauge's border, padding and margin; the gauge shows slip chances.
+    # As in careful.tcss: the gauge's border, padding and margin; the gauge shows slip chances.
     return game_minimum_size(world, side_padding=5, slips=True)
 
 
@@ -90,11 +92,12 @@ class PlayScreen(Screen[None]):
         Binding("c", "calibrate", "calibrate"),
     ]
 
-    # What the screen shows. The rules and the recording stay in `game` and `recorder`; after every
-    # change `_mirror` and `_mirror_hold` copy what is shown into these, and a change is what
-    # redraws: the watchers below move the board's player, arrow and flash and the gauge, the
-    # status and the hold's numbers are bound to them (`compose`) and repaint once in the next
-    # frame, and the keys that change what `check_action` answers refresh the key bar.
+    # What the screen shows, mirrored from `game`, `recorder` and `input` (which keep the rules,
+    # the recording and the move being entered) by `_mirror` and `_mirror_hold` after each change
+    # of them. A change is what redraws: the watchers below move the board's player, arrow and
+    # flash and fill the gauge; the status and the hold's numbers are bound to these (`compose`)
+    # and repaint once in the next frame however many changed; `live`, `too_small` and `step`
+    # leaving or reaching 0 refresh the key bar (what `check_action` answers).
     cell: var[Cell | None] = var(None, init=False)
     episode: var[int] = var(0, init=False)
     step: var[int] = var(0, init=False)
@@ -146,10 +149,11 @@ class PlayScreen(Screen[None]):
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
-        s = PlayScreen
         status = GameStatus(self.world, self.names, id="status").data_bind(
-            s.episode, s.step, s.score, s.live, s.last_end, s.message, s.all_played)
-        hold_info = HoldInfo(self.world, self.input_mode, id="hold-info").data_bind(s.hold, s.last_move)
+            PlayScreen.episode, PlayScreen.step, PlayScreen.score, PlayScreen.live, PlayScreen.last_end,
+            PlayScreen.message, PlayScreen.all_played)
+        hold_info = HoldInfo(self.world, self.input_mode, id="hold-info").data_bind(PlayScreen.hold,
+                                                                                   PlayScreen.last_move)
         yield from compose_game(self.world, slips=True, status=status, hold_info=hold_info)
 
     def on_mount(self) -> None:

@@ -10,11 +10,10 @@ import pytest
 from textual.pilot import Pilot
 from textual.widget import Widget
 
-from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.widgets import Board, Gauge
 from careful_tui.widgets.play_status import GameStatus, HoldInfo
 from irl_core.demonstrations import read_recording
-from test_play_app import hold, new_app, run
+from test_play_app import hold, measure_autorepeat, new_app, run
 from test_play_feel import SMALL, calibrated
 
 
@@ -99,17 +98,7 @@ def test_calibration_tells_the_player_the_tap_wait_it_gives(tmp_path: Path) -> N
     app, clock = new_app(tmp_path)
 
     async def body(pilot: Pilot) -> None:
-        await pilot.press("c")
-        calibration = app.screen
-        assert isinstance(calibration, CalibrationScreen)
-        await pilot.press("up")
-        clock.advance(0.3)
-        for _ in range(40):
-            await pilot.press("up")
-            clock.advance(0.03)
-        clock.advance(0.5)
-        calibration.tick()
-        await pilot.pause()
+        calibration = await measure_autorepeat(pilot, clock, delay=0.3, repeats=40)
         shown = " ".join(visible(calibration.query_one("#calibration-text")).split())
         wait = app.first_screen.input.header()["tap_wait_ms"]  # still the uncalibrated 700 ms
         assert wait == pytest.approx(700.0)
