@@ -104,7 +104,7 @@ class PlayScreen(Screen[None]):
     score: var[float] = var(0.0, init=False)
     live: var[bool] = var(False, init=False, bindings=True)
     last_end: var[EpisodeEnd | None] = var(None, init=False)
-    all_played: var[bool] = var(False, init=False)
+    all_played: var[bool] = var(False, init=False)  # the episodes this screen was given (if any) have ended
     last_move: var[MoveResult | None] = var(None, init=False)
     message: var[Text] = var(Text, init=False)
     hold: var[HoldView | None] = var(None, init=False)
@@ -270,10 +270,6 @@ class PlayScreen(Screen[None]):
     def action_move(self, mode: str) -> None:
         """Nothing: `on_key` reads the move keys (these bindings only name them in the footer)."""
 
-    def compute_all_played(self) -> bool:
-        """Whether the episodes this screen was given to play (if any) have all ended."""
-        return self.names.all_played(self.episode, self.live)
-
     def action_next_episode(self, last: str = "") -> None:
         if self.all_played:
             self.dismiss(None)
@@ -335,6 +331,7 @@ class PlayScreen(Screen[None]):
         game, path = self.game, self.recorder.path
         self.cell, self.episode, self.step, self.score = game.cell, game.episode, game.t, game.score
         self.live, self.last_end = game.live, game.last_end
+        self.all_played = self.names.all_played(game.episode, game.live)
         self.recording = str(path) if path is not None else f"{self.recorder.folder}{os.sep}"
 
     def _mirror_hold(self) -> None:
