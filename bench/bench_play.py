@@ -25,7 +25,7 @@ import time
 from textual import events
 
 from careful_tui.app import make_play_app
-from careful_tui.screens.play import PlayApp
+from careful_tui.screens.careful_app import CarefulApp
 from irl_core.world import load_world
 
 PERIOD_MS = 33.0
@@ -43,7 +43,7 @@ class FakeClock:
 class Frames:
     """Makes the headless app encode each screen update as a real driver would, and counts them."""
 
-    def __init__(self, app: PlayApp) -> None:
+    def __init__(self, app: CarefulApp) -> None:
         self.app = app
         self.shown = asyncio.Event()
         self._display = app._display
@@ -75,7 +75,7 @@ async def measure(samples: int, size: tuple[int, int]) -> dict[str, list[tuple[f
             keys = ("right", "left")
             while len(results["autorepeat"]) < samples:
                 key = keys[len(results["commit"]) % 2]
-                if not app.game.live:
+                if not app.first_screen.game.live:
                     await pilot.press("space")
                 await pilot.press(key)
                 clock.now += 0.5
@@ -83,7 +83,7 @@ async def measure(samples: int, size: tuple[int, int]) -> dict[str, list[tuple[f
                     results["autorepeat"].append(await frames.time(lambda: app.post_message(events.Key(key, None))))
                     clock.now += PERIOD_MS / 1000
                 clock.now += 1.0
-                results["commit"].append(await frames.time(app.tick))
+                results["commit"].append(await frames.time(app.first_screen.tick))
             await pilot.press("q")
     results["autorepeat"] = results["autorepeat"][:samples]
     return results

@@ -43,17 +43,18 @@ def world_board(world: World) -> Board:
     return board
 
 
-def compose_game(world: World, *, panel: Widget | None = None, slips: bool = False) -> ComposeResult:
+def compose_game(world: World, *, panel: Widget | None = None, slips: bool = False, status: Widget | None = None,
+                 hold_info: Widget | None = None) -> ComposeResult:
     """Title, gauge (with `slips`, each level's slip chance) and hold info, board and status (and
-    `panel` on the right), the key bar."""
+    `panel` on the right), the key bar; `status` and `hold_info` replace the plain `Static`s."""
     yield Static(id="title")
     with Horizontal(id="main"):
         with Vertical(id="side"):
             yield carefulness_gauge(world, slips=slips)
-            yield Static(id="hold-info")
+            yield Static(id="hold-info") if hold_info is None else hold_info
         with Vertical(id="right"):
             yield world_board(world)
-            yield Static(id="status")
+            yield Static(id="status") if status is None else status
         if panel is not None:
             yield panel
     yield TooSmall(id="too-small")

@@ -3,7 +3,9 @@
 The player moves with the arrow keys and holds a key longer to be more careful. While a key is
 held the gauge fills and the arrow on the player grows; the move is made when the hold ends
 (`careful_tui.keys.hold` infers the end from the autorepeat rhythm, or a kitty release event ends it
-exactly). The rules and the recording live in `irl_core.game`; this module is the screen.
+exactly). The rules and the recording live in `irl_core.game`; this module is the screen, which
+mirrors what it shows in reactives whose changes redraw it (the status and the hold's numbers
+are drawn by `careful_tui.widgets.play_status`).
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
 default), shared by the input detector, the live gauge and the calibration screen. A 30 Hz
@@ -35,6 +37,7 @@ from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
+from textual.reactive import var
 from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
@@ -42,15 +45,15 @@ from textual.widgets import Static
 from careful_tui.keys.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput
 from careful_tui.keys.modes import make_input
 from careful_tui.keys.kitty import KeyRelease, key_repeat
-from careful_tui.render.grid import format_value
-from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
-from careful_tui.render.session import outcome_text
+from careful_tui.render.palette import NOTE, SLIP, WARN
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
+from careful_tui.widgets.play_status import EpisodeNames, GameStatus, HoldInfo, HoldView
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.recording_writer import SessionRecorder
-from irl_core.game import Game, MoveResult
+from irl_core.game import Cell, Game, MoveResult
+from irl_core.recording_lines import EpisodeEnd
 from irl_core.safe_text import printable
 from irl_core.world import World
 
@@ -58,21 +61,9 @@ FLASH_S = 0.8
 TICK_S = 1 / 30
 
 
-def mode_help(input_mode: str, levels: int) -> str:
-    """Under the gauge before the first move: how to choose a level in `input_mode` (the key bar
-    says it too), with an example. Lines of at most 17 characters, the width under the narrowest
-    gauge; the first alone must make sense, as a terminal of the minimum size shows only that."""
-    k = min(3, levels)
-    return {
-        "hold": "hold = careful\nlet go: move",
-        "tap": f"tap k× = level k\n{'→' * k}: right at {k}",
-        "digits": f"level, then arrow\n{k} →: right at {k}",
-    }[input_mode]
-
-
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the play screen fits in, for `world`."""
-    # As in play.tcss: the gauge's border, padding and margin; the gauge shows slip chances.
+    # As in careful.tcss: the gauge's border, padding and margin; the gauge shows slip chances.
     return game_minimum_size(world, side_padding=5, slips=True)
 
 
@@ -101,6 +92,26 @@ class PlayScreen(Screen[None]):
         Binding("c", "calibrate", "calibrate"),
     ]
 
+    # What the screen shows, mirrored from `game`, `recorder` and `input` (which keep the rules,
+    # the recording and the move being entered) by `_mirror` and `_mirror_hold` after each change
+    # of them. A change is what redraws: the watchers below move the board's player, arrow and
+    # flash and fill the gauge; the status and the hold's numbers are bound to these (`compose`)
+    # and repaint once in the next frame however many changed; `live`, `too_small` and `step`
+    # leaving or reaching 0 refresh the key bar (what `check_action` answers).
+    cell: var[Cell | None] = var(None, init=False)
+    episode: var[int] = var(0, init=False)
+    step: var[int] = var(0, init=False)
+    score: var[float] = var(0.0, init=False)
+    live: var[bool] = var(False, init=False, bindings=True)
+    last_end: var[EpisodeEnd | None] = var(None, init=False)
+    all_played: var[bool] = var(False, init=False)  # the episodes this screen was given (if any) have ended
+    last_move: var[MoveResult | None] = var(None, init=False)
+    message: var[Text] = var(Text, init=False)
+    hold: var[HoldView | None] = var(None, init=False)
+    slipped_to: var[Cell | None] = var(None, init=False)
+    too_small: var[bool] = var(False, init=False, bindings=True)
+    recording: var[str] = var("", init=False)
+
     def __init__(
         self,
         game: Game,
@@ -120,9 +131,7 @@ class PlayScreen(Screen[None]):
         super().__init__()
         self.heading = heading
         self.command = command
-        self.episodes = episodes
-        self.episodes_done = episodes_done
-        self.episode_word = episode_word
+        self.names = EpisodeNames(episode_word, game.first_episode, episodes, episodes_done)
         self.game = game
         self.recorder = recorder
         self.world = game.world
@@ -132,27 +141,26 @@ class PlayScreen(Screen[None]):
         self.profile = profile or HoldProfile(levels=self.world.levels)
         self.input: MoveInput = make_input(input_mode, self.profile, clock=clock)
         self.releases_seen = False
-        self.last_move: MoveResult | None = None
-        self.message = Text()
         self._calibrate_at_start = calibrate
         self._last_key_at: float | None = None
-        self._shown_view: tuple | None = None
-        self._keys_state: tuple | None = None
         self._flash: Timer | None = None
-        self._title_shows: str | None = None
         self.write_error: OSError | ValueError | None = None
-        self._too_small = False
 
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
-        yield from compose_game(self.world, slips=True)
+        status = GameStatus(self.world, self.names, id="status").data_bind(
+            PlayScreen.episode, PlayScreen.step, PlayScreen.score, PlayScreen.live, PlayScreen.last_end,
+            PlayScreen.message, PlayScreen.all_played)
+        hold_info = HoldInfo(self.world, self.input_mode, id="hold-info").data_bind(PlayScreen.hold,
+                                                                                   PlayScreen.last_move)
+        yield from compose_game(self.world, slips=True, status=status, hold_info=hold_info)
 
     def on_mount(self) -> None:
         self._ticker = self.set_interval(TICK_S, self.tick, pause=True)
         self.game.begin_episode()
+        self._mirror()
         self._check_size(*self.app.size)
-        self._refresh_all()
         if not self.app.is_headless:
             loop = asyncio.get_running_loop()
             loop.add_signal_handler(signal.SIGHUP, self.hang_up)
@@ -167,21 +175,19 @@ class PlayScreen(Screen[None]):
         self._check_size(event.size.width, event.size.height)
 
     def _check_size(self, width: int, height: int) -> None:
-        self._too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command=self.command)
-        if self._too_small and self.input.current() is not None:
-            self._cancel_move()
-        self._refresh_keys()
+        self.too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command=self.command)
 
-    def _cancel_move(self) -> None:
+    def watch_too_small(self, too_small: bool) -> None:
         """The window shrank while a move was being entered: drop it, and say so.
 
         The player cannot see the gauge any more, so the level they were aiming for is not one
         they chose: no move is better than a move at a level nobody saw.
         """
-        self.input.reset()
-        self.query_one(TooSmall).tell("The move being entered was cancelled.")
-        self.message = Text("Move cancelled (window too small).", style=WARN)
-        self._refresh_all()
+        if too_small and self.input.current() is not None:
+            self.input.reset()
+            self._mirror_hold()
+            self.query_one(TooSmall).tell("The move being entered was cancelled.")
+            self.message = Text("Move cancelled (window too small).", style=WARN)
 
     # ------------------------------------------------------------------ input
 
@@ -190,10 +196,10 @@ class PlayScreen(Screen[None]):
         if key in self.input.keys:
             event.stop()
             event.prevent_default()
-            if self.game.live and not self._too_small:
+            if self.game.live and not self.too_small:
                 self._last_key_at = self.clock()
                 self._commit(self.input.press(key, repeat=key_repeat(event)))
-                self._refresh_live()
+                self._mirror_hold()
                 if self.input.deadline() is not None or self.input.current() is not None:
                     self._ticker.resume()
         elif key in ("space", "enter") and not self.game.live:
@@ -209,12 +215,12 @@ class PlayScreen(Screen[None]):
         if event.key in self.input.keys:
             self.releases_seen = True
             self._commit(self.input.release(event.key))
-            self._refresh_live()
+            self._mirror_hold()
 
     def tick(self) -> None:
-        """Commit a hold whose release timeout has passed and redraw the live gauge and arrow."""
+        """Commit a hold whose release timeout has passed and show the live gauge and arrow."""
         self._commit(self.input.poll())
-        self._refresh_live()
+        self._mirror_hold()
         if self.input.current() is None and self.input.deadline() is None:
             self._ticker.pause()
 
@@ -233,7 +239,7 @@ class PlayScreen(Screen[None]):
                 self.input.reset()
         if holds:
             self._show_notices()
-            self._refresh_all()
+            self._mirror()
 
     def stop_on_write_error(self, error: OSError | ValueError) -> None:
         """The recording cannot be written: play no further (`run_play` reports it)."""
@@ -254,29 +260,15 @@ class PlayScreen(Screen[None]):
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """Show and allow the keys that do something now (the footer follows)."""
         if action == "move":
-            return self.game.live and parameters == (self.input_mode,)
+            return self.live and parameters == (self.input_mode,)
         if action == "next_episode":
-            return not self.game.live and self.all_played == (parameters == ("last",))
+            return not self.live and self.all_played == (parameters == ("last",))
         if action == "calibrate":
-            return self.input_mode == "hold" and (not self.game.live or self.game.t == 0)
+            return self.input_mode == "hold" and (not self.live or self.step == 0)
         return super().check_action(action, parameters)
 
     def action_move(self, mode: str) -> None:
         """Nothing: `on_key` reads the move keys (these bindings only name them in the footer)."""
-
-    @property
-    def all_played(self) -> bool:
-        """Whether the episodes this screen was given to play (if any) have all ended."""
-        played = self.game.episode + 1 - self.game.first_episode
-        return self.episodes is not None and not self.game.live and played >= self.episodes
-
-    def episode_number(self, episode: int) -> str:
-        """How the screen numbers episode `episode` of the game: from 1 ("3"), or within the
-        episodes it was given ("1 of 2")."""
-        if self.episodes is None:
-            return f"{episode + 1}"
-        number = self.episodes_done + episode - self.game.first_episode + 1
-        return f"{number} of {self.episodes_done + self.episodes}"
 
     def action_next_episode(self, last: str = "") -> None:
         if self.all_played:
@@ -284,7 +276,7 @@ class PlayScreen(Screen[None]):
             return
         self.game.begin_episode()
         self.message = Text()
-        self._refresh_all()
+        self._mirror()
 
     def action_quit_game(self) -> None:
         self.record_quit()
@@ -318,6 +310,7 @@ class PlayScreen(Screen[None]):
             self.notify("Calibrate before an episode's first move or after it ends.", title="calibrate")
             return
         self.input.reset()
+        self._mirror_hold()
         self.app.push_screen(CalibrationScreen(self.profile, clock=self.clock), self.use_profile)
 
     def use_profile(self, profile: HoldProfile | None) -> None:
@@ -327,43 +320,55 @@ class PlayScreen(Screen[None]):
         self.profile = profile
         self.input = make_input(self.input_mode, profile, clock=self.clock)
         self.recorder.set_header(self.recorder.header.model_copy(update={"input": self.input.header()}))
-        self.message = Text(f"Calibrated: autorepeat after {profile.initial_delay_ms:.0f} ms, "
-                            f"every {profile.repeat_period_ms:.0f} ms.", style=NOTE)
-        self._refresh_all()
+        # One line of at most 42 characters: the status at the smallest terminal.
+        self.message = Text(f"Calibrated: a tap is a move after {profile.first_repeat_timeout_ms:.0f} ms.", style=NOTE)
+        self._mirror()  # a file that has steps is closed: the next move starts a new one
 
-    # ------------------------------------------------------------------ drawing
+    # ------------------------------------------------------------------ what is shown
+
+    def _mirror(self) -> None:
+        """Show the game and its recording as they are now (the watchers redraw what changed)."""
+        game, path = self.game, self.recorder.path
+        self.cell, self.episode, self.step, self.score = game.cell, game.episode, game.t, game.score
+        self.live, self.last_end = game.live, game.last_end
+        self.all_played = self.names.all_played(game.episode, game.live)
+        self.recording = str(path) if path is not None else f"{self.recorder.folder}{os.sep}"
+
+    def _mirror_hold(self) -> None:
+        """Show the move being entered, if any."""
+        current = self.input.current()
+        self.hold = None if current is None else self._hold_view(current)
 
     def _show_move(self, result: MoveResult) -> None:
         step = result.step
-        board = self.query_one(Board)
         if result.slipped:
             self.message = Text.assemble(("slipped! ", f"bold {SLIP}"),
                                          f"you went {result.realised} instead of {step.direction}")
-            board.highlight = {step.next_state: SLIP}
+            self.slipped_to = step.next_state
             if self._flash is not None:
                 self._flash.stop()
             self._flash = self.set_timer(FLASH_S, self._end_flash)
         else:
             self.message = Text()
-            board.highlight = {}
+            self.slipped_to = None
 
     def _end_flash(self) -> None:
-        self.query_one(Board).highlight = {}
+        self.slipped_to = None
 
-    def _live_view(self, current: ActiveHold) -> tuple[int, float, float]:
-        """(level, gauge fill, hold ms shown) of the move being entered.
+    def _hold_view(self, current: ActiveHold) -> HoldView:
+        """The move being entered as shown: its level, gauge fill and hold ms.
 
         In hold mode without release events a hold with no autorepeat yet is a tap (level 1)
         and a hold shows no more than one repeat period past its last key event, so the
         gauge never shows a level the move will not get.
         """
         if self.input_mode != "hold":
-            return current.level, float(current.level), current.elapsed_ms
+            return HoldView(current.key, current.level, float(current.level), current.elapsed_ms)
         p = self.profile
         shown_ms = current.elapsed_ms
         if not self.releases_seen:
             if current.repeats == 0:
-                return 1, 1 + 0.9 * min(1.0, shown_ms / p.initial_delay_ms), shown_ms
+                return HoldView(current.key, 1, 1 + 0.9 * min(1.0, shown_ms / p.initial_delay_ms), shown_ms)
             if self._last_key_at is not None:
                 started = self.clock() - current.elapsed_ms / 1000
                 shown_ms = min(shown_ms, (self._last_key_at - started) * 1000 + p.repeat_period_ms)
@@ -372,92 +377,27 @@ class PlayScreen(Screen[None]):
             fill = 1 + shown_ms / p.initial_delay_ms
         else:
             fill = 2 + (shown_ms - p.initial_delay_ms) / p.ms_per_level
-        return level, min(fill, level + 0.999, float(p.levels)), shown_ms
+        return HoldView(current.key, level, min(fill, level + 0.999, float(p.levels)), shown_ms)
 
-    def _refresh_live(self) -> None:
-        """Redraw the gauge, the arrow and the hold's numbers, if they changed."""
-        current = self.input.current()
-        view = None if current is None else (current.key, *self._live_view(current))
-        if view == self._shown_view and current is not None:
-            return
-        self._shown_view = view
-        gauge = self.query_one(Gauge)
-        board = self.query_one(Board)
-        info = self.query_one("#hold-info", Static)
-        if current is None:
-            gauge.level, gauge.fill, board.arrow = None, 0.0, None
-            info.update(self._idle_info(), layout=False)
-            return
-        level, fill, shown_ms = view[1:]
-        gauge.level, gauge.fill = level, fill
-        board.arrow = None if current.key is None else Arrow(current.key, fill, self.world.levels)
-        cost = self.world.cost_per_level * level
-        text = Text.assemble(
-            ("level ", "dim"), (f"{level}", f"bold {level_colour(level, self.world.levels)}"),
-            ("  cost ", "dim"), (format_value(cost), "bold"),
-        )
-        if self.input_mode == "hold":
-            text.append(f"\nheld {shown_ms:.0f} ms", style="dim")
-        info.update(text, layout=False)
+    # ------------------------------------------------------------------ drawing
 
-    def _idle_info(self) -> Text:
-        if self.last_move is None:
-            return Text(mode_help(self.input_mode, self.world.levels), style="dim")
-        step = self.last_move.step
-        text = Text.assemble(("last move\n", "dim"), (f"{step.direction} ", "bold"),
-                             (f"level {step.carefulness}", f"bold {level_colour(step.carefulness, self.world.levels)}"))
-        if step.hold_ms is not None and self.input_mode == "hold":
-            text.append(f"\n{step.hold_ms:.0f} ms" + (" (exact)" if step.hold_exact else ""), style="dim")
-        return text
+    def watch_cell(self, cell: Cell | None) -> None:
+        self.query_one(Board).player = cell
 
-    def _refresh_all(self) -> None:
-        game = self.game
-        board = self.query_one(Board)
-        board.player = game.cell
-        self._refresh_live()
-
-        path = self.recorder.path
-        where = str(path) if path is not None else f"{self.recorder.folder}{os.sep}"
-        if where != self._title_shows:
-            self._title_shows = where
-            self.query_one("#title", Static).update(Text.assemble(
-                (printable(self.heading, limit=60), f"bold {NOTE}"), " · player ", (printable(self.player, limit=40), "bold"),
-                f" · {self.input_mode} input", (f" · recording → {printable(where, limit=200)}", "dim"),
-            ), layout=False)
-
-        status = Text()
-        if game.live or game.last_end is None:
-            status.append(f"{self.episode_word} {self.episode_number(game.episode)}", style="bold")
-            status.append(f"   step {game.t}/{self.world.max_steps}   score ", style="dim")
-            status.append(format_value(game.score), style="bold " + (GOOD if game.score >= self.world.initial_score else WARN))
-            status.append("\n")
-            if game.last_end is not None:
-                end = game.last_end
-                status.append(f"Last {self.episode_word.lower()} ({self.episode_number(end.episode)}): ", style="dim")
-                status.append(outcome_text(end), style=GOOD if end.terminal_symbol == "G" else BAD)
-                status.append(f", score {format_value(end.score)}", style="dim")
-            else:
-                status.append("Careful moves cost more and slip less.", style="dim")
-            status.append("\n")
-            status.append_text(self.message)
-        else:
-            end = game.last_end
-            colour = GOOD if end.terminal_symbol == "G" else BAD
-            status.append(f"{self.episode_word} {self.episode_number(end.episode)}: ", style="bold")
-            status.append(f"{outcome_text(end)}!", style=f"bold {colour}")
-            status.append("   score ", style="dim")
-            status.append(format_value(end.score), style=f"bold {colour}")
-            status.append("\n")
-            status.append_text(self.message)
-            status.append("\n")
-            status.append("Press space to go on." if self.all_played else "Press space for the next episode.",
-                          style="dim")
-        self.query_one("#status", Static).update(status, layout=False)
-        self._refresh_keys()
-
-    def _refresh_keys(self) -> None:
-        """Have the key bar ask `check_action` again, when what it answers may have changed."""
-        keys_state = (self.game.live, self.game.t == 0, self._too_small)
-        if keys_state != self._keys_state:
-            self._keys_state = keys_state
+    def watch_step(self, old: int, new: int) -> None:
+        if (old == 0) != (new == 0):  # calibration is offered before an episode's first move
             self.refresh_bindings()
+
+    def watch_hold(self, view: HoldView | None) -> None:
+        gauge, board = self.query_one(Gauge), self.query_one(Board)
+        gauge.level, gauge.fill = (None, 0.0) if view is None else (view.level, view.fill)
+        board.arrow = None if view is None or view.key is None else Arrow(view.key, view.fill, self.world.levels)
+
+    def watch_slipped_to(self, cell: Cell | None) -> None:
+        self.query_one(Board).highlight = {} if cell is None else {cell: SLIP}
+
+    def watch_recording(self, where: str) -> None:
+        self.query_one("#title", Static).update(Text.assemble(
+            (printable(self.heading, limit=60), f"bold {NOTE}"), " · player ", (printable(self.player, limit=40), "bold"),
+            f" · {self.input_mode} input", (f" · recording → {printable(where, limit=200)}", "dim"),
+        ), layout=False)

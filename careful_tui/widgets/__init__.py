@@ -1,4 +1,5 @@
-"""Widgets the screens share: the board, the carefulness gauge, the key bar and the too-small notice.
+"""Widgets the screens share: the board, the carefulness gauge, the key bar and the too-small notice;
+play's status and hold numbers (`play_status`).
 
 May import: `irl_core`, `careful_tui.render` and Textual's public API. Never a screen, the app
 or a command.

@@ -85,6 +85,23 @@ async def hold(pilot: Pilot, clock: FakeClock, key: str, seconds: float) -> floa
     return 0.0 if last == 0 else last * 1000 + PERIOD * 1000 / 2
 
 
+async def measure_autorepeat(pilot: Pilot, clock: FakeClock, *, delay: float, repeats: int) -> CalibrationScreen:
+    """Open the calibration screen and hold up: a press, `repeats` autorepeats from `delay` s,
+    30 ms apart, then silence; the screen, showing what it measured."""
+    await pilot.press("c")
+    screen = pilot.app.screen
+    assert isinstance(screen, CalibrationScreen)
+    await pilot.press("up")
+    clock.advance(delay)
+    for _ in range(repeats):
+        await pilot.press("up")
+        clock.advance(0.03)
+    clock.advance(0.5)
+    screen.tick()
+    await pilot.pause()
+    return screen
+
+
 def recording(app: CarefulApp) -> Recording:
     assert len(app.first_screen.recorder.paths) == 1
     return read_recording(app.first_screen.recorder.paths[0])
@@ -280,16 +297,7 @@ def test_calibration_before_the_first_move_goes_into_the_header(tmp_path: Path) 
     app, clock = new_app(tmp_path)
 
     async def body(pilot: Pilot) -> None:
-        await pilot.press("c")
-        screen = app.screen
-        assert isinstance(screen, CalibrationScreen)
-        await pilot.press("up")
-        clock.advance(0.4)
-        for _ in range(8):
-            await pilot.press("up")
-            clock.advance(0.03)
-        clock.advance(0.5)
-        screen.tick()
+        await measure_autorepeat(pilot, clock, delay=0.4, repeats=8)
         await pilot.press("enter")
         assert not isinstance(app.screen, CalibrationScreen)
         assert app.first_screen.game.cell == (0, 0)  # calibrating moved nobody

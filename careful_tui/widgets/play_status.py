@@ -1,0 +1,145 @@
+"""The play screen's words: the status under the board and the hold's numbers under the gauge.
+
+Both draw from their reactives, which the play screen binds to its own (`data_bind`): a change
+of the game marks them for a repaint and Textual renders each once in the next frame, however
+many of their reactives the change set. `render` reads the reactives as they are now, so what
+it returns is always the current state, drawn or not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rich.text import Text
+from textual.reactive import reactive
+from textual.widgets import Static
+
+from careful_tui.render.grid import format_value
+from careful_tui.render.palette import BAD, GOOD, WARN, level_colour
+from careful_tui.render.session import outcome_text
+from irl_core.game import MoveResult
+from irl_core.recording_lines import EpisodeEnd
+from irl_core.world import World
+
+
+def mode_help(input_mode: str, levels: int) -> str:
+    """Under the gauge before the first move: how to choose a level in `input_mode` (the key bar
+    says it too), with an example. Lines of at most 17 characters, the width under the narrowest
+    gauge; the first alone must make sense, as a terminal of the minimum size shows only that."""
+    k = min(3, levels)
+    return {
+        "hold": "hold = careful\nlet go: move",
+        "tap": f"tap k× = level k\n{'→' * k}: right at {k}",
+        "digits": f"level, then arrow\n{k} →: right at {k}",
+    }[input_mode]
+
+
+@dataclass(frozen=True)
+class EpisodeNames:
+    """How the status names a game's episodes: each is a `word` ("Practice episode"), numbered
+    from 1, or, when the screen plays a set `count` of them after `done` played before, within
+    those ("1 of 2"). `first` is the game's first episode number."""
+
+    word: str = "Episode"
+    first: int = 0
+    count: int | None = None
+    done: int = 0
+
+    def number(self, episode: int) -> str:
+        """The number shown for the game's episode `episode`: "3", or "1 of 2"."""
+        if self.count is None:
+            return f"{episode + 1}"
+        return f"{self.done + episode - self.first + 1} of {self.done + self.count}"
+
+    def all_played(self, episode: int, live: bool) -> bool:
+        """Whether the `count` episodes (if any) have all ended, `episode` being the last begun."""
+        return self.count is not None and not live and episode + 1 - self.first >= self.count
+
+
+class GameStatus(Static):
+    """Three lines under the board: the episode, its step and score, the last episode's end (or
+    a hint) and a message; after an episode, how it ended, the message and what space does."""
+
+    episode: reactive[int] = reactive(0)
+    step: reactive[int] = reactive(0)
+    score: reactive[float] = reactive(0.0)
+    live: reactive[bool] = reactive(False)
+    last_end: reactive[EpisodeEnd | None] = reactive(None)
+    message: reactive[Text] = reactive(Text)
+    all_played: reactive[bool] = reactive(False)
+
+    def __init__(self, world: World, names: EpisodeNames, *, id: str | None = None) -> None:
+        super().__init__(id=id)
+        self.world = world
+        self.names = names
+
+    def render(self) -> Text:
+        names, end = self.names, self.last_end
+        status = Text()
+        if self.live or end is None:
+            status.append(f"{names.word} {names.number(self.episode)}", style="bold")
+            status.append(f"   step {self.step}/{self.world.max_steps}   score ", style="dim")
+            status.append(format_value(self.score),
+                          style="bold " + (GOOD if self.score >= self.world.initial_score else WARN))
+            status.append("\n")
+            if end is not None:
+                status.append(f"Last {names.word.lower()} ({names.number(end.episode)}): ", style="dim")
+                status.append(outcome_text(end), style=GOOD if end.terminal_symbol == "G" else BAD)
+                status.append(f", score {format_value(end.score)}", style="dim")
+            else:
+                status.append("Careful moves cost more and slip less.", style="dim")
+            status.append("\n")
+            status.append_text(self.message)
+            return status
+        colour = GOOD if end.terminal_symbol == "G" else BAD
+        status.append(f"{names.word} {names.number(end.episode)}: ", style="bold")
+        status.append(f"{outcome_text(end)}!", style=f"bold {colour}")
+        status.append("   score ", style="dim")
+        status.append(format_value(end.score), style=f"bold {colour}")
+        status.append("\n")
+        status.append_text(self.message)
+        status.append("\n")
+        status.append("Press space to go on." if self.all_played else "Press space for the next episode.", style="dim")
+        return status
+
+
+@dataclass(frozen=True)
+class HoldView:
+    """The move being entered, as shown: its arrow key, level, gauge fill (in levels) and hold ms."""
+
+    key: str | None
+    level: int
+    fill: float
+    held_ms: float
+
+
+class HoldInfo(Static):
+    """Under the gauge: the level and cost of the move being entered (and in hold mode how long
+    it has been held); between moves the last move, or before the first how to choose a level."""
+
+    hold: reactive[HoldView | None] = reactive(None)
+    last_move: reactive[MoveResult | None] = reactive(None)
+
+    def __init__(self, world: World, input_mode: str, *, id: str | None = None) -> None:
+        super().__init__(id=id)
+        self.world = world
+        self.input_mode = input_mode
+
+    def render(self) -> Text:
+        levels, view = self.world.levels, self.hold
+        if view is not None:
+            text = Text.assemble(
+                ("level ", "dim"), (f"{view.level}", f"bold {level_colour(view.level, levels)}"),
+                ("  cost ", "dim"), (format_value(self.world.cost_per_level * view.level), "bold"),
+            )
+            if self.input_mode == "hold":
+                text.append(f"\nheld {view.held_ms:.0f} ms", style="dim")
+            return text
+        if self.last_move is None:
+            return Text(mode_help(self.input_mode, levels), style="dim")
+        step = self.last_move.step
+        text = Text.assemble(("last move\n", "dim"), (f"{step.direction} ", "bold"),
+                             (f"level {step.carefulness}", f"bold {level_colour(step.carefulness, levels)}"))
+        if step.hold_ms is not None and self.input_mode == "hold":
+            text.append(f"\n{step.hold_ms:.0f} ms" + (" (exact)" if step.hold_exact else ""), style="dim")
+        return text
