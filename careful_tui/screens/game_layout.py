@@ -31,7 +31,7 @@ def carefulness_gauge(world: World, *, slips: bool = False) -> Gauge:
     gauge = Gauge(level_costs(world), slips=level_slip_chances(world) if slips else None, id="gauge")
     gauge.border_title = "carefulness"
     if slips:
-        gauge.border_subtitle = "cost slip"
+        gauge.border_subtitle = "points slip"
     return gauge
 
 

@@ -72,7 +72,7 @@ def test_the_gauge_shows_each_levels_cost_and_slip_chance_and_fits_the_minimum_s
     top, bottom = seen["gauge"][0], seen["gauge"][-1]
     assert top.split()[0] == "14" and top.split()[-1] == "0.006%" and "-14" in top
     assert bottom.split() == ["1", "-1", "50%"]
-    assert seen["subtitle"] == "cost slip"
+    assert seen["subtitle"] == "points slip"
     assert "Careful moves cost more and slip less." in seen["status"]
     assert [line.split()[-1] for line in screen_texts(NO_SLIP, "hold", tmp_path / "flat")["gauge"]] == ["0%"] * 3
 
