@@ -1,4 +1,4 @@
-"""`careful study report STUDY.toml`: per participant and pooled fits per world (SPEC section 8).
+"""`careful study report STUDY.toml`: per participant and pooled fits per world (README "Studies").
 
 The computation is `irl_core.study_report`; this module prints it with Rich (a progress bar
 on stderr, the table on stdout) and writes the CSV and the figures under ``<out>/report/``

@@ -1,4 +1,4 @@
-"""Reading demonstrations (SPEC section 2): a strict reader and the `Demonstrations` a fit uses.
+"""Reading demonstrations (recordings/README.md): a strict reader and the `Demonstrations` a fit uses.
 
 A file is one play session: a ``session`` header line, then ``step`` lines and
 ``episode_end`` lines as they happen (`irl_core.recording_lines` holds their models,

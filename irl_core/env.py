@@ -1,4 +1,4 @@
-"""A Gymnasium environment over a careful world's MDP (SPEC section 7).
+"""A Gymnasium environment over a careful world's MDP (README "Use careful worlds in your RL code").
 
 ``import irl_core.env`` registers ``careful/Careful-v0``::
 

@@ -171,7 +171,7 @@ def write_rollouts(
     progress: Callable[[int], None] | None = None,
     header: SessionHeader | None = None,
 ) -> Path:
-    """Write rollouts as a SPEC section 2 session file (never overwriting).
+    """Write rollouts as a session file (recordings/README.md), never overwriting.
 
     Args:
         progress: called with the number of episodes written so far, now and then.

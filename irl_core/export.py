@@ -1,4 +1,4 @@
-"""Recordings as a CSV table or a Minari dataset (SPEC section 7).
+"""Recordings as a CSV table or a Minari dataset (README "Use careful worlds in your RL code").
 
 CSV: one row per step line, in file order, with the columns of `csv_columns`.
 
@@ -46,7 +46,7 @@ CSV_COLUMNS = (
     "file", "player", "episode", "t", "row", "col", "direction", "carefulness", "hold_ms",
     "hold_exact", "next_row", "next_col", "slipped", "reward", "score",
 )
-# A study session's header (SPEC section 8) adds these, from its `study` field.
+# A study session's header (README "Studies") adds these, from its `study` field.
 STUDY_COLUMNS = ("study", "participant", "phase", "world_index")
 STUDY_FIELDS = ("name", "participant", "phase", "world_index")
 # Episodes written to a Minari dataset per storage update (and per progress report).

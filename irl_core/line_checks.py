@@ -1,4 +1,4 @@
-"""What makes a recording's lines agree with its world and with each other (SPEC section 2).
+"""What makes a recording's lines agree with its world and with each other (recordings/README.md).
 
 A step must be a move the header's world can make (a level it has, cells that are states, a
 next cell the move can reach, a `realised` direction that leads there), and the lines must tell

@@ -1,4 +1,4 @@
-"""The tabular MDP of a world (SPEC section 1), with transitions stored sparsely.
+"""The tabular MDP of a world (README "Worlds"), with transitions stored sparsely.
 
 =============  ==============================================================
 states         every non-wall cell in row-major order, then one absorbing

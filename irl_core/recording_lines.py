@@ -1,4 +1,4 @@
-"""The three kinds of line in a recording (SPEC section 2), as pydantic models: the ``session``
+"""The three kinds of line in a recording (recordings/README.md), as pydantic models: the ``session``
 header, a ``step`` and an ``episode_end``. `irl_core.recording_writer` writes them,
 `irl_core.demonstrations` reads them; `irl_core.step_table` builds `Step`s from its columns.
 """
@@ -22,7 +22,7 @@ class _Line(BaseModel):
 
 
 class StudyTag(_Line):
-    """A study session's place in its study (SPEC section 8): the header's optional ``study`` field.
+    """A study session's place in its study (README "Studies"): the header's optional ``study`` field.
 
     `world_index` is the world's index in the study file's ``worlds`` list (not its place in a
     participant's shuffled order), so that a world is the same index for every participant.

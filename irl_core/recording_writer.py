@@ -1,4 +1,4 @@
-"""Writing recordings (SPEC section 2): a crash-safe writer, a game's session recorder, file names.
+"""Writing recordings (recordings/README.md): a crash-safe writer, a game's session recorder, file names.
 
 `RecordingWriter` never overwrites, flushes every line and fsyncs at each episode end, so a
 crash loses at most the line in flight; it never leaves an empty file, and never writes a
@@ -21,7 +21,7 @@ from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step, _Line
 
 
 def to_json_line(line: _Line) -> str:
-    """One JSONL line (with its newline) in SPEC field names.
+    """One JSONL line (with its newline) in the recording format's field names.
 
     Raises:
         ValueError: a number JSON cannot hold (NaN, Infinity); nothing is written for it.

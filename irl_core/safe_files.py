@@ -1,4 +1,4 @@
-"""Reading only regular files, and one guard for every file a command writes (SPEC section 4).
+"""Reading only regular files, and one guard for every file a command writes (README "Limits and safety").
 
 Reading: a FIFO, a device or a folder given as a world or a recording would block or never
 end, so `open_regular` opens without blocking and refuses anything that is not a regular file.
@@ -63,7 +63,7 @@ def open_regular(path: str | Path) -> BinaryIO:
 
 
 def is_recording(path: str | Path) -> bool:
-    """Whether `path` is a regular file whose first line is a session header (SPEC section 2)."""
+    """Whether `path` is a regular file whose first line is a session header (recordings/README.md)."""
     try:
         with open_regular(path) as file:
             head = file.read(_SNIFF_BYTES)

@@ -1,4 +1,4 @@
-"""Studies (SPEC section 8): one protocol for many participants, and where each one stands.
+"""Studies (README "Studies"): one protocol for many participants, and where each one stands.
 
 A study file (TOML, validated with pydantic like a world file) names the worlds, their order,
 the practice and main episodes per world, the input mode and the output folder. Each
@@ -54,7 +54,7 @@ class StudyError(ValueError):
 
 
 class Study(BaseModel):
-    """A study file's fields, as SPEC section 8 names them."""
+    """A study file's fields, as README "Studies" names them."""
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 

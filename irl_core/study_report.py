@@ -1,4 +1,4 @@
-"""A study's report (SPEC section 8), as plain data: per participant and pooled fits per world.
+"""A study's report (README "Studies"), as plain data: per participant and pooled fits per world.
 
 `gather` reads every participant folder under the study's ``out`` and keeps each one's
 finished main-phase episodes per world (practice never enters a fit; an interrupted episode
@@ -33,7 +33,7 @@ POOLED = "pooled"
 
 
 def report_options(*, resamples: int = 200, seed: int = 0, rmax: float = 5000.0) -> FitOptions:
-    """The report's fits: SPEC 3.1's auto (maxent with beta estimated for a person's noisy play),
+    """The report's fits: the auto method's choice (docs/answers.md; maxent with beta estimated for a person's noisy play),
     one reward per symbol, with intervals (a bootstrap confidence interval for maxent)."""
     return FitOptions(method="auto", tie=True, intervals=True, resamples=resamples, seed=seed, rmax=rmax)
 

@@ -1,6 +1,6 @@
 """Turn key events into move intents: a direction and a carefulness level.
 
-A terminal reports key presses and autorepeats, not releases (SPEC section 5), so the length of
+A terminal reports key presses and autorepeats, not releases (README "Playing"), so the length of
 a hold is inferred from the autorepeat rhythm: a press starts a hold, autorepeats of the same key
 extend it, silence longer than the release timeout ends it and another key ends it at once. Where
 the terminal does report releases (kitty's keyboard protocol, see `careful_tui.keys.kitty`), a release

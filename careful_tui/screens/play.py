@@ -1,4 +1,4 @@
-"""`careful play`: the paper's cliff game, recorded step by step (SPEC sections 2, 4 and 5).
+"""`careful play`: the paper's cliff game, recorded step by step (recordings/README.md, README "What it does" and "Playing").
 
 The player moves with the arrow keys and holds a key longer to be more careful. While a key is
 held the gauge fills and the arrow on the player grows; the move is made when the hold ends

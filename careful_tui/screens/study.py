@@ -1,4 +1,4 @@
-"""`careful study run`: one participant through a study's protocol (SPEC section 8), on the one app.
+"""`careful study run`: one participant through a study's protocol (README "Studies"), on the one app.
 
 The study screen is the flow around the play screen. It shows the study's instructions (space to
 begin); then, for the next block of the participant's protocol (a world's practice or main

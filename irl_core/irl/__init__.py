@@ -1,4 +1,4 @@
-"""Inverse RL for careful experts (SPEC section 3; the paper's "Simple IRL agent",
+"""Inverse RL for careful experts (README "Fitting a reward"; the paper's "Simple IRL agent",
 "Game and Loss IRL agent" and MaxEnt baseline).
 
 Every method shares one affine Q map (`qmap`), returns one `FitResult` (`result`) and is
@@ -12,7 +12,7 @@ reached through `fit`:
 ``maxent``  maximum-likelihood maximum-entropy IRL, the paper's baseline (`maxent`),
             with beta given or estimated with the rewards
 ``auto``    lp for a deterministic expert whose lp is feasible, else maxent with beta
-            estimated (SPEC section 3.1; the default)
+            estimated (docs/answers.md; the default)
 ==========  ====================================================================
 
 `--intervals` bounds every unknown: over the lp constraints for lp (`intervals`, the

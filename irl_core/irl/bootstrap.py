@@ -1,4 +1,4 @@
-"""Confidence intervals for maxent and loss by resampling whole episodes (SPEC section 3.1).
+"""Confidence intervals for maxent and loss by resampling whole episodes (docs/answers.md).
 
 The demonstrations are E episodes. A resample draws E episodes with replacement, so its
 counts are w @ by_episode for multiplicities w ~ Multinomial(E, 1/E); each resample is

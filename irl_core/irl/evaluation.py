@@ -1,4 +1,4 @@
-"""What an agent trained on a fitted reward would do (SPEC section 3.1, `evaluation`).
+"""What an agent trained on a fitted reward would do (docs/answers.md, `evaluation`).
 
 Plan optimally for the fitted R_S (with the known action cost), then evaluate that policy
 exactly in the world with its true rewards, from the world's start distribution: no sampling.
@@ -49,7 +49,7 @@ class Evaluation:
     optimal: Ends
 
     def to_json(self) -> dict[str, Any]:
-        """SPEC's ``{"ends": ..., "return": ..., "optimal_return": ...}``, plus the optimum's ends
+        """The fit JSON's ``{"ends": ..., "return": ..., "optimal_return": ...}``, plus the optimum's ends
         and, when some episodes never end, how many."""
         out: dict[str, Any] = {
             "ends": {k: round(v, 6) for k, v in self.agent.ends.items()},

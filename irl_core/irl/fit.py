@@ -1,4 +1,4 @@
-"""`fit`: one entry point for the inverse-RL methods of SPEC sections 3 and 3.1.
+"""`fit`: one entry point for the inverse-RL methods in README "Fitting a reward" and docs/answers.md.
 
 It builds the unknowns and the Q map once, chooses the method (``auto``: lp for a
 deterministic expert whose lp is feasible, else maxent with beta estimated), runs it,
@@ -112,7 +112,7 @@ def fit(
 
 
 def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
-    """SPEC 3.1's choice: lp for a deterministic expert whose lp is feasible, else maxent (beta auto)."""
+    """The auto method's choice: lp for a deterministic expert whose lp is feasible, else maxent (beta auto)."""
     acted = demos.counts[demos.demonstrated]
     mixed = int(((acted > 0).sum(axis=1) > 1).sum())
     if mixed == 0:

@@ -2,7 +2,7 @@
 
 The command line builds it once from its arguments, the fit view changes it with
 `dataclasses.replace` to refit, `fit` reads it, and `FitResult.options` keeps it, written
-to the JSON under SPEC section 3's names (``lambda`` for `lam`).
+to the JSON under the fit JSON's names (docs/fit-json.md; ``lambda`` for `lam`).
 
 ``beta`` is a number or ``"auto"`` (estimated with R_S); ``None`` means the method's
 default: 1.0 for ``maxent``, ``"auto"`` when ``auto`` falls back to maxent.
@@ -85,7 +85,7 @@ class FitOptions:
         return f"{self.method}{', with intervals' if self.intervals else ''}"
 
     def to_json(self) -> dict[str, Any]:
-        """SPEC section 3's option names and values (beta as given; the fit replaces it by what it used)."""
+        """The fit JSON's option names (docs/fit-json.md) and values (beta as given; the fit replaces it by what it used)."""
         return {
             "rmax": self.rmax,
             "lambda": self.lam,

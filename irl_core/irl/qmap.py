@@ -14,7 +14,7 @@ With x = [theta; V], where theta (k,) are the unknown state rewards, this is
 
 and the terminal cells add the equalities V(s) = R_S(s), V(exit) = 0 (E x = e).
 
-Which state rewards are unknown (SPEC section 3):
+Which state rewards are unknown (README "Fitting a reward"):
 
 ===================  ==========================================================
 ``special``          every non-ground cell is unknown; ground cells are 0
@@ -77,7 +77,7 @@ class Unknowns:
 
 
 def build_unknowns(mdp: MDP, *, reward_cells: RewardCells = "special", tie: bool = False) -> Unknowns:
-    """The unknown state rewards of `mdp` for SPEC's `--reward-cells` and `--tie`."""
+    """The unknown state rewards of `mdp` for `careful fit`'s `--reward-cells` and `--tie`."""
     if reward_cells not in ("special", "all"):
         raise ValueError(f"reward_cells must be 'special' or 'all', not {reward_cells!r}")
     symbols = mdp.symbols

@@ -3,7 +3,7 @@
 A `FitResult` holds what `careful fit` shows and writes: the fitted reward on the grid,
 which cells were fitted, their intervals, the demonstrated policy, how much was read,
 the solver's status and time, and notes a researcher should read (e.g. "not unique").
-`to_json()` is SPEC section 3's JSON, key for key.
+`to_json()` is the fit JSON (docs/fit-json.md), key for key.
 """
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ class FitResult:
         return self.options.rmax
 
     def options_json(self) -> dict[str, Any]:
-        """The JSON's ``options``: SPEC names, beta as used (maxent's estimate with ``beta_auto``)."""
+        """The JSON's ``options``: the fit JSON's names, beta as used (maxent's estimate with ``beta_auto``)."""
         out = self.options.to_json()
         given = self.options.beta
         out["beta"] = self.beta if self.beta is not None else (given if isinstance(given, (int, float)) else DEFAULT_BETA)
@@ -170,7 +170,7 @@ class FitResult:
         return out
 
     def to_json(self) -> dict[str, Any]:
-        """SPEC section 3's JSON: rows x cols grids with null at walls (and where undefined).
+        """The fit JSON (docs/fit-json.md): rows x cols grids with null at walls (and where undefined).
 
         ``policy`` gives, per demonstrated cell, the most frequent action and its count
         (how often that action was taken there); null at cells never acted in.

@@ -1,4 +1,4 @@
-"""Worlds: the built-ins match SPEC section 1, and bad worlds get one clear sentence."""
+"""Worlds: the built-ins match README "Worlds", and bad worlds get one clear sentence."""
 
 import pytest
 

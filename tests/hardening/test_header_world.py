@@ -1,4 +1,4 @@
-"""The header's world always wins over a built-in of the same name (SPEC section 2).
+"""The header's world always wins over a built-in of the same name (recordings/README.md).
 
 A recording carries its whole world, so a file recorded when `paper` meant one thing stays
 readable and fittable after the built-in `paper` changes.

@@ -1,4 +1,4 @@
-"""`careful fit` on simulated recordings: the SPEC JSON, the printout and the errors."""
+"""`careful fit` on simulated recordings: the fit JSON, the printout and the errors."""
 
 import json
 from datetime import datetime, timezone

@@ -1,4 +1,4 @@
-"""Noisy experts (SPEC 3.1): beta estimated with the rewards, method auto, and bootstrap intervals."""
+"""Noisy experts (docs/answers.md): beta estimated with the rewards, method auto, and bootstrap intervals."""
 
 import numpy as np
 import pytest

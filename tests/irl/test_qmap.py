@@ -1,4 +1,4 @@
-"""The shared Q map: Q = M x + q0 reproduces planning's Q, and the unknowns follow SPEC section 3."""
+"""The shared Q map: Q = M x + q0 reproduces planning's Q, and the unknowns follow README "Fitting a reward"."""
 
 import numpy as np
 import pytest

@@ -135,7 +135,7 @@ def test_once_repeats_run_the_same_arrow_extends_the_hold() -> None:
 
 
 def test_tap_mode_counts_quick_taps_as_levels() -> None:
-    """SPEC section 5: in tap mode k quick taps of one arrow are one move at level k, however quick."""
+    """README "Playing": in tap mode k quick taps of one arrow are one move at level k, however quick."""
     clock = FakeClock()
     counter = TapCounter(calibrated(0.5, 0.033), clock=clock)
     for t in (0.0, 0.08, 0.16):

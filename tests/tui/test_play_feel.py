@@ -84,7 +84,7 @@ def test_hold_mode_a_second_tap_during_the_wait_is_a_second_move(tmp_path: Path)
 
 
 def test_tap_mode_a_second_tap_is_a_level(tmp_path: Path) -> None:
-    """In tap mode, as SPEC section 5 says, tapping an arrow k times quickly is one move at level k."""
+    """In tap mode, as README "Playing" says, tapping an arrow k times quickly is one move at level k."""
     app, clock = new_app(tmp_path, input_mode="tap")
 
     async def body(pilot: Pilot) -> None:
