@@ -31,7 +31,7 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
-from textual.reactive import reactive
+from textual.reactive import reactive, var
 from textual.screen import Screen
 from textual.widgets import Static
 
@@ -142,10 +142,10 @@ class FitScreen(Screen[None]):
     # its settings, the error of the last refit and the settings being fitted now. Their watchers
     # ask for one redraw after the next refresh, however many of them change at once (a fit's
     # end sets three); `set_reactive` in __init__ sets them before there is anything to draw.
-    result: reactive[FitResult | None] = reactive(None, init=False, always_update=True)
-    options: reactive[FitOptions] = reactive(FitOptions, init=False)
-    error: reactive[str | None] = reactive(None, init=False)
-    fitting: reactive[FitOptions | None] = reactive(None, init=False)
+    result: reactive[FitResult | None] = var(None, init=False, always_update=True)
+    options: reactive[FitOptions] = var(FitOptions, init=False)
+    error: reactive[str | None] = var(None, init=False)
+    fitting: reactive[FitOptions | None] = var(None, init=False)
 
     TITLE = "careful fit"
     METHOD = Binding.Group("auto/lp/loss/maxent")

@@ -23,7 +23,7 @@ from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.reactive import reactive
+from textual.reactive import reactive, var
 from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
@@ -110,9 +110,9 @@ class ReplayScreen(Screen[None]):
 
     # What is on screen: playing or paused, the speed, and the place (file, frame). Their
     # watchers redraw; `set_reactive` in __init__ sets them before there is anything to draw.
-    playing: reactive[bool] = reactive(False, init=False)
-    speed_index: reactive[int] = reactive(SPEEDS.index(1.0), init=False)
-    place: reactive[tuple[int, int]] = reactive((0, 0), init=False)
+    playing: reactive[bool] = var(False, init=False)
+    speed_index: reactive[int] = var(SPEEDS.index(1.0), init=False)
+    place: reactive[tuple[int, int]] = var((0, 0), init=False)
 
     def __init__(self, recordings: Sequence[Recording], *, skipped: Sequence[str] = (), playing: bool = False,
                  frame_seconds: float = FRAME_S) -> None:
