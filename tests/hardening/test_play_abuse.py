@@ -35,37 +35,19 @@ import time
 import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager, nullcontext
-from datetime import datetime
 from itertools import groupby
 from pathlib import Path
 
 import pytest
 
 from irl_core.demonstrations import Demonstrations, Recording, read_recording
-from irl_core.recording_lines import SessionHeader
-from irl_core.recording_writer import SessionRecorder
-from irl_core.game import Game
 from careful_tui.screens.play import minimum_size as play_minimum_size
-from irl_core.world import World, world_from_dict
+from irl_core.world import world_from_dict
 from hardening_checks import tiny_filesystem
 from tmux_terminal import SIZE, TIMEOUT_S, Terminal, needs_tmux, terminal
+from play_fixtures import corner_world, corner_world_toml, write_two_episodes
 
-# Start top-left; the cliff is the bottom row but its ends; the goal is bottom-right.
-WORLD_TOML = """\
-name = "abuse"
-layout = \"\"\"
-......
-......
-......
-.CCCCG
-\"\"\"
-levels = 14
-slip = "none"
-start = [0, 0]
-[rewards]
-C = -1000.0
-G = 100.0
-"""
+WORLD_TOML = corner_world_toml("abuse")
 # The smallest window play fits in for this world (the gauge's cost and slip columns decide the width).
 PLAY_NEEDS = play_minimum_size(world_from_dict(tomllib.loads(WORLD_TOML)))
 SMALL = (60, 20)  # too small for play (PLAY_NEEDS) and for replay (80x21)
@@ -441,19 +423,7 @@ def test_holding_two_arrows_at_once_records_every_move(tmp_path: Path) -> None:
 
 
 def write_replay_recording(tmp_path: Path) -> Path:
-    world = World(name="abuse", layout="......\n......\n......\n.CCCCG\n", levels=14, slip="none", start=(0, 0),
-                  rewards={"C": -1000.0, "G": 100.0})
-    header = SessionHeader(world=world, player="abuse", created=datetime.now().astimezone(), seed=0)
-    recorder = SessionRecorder(tmp_path / "rec", header)
-    game = Game(world, seed=0, sink=recorder)
-    for moves in (["down", "down", "down", "right"], ["right", "right", "down"]):
-        game.begin_episode()
-        for level, direction in enumerate(moves, start=1):
-            game.move(direction, level, hold_ms=100.0 * level)
-    game.quit()
-    recorder.close()
-    (path,) = recorder.paths
-    return path
+    return write_two_episodes(tmp_path / "rec", corner_world())
 
 
 @needs_tmux

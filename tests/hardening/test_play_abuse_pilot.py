@@ -56,26 +56,13 @@ from irl_core.demonstrations import Recording, read_recording
 from irl_core.recording_lines import SessionHeader
 from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Game, MoveResult
-from irl_core.world import World
+from play_fixtures import FakeClock, corner_world, write_two_episodes
 
-# Start top-left; the cliff is the bottom row but its ends; the goal is bottom-right.
-WORLD = World(name="abuse", layout="......\n......\n......\n.CCCCG\n", levels=14, slip="none", start=(0, 0),
-              rewards={"C": -1000.0, "G": 100.0})
+WORLD = corner_world("abuse")
 PROFILE = HoldProfile(levels=14)
 PERIOD = 0.033
 BIG, SMALL = (100, 35), (60, 20)
 ARROW_FINAL = {"up": "A", "down": "B", "right": "C", "left": "D"}
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 1000.0
-
-    def __call__(self) -> float:
-        return self.now
-
-    def advance(self, seconds: float) -> None:
-        self.now += seconds
 
 
 def new_app(tmp_path: Path, **options) -> tuple[CarefulApp, FakeClock, list[MoveResult]]:
@@ -526,16 +513,7 @@ def test_a_killed_writer_leaves_every_step_on_disk(tmp_path: Path) -> None:
 
 
 def replay_recording(tmp_path: Path) -> Recording:
-    header = SessionHeader(world=WORLD, player="abuse", created=datetime.now().astimezone(), seed=0)
-    recorder = SessionRecorder(tmp_path / "rec", header)
-    game = Game(WORLD, seed=0, sink=recorder)
-    for moves in (["down", "down", "down", "right"], ["right", "right", "down"]):
-        game.begin_episode()
-        for level, direction in enumerate(moves, start=1):
-            game.move(direction, level, hold_ms=100.0 * level)
-    game.quit()
-    recorder.close()
-    return read_recording(recorder.paths[0])
+    return read_recording(write_two_episodes(tmp_path / "rec", WORLD))
 
 
 def test_replay_reads_kitty_repeats_as_keys_and_drops_releases(tmp_path: Path) -> None:

@@ -23,16 +23,9 @@ from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import read_recording
 from irl_core.study import load_study, read_protocol
 from study.study_run_files import write_study
+from play_fixtures import FakeClock
 
 ENDING_MOVE = {"right": "right", "left": "left"}
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 1000.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def new_app(path: Path, participant: str = "p01") -> CarefulApp:

@@ -11,16 +11,7 @@ from hypothesis import strategies as st
 from careful_tui.keys.calibration import Calibration
 from careful_tui.keys.hold import ActiveHold, Hold, HoldDetector, HoldProfile
 from careful_tui.keys.modes import DigitsInput, TapCounter, make_input
-
-
-class FakeClock:
-    """A clock the test moves by hand (seconds)."""
-
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
+from play_fixtures import FakeClock
 
 
 def repeat_times(length_s: float, *, delay_s: float, period_s: float) -> list[float]:
@@ -51,7 +42,7 @@ def run_hold(
 
 @pytest.fixture
 def clock() -> FakeClock:
-    return FakeClock()
+    return FakeClock(0.0)
 
 
 @pytest.fixture
@@ -162,7 +153,7 @@ def test_inferred_length_is_within_half_a_period(
     length_ms: float, delay_ms: float, period_ms: float
 ) -> None:
     profile = HoldProfile(initial_delay_ms=delay_ms, repeat_period_ms=period_ms)
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     detector = HoldDetector(profile, clock=clock)
     times = repeat_times(length_ms / 1000, delay_s=delay_ms / 1000, period_s=period_ms / 1000)
     [hold] = run_hold(detector, clock, "down", times)
@@ -235,7 +226,7 @@ def test_poll_before_the_timeout_keeps_the_hold(detector: HoldDetector, clock: F
 
 
 def test_the_repeat_timeout_has_a_floor() -> None:
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     detector = HoldDetector(HoldProfile(repeat_period_ms=10.0), clock=clock)
     for t in (0.0, 0.5, 0.51, 0.52):
         clock.now = t
@@ -246,7 +237,7 @@ def test_the_repeat_timeout_has_a_floor() -> None:
 @given(gaps=st.lists(st.floats(0.001, 1.0), min_size=1, max_size=30), probe=st.floats(0, 1.5))
 def test_deadline_says_when_poll_ends_the_hold(gaps: list[float], probe: float) -> None:
     """A press ends the hold after its deadline, or as a second press before any repeat could come."""
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     profile = HoldProfile()
     detector = HoldDetector(profile, clock=clock)
     detector.press("up")
@@ -474,7 +465,7 @@ def test_digits_show_the_pending_level_and_time_the_move(clock: FakeClock) -> No
     ("mode", "kind"), [("hold", HoldDetector), ("tap", TapCounter), ("digits", DigitsInput)]
 )
 def test_make_input_builds_each_mode(mode: str, kind: type) -> None:
-    made = make_input(mode, HoldProfile(), clock=FakeClock())
+    made = make_input(mode, HoldProfile(), clock=FakeClock(0.0))
     assert isinstance(made, kind)
     header = made.header()
     assert header["mode"] == mode
@@ -489,7 +480,7 @@ def test_make_input_rejects_unknown_modes() -> None:
 
 def test_every_mode_commits_the_same_kind_of_move() -> None:
     for mode in ("hold", "tap", "digits"):
-        clock = FakeClock()
+        clock = FakeClock(0.0)
         made = make_input(mode, HoldProfile(), clock=clock)
         done = made.press("up")
         clock.now = 10.0

@@ -19,6 +19,7 @@ from careful_tui.widgets import Board, Gauge
 from careful_tui.screens.calibration import CalibrationScreen
 from irl_core.demonstrations import Recording, read_recording
 from irl_core.world import World, load_world
+from play_fixtures import FakeClock
 
 # A deterministic walk: start top-left, the goal is right, right, down; the cliff is right, down.
 WALK = World(
@@ -33,17 +34,6 @@ PROFILE = HoldProfile(levels=14)
 # Autorepeat period of the fake keyboard: slower than a real one (33 ms), to keep the tests
 # fast, yet under the 99 ms that ends a hold after its first repeat; the live-gauge test uses 33 ms.
 PERIOD = 0.08
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 1000.0
-
-    def __call__(self) -> float:
-        return self.now
-
-    def advance(self, seconds: float) -> None:
-        self.now += seconds
 
 
 def new_app(tmp_path: Path, world: World = WALK, **options) -> tuple[CarefulApp, FakeClock]:

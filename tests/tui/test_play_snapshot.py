@@ -11,18 +11,11 @@ from textual.pilot import Pilot
 
 from careful_tui.app import make_play_app
 from irl_core.world import load_world
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 50.0
-
-    def __call__(self) -> float:
-        return self.now
+from play_fixtures import FakeClock
 
 
 def test_play_screen_mid_hold(snap_compare) -> None:
-    clock = FakeClock()
+    clock = FakeClock(50.0)
     # A relative folder that is never created: nothing is played, so nothing is recorded.
     app = make_play_app(load_world("paper"), out=Path("never-created"), player="snapshot", seed=4, clock=clock)
 

@@ -7,24 +7,11 @@ from pathlib import Path
 
 from irl_core.demonstrations import Recording, read_recording
 from tmux_terminal import needs_tmux, terminal
+from play_fixtures import corner_world_toml
 
 pytestmark = needs_tmux
 
-WORLD = """\
-name = "e2e"
-layout = \"\"\"
-......
-......
-......
-.CCCCG
-\"\"\"
-levels = 14
-slip = "none"
-start = [0, 0]
-[rewards]
-C = -1000.0
-G = 100.0
-"""
+WORLD = corner_world_toml("e2e")
 
 
 def play(tmp_path: Path):

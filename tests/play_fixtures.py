@@ -1,0 +1,65 @@
+"""Shared play-test fixtures: a clock the test moves by hand, the small corner world the play
+tests use, and a two-episode recording of it for replay tests."""
+
+from __future__ import annotations
+
+import tomllib
+from datetime import datetime
+from pathlib import Path
+
+from irl_core.game import Game
+from irl_core.recording_lines import SessionHeader
+from irl_core.recording_writer import SessionRecorder
+from irl_core.world import World, world_from_dict
+
+
+class FakeClock:
+    """A clock the test moves by hand: it reads `now` (seconds)."""
+
+    def __init__(self, now: float = 1000.0) -> None:
+        self.now = now
+
+    def __call__(self) -> float:
+        return self.now
+
+    def advance(self, seconds: float) -> None:
+        self.now += seconds
+
+
+def corner_world_toml(name: str) -> str:
+    """A 4x6 world file: start top-left; the cliff is the bottom row but its ends; the goal is bottom-right."""
+    return f'''\
+name = "{name}"
+layout = """
+......
+......
+......
+.CCCCG
+"""
+levels = 14
+slip = "none"
+start = [0, 0]
+[rewards]
+C = -1000.0
+G = 100.0
+'''
+
+
+def corner_world(name: str = "abuse") -> World:
+    return world_from_dict(tomllib.loads(corner_world_toml(name)))
+
+
+def write_two_episodes(folder: Path, world: World) -> Path:
+    """A recording in `folder` of two quit episodes in `world`: down, down, down, right, then right,
+    right, down, at levels 1, 2, 3, ... with hold times of 100 ms per level."""
+    header = SessionHeader(world=world, player="abuse", created=datetime.now().astimezone(), seed=0)
+    recorder = SessionRecorder(folder, header)
+    game = Game(world, seed=0, sink=recorder)
+    for moves in (["down", "down", "down", "right"], ["right", "right", "down"]):
+        game.begin_episode()
+        for level, direction in enumerate(moves, start=1):
+            game.move(direction, level, hold_ms=100.0 * level)
+    game.quit()
+    recorder.close()
+    (path,) = recorder.paths
+    return path
