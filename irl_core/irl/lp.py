@@ -309,11 +309,17 @@ class RowGeneration:
         self.in_model |= pairs
         self.pairs = np.concatenate([self.pairs, np.column_stack([states, actions])])
 
-    def solve(self, *, progress: Progress | None = None) -> np.ndarray:
-        """z at the full LP's optimum for the model's current cost. Raises `InfeasibleError` or `SolverError`."""
+    def solve(self, *, progress: Progress | None = None, first: dict[str, object] | None = None) -> np.ndarray:
+        """z at the full LP's optimum for the model's current cost, the first LP solved with the
+        HiGHS options `first` (the later ones, after new rows, with the model's own).
+
+        Raises `InfeasibleError` or `SolverError`.
+        """
         problem = self.problem
+        options = first
         while True:  # each round adds rows of a finite family, so it ends
-            z, _ = self.model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
+            z, _ = self.model.minimise(infeasible_message=INFEASIBLE_MESSAGE, options=options)
+            options = None
             self.rounds += 1
             if progress is not None:
                 progress("rounds", self.rounds, None)
