@@ -187,7 +187,7 @@ class HighsModel:
     """
 
     def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE,
-                 options: dict[str, object] | None = None):
+                 options: dict[str, object] | None = None, warm_limit: float | None = None):
         A = sp.csc_matrix(problem.A)
         A.sort_indices()
         n_row, n_col = A.shape
@@ -207,6 +207,7 @@ class HighsModel:
         self.options = {"solver": "simplex", "simplex_strategy": 1, "run_crossover": "on", **(options or {})}
         self._set(self.options)
         self.highs.passModel(lp)
+        self.warm_limit = warm_limit
         self.iterations = 0
         self.solves = 0
 
@@ -234,19 +235,21 @@ class HighsModel:
         iterations = 0
         first = {**self.options, **(options or {})}
         start = highs.getBasis()
+        # A solve from a basis is given up after warm_limit seconds (numerical trouble), then retried.
+        warm = {"time_limit": self.warm_limit} if self.warm_limit and start.valid else {}
         # The other simplex: primal after the dual (or HiGHS's choice), dual after the primal.
         other = 1 if first.get("simplex_strategy") == 4 else 4
         for solver, setup in _ATTEMPTS:
             if solver == "as set":
-                self._set(first)
+                self._set({**first, **warm})
             elif solver == "other simplex":
                 if not start.valid or first.get("solver") != "simplex":
                     continue
-                self._set({**self.options, "simplex_strategy": other})
+                self._set({**self.options, **setup, **warm, "simplex_strategy": other})
                 highs.setBasis(start)
             else:
                 highs.clearSolver()
-                self._set({**self.options, **setup})
+                self._set({**self.options, **setup, "time_limit": float("inf")})
             highs.run()
             info = highs.getInfo()
             iterations += max(int(info.simplex_iteration_count), 0) + max(int(info.ipm_iteration_count), 0)
@@ -260,7 +263,7 @@ class HighsModel:
             word, kind = OUTCOMES.get(status, ("unknown", "failure"))
             if kind != "failure":
                 break
-        self._set(self.options)
+        self._set({**self.options, "time_limit": float("inf")})
         self.iterations += iterations
         self.solves += 1
         objective = float(highs.getInfo().objective_function_value) if kind == "answer" else float("nan")
@@ -294,7 +297,7 @@ class HighsModel:
 # the same basis answered in 18 s and the dual simplex from scratch failed after 83 s.
 _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
     ("as set", {}),
-    ("other simplex", {}),
+    ("other simplex", {"simplex_dual_edge_weight_strategy": -1, "simplex_primal_edge_weight_strategy": -1}),
     ("from scratch", {}),
     ("primal simplex", {"solver": "simplex", "simplex_strategy": 4}),
     ("ipx", {"solver": "ipx", "run_crossover": "on"}),

@@ -294,11 +294,13 @@ class RowGeneration:
         rounds: LPs solved.
     """
 
-    def __init__(self, problem: MarginLP, *, options: dict[str, object]):
+    def __init__(self, problem: MarginLP, *, options: dict[str, object],
+                 after_rows: dict[str, object] | None = None, warm_limit: float | None = None):
         self.problem = problem
         self.in_model = np.zeros_like(problem.rivals)
         self.pairs = np.zeros((0, 2), dtype=np.int64)
-        self.model = HighsModel(problem.base, options=options)
+        self.after_rows = after_rows
+        self.model = HighsModel(problem.base, options=options, warm_limit=warm_limit)
         self._add(seed_pairs(problem))
         self.rounds = 0
 
@@ -311,7 +313,7 @@ class RowGeneration:
 
     def solve(self, *, progress: Progress | None = None, first: dict[str, object] | None = None) -> np.ndarray:
         """z at the full LP's optimum for the model's current cost, the first LP solved with the
-        HiGHS options `first` (the later ones, after new rows, with the model's own).
+        HiGHS options `first`, the later ones (after new rows) with `after_rows` (else the model's own).
 
         Raises `InfeasibleError` or `SolverError`.
         """
@@ -319,7 +321,7 @@ class RowGeneration:
         options = first
         while True:  # each round adds rows of a finite family, so it ends
             z, _ = self.model.minimise(infeasible_message=INFEASIBLE_MESSAGE, options=options)
-            options = None
+            options = self.after_rows
             self.rounds += 1
             if progress is not None:
                 progress("rounds", self.rounds, None)
