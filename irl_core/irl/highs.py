@@ -183,11 +183,13 @@ class HighsModel:
     """A live HiGHS model of a `LinearProgram`, solved by the dual simplex unless told otherwise.
 
     `tolerance` sets HiGHS's primal and dual feasibility tolerances (default 1e-7); `options`
-    are further HiGHS options, kept for every solve.
+    are further HiGHS options, kept for every solve; `scratch` are those of a retry from
+    scratch; `warm_limit` (seconds) gives up a solve from a basis that takes longer, as a failure.
     """
 
     def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE,
-                 options: dict[str, object] | None = None, warm_limit: float | None = None):
+                 options: dict[str, object] | None = None, warm_limit: float | None = None,
+                 scratch: dict[str, object] | None = None):
         A = sp.csc_matrix(problem.A)
         A.sort_indices()
         n_row, n_col = A.shape
@@ -208,6 +210,7 @@ class HighsModel:
         self._set(self.options)
         self.highs.passModel(lp)
         self.warm_limit = warm_limit
+        self.scratch = scratch or {}
         self.iterations = 0
         self.solves = 0
 
@@ -236,7 +239,8 @@ class HighsModel:
         first = {**self.options, **(options or {})}
         start = highs.getBasis()
         # A solve from a basis is given up after warm_limit seconds (numerical trouble), then retried.
-        warm = {"time_limit": self.warm_limit} if self.warm_limit and start.valid else {}
+        # (HiGHS's time limit is on its clock since the model was built.)
+        warm = {"time_limit": highs.getRunTime() + self.warm_limit} if self.warm_limit and start.valid else {}
         # The other simplex: primal after the dual (or HiGHS's choice), dual after the primal.
         other = 1 if first.get("simplex_strategy") == 4 else 4
         for solver, setup in _ATTEMPTS:
@@ -245,11 +249,13 @@ class HighsModel:
             elif solver == "other simplex":
                 if not start.valid or first.get("solver") != "simplex":
                     continue
+                if warm:
+                    warm["time_limit"] = highs.getRunTime() + self.warm_limit
                 self._set({**self.options, **setup, **warm, "simplex_strategy": other})
                 highs.setBasis(start)
             else:
                 highs.clearSolver()
-                self._set({**self.options, **setup, "time_limit": float("inf")})
+                self._set({**self.options, **self.scratch, **setup, "time_limit": float("inf")})
             highs.run()
             info = highs.getInfo()
             iterations += max(int(info.simplex_iteration_count), 0) + max(int(info.ipm_iteration_count), 0)

@@ -32,15 +32,17 @@ from irl_core.irl.lp import MARGIN_OPTIONS, LPConstraints, Progress, RowGenerati
 # dual simplex with Dantzig pricing), and so is any LP retried from scratch. After a new cost
 # the last basis stays primal feasible: the primal simplex starts from it; after new rows it
 # stays dual feasible: the dual simplex. Both with HiGHS's own pricing (steepest edge or
-# devex): with Dantzig's, 2 of a 64x64 world's 126 LPs failed after 120 s each ("unknown",
-# "solve error"), and HiGHS's own choice (the dual simplex after a new cost too) ran one of
-# them past 60 s, where these settings answered both in 1 to 4 s from the same basis. Some
-# bases there are nearly singular (steepest-edge weights of 1e22): a solve from a basis is
-# given up after WARM_LIMIT seconds (a normal one takes 1 to 5 s on a 64x64 world) and retried
-# by the other simplex from the same basis, then from scratch (`highs.HighsModel.solve`).
-INTERVAL_OPTIONS = MARGIN_OPTIONS
-AFTER_NEW_COST = {"simplex_strategy": 4, "simplex_primal_edge_weight_strategy": -1}
-AFTER_NEW_ROWS = {"simplex_strategy": 1, "simplex_dual_edge_weight_strategy": -1}
+# devex), kept as the model's so that its edge weights carry over from one solve to the next
+# (switching pricing at every solve made a 32x32 world's 62 LPs 8 times slower). With
+# Dantzig's pricing 2 of a 64x64 world's 126 LPs failed after 120 s each ("unknown", "solve
+# error"), and HiGHS's own choice of simplex (the dual after a new cost too) ran one of them
+# past 60 s, where these settings answered both in 1 to 4 s from the same basis. Some bases
+# there are nearly singular (steepest-edge weights of 1e22): a solve from a basis is given up
+# after WARM_LIMIT seconds (a normal one takes 1 to 5 s on a 64x64 world) and retried by the
+# other simplex from the same basis, then from scratch (`highs.HighsModel.solve`).
+INTERVAL_OPTIONS: dict[str, object] = {}
+AFTER_NEW_COST = {"simplex_strategy": 4}
+AFTER_NEW_ROWS = {"simplex_strategy": 1}
 WARM_LIMIT = 30.0
 
 
@@ -57,13 +59,13 @@ def reward_intervals(constraints: LPConstraints, *, progress: Progress | None = 
     upper[n:] = 0.0  # m_s = 0: the family rows are V(s) >= Q(s, a), the lp set itself
     feasible = LinearProgram(base.A, base.row_lower, base.row_upper, base.lower, upper, np.zeros(base.shape[1]))
     run = RowGeneration(dataclasses.replace(problem, base=feasible), options=INTERVAL_OPTIONS,
-                        after_rows=AFTER_NEW_ROWS, warm_limit=WARM_LIMIT)
+                        after_rows=AFTER_NEW_ROWS, warm_limit=WARM_LIMIT, scratch=MARGIN_OPTIONS)
     intervals = np.empty((k, 2))
     cost = np.zeros(base.shape[1])
     for done, (j, end) in enumerate(interval_order(k), start=1):
         cost[j] = 1.0 if end == 0 else -1.0
         run.model.set_cost(cost)
-        intervals[j, end] = run.solve(first=AFTER_NEW_COST if done > 1 else None)[j]
+        intervals[j, end] = run.solve(first=AFTER_NEW_COST if done > 1 else MARGIN_OPTIONS)[j]
         cost[j] = 0.0
         if progress is not None:
             progress("intervals", done, 2 * k)

@@ -287,6 +287,9 @@ MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
 class RowGeneration:
     """The margin LP solved by row generation in one live HiGHS model (see the module docstring).
 
+    `options`, `warm_limit` and `scratch` are the model's (`HighsModel`); `after_rows` are the
+    HiGHS options of the solves after new rows (default: the model's).
+
     Attributes:
         model: the HiGHS model, holding the base rows and the family rows in `in_model`.
         in_model: (S, A) the family rows added so far.
@@ -295,12 +298,13 @@ class RowGeneration:
     """
 
     def __init__(self, problem: MarginLP, *, options: dict[str, object],
-                 after_rows: dict[str, object] | None = None, warm_limit: float | None = None):
+                 after_rows: dict[str, object] | None = None, warm_limit: float | None = None,
+                 scratch: dict[str, object] | None = None):
         self.problem = problem
         self.in_model = np.zeros_like(problem.rivals)
         self.pairs = np.zeros((0, 2), dtype=np.int64)
         self.after_rows = after_rows
-        self.model = HighsModel(problem.base, options=options, warm_limit=warm_limit)
+        self.model = HighsModel(problem.base, options=options, warm_limit=warm_limit, scratch=scratch)
         self._add(seed_pairs(problem))
         self.rounds = 0
 
