@@ -38,12 +38,15 @@ from irl_core.irl.lp import MARGIN_OPTIONS, LPConstraints, Progress, RowGenerati
 # error"), and HiGHS's own choice of simplex (the dual after a new cost too) ran one of them
 # past 60 s, where these settings answered both in 1 to 4 s from the same basis. Some bases
 # there are nearly singular (steepest-edge weights of 1e22): a solve from a basis is given up
-# after WARM_LIMIT seconds (a normal one takes 1 to 5 s on a 64x64 world) and retried by the
-# other simplex from the same basis, then from scratch (`highs.HighsModel.solve`).
+# after WARM_LIMIT seconds (a normal one takes 1 to 6 s on a 64x64 world, on a busy machine)
+# and retried by the other simplex from the same basis, then from scratch
+# (`highs.HighsModel.solve`). On the cliff cells 30 to 40 steps from the goal the primal
+# simplex ran past 30 s on about 8 of the 63 upper ends, where the dual simplex from the same
+# basis then answered in 1 to 22 s.
 INTERVAL_OPTIONS: dict[str, object] = {}
 AFTER_NEW_COST = {"simplex_strategy": 4}
 AFTER_NEW_ROWS = {"simplex_strategy": 1}
-WARM_LIMIT = 30.0
+WARM_LIMIT = 10.0
 
 
 def reward_intervals(constraints: LPConstraints, *, progress: Progress | None = None) -> tuple[np.ndarray, int]:
