@@ -40,9 +40,9 @@ from irl_core.irl.lp import MARGIN_OPTIONS, LPConstraints, Progress, RowGenerati
 # there are nearly singular (steepest-edge weights of 1e22): a solve from a basis is given up
 # after WARM_LIMIT seconds (a normal one takes 1 to 6 s on a 64x64 world, on a busy machine)
 # and retried by the other simplex from the same basis, then from scratch
-# (`highs.HighsModel.solve`). On the cliff cells 30 to 40 steps from the goal the primal
-# simplex ran past 30 s on about 8 of the 63 upper ends, where the dual simplex from the same
-# basis then answered in 1 to 22 s.
+# (`highs.HighsModel.solve`). With a 30 s limit, 6 solves of the upper ends of the cliff cells
+# 23 to 32 steps from the goal ran past it in the primal simplex, where the dual simplex from
+# the same basis then answered in 1 to 22 s.
 INTERVAL_OPTIONS: dict[str, object] = {}
 AFTER_NEW_COST = {"simplex_strategy": 4}
 AFTER_NEW_ROWS = {"simplex_strategy": 1}
