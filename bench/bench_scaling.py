@@ -6,6 +6,7 @@ given as a multiple of it ("VI"), the ratio to compare across a shared, noisy ma
 The growth exponent k fits time ~ states^k over the sizes.
 
 Run: .venv/bin/python -m bench.bench_scaling [--sizes 4x6,16x16,32x32,64x64] [--stages ...]
+     .venv/bin/python -m bench.bench_scaling --sizes 128x128 --stages value_iteration,lp_fit
      .venv/bin/python -m bench.bench_scaling --check 32x32   (row generation against the whole LP)
      .venv/bin/python -m bench.bench_scaling --conditioning 64x64 [--whole ipx,ipx-no-crossover]
 """

@@ -183,11 +183,13 @@ class HighsModel:
     """A live HiGHS model of a `LinearProgram`, solved by the dual simplex unless told otherwise.
 
     `tolerance` sets HiGHS's primal and dual feasibility tolerances (default 1e-7); `options`
-    are further HiGHS options, kept for every solve.
+    are further HiGHS options, kept for every solve; `scratch` are those of a retry from
+    scratch; `warm_limit` (seconds) gives up a solve from a basis that takes longer, as a failure.
     """
 
     def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE,
-                 options: dict[str, object] | None = None):
+                 options: dict[str, object] | None = None, warm_limit: float | None = None,
+                 scratch: dict[str, object] | None = None):
         A = sp.csc_matrix(problem.A)
         A.sort_indices()
         n_row, n_col = A.shape
@@ -207,6 +209,8 @@ class HighsModel:
         self.options = {"solver": "simplex", "simplex_strategy": 1, "run_crossover": "on", **(options or {})}
         self._set(self.options)
         self.highs.passModel(lp)
+        self.warm_limit = warm_limit
+        self.scratch = scratch or {}
         self.iterations = 0
         self.solves = 0
 
@@ -227,14 +231,31 @@ class HighsModel:
         rows = np.asarray(rows, dtype=np.int32)
         self.highs.changeRowsBounds(rows.size, rows, _highs_bound(row_lower), _highs_bound(row_upper))
 
-    def solve(self) -> tuple[np.ndarray, SolveReport]:
-        """Solve from the current basis; on a failure retry as the module says. Never raises."""
+    def solve(self, options: dict[str, object] | None = None) -> tuple[np.ndarray, SolveReport]:
+        """Solve from the current basis, with `options` for this solve only (the first attempt);
+        on a failure retry as the module says. Never raises."""
         highs = self.highs
         iterations = 0
+        first = {**self.options, **(options or {})}
+        start = highs.getBasis()
+        # A solve from a basis is given up after warm_limit seconds (numerical trouble), then retried.
+        # (HiGHS's time limit is on its clock since the model was built.)
+        warm = {"time_limit": highs.getRunTime() + self.warm_limit} if self.warm_limit and start.valid else {}
+        # The other simplex: primal after the dual (or HiGHS's choice), dual after the primal.
+        other = 1 if first.get("simplex_strategy") == 4 else 4
         for solver, setup in _ATTEMPTS:
-            self._set(setup)
-            if solver != "as set":
+            if solver == "as set":
+                self._set({**first, **warm})
+            elif solver == "other simplex":
+                if not start.valid or first.get("solver") != "simplex":
+                    continue
+                if warm:
+                    warm["time_limit"] = highs.getRunTime() + self.warm_limit
+                self._set({**self.options, **setup, **warm, "simplex_strategy": other})
+                highs.setBasis(start)
+            else:
                 highs.clearSolver()
+                self._set({**self.options, **self.scratch, **setup, "time_limit": float("inf")})
             highs.run()
             info = highs.getInfo()
             iterations += max(int(info.simplex_iteration_count), 0) + max(int(info.ipm_iteration_count), 0)
@@ -248,36 +269,41 @@ class HighsModel:
             word, kind = OUTCOMES.get(status, ("unknown", "failure"))
             if kind != "failure":
                 break
-        if solver != "as set":
-            self._set(self.options)
+        self._set({**self.options, "time_limit": float("inf")})
         self.iterations += iterations
         self.solves += 1
         objective = float(highs.getInfo().objective_function_value) if kind == "answer" else float("nan")
-        if solver in ("as set", "from scratch"):
-            solver = f"{self.options['solver']}{' from scratch' if solver == 'from scratch' else ''}"
+        if solver in ("as set", "from scratch", "other simplex"):
+            solver = {"as set": first["solver"], "from scratch": f"{self.options['solver']} from scratch",
+                      "other simplex": f"{'dual' if other == 1 else 'primal'} simplex from the same basis"}[solver]
         return np.array(highs.getSolution().col_value), SolveReport(word, kind, objective, iterations, solver)
 
     def _set(self, options: dict[str, object]) -> None:
         for option, value in options.items():
             self.highs.setOptionValue(option, value)
 
-    def minimise(self, cost: np.ndarray | None = None, *, infeasible_message: str) -> tuple[np.ndarray, float]:
-        """Solve (with a new cost if given) and return (z, cost @ z).
+    def minimise(self, cost: np.ndarray | None = None, *, infeasible_message: str,
+                 options: dict[str, object] | None = None) -> tuple[np.ndarray, float]:
+        """Solve (with a new cost if given, and `options` for this solve only) and return (z, cost @ z).
 
         Raises `InfeasibleError` with `infeasible_message`, or `SolverError` on anything but an answer.
         """
         if cost is not None:
             self.set_cost(cost)
-        z, report = self.solve()
+        z, report = self.solve(options)
         report.check(infeasible_message)
         return z, report.objective
 
 
-# The solver attempts, in order: the model's own simplex from the current basis, the same from
-# scratch (after clearSolver), the primal simplex, which copes with the nearly parallel
-# tangent rows of the loss, and IPX with crossover.
+# The solver attempts, in order: the model's own simplex from the current basis, the other
+# simplex (primal or dual) from that basis, the model's simplex from scratch (after
+# clearSolver), the primal simplex, which copes with the nearly parallel tangent rows of the
+# loss, and IPX with crossover. On a 64x64 world's interval LPs, where a basis can be nearly
+# singular, the primal simplex failed after 49 s ("solve error") where the dual simplex from
+# the same basis answered in 18 s and the dual simplex from scratch failed after 83 s.
 _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
     ("as set", {}),
+    ("other simplex", {"simplex_dual_edge_weight_strategy": -1, "simplex_primal_edge_weight_strategy": -1}),
     ("from scratch", {}),
     ("primal simplex", {"solver": "simplex", "simplex_strategy": 4}),
     ("ipx", {"solver": "ipx", "run_crossover": "on"}),

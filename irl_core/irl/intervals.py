@@ -12,8 +12,8 @@ reward far below the mud's.
 The 2k LPs differ only in their cost (+-e_j) and are solved by the lp's row generation
 (`lp.RowGeneration`) in one live HiGHS model: the margin LP with every m_s fixed at 0, so that
 its family rows read V(s) >= Q(s, a). A new cost leaves the last basis primal feasible and the
-primal simplex starts from it; the rows any LP needed stay for the next ones, so after the
-first few LPs hardly any are added. Measured against the explicit dual of the whole LP (one
+primal simplex starts from it (`AFTER_NEW_COST`); the rows any LP needed stay for the next
+ones, so after the first few LPs hardly any are added. Measured against the explicit dual of the whole LP (one
 row per primal variable, a new cost being a new right-hand side, solved from the last basis):
 2x faster on a 32x32 world's 62 LPs, and 37 s against over 4 minutes for a 64x64 world's 4
 tied LPs, where the dual has 230,000 columns.
@@ -26,15 +26,27 @@ import dataclasses
 import numpy as np
 
 from irl_core.irl.highs import LinearProgram
-from irl_core.irl.lp import LPConstraints, Progress, RowGeneration, margin_lp
+from irl_core.irl.lp import MARGIN_OPTIONS, LPConstraints, Progress, RowGeneration, margin_lp
 
-# HiGHS chooses the simplex (primal after a new cost, dual after new rows); Dantzig pricing
-# for both, as for the margin (`lp.MARGIN_OPTIONS`).
-INTERVAL_OPTIONS = {
-    "simplex_strategy": 0,
-    "simplex_dual_edge_weight_strategy": 0,
-    "simplex_primal_edge_weight_strategy": 0,
-}
+# The first LP starts from no basis and is solved as the margin is (`lp.MARGIN_OPTIONS`: the
+# dual simplex with Dantzig pricing), and so is any LP retried from scratch. After a new cost
+# the last basis stays primal feasible: the primal simplex starts from it; after new rows it
+# stays dual feasible: the dual simplex. Both with HiGHS's own pricing (steepest edge or
+# devex), kept as the model's so that its edge weights carry over from one solve to the next
+# (switching pricing at every solve made a 32x32 world's 62 LPs 8 times slower). With
+# Dantzig's pricing 2 of a 64x64 world's 126 LPs failed after 120 s each ("unknown", "solve
+# error"), and HiGHS's own choice of simplex (the dual after a new cost too) ran one of them
+# past 60 s, where these settings answered both in 1 to 4 s from the same basis. Some bases
+# there are nearly singular (steepest-edge weights of 1e22): a solve from a basis is given up
+# after WARM_LIMIT seconds (a normal one takes 1 to 6 s on a 64x64 world, on a busy machine)
+# and retried by the other simplex from the same basis, then from scratch
+# (`highs.HighsModel.solve`). With a 30 s limit, 6 solves of the upper ends of the cliff cells
+# 23 to 32 steps from the goal ran past it in the primal simplex, where the dual simplex from
+# the same basis then answered in 1 to 22 s.
+INTERVAL_OPTIONS: dict[str, object] = {}
+AFTER_NEW_COST = {"simplex_strategy": 4}
+AFTER_NEW_ROWS = {"simplex_strategy": 1}
+WARM_LIMIT = 10.0
 
 
 def reward_intervals(constraints: LPConstraints, *, progress: Progress | None = None) -> tuple[np.ndarray, int]:
@@ -49,15 +61,27 @@ def reward_intervals(constraints: LPConstraints, *, progress: Progress | None = 
     upper = base.upper.copy()
     upper[n:] = 0.0  # m_s = 0: the family rows are V(s) >= Q(s, a), the lp set itself
     feasible = LinearProgram(base.A, base.row_lower, base.row_upper, base.lower, upper, np.zeros(base.shape[1]))
-    run = RowGeneration(dataclasses.replace(problem, base=feasible), options=INTERVAL_OPTIONS)
+    run = RowGeneration(dataclasses.replace(problem, base=feasible), options=INTERVAL_OPTIONS,
+                        after_rows=AFTER_NEW_ROWS, warm_limit=WARM_LIMIT, scratch=MARGIN_OPTIONS)
     intervals = np.empty((k, 2))
     cost = np.zeros(base.shape[1])
-    for j in range(k):
-        for end, sign in ((0, 1.0), (1, -1.0)):
-            cost[j] = sign
-            run.model.set_cost(cost)
-            intervals[j, end] = run.solve()[j]
-            if progress is not None:
-                progress("intervals", 2 * j + end + 1, 2 * k)
+    for done, (j, end) in enumerate(interval_order(k), start=1):
+        cost[j] = 1.0 if end == 0 else -1.0
+        run.model.set_cost(cost)
+        intervals[j, end] = run.solve(first=AFTER_NEW_COST if done > 1 else MARGIN_OPTIONS)[j]
         cost[j] = 0.0
+        if progress is not None:
+            progress("intervals", done, 2 * k)
     return intervals, run.model.iterations
+
+
+def interval_order(k: int) -> list[tuple[int, int]]:
+    """The 2k LPs as (unknown, end), end 0 the lower: every lower end in the unknowns' order,
+    then every upper end back again.
+
+    Unknowns are numbered in row-major cell order, so consecutive LPs move the cost to a
+    neighbouring cell; only one LP moves a cell from one end to the other. (On a 32x32 world
+    the two orders took about as many simplex iterations, 3,523 against 3,640 alternating
+    ends: what made the 64x64 LPs finish was the simplex chosen, see `INTERVAL_OPTIONS`.)
+    """
+    return [(j, 0) for j in range(k)] + [(j, 1) for j in reversed(range(k))]

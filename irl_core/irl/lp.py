@@ -287,6 +287,9 @@ MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
 class RowGeneration:
     """The margin LP solved by row generation in one live HiGHS model (see the module docstring).
 
+    `options`, `warm_limit` and `scratch` are the model's (`HighsModel`); `after_rows` are the
+    HiGHS options of the solves after new rows (default: the model's).
+
     Attributes:
         model: the HiGHS model, holding the base rows and the family rows in `in_model`.
         in_model: (S, A) the family rows added so far.
@@ -294,11 +297,14 @@ class RowGeneration:
         rounds: LPs solved.
     """
 
-    def __init__(self, problem: MarginLP, *, options: dict[str, object]):
+    def __init__(self, problem: MarginLP, *, options: dict[str, object],
+                 after_rows: dict[str, object] | None = None, warm_limit: float | None = None,
+                 scratch: dict[str, object] | None = None):
         self.problem = problem
         self.in_model = np.zeros_like(problem.rivals)
         self.pairs = np.zeros((0, 2), dtype=np.int64)
-        self.model = HighsModel(problem.base, options=options)
+        self.after_rows = after_rows
+        self.model = HighsModel(problem.base, options=options, warm_limit=warm_limit, scratch=scratch)
         self._add(seed_pairs(problem))
         self.rounds = 0
 
@@ -309,11 +315,17 @@ class RowGeneration:
         self.in_model |= pairs
         self.pairs = np.concatenate([self.pairs, np.column_stack([states, actions])])
 
-    def solve(self, *, progress: Progress | None = None) -> np.ndarray:
-        """z at the full LP's optimum for the model's current cost. Raises `InfeasibleError` or `SolverError`."""
+    def solve(self, *, progress: Progress | None = None, first: dict[str, object] | None = None) -> np.ndarray:
+        """z at the full LP's optimum for the model's current cost, the first LP solved with the
+        HiGHS options `first`, the later ones (after new rows) with `after_rows` (else the model's own).
+
+        Raises `InfeasibleError` or `SolverError`.
+        """
         problem = self.problem
+        options = first
         while True:  # each round adds rows of a finite family, so it ends
-            z, _ = self.model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
+            z, _ = self.model.minimise(infeasible_message=INFEASIBLE_MESSAGE, options=options)
+            options = self.after_rows
             self.rounds += 1
             if progress is not None:
                 progress("rounds", self.rounds, None)

@@ -109,3 +109,27 @@ def test_an_lp_the_simplex_cannot_finish_is_answered_by_ipx_with_the_same_optimu
     _, reference = HighsModel(problem).solve()
     assert (report.kind, report.solver) == ("answer", "ipx")
     assert report.objective == pytest.approx(reference.objective, rel=1e-7)
+
+
+def test_a_solve_from_a_basis_that_runs_out_of_time_is_retried_from_scratch_with_the_same_optimum(mud_demos):
+    # A 64x64 world's interval LPs met nearly singular bases on which the warm simplex ran for
+    # minutes: a warm solve is given up after `warm_limit` seconds (here at once) and retried.
+    constraints = lp_constraints(build_qmap(mud_demos.mdp, build_unknowns(mud_demos.mdp)), mud_demos.most_frequent,
+                                 rmax=1000.0)
+    problem = margin_lp(constraints).full()
+    cost = np.zeros(problem.shape[1])
+    cost[0] = -1.0  # the largest first reward: not where the margin's optimum put it
+    answers = []
+    for warm_limit in (1e-12, None):
+        model = HighsModel(problem, warm_limit=warm_limit)
+        assert model.solve()[1].solver == "simplex"  # no basis yet: no limit
+        model.set_cost(cost)
+        answers.append(model.solve()[1])
+    assert answers[0].solver == "simplex from scratch" and answers[1].solver == "simplex"
+    assert answers[0].objective == pytest.approx(answers[1].objective, rel=1e-9)
+
+
+def test_options_for_one_solve_are_set_back_afterwards():
+    model = one_variable(-2.0, 3.0)
+    _, report = model.solve({"simplex_strategy": 4})
+    assert report.kind == "answer" and model.highs.getOptionValue("simplex_strategy")[1] == 1

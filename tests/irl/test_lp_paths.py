@@ -192,10 +192,21 @@ def test_progress_hears_of_rounds_and_interval_lps():
     assert lps == [(i, 2 * result.unknowns.k) for i in range(1, 2 * result.unknowns.k + 1)]
 
 
+def test_every_per_cell_interval_lp_of_a_32x32_world_is_answered():
+    # Regression: on the landed main 4 of these 62 LPs ended "unknown"; they now take about 2 s.
+    mdp = build_mdp(cliff_world(32, 32))
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=100, seed=0))
+    result = fit(demos, intervals=True)
+    truth = result.unknowns.true_theta(mdp)
+    low, high = result.intervals.T
+    assert result.intervals.shape == (31, 2) and np.all(np.isfinite(result.intervals))
+    assert np.all(low <= truth + 1e-6) and np.all(truth <= high + 1e-6)
+    assert np.all(low <= result.theta + 1e-6) and np.all(result.theta <= high + 1e-6)
+    assert low[:-1] == pytest.approx(np.full(30, -RMAX))  # nothing the expert did bounds a cliff cell from below
+
+
 def test_every_tied_interval_lp_of_a_32x32_world_is_answered():
     # Regression: the interior point method gave an infeasible answer (by 39) to 1 of these 4 LPs.
-    # The 62 per-cell LPs, 4 of which ended "unknown", take too long for a test: they are
-    # `python -m bench.bench_scaling --check 32x32`.
     mdp = build_mdp(cliff_world(32, 32))
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=100, seed=0))
     tied = fit(demos, tie=True, intervals=True)
