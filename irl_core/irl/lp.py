@@ -3,7 +3,7 @@
 Ng & Russell (2000), extended by Hanslope & Aitchison to rewards R(s, a) = R_S(s) + R_A(a)
 with a known action cost. The demonstrated policy pi(s) is the most frequent action at s
 (ties: lowest action index). The paper writes Q^pi through (I - gamma T^pi)^-1, which needs
-pi everywhere; we keep the values V as variables (SPEC section 3), so that
+pi everywhere; we keep the values V as variables (README "Fitting a reward"), so that
 
     V(s) >= Q(s, a)             every non-terminal s, every a      (no action beats V)
     V(s)  = Q(s, pi(s))         every demonstrated s               (pi(s) attains it)
