@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 from careful_tui.keys.calibration import Calibration
 from careful_tui.keys.hold import HoldDetector, HoldProfile
 from careful_tui.keys.modes import TapCounter
-from test_hold import FakeClock, repeat_times, run_hold
+from play_fixtures import FakeClock
+from test_hold import repeat_times, run_hold
 
 
 def calibrated(delay_s: float, period_s: float, *, gaps_s: list[float] | None = None) -> HoldProfile:
@@ -60,7 +61,7 @@ def test_a_jittery_keyboard_gets_a_wider_margin() -> None:
 
 
 def test_a_calibrated_tap_is_a_move_after_the_shorter_wait() -> None:
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     detector = HoldDetector(calibrated(0.3, 0.03), clock=clock)
     detector.press("up")
     clock.now = 0.399
@@ -82,7 +83,7 @@ def test_a_calibrated_hold_is_one_move_when_its_first_repeat_is_late_within_the_
         # Early or late by up to the margin, but not before the press.
         shift = max((2 * late - 1) * margin_s * 0.999, 0.001 - delay_ms / 1000)
         times = [0.0] + [t + shift for t in times[1:]]
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     [hold] = run_hold(HoldDetector(profile, clock=clock), clock, "down", times)
     assert hold.repeats == len(times) - 1
 
@@ -100,20 +101,20 @@ def presses(detector: HoldDetector, clock: FakeClock, key: str, times: list[floa
 
 
 def test_uncalibrated_two_taps_within_150_ms_are_two_moves() -> None:
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     [first, second] = presses(HoldDetector(HoldProfile(), clock=clock), clock, "left", [0.0, 0.12])
     assert (first.level, first.started, second.level, second.started) == (1, 0.0, 1, 0.12)
 
 
 def test_uncalibrated_a_second_tap_after_150_ms_may_be_an_autorepeat() -> None:
     """Without calibration the delay is unknown: 300 ms could be a fast keyboard's first repeat."""
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     [hold] = presses(HoldDetector(HoldProfile(), clock=clock), clock, "left", [0.0, 0.3])
     assert hold.repeats == 1
 
 
 def test_calibrated_two_taps_before_the_delay_are_two_moves_and_a_hold_is_one() -> None:
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     profile = calibrated(0.5, 0.033)  # a second press before 400 ms
     detector = HoldDetector(profile, clock=clock)
     moves = presses(detector, clock, "down", [0.0, 0.39])
@@ -127,7 +128,7 @@ def test_calibrated_two_taps_before_the_delay_are_two_moves_and_a_hold_is_one() 
 
 
 def test_once_repeats_run_the_same_arrow_extends_the_hold() -> None:
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     detector = HoldDetector(calibrated(0.5, 0.033), clock=clock)
     # A press, its first repeat, then an event 2.5 periods later (off the rhythm, within the timeout).
     [hold] = presses(detector, clock, "up", [0.0, 0.5, 0.58])
@@ -136,7 +137,7 @@ def test_once_repeats_run_the_same_arrow_extends_the_hold() -> None:
 
 def test_tap_mode_counts_quick_taps_as_levels() -> None:
     """README "Playing": in tap mode k quick taps of one arrow are one move at level k, however quick."""
-    clock = FakeClock()
+    clock = FakeClock(0.0)
     counter = TapCounter(calibrated(0.5, 0.033), clock=clock)
     for t in (0.0, 0.08, 0.16):
         clock.now = t

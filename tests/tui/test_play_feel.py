@@ -13,7 +13,8 @@ from careful_tui.keys.calibration import Calibration
 from careful_tui.keys.hold import HoldProfile
 from careful_tui.screens.careful_app import CarefulApp
 from irl_core.demonstrations import read_recording
-from test_play_app import FakeClock, new_app, run
+from play_fixtures import FakeClock
+from test_play_app import new_app, run
 
 SMALL = (40, 12)
 
