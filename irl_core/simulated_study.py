@@ -4,7 +4,8 @@ For tests and benchmarks of `careful study report`, and to try a study before ru
 each simulated participant is a Boltzmann expert (`irl_core.experts`) with its own beta, who
 plays the study's protocol (its order, practice and main episodes per world) and whose files
 carry the ``study`` header field, with the participant id as the player and the expert in the
-header's ``input.expert``. One file per block: ``<out>/<ID>/<ID>-<position>-w<world_index>-<phase>.jsonl``.
+header's ``input.expert``. One file per block: ``<out>/<ID>/<ID>-<block>-w<world_index>-<phase>.jsonl``,
+``<block>`` counting the blocks in the order a participant plays them, so that name order is play order.
 The same participants and seed write the same bytes.
 """
 
@@ -51,7 +52,7 @@ def write_simulated_participant(study: LoadedStudy, who: SimulatedParticipant, *
     folder.mkdir(parents=True, exist_ok=True)
     targets = {"practice": study.study.practice_episodes, "main": study.study.episodes}
     written = []
-    for position, world_index in enumerate(world_order(study.study, who.participant)):
+    for world_index in world_order(study.study, who.participant):
         mdp = build_mdp(study.worlds[world_index])
         policy = boltzmann_policy(mdp, beta=who.beta)
         for phase_number, phase in enumerate(("practice", "main")):
@@ -62,7 +63,7 @@ def write_simulated_participant(study: LoadedStudy, who: SimulatedParticipant, *
             tag = StudyTag(name=study.study.name, participant=who.participant, phase=phase, world_index=world_index)
             header = session_header(mdp, player=player, seed=seed).model_copy(
                 update={"player": who.participant, "study": tag})
-            path = folder / f"{who.participant}-{position}-w{world_index}-{phase}.jsonl"
+            path = folder / f"{who.participant}-{len(written)}-w{world_index}-{phase}.jsonl"
             result = rollouts(mdp, policy, episodes=targets[phase], seed=seed)
             written.append(write_rollouts(path, mdp, result, player=player, seed=seed, header=header))
     return written

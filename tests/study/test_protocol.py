@@ -8,6 +8,9 @@ import hashlib
 
 import pytest
 
+from careful_tui.commands.replay import name_order
+from irl_core.demonstrations import read_recording
+from irl_core.simulated_study import SimulatedParticipant, write_simulated_participant
 from irl_core.study import Study, read_protocol, world_order
 from study.conftest import write_block
 
@@ -110,3 +113,15 @@ def test_participant_ids_that_cannot_be_folders_are_refused(study, bad):
 
     with pytest.raises(StudyError, match="participant id"):
         read_protocol(study, bad)
+
+
+def test_a_simulated_participants_files_replay_in_the_order_they_were_played(study):
+    """`careful replay FOLDER` plays a folder in name order: a simulated participant's file names
+    keep that the order of play (world by world, practice before main)."""
+    who = SimulatedParticipant("p01", beta=1.0, seed=3)
+    write_simulated_participant(study, who)
+    in_name_order = sorted(study.participant_folder("p01").glob("*.jsonl"), key=name_order)
+    played = [(header.study.world_index, header.study.phase)
+              for header in (read_recording(path).header for path in in_name_order)]
+    assert played == [(1, "practice"), (1, "main"), (0, "practice"), (0, "main")]
+    assert read_protocol(study, "p01").finished
