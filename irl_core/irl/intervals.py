@@ -26,9 +26,9 @@ import dataclasses
 import numpy as np
 
 from irl_core.irl.highs import LinearProgram
-from irl_core.irl.lp import MARGIN_OPTIONS, LPConstraints, Progress, RowGeneration, margin_lp
+from irl_core.irl.lp import LPConstraints, Progress, RowGeneration, margin_lp, margin_options
 
-# The first LP starts from no basis and is solved as the margin is (`lp.MARGIN_OPTIONS`: the
+# The first LP starts from no basis and is solved as the margin is (`lp.margin_options`: the
 # dual simplex with Dantzig pricing), and so is any LP retried from scratch. After a new cost
 # the last basis stays primal feasible: the primal simplex starts from it; after new rows it
 # stays dual feasible: the dual simplex. Both with HiGHS's own pricing (steepest edge or
@@ -61,14 +61,15 @@ def reward_intervals(constraints: LPConstraints, *, progress: Progress | None = 
     upper = base.upper.copy()
     upper[n:] = 0.0  # m_s = 0: the family rows are V(s) >= Q(s, a), the lp set itself
     feasible = LinearProgram(base.A, base.row_lower, base.row_upper, base.lower, upper, np.zeros(base.shape[1]))
+    from_scratch = margin_options(problem)
     run = RowGeneration(dataclasses.replace(problem, base=feasible), options=INTERVAL_OPTIONS,
-                        after_rows=AFTER_NEW_ROWS, warm_limit=WARM_LIMIT, scratch=MARGIN_OPTIONS)
+                        after_rows=AFTER_NEW_ROWS, warm_limit=WARM_LIMIT, scratch=from_scratch)
     intervals = np.empty((k, 2))
     cost = np.zeros(base.shape[1])
     for done, (j, end) in enumerate(interval_order(k), start=1):
         cost[j] = 1.0 if end == 0 else -1.0
         run.model.set_cost(cost)
-        intervals[j, end] = run.solve(first=AFTER_NEW_COST if done > 1 else MARGIN_OPTIONS)[j]
+        intervals[j, end] = run.solve(first=AFTER_NEW_COST if done > 1 else from_scratch)[j]
         cost[j] = 0.0
         if progress is not None:
             progress("intervals", done, 2 * k)

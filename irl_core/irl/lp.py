@@ -272,16 +272,31 @@ def solve_margin_lp(
         model = HighsModel(problem.full())
         z, _ = model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
         return _solution(problem, z, model, rounds=1)
-    run = RowGeneration(problem, options=MARGIN_OPTIONS)
+    run = RowGeneration(problem, options=margin_options(problem))
     z = run.solve(progress=progress)
     return _solution(problem, z, run.model, rounds=run.rounds)
 
 
 # Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
 # on its weights than it saves here (a 64x64 world's first round: 23 s against over 150 s;
-# devex: over 6 minutes). HiGHS's presolve stays on: without it a 64x64 world's fit took over
-# 4 minutes instead of 16 s (but with tied rewards, the reverse: over 6 minutes with it, 34 s without).
+# devex: over 6 minutes). HiGHS's presolve stays on (`margin_options`): without it a 64x64
+# world's fit took over 4 minutes instead of 16 s.
 MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
+
+
+def margin_options(problem: MarginLP) -> dict[str, object]:
+    """The HiGHS options of a margin LP solved from no basis: `MARGIN_OPTIONS`, and presolve off
+    when a reward unknown is shared by several terminal cells (`--tie`: one column in many of
+    the rows V(s) = R_S(s)).
+
+    Measured on the 64x64 world's first round, one solve at a time (`bench.tied_first_round`):
+    with a shared unknown (2 columns, 62 and 1 cells) not solved in 60 s with presolve (over 12
+    minutes in an earlier session), 8.8 s without; with one unknown per cell (63 columns) 9.0 s
+    with presolve, not solved in 60 s without (over 4 minutes in the earlier session).
+    """
+    terminal = problem.qmap.E[:, : problem.qmap.k]
+    shared = np.diff(terminal.tocsc().indptr).max(initial=0) > 1
+    return {**MARGIN_OPTIONS, "presolve": "off"} if shared else MARGIN_OPTIONS
 
 
 class RowGeneration:

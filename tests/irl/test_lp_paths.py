@@ -17,7 +17,7 @@ from bench.worlds import cliff_world
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import InfeasibleError, fit
 from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.lp import lp_constraints, solve_margin_lp
+from irl_core.irl.lp import lp_constraints, margin_lp, margin_options, solve_margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS, World
@@ -141,6 +141,14 @@ def test_with_lambda_every_route_agrees():
 
 def test_tied_intervals_of_a_16x16_world_match_fresh_lps():
     assert_every_route_agrees(constraints_for(cliff_world(16, 16), episodes=100, tie=True), margin=False)
+
+
+def test_tied_margin_of_a_16x16_world_without_presolve_matches_the_full_lp():
+    tied = constraints_for(cliff_world(16, 16), episodes=100, tie=True)
+    per_cell = constraints_for(cliff_world(16, 16), episodes=100)
+    assert margin_options(margin_lp(tied)).get("presolve") == "off"
+    assert "presolve" not in margin_options(margin_lp(per_cell))
+    assert_margins_agree(tied, lam=0.0)
 
 
 @st.composite
