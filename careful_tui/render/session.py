@@ -32,6 +32,14 @@ def outcome_words(code: str) -> str:
     return words.get(code) or f"ended on {SYMBOL_NAMES.get(code, repr(code))}"
 
 
+def outcome_colour(code: str) -> str:
+    """The colour of an `irl_core.summary.outcome_code`: the goal good, any other terminal cell
+    bad, an episode that ended without one (quit, out of steps, unfinished) a note."""
+    if code == "G":
+        return GOOD
+    return NOTE if code in ("quit", "step_limit", "unfinished") else BAD
+
+
 def legend(world: World) -> Text:
     """One line naming the world's rewarded symbols: "■ cliff -1000 · ■ goal 100 (ends)"."""
     text = Text()
@@ -71,7 +79,7 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     session.add_column()
     session.add_row(*plural(summary.episodes, "episode").split(" ", 1))
     for code, count in sorted(summary.outcomes.items(), key=lambda item: -item[1]):
-        colour = GOOD if code == "G" else BAD if code == "C" else NOTE
+        colour = outcome_colour(code)
         session.add_row(Text(str(count), style=colour), Text(outcome_words(code), style=colour))
     session.add_row(*plural(summary.steps, "step").split(" ", 1))
     session.add_row(Text(str(summary.slips), style=SLIP if summary.slips else ""),

@@ -29,8 +29,8 @@ from textual.timer import Timer
 from textual.widgets import Static
 
 from careful_tui.render.grid import format_value
-from careful_tui.render.palette import BAD, GOOD, NOTE, SLIP, WARN, level_colour
-from careful_tui.render.session import outcome_text, plural, summary_panel
+from careful_tui.render.palette import NOTE, SLIP, WARN, level_colour
+from careful_tui.render.session import outcome_colour, outcome_text, plural, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.screens.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from careful_tui.widgets import Arrow, Board, Gauge
@@ -39,7 +39,7 @@ from irl_core.demonstrations import Recording
 from irl_core.recording_lines import Step
 from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.safe_text import VALUE_LIMIT, printable
-from irl_core.summary import distance_to_terminal, summarise
+from irl_core.summary import distance_to_terminal, outcome_code, summarise
 from irl_core.world import World
 
 FRAME_S = 0.5
@@ -368,7 +368,7 @@ class ReplayScreen(Screen[None]):
             if end is None:
                 status.append("unfinished: the recording stops here", style=f"bold {WARN}")
             else:
-                colour = GOOD if end.terminal_symbol == "G" else BAD if end.outcome == "terminal" else NOTE
+                colour = outcome_colour(outcome_code(end))
                 status.append(f"{outcome_text(end)}!", style=f"bold {colour}")
                 status.append("   score ", style="dim")
                 status.append(format_value(end.score), style=f"bold {colour}")

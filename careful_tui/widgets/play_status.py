@@ -15,10 +15,11 @@ from textual.reactive import reactive
 from textual.widgets import Static
 
 from careful_tui.render.grid import format_value
-from careful_tui.render.palette import BAD, GOOD, WARN, level_colour
-from careful_tui.render.session import outcome_text
+from careful_tui.render.palette import GOOD, WARN, level_colour
+from careful_tui.render.session import outcome_colour, outcome_text
 from irl_core.game import MoveResult
 from irl_core.recording_lines import EpisodeEnd
+from irl_core.summary import outcome_code
 from irl_core.world import World
 
 
@@ -84,14 +85,14 @@ class GameStatus(Static):
             status.append("\n")
             if end is not None:
                 status.append(f"Last {names.word.lower()} ({names.number(end.episode)}): ", style="dim")
-                status.append(outcome_text(end), style=GOOD if end.terminal_symbol == "G" else BAD)
+                status.append(outcome_text(end), style=outcome_colour(outcome_code(end)))
                 status.append(f", score {format_value(end.score)}", style="dim")
             else:
                 status.append("Careful moves cost more and slip less.", style="dim")
             status.append("\n")
             status.append_text(self.message)
             return status
-        colour = GOOD if end.terminal_symbol == "G" else BAD
+        colour = outcome_colour(outcome_code(end))
         status.append(f"{names.word} {names.number(end.episode)}: ", style="bold")
         status.append(f"{outcome_text(end)}!", style=f"bold {colour}")
         status.append("   score ", style="dim")
