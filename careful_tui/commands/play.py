@@ -9,7 +9,7 @@ import secrets
 from careful_tui.app import make_play_app
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
-from irl_core.recording_writer import check_writable
+from irl_core.recording_writer import SessionRecorder, check_writable
 from irl_core.safe_text import printable
 from irl_core.world import load_world
 
@@ -44,14 +44,24 @@ def run_play(args: argparse.Namespace) -> int:
     finally:
         play.record_quit()
     recorder = play.recorder
+    say_recorded(recorder)
+    if play.write_error is not None:
+        kept = "the steps before it are kept" if recorder.paths else "nothing was recorded"
+        raise UsageError(f"cannot write the recording in {args.out} ({write_problem(play.write_error)}); "
+                         f"the game stopped and {kept}")
+    if not recorder.paths:
+        print("nothing was played, so nothing was recorded")
+    return 0
+
+
+def say_recorded(recorder: SessionRecorder) -> None:
+    """Print the files a session recorded (and any deleted under it, whose steps were written again)."""
     for path in recorder.lost:
         print(f"{printable(str(path))} was deleted during the session; its steps were written again below")
     for path in recorder.paths:
         print(f"recorded to {printable(str(path))}")
-    if play.write_error is not None:
-        kept = "the steps before it are kept" if recorder.paths else "nothing was recorded"
-        problem = getattr(play.write_error, "strerror", None) or play.write_error
-        raise UsageError(f"cannot write the recording in {args.out} ({problem}); the game stopped and {kept}")
-    if not recorder.paths:
-        print("nothing was played, so nothing was recorded")
-    return 0
+
+
+def write_problem(error: OSError | ValueError) -> str:
+    """Why a recording could not be written, in a few words ("No space left on device")."""
+    return getattr(error, "strerror", None) or str(error)

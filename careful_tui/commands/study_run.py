@@ -7,6 +7,7 @@ import argparse
 import sys
 
 from careful_tui.app import make_study_app
+from careful_tui.commands.play import say_recorded, write_problem
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
 from irl_core.recording_writer import check_writable
@@ -45,14 +46,10 @@ def run_study_run(args: argparse.Namespace) -> int:
     finally:
         flow.record_quit()
     for play in flow.plays:
-        for path in play.recorder.lost:
-            print(f"{printable(str(path))} was deleted during the session; its steps were written again below")
-        for path in play.recorder.paths:
-            print(f"recorded to {printable(str(path))}")
+        say_recorded(play.recorder)
     errors = [play.write_error for play in flow.plays if play.write_error is not None]
     if errors:
-        problem = getattr(errors[0], "strerror", None) or errors[0]
-        raise UsageError(f"cannot write the recording in {printable(str(protocol.folder))} ({problem}); "
+        raise UsageError(f"cannot write the recording in {printable(str(protocol.folder))} ({write_problem(errors[0])}); "
                          "the study stopped; run the same command to go on from the last finished episode")
     print(standing(study, args.participant))
     return 0

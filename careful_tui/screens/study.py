@@ -250,8 +250,7 @@ class StudyScreen(Screen[None]):
         if self.stage == "end":
             self.app.exit()
             return
-        self.protocol = read_protocol(self.study, self.participant)
-        block = self.protocol.next
+        block = self.protocol.next  # read at the start and again after each block
         if block is None:
             self.stage = "end"
             return
