@@ -65,8 +65,9 @@ class Calibration:
         times = self._times
         delay_ms = _clamp((times[1] - times[0]) * 1000.0, self.DELAY_RANGE_MS)
         gaps_ms = [(b - a) * 1000.0 for a, b in zip(times[1:], times[2:])]
-        period_ms = _clamp(statistics.median(gaps_ms), self.PERIOD_RANGE_MS)
-        spread_ms = MAD_TO_SIGMA * statistics.median(abs(gap - statistics.median(gaps_ms)) for gap in gaps_ms)
+        median_gap_ms = statistics.median(gaps_ms)
+        period_ms = _clamp(median_gap_ms, self.PERIOD_RANGE_MS)
+        spread_ms = MAD_TO_SIGMA * statistics.median(abs(gap - median_gap_ms) for gap in gaps_ms)
         margin_ms = max(self.MIN_MARGIN_MS, self.MARGIN_PERIODS * period_ms, self.MARGIN_SPREADS * spread_ms)
         return replace(
             self.base,
