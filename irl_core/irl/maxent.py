@@ -81,7 +81,7 @@ class SoftPlan:
     Q: np.ndarray
     policy: np.ndarray
     iterations: int
-    log_policy: np.ndarray | None = None
+    log_policy: np.ndarray
 
 
 def soft_bellman(
@@ -138,10 +138,12 @@ def _soft_policy(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 
 def log_likelihood(
-    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None = None
+    mdp: MDP, counts: np.ndarray, R_S: np.ndarray, *, beta: float, V0: np.ndarray | None = None,
+    drive: np.ndarray | None = None,
 ) -> tuple[float, np.ndarray, SoftPlan]:
-    """LL(R_S) and its gradient dLL/dR_S (S,) for demonstrated counts N (S, A)."""
-    ll, G, plan, _ = _likelihood(mdp, counts, R_S, beta=beta, V0=V0)
+    """LL(R_S) and its gradient dLL/dR_S (S,) for demonstrated counts N (S, A) (`drive`:
+    `demonstration_drive` of the counts, when the caller keeps it)."""
+    ll, G, plan, _ = _likelihood(mdp, counts, R_S, beta=beta, V0=V0, drive=drive)
     grad = beta * G.sum(axis=1)
     grad[mdp.exit_state] = 0.0  # the exit's reward is fixed at 0
     return ll, grad, plan
@@ -314,7 +316,7 @@ def fit_maxent(
                                                                 V0=warm["V"], drive=drive)
             gradient = np.append(basis_T @ grad, grad_log_beta)
         else:
-            ll, grad, plan = log_likelihood(mdp, counts, R_S, beta=float(beta), V0=warm["V"])
+            ll, grad, plan = log_likelihood(mdp, counts, R_S, beta=float(beta), V0=warm["V"], drive=drive)
             gradient = basis_T @ grad
         warm["V"] = plan.V
         return -ll / total, -gradient / total
