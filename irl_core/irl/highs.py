@@ -11,8 +11,9 @@ dual) are solved from the last optimum instead of from scratch.
 
 HiGHS's model status is read through one table, `OUTCOMES`: our word for it and whether it
 is an answer, a proof of infeasibility or unboundedness, or a failure. A failure is retried
-from scratch, then by the primal simplex, then by the interior point method IPX with
-crossover; only when all of them fail does `SolverError` reach the user.
+from scratch (unless it was that very solve already), then by the primal simplex, then by the
+interior point method IPX with crossover; only when all of them fail does `SolverError` reach
+the user.
 
 The solver is always named ("simplex", "ipx"): HiGHS's "ipm" means IPX in a plain install but
 HiPO when `highspy-extras` is installed, which took 12x longer on a 32x32 world's fit.
@@ -254,6 +255,10 @@ class HighsModel:
                 self._set({**self.options, **setup, **warm, "simplex_strategy": other})
                 highs.setBasis(start)
             else:
+                if solver == "from scratch" and not start.valid and _same_solve(first, {**self.options, **self.scratch}):
+                    # The failed attempt was this very solve, and HiGHS is deterministic: on a
+                    # 128x128 world's first round it failed again after the same 1,170 s.
+                    continue
                 highs.clearSolver()
                 self._set({**self.options, **self.scratch, **setup, "time_limit": float("inf")})
             highs.run()
@@ -308,6 +313,11 @@ _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
     ("primal simplex", {"solver": "simplex", "simplex_strategy": 4}),
     ("ipx", {"solver": "ipx", "run_crossover": "on"}),
 )
+
+
+def _same_solve(a: dict[str, object], b: dict[str, object]) -> bool:
+    """Whether two option sets describe the same solve (time limits aside)."""
+    return {k: v for k, v in a.items() if k != "time_limit"} == {k: v for k, v in b.items() if k != "time_limit"}
 
 
 def _highs_bound(bound: np.ndarray) -> np.ndarray:

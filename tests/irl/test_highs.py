@@ -111,6 +111,20 @@ def test_an_lp_the_simplex_cannot_finish_is_answered_by_ipx_with_the_same_optimu
     assert report.objective == pytest.approx(reference.objective, rel=1e-7)
 
 
+def test_a_failed_solve_from_no_basis_is_not_repeated_from_scratch(mud_demos):
+    # HiGHS is deterministic: a 128x128 world's first round failed after 1,170 s, and the retry
+    # from scratch with the same settings failed again after the same 1,170 s.
+    constraints = lp_constraints(build_qmap(mud_demos.mdp, build_unknowns(mud_demos.mdp)), mud_demos.most_frequent,
+                                 rmax=1000.0)
+    model = HighsModel(margin_lp(constraints).full(), options={"simplex_iteration_limit": 0})
+    runs = []
+    run = model.highs.run
+    model.highs.run = lambda: runs.append(model.highs.getOptionValue("solver")[1]) or run()
+    _, report = model.solve()
+    # The dual simplex, the primal simplex, then IPX: no second identical dual simplex.
+    assert runs == ["simplex", "simplex", "ipx"] and report.solver == "ipx"
+
+
 def test_a_solve_from_a_basis_that_runs_out_of_time_is_retried_from_scratch_with_the_same_optimum(mud_demos):
     # A 64x64 world's interval LPs met nearly singular bases on which the warm simplex ran for
     # minutes: a warm solve is given up after `warm_limit` seconds (here at once) and retried.
