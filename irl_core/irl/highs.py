@@ -257,7 +257,8 @@ class HighsModel:
             else:
                 if solver == "from scratch" and not start.valid and _same_solve(first, {**self.options, **self.scratch}):
                     # The failed attempt was this very solve, and HiGHS is deterministic: on a
-                    # 128x128 world's first round the retry retraced the 1,170 s failure iteration for iteration.
+                    # 128x128 world's first round the retry retraced the 1,170 s failure
+                    # iteration for iteration.
                     continue
                 highs.clearSolver()
                 self._set({**self.options, **self.scratch, **setup, "time_limit": float("inf")})
