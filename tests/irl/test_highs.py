@@ -1,5 +1,6 @@
 """The one HiGHS wrapper: its status table, its refusals and its silence on stdout."""
 
+import _thread
 import subprocess
 import sys
 
@@ -8,8 +9,10 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from irl_core.experts import optimal_policy, rollouts, write_rollouts
+from bench.worlds import cliff_world
+from irl_core.experts import demonstrations_of, optimal_policy, rollouts, write_rollouts
 from irl_core.irl import InfeasibleError, SolverError, fit
+from irl_core.irl import highs as highs_module
 from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program
 from irl_core.irl.lp import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
@@ -111,15 +114,37 @@ def test_an_lp_the_simplex_cannot_finish_is_answered_by_ipx_with_the_same_optimu
     assert report.objective == pytest.approx(reference.objective, rel=1e-7)
 
 
-def test_a_failed_solve_from_no_basis_is_not_repeated_from_scratch(mud_demos):
+def test_ctrl_c_stops_a_solve_at_once_and_is_not_retried():
+    # Ctrl+C used to reach Python only when HiGHS returned (20 minutes on a 128x128 world's first
+    # round). Here it comes (from the solver thread, deterministically) at the 5th simplex
+    # callback of a 16x16 world's margin LP.
+    mdp = build_mdp(cliff_world(16, 16))
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
+    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
+    model = HighsModel(margin_lp(constraints).full())
+    seen = []
+
+    def ctrl_c_at_the_fifth(event):
+        seen.append(event.data_out.simplex_iteration_count)
+        if len(seen) == 5:
+            _thread.interrupt_main()
+
+    model.highs.cbSimplexInterrupt += ctrl_c_at_the_fifth
+    with pytest.raises(KeyboardInterrupt):
+        model.solve()
+    assert not model.highs.is_solver_running()
+    assert model.highs.getModelStatus() == highspy.HighsModelStatus.kInterrupt  # stopped, not retried
+
+
+def test_a_failed_solve_from_no_basis_is_not_repeated_from_scratch(mud_demos, monkeypatch):
     # HiGHS is deterministic: a 128x128 world's first round failed after 1,170 s, and the retry
     # from scratch with the same settings retraced it iteration for iteration.
     constraints = lp_constraints(build_qmap(mud_demos.mdp, build_unknowns(mud_demos.mdp)), mud_demos.most_frequent,
                                  rmax=1000.0)
     model = HighsModel(margin_lp(constraints).full(), options={"simplex_iteration_limit": 0})
     runs = []
-    run = model.highs.run
-    model.highs.run = lambda: runs.append(model.highs.getOptionValue("solver")[1]) or run()
+    run = highs_module._run
+    monkeypatch.setattr(highs_module, "_run", lambda highs: runs.append(highs.getOptionValue("solver")[1]) or run(highs))
     _, report = model.solve()
     # The dual simplex, the primal simplex, then IPX: no second identical dual simplex.
     assert runs == ["simplex", "simplex", "ipx"] and report.solver == "ipx"
