@@ -165,13 +165,21 @@ def test_study_report_figures_show_the_world_and_each_participant_as_written(hos
     assert sorted(figures) == [f"carefulness-{key}", "intervals-pooled", f"rewards-{key}"]
     for name, figure in figures.items():
         texts = figure_texts(figure)
-        assert any(SHOWN in text for text in texts), name  # in the title
+        lines = " ".join(texts)  # a long title is drawn as lines broken at spaces
+        assert SHOWN in lines, name  # in the title
         if not name.startswith("intervals"):
             for participant in renamed.values():
-                assert printable(participant, limit=40) in texts, name  # a panel's title
+                assert printable(participant, limit=40) in lines, name  # a panel's title
         else:
             assert {"$", "^", "_"} <= set(texts)  # the interval rows of symbols without a name
         assert_every_text_is_plain(figure)
+        # Long names are broken into lines: no title runs into another or off the figure.
+        titles = [ax.title.get_window_extent() for ax in figure.axes if ax.get_visible() and ax.get_title()]
+        titles += [text.get_window_extent() for text in (figure._suptitle,) if text is not None]
+        page = figure.bbox
+        for i, box in enumerate(titles):
+            assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1, name
+            assert not any(box.overlaps(other) for other in titles[i + 1:]), name
 
 
 def test_study_report_command_writes_figures_of_a_hostile_world(hostile_study, monkeypatch, tmp_path):
