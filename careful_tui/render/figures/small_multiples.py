@@ -102,7 +102,8 @@ def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *
         for ax, (label, data) in zip(axes.ravel(), panels):
             if reference is not None:
                 ax.plot(reference[1].distance, reference[1].mean, color=QUIET, linewidth=1.6, alpha=0.6, zorder=1)
-            draw_carefulness(ax, [(label, data)], levels=levels, title=panel_title(label, PAGE_WIDTH / n_cols * 0.85))
+            draw_carefulness(ax, [(label, data)], levels=levels,
+                             title=panel_title(label, PAGE_WIDTH / n_cols * 0.85))  # less the axis' labels
             ax.get_legend().remove()
             ax.set_xlabel("")
             ax.set_ylabel("")
