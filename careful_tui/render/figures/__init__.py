@@ -6,7 +6,8 @@ function over arrays and labels that returns a `matplotlib.figure.Figure`; `save
 writes one in the format its path's suffix names.
 
 - `board`: a world's cells as arrays (symbols, walls, terminal cells), no matplotlib.
-- `style`: the look every figure shares (font, sizes, colours) and `save_figure`.
+- `style`: the look every figure shares (font, sizes, colours), `plain` (text from a file, shown
+  as written) and `save_figure`.
 - `heatmap`: rewards on a symmetric-log diverging colour scale with a colour bar.
 - `policy`: arrows whose width and number show carefulness, opacity how often.
 - `intervals`: one row per unknown, interval as a bar, estimate as a dot, truth as a mark.

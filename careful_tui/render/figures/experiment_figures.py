@@ -19,7 +19,7 @@ from careful_tui.render.figures.board import Board
 from careful_tui.render.figures.heatmap import reward_figure, reward_limit
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.policy import PolicyPanel, policy_figure
-from careful_tui.render.grid import SYMBOL_NAMES
+from careful_tui.render.figures.style import symbol_label
 from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
 from irl_core.mdp import DIRECTIONS
 
@@ -72,7 +72,7 @@ def separation_rows(separation: Separation, figure: Figure, board: Board) -> lis
     rows = []
     for symbol, (low, high) in (("C", separation.cliff), ("U", separation.mud)):
         cells = board.symbols == symbol
-        rows.append(IntervalRow(SYMBOL_NAMES.get(symbol, symbol), symbol, low, high,
+        rows.append(IntervalRow(symbol_label(symbol), symbol, low, high,
                                 float(np.nanmean(figure.values[cells])), figure.world.reward_of(symbol)))
     return rows
 

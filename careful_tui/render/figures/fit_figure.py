@@ -32,8 +32,7 @@ from careful_tui.render.figures.intervals import (
     worst_first,
 )
 from careful_tui.render.figures.policy import NOTE_HEIGHT, draw_policy, policy_note, policy_panel
-from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure
-from careful_tui.render.grid import SYMBOL_NAMES
+from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure, symbol_label
 from careful_tui.render.intervals import interval_title
 from irl_core.irl import FitResult
 
@@ -50,7 +49,7 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
     rows = []
     for j, symbol in enumerate(result.unknowns.symbols):
-        name = SYMBOL_NAMES.get(symbol, symbol)
+        name = symbol_label(symbol)
         label = name if result.options.tie else f"{name} {result.mdp.cells[first_state[j]]}"
         low, high = (float(v) for v in result.intervals[j])
         rows.append(IntervalRow(label, symbol, low, high, float(result.theta[j]), float(truth[j])))
@@ -61,7 +60,7 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
         mine = [row for row in rows if row.symbol == symbol]
         truths = {row.truth for row in mine}
         cells = f"{len(mine)} cell{'s' * (len(mine) != 1)}"
-        hulls.append(IntervalRow(f"{SYMBOL_NAMES.get(symbol, symbol)} ({cells})", symbol,
+        hulls.append(IntervalRow(f"{symbol_label(symbol)} ({cells})", symbol,
                                  min(r.low for r in mine), max(r.high for r in mine),
                                  float(np.mean([r.estimate for r in mine])),
                                  truths.pop() if len(truths) == 1 else float("nan")))

@@ -20,7 +20,7 @@ from matplotlib.image import AxesImage
 from matplotlib.patches import Rectangle
 
 from careful_tui.render.figures.board import GROUND, Board
-from careful_tui.render.figures.style import INK, QUIET, PANEL_WIDTH, figure_style, new_figure
+from careful_tui.render.figures.style import INK, QUIET, PANEL_WIDTH, figure_style, new_figure, plain
 from careful_tui.render.grid import format_value
 
 REWARD_CMAP = "RdBu"
@@ -141,7 +141,7 @@ def draw_reward(ax: Axes, values: np.ndarray, board: Board, *, norm: SymLogNorm,
             symbol = board.symbols[r, c]
             if symbol == GROUND and value == 0:
                 colour = QUIET  # the neutral ground: present, but not competing with the rewards
-            text = value_label(value) if symbol == GROUND else f"{symbol}\n{value_label(value)}"
+            text = value_label(value) if symbol == GROUND else f"{plain(symbol)}\n{value_label(value)}"
             ax.text(c, r, text, ha="center", va="center", color=colour, fontsize=text_size, linespacing=1.1, zorder=5)
     return image
 

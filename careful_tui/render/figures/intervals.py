@@ -124,7 +124,7 @@ def draw_intervals(ax: Axes, rows: Sequence[IntervalRow], *, rmax: float | None,
     for side in ("top", "right"):
         ax.spines[side].set_visible(False)
     if title:
-        ax.set_title(title, pad=3)
+        ax.set_title(title, pad=3, wrap=True)  # a long world name in it would run off the figure
 
 
 def _no_minor():

@@ -28,7 +28,7 @@ from careful_tui.render.figures.heatmap import (
     reward_limit,
     reward_norm,
 )
-from careful_tui.render.figures.style import INK, PANEL_WIDTH, figure_style, new_figure
+from careful_tui.render.figures.style import INK, PANEL_WIDTH, figure_style, new_figure, plain
 from irl_core.mdp import MDP
 
 # (dx, dy) on the page for up, right, down, left; rows grow downwards.
@@ -108,7 +108,8 @@ def draw_policy(ax: Axes, panel: PolicyPanel, board: Board, *, levels: int,
     for (r, c), d in np.ndenumerate(panel.direction):
         if d < 0:
             if text_size is not None and board.symbols[r, c] != GROUND and not board.wall[r, c]:
-                ax.text(c, r, board.symbols[r, c], ha="center", va="center", fontsize=text_size, color=INK, zorder=5)
+                ax.text(c, r, plain(board.symbols[r, c]), ha="center", va="center", fontsize=text_size, color=INK,
+                        zorder=5)
             continue
         level = int(panel.carefulness[r, c])
         strength = 1.0 if panel.count is None else 0.2 + 0.8 * float(panel.count[r, c]) / most

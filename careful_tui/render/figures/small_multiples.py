@@ -11,10 +11,14 @@ Panels fill rows of `columns` from the top left; a page wide.
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Sequence
 
+import matplotlib as mpl
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.font_manager import FontProperties
+from matplotlib.textpath import text_to_path
 
 from careful_tui.render.figures.board import Board
 from careful_tui.render.figures.carefulness import CarefulnessByDistance, draw_carefulness
@@ -32,6 +36,18 @@ from careful_tui.render.figures.style import PAGE_WIDTH, QUIET, figure_style, ne
 SUPTITLE_HEIGHT = 0.3  # inches
 CAREFULNESS_PANEL_HEIGHT = 0.95  # inches per row of carefulness panels
 AXIS_LABEL_HEIGHT = 0.35  # inches for the shared axis labels
+
+
+def panel_title(label: str, width: float) -> str:
+    """`label` in lines that fit a panel `width` inches wide: a long participant id would run into its neighbours'.
+
+    Call inside `figure_style` (the title's font is measured).
+    """
+    font = FontProperties(size=mpl.rcParams["axes.titlesize"])
+    measured = text_to_path.get_text_width_height_descent(label, font, ismath=False)[0] / 72  # inches
+    if measured <= width:
+        return label
+    return textwrap.fill(label, max(8, int(len(label) * width / measured)))
 
 
 def _grid_shape(panels: int, columns: int) -> tuple[int, int]:
@@ -58,12 +74,13 @@ def reward_multiples(panels: Sequence[tuple[str, np.ndarray]], board: Board, *, 
         norm = reward_norm(vmax)
         image = None
         for ax, (label, values) in zip(axes.ravel(), panels):
-            image = draw_reward(ax, values, board, norm=norm, title=label, width=cell_width(grid_width, cols))
+            image = draw_reward(ax, values, board, norm=norm, title=panel_title(label, grid_width),
+                                width=cell_width(grid_width, cols))
         for ax in axes.ravel()[len(panels):]:
             ax.set_visible(False)
         add_colour_bar(figure, image, axes.ravel().tolist(), vmax=vmax)
         if title:
-            figure.suptitle(title, fontsize=7)
+            figure.suptitle(title, fontsize=7, wrap=True)
     return figure
 
 
@@ -85,7 +102,8 @@ def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *
         for ax, (label, data) in zip(axes.ravel(), panels):
             if reference is not None:
                 ax.plot(reference[1].distance, reference[1].mean, color=QUIET, linewidth=1.6, alpha=0.6, zorder=1)
-            draw_carefulness(ax, [(label, data)], levels=levels, title=label)
+            draw_carefulness(ax, [(label, data)], levels=levels,
+                             title=panel_title(label, PAGE_WIDTH / n_cols * 0.85))  # less the axis' labels
             ax.get_legend().remove()
             ax.set_xlabel("")
             ax.set_ylabel("")
@@ -97,5 +115,5 @@ def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *
         key = "blue: the participant's mean carefulness ± 95% interval"
         if reference is not None:
             key += f"; grey: {reference[0]}"
-        figure.suptitle(f"{title}\n{key}" if title else key, fontsize=7)
+        figure.suptitle(f"{title}\n{key}" if title else key, fontsize=7, wrap=True)
     return figure

@@ -18,15 +18,9 @@ from careful_tui.render.figures.board import Board
 from careful_tui.render.figures.carefulness import carefulness_by_distance, state_distances
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.small_multiples import carefulness_multiples, reward_multiples
-from careful_tui.render.grid import SYMBOL_NAMES
+from careful_tui.render.figures.style import plain, symbol_label
 from irl_core.recording_writer import slug
-from irl_core.safe_text import printable
 from irl_core.study_report import POOLED, CellFit, StudyData
-
-
-def plain(text: str, *, limit: int = 40) -> str:
-    """Text from a file for a figure: control characters escaped, and `$` kept from starting mathtext."""
-    return printable(text, limit=limit).replace("$", r"\$")
 
 
 def world_key(data: StudyData, world_index: int) -> str:
@@ -67,13 +61,14 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
             if series:
                 title = f"{name}: carefulness by distance to danger, per participant (main episodes)"
                 figures.append((f"carefulness-{key}", carefulness_multiples(
-                    list(series.items()), levels=world.levels, reference=reference, title=title)))
+                    [(plain(who), line) for who, line in series.items()], levels=world.levels, reference=reference,
+                    title=title)))
     figures += _pooled_interval_figures(data, fits)
     return figures
 
 
 def _who(cell) -> str:
-    return f"pooled ({cell.participants})" if cell.participant == POOLED else cell.participant
+    return f"pooled ({cell.participants})" if cell.participant == POOLED else plain(cell.participant)
 
 
 def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figure]]:
@@ -82,7 +77,7 @@ def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple
     for cell, fit in zip(data.cells, fits):
         if cell.participant != POOLED or fit.intervals is None:
             continue
-        rows = [IntervalRow(SYMBOL_NAMES.get(symbol, plain(symbol)), symbol, float(low), float(high),
+        rows = [IntervalRow(symbol_label(symbol), symbol, float(low), float(high),
                             float(estimate), float(truth))
                 for symbol, (low, high), estimate, truth in zip(fit.symbols, fit.intervals, fit.estimate, fit.truth)]
         world = data.study.worlds[cell.world_index]

@@ -1,10 +1,14 @@
-"""The look every figure shares, and `save_figure`.
+"""The look every figure shares, `plain` for text from a file, and `save_figure`.
 
 Sizes are for a paper: a single-panel figure is `PANEL_WIDTH` inches wide, drawn with 7-pt
 text, so that at a third of a page's width (NeurIPS: 0.3 x 5.5 in) the text is still about
 5-6 pt. DejaVu Sans (shipped with matplotlib) is embedded in PDFs as TrueType (`pdf.fonttype`
 42), so a journal's checker finds every font. The default style is reset first, so a user's
-matplotlibrc cannot change what a figure looks like.
+matplotlibrc cannot change what a figure looks like (nor turn on `text.usetex`: the default is off).
+
+Text from a file (a world's name or symbols, a participant's id) goes into a figure only through
+`plain`, so it is shown as written: outside `$...$` matplotlib draws `_`, `^` and `\\` as they
+are, and `plain` keeps every `$` from starting mathtext.
 """
 
 from __future__ import annotations
@@ -19,7 +23,9 @@ import matplotlib.style
 from matplotlib.figure import Figure
 
 from careful_tui.render.figures import FIGURE_SUFFIXES
+from careful_tui.render.grid import SYMBOL_NAMES
 from irl_core.safe_files import write_output
+from irl_core.safe_text import printable
 
 DPI = 300
 PANEL_WIDTH = 2.2  # inches: a third of a page's width
@@ -61,6 +67,20 @@ RC = {
 INK = "#222222"
 QUIET = "#9a9a9a"  # text that is there for completeness
 OKABE_ITO = ("#D55E00", "#0072B2", "#CC79A7", "#009E73", "#E69F00", "#56B4E9", "#F0E442")
+
+
+def plain(text: str, *, limit: int = 40) -> str:
+    """Text from a file for a figure: control characters escaped, and `$` kept from starting mathtext.
+
+    matplotlib reads a text with an even number of unescaped `$` as mathtext (and raises on bad
+    mathtext); it draws an escaped `\\$` as `$`. A long text is cut to about `limit` characters.
+    """
+    return printable(text, limit=limit).replace("$", r"\$")
+
+
+def symbol_label(symbol: str) -> str:
+    """A layout symbol's name in a figure: "cliff" for C, any other symbol as itself (through `plain`)."""
+    return SYMBOL_NAMES.get(symbol, plain(symbol))
 
 
 @contextmanager
