@@ -123,7 +123,8 @@ def test_a_bad_study_file_or_no_participants_exits_2_with_one_line(tmp_path, cap
 
 def test_the_figures_show_each_participant_the_pool_and_the_truth(study_path):
     """Figures drawn from given fits (no fitting): which panels there are, and what the cells hold."""
-    from careful_tui.render.figures.study_figures import plain, report_figures
+    from careful_tui.render.figures.study_figures import report_figures
+    from careful_tui.render.figures.style import plain
     from irl_core.study_report import CellFit
 
     data = gather(load_study(study_path))
