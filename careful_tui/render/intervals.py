@@ -214,3 +214,13 @@ def _axis_ticks(axis: int, rmax: float) -> Text:
         if all(line[i] == " " for i in span):
             line[left : left + len(label)] = label
     return Text("".join(line), style="dim")
+
+
+def scale_legend(scale: float, steps: int = 4) -> Text:
+    """The colour scale in a few characters: "-1000 ■■■■■■■■■ 1000" (signed-log, as the cells)."""
+    fractions = [i / steps for i in range(-steps, steps + 1)]
+    text = Text(f"{format_value(-scale)} ")
+    for f in fractions:
+        text.append("■", style=diverging_colour(signed_log_value(f, scale), scale))
+    text.append(f" {format_value(scale)}")
+    return text

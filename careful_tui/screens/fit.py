@@ -34,6 +34,7 @@ from textual.message import Message
 from textual.reactive import reactive, var
 from textual.screen import Screen
 from textual.widgets import Static
+from textual.worker import get_current_worker
 
 from careful_tui.render.fit_printout import (
     evaluation_line,
@@ -43,8 +44,8 @@ from careful_tui.render.fit_printout import (
     status_text,
     unknown_phrase,
 )
-from careful_tui.render.grid import diverging_colour, format_value
-from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, signed_log_value
+from careful_tui.render.grid import format_value
+from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, scale_legend
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
 from careful_tui.render.session import legend
 from careful_tui.widgets import Board, KeyBar
@@ -52,7 +53,7 @@ from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Demonstrations
 from irl_core.recording_writer import slug
-from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError, fit
+from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable
 
@@ -68,16 +69,6 @@ def board_width(world_cols: int, room: int) -> int:
     """The outer width of a board (border included) in `room` columns: cells 7 to 11 wide, odd."""
     cell = min(MAX_CELL_WIDTH, max(MIN_CELL[0], (room - 2) // world_cols))
     return world_cols * (cell if cell % 2 else cell - 1) + 2
-
-
-def scale_legend(scale: float, steps: int = 4) -> Text:
-    """The colour scale in a few characters: "-1000 ■■■■■■■■■ 1000" (signed-log, as the cells)."""
-    fractions = [i / steps for i in range(-steps, steps + 1)]
-    text = Text(f"{format_value(-scale)} ")
-    for f in fractions:
-        text.append("■", style=diverging_colour(signed_log_value(f, scale), scale))
-    text.append(f" {format_value(scale)}")
-    return text
 
 
 def error_message(error: Exception) -> str:
@@ -246,11 +237,16 @@ class FitScreen(Screen[None]):
         self.fitting = options
         self._fit(self._request, options)
 
-    @work(thread=True, group="fit")
+    @work(thread=True, group="fit", exclusive=True)
     def _fit(self, request: int, options: FitOptions) -> None:
+        # A newer request (exclusive) or the view closing cancels the worker, which stops the fit
+        # (instead of minutes more on a big world's intervals, with the app waiting to exit).
+        worker = get_current_worker()
         try:
             heard = lambda *done: self.post_message(FitScreen.Progress(request, progress_phrase(*done)))  # noqa: E731
-            result, error = fit(self.demos, options, progress=heard), None
+            result, error = fit(self.demos, options, progress=heard, stop=lambda: worker.is_cancelled), None
+        except Stopped:
+            return
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
             result, error = None, exc
         self.post_message(FitScreen.Fitted(request, options, result, error))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -25,7 +26,8 @@ from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
-from irl_core.irl.result import BadInputError, FitResult, InfeasibleError
+from irl_core.irl.highs import stop_when
+from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, Stopped
 
 METHODS = FITTERS
 
@@ -50,6 +52,7 @@ def fit(
     *,
     progress: Progress | None = None,
     workers: int | None = None,
+    stop: Callable[[], bool] | None = None,
     **settings,
 ) -> FitResult:
     """Fit the state rewards that explain `demos` with `options` (or `FitOptions(**settings)`).
@@ -58,11 +61,16 @@ def fit(
         progress: called as progress(stage, done, total) as long work goes on: the lp's
             ``rounds`` (total None), the ``intervals`` LPs done, the bootstrap's ``resamples``.
         workers: processes for the bootstrap (default: the cores).
+        stop: asked at every LP iteration and progress report; once it says True the fit
+            raises `Stopped` (a fitting thread whose answer is no longer wanted).
 
     Raises `BadInputError` (no demonstrated steps; `InfeasibleError` when the lp has no
-    solution) or `SolverError`.
+    solution), `SolverError` or `Stopped`.
     """
     options = dataclasses.replace(options or FitOptions(), **settings) if settings else (options or FitOptions())
+    if stop is not None:
+        with stop_when(stop):
+            return fit(demos, options, progress=_stopping(progress, stop), workers=workers)
     if demos.counts.sum() <= 0:
         raise BadInputError("the recordings contain no steps: there is nothing to fit")
     start = time.perf_counter()
@@ -109,6 +117,18 @@ def fit(
         elapsed_s=time.perf_counter() - start,
         notes=notes,
     )
+
+
+def _stopping(progress: Progress | None, stop: Callable[[], bool]) -> Progress:
+    """`progress` that first raises `Stopped` once `stop()` says so."""
+
+    def heard(stage: str, done: int, total: int | None) -> None:
+        if stop():
+            raise Stopped("the fit was stopped before it ended")
+        if progress is not None:
+            progress(stage, done, total)
+
+    return heard
 
 
 def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:

@@ -25,6 +25,8 @@ import os
 import signal
 import sys
 import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Literal
 
@@ -32,7 +34,7 @@ import highspy
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.result import InfeasibleError, SolverError
+from irl_core.irl.result import InfeasibleError, SolverError, Stopped
 
 Kind = Literal["answer", "infeasible", "unbounded", "failure"]
 _Status = highspy.HighsModelStatus
@@ -318,17 +320,40 @@ _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
 )
 
 
+_stop_check = threading.local()
+
+
+@contextmanager
+def stop_when(check: Callable[[], bool]) -> Iterator[None]:
+    """Within the block, a HiGHS solve on this thread stops within an iteration once `check()`
+    is true, raising `Stopped`: how a thread that fits (the fit view's) is stopped when its
+    answer is no longer wanted. (On the main thread Ctrl+C already stops a solve.)"""
+    previous = getattr(_stop_check, "check", None)
+    _stop_check.check = check
+    try:
+        yield
+    finally:
+        _stop_check.check = previous
+
+
 def _run(highs: highspy.Highs) -> None:
-    """`highs.run()`, stopped within an iteration by Ctrl+C (which then raises KeyboardInterrupt).
+    """`highs.run()`, stopped within an iteration by Ctrl+C (which then raises KeyboardInterrupt)
+    or, on another thread, by its `stop_when` check (which then raises `Stopped`).
 
     Python runs a signal's handler only between its own bytecodes, so during HiGHS's `run` it
     saw a Ctrl+C only once the solve was over: 20 minutes on a 128x128 world's first round.
-    On the main thread (where Ctrl+C arrives) the solve now carries a simplex and IPX callback:
-    Python code, so the handler runs there, and the callback asks HiGHS to stop. A solver
-    thread would do the same but made a 16x16 fit with its intervals 1.4x slower.
+    The solve now carries a simplex and IPX callback: Python code, in which the handler runs,
+    and which asks HiGHS to stop. (Running HiGHS in highspy's solver thread instead made a
+    16x16 fit with its intervals 1.4x slower; the callback costs 1.02x.)
     """
     if threading.current_thread() is not threading.main_thread():
-        highs.run()
+        check = getattr(_stop_check, "check", None)
+        if check is None:
+            highs.run()
+            return
+        _run_with_stop(highs, check)
+        if check():
+            raise Stopped("the fit was stopped before it ended")
         return
     interrupted = False
 
@@ -336,21 +361,29 @@ def _run(highs: highspy.Highs) -> None:
         nonlocal interrupted
         interrupted = True
 
-    def stop_if_interrupted(event) -> None:
-        if interrupted:
-            event.interrupt()
-
     previous = signal.signal(signal.SIGINT, on_ctrl_c)
-    highs.cbSimplexInterrupt += stop_if_interrupted
-    highs.cbIpmInterrupt += stop_if_interrupted
     try:
-        highs.run()
+        _run_with_stop(highs, lambda: interrupted)
     finally:
-        highs.cbSimplexInterrupt -= stop_if_interrupted
-        highs.cbIpmInterrupt -= stop_if_interrupted
         signal.signal(signal.SIGINT, previous)
     if interrupted:
         raise KeyboardInterrupt
+
+
+def _run_with_stop(highs: highspy.Highs, check: Callable[[], bool]) -> None:
+    """`highs.run()` with HiGHS asked to stop at its next simplex or IPX iteration once `check()`."""
+
+    def stop_if_asked(event) -> None:
+        if check():
+            event.interrupt()
+
+    highs.cbSimplexInterrupt += stop_if_asked
+    highs.cbIpmInterrupt += stop_if_asked
+    try:
+        highs.run()
+    finally:
+        highs.cbSimplexInterrupt -= stop_if_asked
+        highs.cbIpmInterrupt -= stop_if_asked
 
 
 def _same_solve(a: dict[str, object], b: dict[str, object]) -> bool:

@@ -37,6 +37,10 @@ class SolverError(FitError):
     """The solver failed or gave up (exit 1)."""
 
 
+class Stopped(FitError):
+    """The fit was stopped on request before it ended (`irl_core.irl.highs.stop_when`)."""
+
+
 @dataclass(frozen=True)
 class PolicyCell:
     """The most frequent demonstrated action at one cell, and how often it was taken."""

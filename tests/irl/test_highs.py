@@ -3,6 +3,7 @@
 import _thread
 import subprocess
 import sys
+import threading
 
 import highspy
 import numpy as np
@@ -11,9 +12,9 @@ import scipy.sparse as sp
 
 from bench.worlds import cliff_world
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts, write_rollouts
-from irl_core.irl import InfeasibleError, SolverError, fit
+from irl_core.irl import InfeasibleError, SolverError, Stopped, fit
 from irl_core.irl import highs as highs_module
-from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program
+from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program, stop_when
 from irl_core.irl.lp import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp
@@ -134,6 +135,32 @@ def test_ctrl_c_stops_a_solve_at_once_and_is_not_retried():
         model.solve()
     assert not model.highs.is_solver_running()
     assert model.highs.getModelStatus() == highspy.HighsModelStatus.kInterrupt  # stopped, not retried
+
+
+def test_a_solve_on_another_thread_stops_when_asked_and_raises_stopped():
+    # The fit view's worker: closing the view must not leave HiGHS running for minutes.
+    mdp = build_mdp(cliff_world(16, 16))
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
+    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
+    model = HighsModel(margin_lp(constraints).full())
+    asked, outcome = [], []
+
+    def stop_at_the_fifth() -> bool:
+        asked.append(True)
+        return len(asked) >= 5
+
+    def fitting_thread():
+        try:
+            with stop_when(stop_at_the_fifth):
+                model.solve()
+        except Stopped as exc:
+            outcome.append(exc)
+
+    thread = threading.Thread(target=fitting_thread)
+    thread.start()
+    thread.join(30)
+    assert outcome and model.highs.getModelStatus() == highspy.HighsModelStatus.kInterrupt
+    assert model.solves == 0  # not retried, not counted as answered
 
 
 def test_a_failed_solve_from_no_basis_is_not_repeated_from_scratch(mud_demos, monkeypatch):

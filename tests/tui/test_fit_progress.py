@@ -10,7 +10,7 @@ from careful_tui.render.fit_printout import progress_phrase
 from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.fit import FitScreen
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
-from irl_core.irl import FitOptions, fit
+from irl_core.irl import FitOptions, Stopped, fit
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
 
@@ -28,11 +28,11 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
     release = threading.Event()
     real_refit = careful_tui.screens.fit.fit
 
-    def slow_refit(demos, options, *, progress=None):
+    def slow_refit(demos, options, *, progress=None, stop=None):
         progress("rounds", 2, None)
         progress("intervals", 3, 8)
         release.wait(10)
-        return real_refit(demos, options, progress=progress)
+        return real_refit(demos, options, progress=progress, stop=stop)
 
     monkeypatch.setattr(careful_tui.screens.fit, "fit", slow_refit)
     app = CarefulApp(FitScreen(demos, FitOptions(), result=first))
@@ -54,3 +54,39 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
     asyncio.run(go())
     assert seen[0].endswith("interval LP 3 of 8")
     assert "interval LP" not in seen[1] and seen[1].startswith("✓")
+
+
+def test_a_refit_no_longer_wanted_is_stopped(monkeypatch):
+    """A newer refit, or closing the view, stops the fit in flight: on a 64x64 world the view
+    used to wait minutes for unwanted intervals before the app could exit."""
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
+    first = fit(demos)
+    stopped = []
+
+    def fit_until_stopped(demos, options, *, progress=None, stop=None):
+        # As the real fit does at every LP iteration: ask, and end with Stopped once told to.
+        for _ in range(1000):
+            if stop():
+                stopped.append(options.method)
+                raise Stopped("the fit was stopped before it ended")
+            threading.Event().wait(0.01)
+        raise AssertionError("the fit was never told to stop")
+
+    monkeypatch.setattr(careful_tui.screens.fit, "fit", fit_until_stopped)
+    app = CarefulApp(FitScreen(demos, FitOptions(), result=first))
+
+    async def go():
+        async with app.run_test(size=(180, 50)) as pilot:
+            await pilot.press("o")
+            await pilot.pause(0.1)
+            await pilot.press("m")  # the loss refit is no longer wanted
+            for _ in range(100):
+                await pilot.pause(0.02)
+                if stopped:
+                    break
+            assert stopped == ["loss"] and "fitting maxent" in str(app.first_screen._status())
+        # Leaving the app (the view closes) stopped the maxent refit too.
+
+    asyncio.run(go())
+    assert stopped == ["loss", "maxent"]
