@@ -8,7 +8,8 @@ mirrors what it shows in reactives whose changes redraw it (the status and the h
 are drawn by `careful_tui.widgets.play_status`).
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
-default), shared by the input detector, the live gauge and the calibration screen. A 30 Hz
+default), shared by the input detector, the live gauge and the calibration screen. A key event
+is timed by when it reached the app, not when it was handled (`PlayScreen.arrival`). A 30 Hz
 timer runs only while a move is being entered; it calls `PlayScreen.tick`, which tests call
 directly after advancing a fake clock.
 
@@ -77,7 +78,8 @@ class PlayScreen(Screen[None]):
     A study plays a set number of episodes on it: `episodes` (then space dismisses the screen),
     `episodes_done` of the `episodes_done + episodes` already played before, each called an
     `episode_word` ("Practice episode 1 of 2"), under the title `heading`; `command` names what a
-    too-small terminal is told needs more room.
+    too-small terminal is told needs more room. `event_times` says whether key events' own
+    times are on `clock` (see `arrival`; None: when `clock` is `time.monotonic`).
     """
 
     TITLE = "careful play"
@@ -127,6 +129,7 @@ class PlayScreen(Screen[None]):
         episodes_done: int = 0,
         episode_word: str = "Episode",
         command: str = "careful play",
+        event_times: bool | None = None,
     ) -> None:
         super().__init__()
         self.heading = heading
@@ -136,6 +139,7 @@ class PlayScreen(Screen[None]):
         self.recorder = recorder
         self.world = game.world
         self.clock = clock
+        self.event_times = clock is time.monotonic if event_times is None else event_times
         self.player = player
         self.input_mode = input_mode
         self.profile = profile or HoldProfile(levels=self.world.levels)
@@ -184,7 +188,7 @@ class PlayScreen(Screen[None]):
         they chose: no move is better than a move at a level nobody saw.
         """
         if too_small and self.input.current() is not None:
-            self.input.reset()
+            self.input.cancel()
             self._mirror_hold()
             self.query_one(TooSmall).tell("The move being entered was cancelled.")
             self.message = Text("Move cancelled (window too small).", style=WARN)
@@ -196,9 +200,14 @@ class PlayScreen(Screen[None]):
         if key in self.input.keys:
             event.stop()
             event.prevent_default()
-            if self.game.live and not self.too_small:
-                self._last_key_at = self.clock()
-                self._commit(self.input.press(key, repeat=key_repeat(event)))
+            if self.game.live and self.too_small:
+                # No move while the board cannot be seen, nor later from this key's autorepeats
+                # (nothing is being entered while the window is too small, so nothing ends here).
+                self.input.press(key, repeat=key_repeat(event), at=self.arrival(event))
+                self.input.cancel()
+            elif self.game.live:
+                self._last_key_at = self.arrival(event)
+                self._commit(self.input.press(key, repeat=key_repeat(event), at=self._last_key_at))
                 self._mirror_hold()
                 if self.input.deadline() is not None or self.input.current() is not None:
                     self._ticker.resume()
@@ -214,15 +223,43 @@ class PlayScreen(Screen[None]):
     def on_key_release(self, event: KeyRelease) -> None:
         if event.key in self.input.keys:
             self.releases_seen = True
-            self._commit(self.input.release(event.key))
+            self._commit(self.input.release(event.key, at=self.arrival(event)))
             self._mirror_hold()
 
+    def arrival(self, event: events.Event) -> float:
+        """When `event` reached the app, on `clock`.
+
+        Textual stamps each event with `time.monotonic()` as it makes it (`Message.time`), and
+        its driver makes a key event in its input thread as it reads the key, so the stamp is
+        the key's arrival however long the event then waits behind a stalled app. The stamp is
+        on `clock` when `clock` is `time.monotonic` (Textual's clock on Linux and macOS, the
+        only systems play runs on) or `event_times` says so (a test stamping its events on its
+        fake clock); otherwise the event is timed as it is handled.
+        """
+        return event.time if self.event_times else self.clock()
+
     def tick(self) -> None:
-        """Commit a hold whose release timeout has passed and show the live gauge and arrow."""
-        self._commit(self.input.poll())
+        """Commit a hold whose release timeout has passed and show the live gauge and arrow.
+
+        The timer calls this from its own task, between messages, so after a stall (a slow
+        redraw, a garbage collection) it may run while the key events that came during the stall
+        still wait in the app's or this screen's queue: the silence since the last key handled
+        is then not a silence at all, and ending the hold would split one held key into two
+        moves. So the hold is ended only when no message waits in either queue; otherwise the
+        waiting events are handled first (extending the hold, timed by their arrival) and a
+        later tick decides. Key events reach the queues in the order they arrived, ahead of a
+        tick that comes after them (the driver's thread puts them in line as it reads them);
+        one waiting that is no key only delays the end by a tick (33 ms).
+        """
+        if not self._input_waiting():
+            self._commit(self.input.poll())
         self._mirror_hold()
         if self.input.current() is None and self.input.deadline() is None:
             self._ticker.pause()
+
+    def _input_waiting(self) -> bool:
+        """Whether a message (a key event, perhaps) waits to be handled by the app or this screen."""
+        return self.app.message_queue_size > 0 or self.message_queue_size > 0
 
     def _commit(self, holds: list[Hold]) -> None:
         for hold in holds:
