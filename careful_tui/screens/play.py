@@ -241,15 +241,16 @@ class PlayScreen(Screen[None]):
     def tick(self) -> None:
         """Commit a hold whose release timeout has passed and show the live gauge and arrow.
 
-        The timer calls this from its own task, between messages, so after a stall (a slow
-        redraw, a garbage collection) it may run while the key events that came during the stall
-        still wait in the app's or this screen's queue: the silence since the last key handled
-        is then not a silence at all, and ending the hold would split one held key into two
-        moves. So the hold is ended only when no message waits in either queue; otherwise the
-        waiting events are handled first (extending the hold, timed by their arrival) and a
-        later tick decides. Key events reach the queues in the order they arrived, ahead of a
-        tick that comes after them (the driver's thread puts them in line as it reads them);
-        one waiting that is no key only delays the end by a tick (33 ms).
+        The timer calls this from its own task, between messages. After a stall (a slow redraw,
+        a garbage collection) it can run while the key events that came during the stall still
+        wait in the app's or this screen's queue: the silence since the last key handled is then
+        no silence, and ending the hold would split one held key into two moves. So the hold is
+        ended only when neither queue holds a message; otherwise the waiting events are handled
+        first (extending the hold, timed by their arrival) and a later tick decides. Textual's
+        input thread hands each key to the event loop as it reads it, so the keys of a stall are
+        in line before the timer's wake-up and reach the app's queue first. A waiting message
+        that is no key only delays the end by a tick. Not covered: a stop of the whole process
+        (the input thread too), whose keys are read, and stamped, only when it resumes.
         """
         if not self._input_waiting():
             self._commit(self.input.poll())
