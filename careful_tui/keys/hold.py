@@ -176,7 +176,7 @@ class MoveInput(Protocol):
 
     Feed it the keys in `keys` with `press`, every key release with `release`, each with the
     time it happened (`at`; default: the clock now), and call `poll` when `deadline` passes (a
-    timer set for that time) and no key event is still waiting to be fed. Each call returns the
+    timer set for that time) once every key event before it has been fed. Each call returns the
     moves it finished. `reset` drops the move being entered; `cancel` drops it and also ignores
     the autorepeats of its key, which may still be held.
     """
@@ -188,7 +188,7 @@ class MoveInput(Protocol):
 
     def release(self, key: str, *, at: float | None = None) -> list[Hold]: ...
 
-    def poll(self) -> list[Hold]: ...
+    def poll(self, *, at: float | None = None) -> list[Hold]: ...
 
     def deadline(self) -> float | None: ...
 
@@ -224,18 +224,16 @@ class SilenceEnded:
     _pending: PendingHold | None
     _clock: Clock
 
-    def poll(self) -> list[Hold]:
-        """End the pending move if the silence since its last key event reached the deadline.
+    def poll(self, *, at: float | None = None) -> list[Hold]:
+        """End the pending move if the silence since its last key event reached the deadline by
+        `at` (default: now).
 
-        The silence is measured up to the clock now, so the caller must have fed every key event
-        that happened before now: a poll run while such events still wait in a queue would end a
-        move those events extend (the play screen skips the poll then, `PlayScreen.tick`).
+        The caller must have fed every key event that happened before `at`: a poll run while
+        such events still wait in a queue would end a move those events extend (the play screen
+        polls only when none waits, `PlayScreen.tick`).
         """
-        return self._poll_at(self._clock())
-
-    def _poll_at(self, now: float) -> list[Hold]:
         pending = self._pending
-        if pending is None or now < self._deadline(pending):
+        if pending is None or self._now(at) < self._deadline(pending):
             return []
         return [self._end(pending)]
 

@@ -54,7 +54,7 @@ class TapCounter(SilenceEnded):
         if repeat:
             return []
         now = self._now(at)
-        done = self._poll_at(now)
+        done = self.poll(at=now)
         pending = self._pending
         if pending is not None and pending.key == key:
             pending.repeats += 1
@@ -164,7 +164,7 @@ class DigitsInput:
         """Releases carry no meaning in digits mode."""
         return []
 
-    def poll(self) -> list[Hold]:
+    def poll(self, *, at: float | None = None) -> list[Hold]:
         """Nothing commits by time in digits mode."""
         return []
 

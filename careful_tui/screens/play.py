@@ -60,6 +60,9 @@ from irl_core.world import World
 
 FLASH_S = 0.8
 TICK_S = 1 / 30
+# Event-loop turns a key takes from Textual's input thread into the app's queue (Textual 8.2.8:
+# the thread schedules a coroutine, the coroutine queues the key).
+TURNS_TO_QUEUE = 2
 
 
 def minimum_size(world: World) -> tuple[int, int]:
@@ -161,7 +164,7 @@ class PlayScreen(Screen[None]):
         yield from compose_game(self.world, slips=True, status=status, hold_info=hold_info)
 
     def on_mount(self) -> None:
-        self._ticker = self.set_interval(TICK_S, self.tick, pause=True)
+        self._ticker = self.set_interval(TICK_S, self._tick_behind_input, pause=True)
         self.game.begin_episode()
         self._mirror()
         self._check_size(*self.app.size)
@@ -238,22 +241,35 @@ class PlayScreen(Screen[None]):
         """
         return event.time if self.event_times else self.clock()
 
-    def tick(self) -> None:
-        """Commit a hold whose release timeout has passed and show the live gauge and arrow.
+    async def _tick_behind_input(self) -> None:
+        """The timer's tick, run once every key that reached the app before it is in a queue.
 
-        The timer calls this from its own task, between messages. After a stall (a slow redraw,
-        a garbage collection) it can run while the key events that came during the stall still
-        wait in the app's or this screen's queue: the silence since the last key handled is then
-        no silence, and ending the hold would split one held key into two moves. So the hold is
-        ended only when neither queue holds a message; otherwise the waiting events are handled
-        first (extending the hold, timed by their arrival) and a later tick decides. Textual's
-        input thread hands each key to the event loop as it reads it, so the keys of a stall are
-        in line before the timer's wake-up and reach the app's queue first. A waiting message
-        that is no key only delays the end by a tick. Not covered: a stop of the whole process
-        (the input thread too), whose keys are read, and stamped, only when it resumes.
+        After a stall of the event loop (a slow redraw, a garbage collection) the timer's
+        wake-up and the keys Textual's input thread read meanwhile are all in the loop's line,
+        the timer's possibly first: polling at once would judge a silence the keys still on their
+        way to the app's queue deny. Letting the loop turn `TURNS_TO_QUEUE` times puts them in
+        that queue, where `tick` sees them; the silence is judged up to when this tick began, as
+        a key that came later is not yet known to be queued.
+        """
+        began = self.clock()
+        for _ in range(TURNS_TO_QUEUE):
+            await asyncio.sleep(0)
+        self.tick(input_until=began)
+
+    def tick(self, *, input_until: float | None = None) -> None:
+        """Commit a hold whose release timeout passed by `input_until` (default: now), the time up
+        to which every key that came is handled or queued, and show the live gauge and arrow.
+
+        After a stall, key events that came during it can wait in the app's or this screen's
+        queue: the silence since the last key handled is then no silence, and ending the hold
+        would split one held key into two moves. So the hold is ended only when neither queue
+        holds a message; otherwise the waiting events are handled first (extending the hold,
+        timed by their arrival) and a later tick decides. A waiting message that is no key only
+        delays the end by a tick. Not covered: a stop of the whole process (the input thread
+        too), whose keys are read, and stamped, only when it resumes.
         """
         if not self._input_waiting():
-            self._commit(self.input.poll())
+            self._commit(self.input.poll(at=input_until))
         self._mirror_hold()
         if self.input.current() is None and self.input.deadline() is None:
             self._ticker.pause()
