@@ -15,8 +15,12 @@ any of them through the `MoveInput` protocol:
 | `tap`    | `TapCounter`   | tap the same arrow k times quickly for level k (`modes`)     |
 | `digits` | `DigitsInput`  | type the level, then the arrow (`modes`)                     |
 
-Nothing here imports Textual: every class takes an injectable `clock` (seconds, like
-`time.monotonic`) so the tests drive time by hand.
+Time: every class takes an injectable `clock` (seconds, like `time.monotonic`) so the tests
+drive time by hand, and every key event can be given the time it happened (`at`, on that clock).
+The screen passes the time the key reached the app, not the time it got round to handling it: a
+stalled app (a slow redraw, a garbage collection, a busy machine) handles a queue of autorepeats
+at once, and timed by handling they would look like a silence (the hold ended) followed by a
+burst (a new hold). Nothing here imports Textual.
 """
 
 from __future__ import annotations
@@ -170,24 +174,29 @@ class ActiveHold:
 class MoveInput(Protocol):
     """What the play screen needs from an input mode.
 
-    Feed it the keys in `keys` with `press`, every key release with `release`, and call `poll`
-    when `deadline` passes (a timer set for that time). Each call returns the moves it finished.
+    Feed it the keys in `keys` with `press`, every key release with `release`, each with the
+    time it happened (`at`; default: the clock now), and call `poll` when `deadline` passes (a
+    timer set for that time) once every key event before it has been fed. Each call returns the
+    moves it finished. `reset` drops the move being entered; `cancel` drops it and also ignores
+    the autorepeats of its key, which may still be held.
     """
 
     mode: str
     keys: frozenset[str]
 
-    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]: ...
+    def press(self, key: str, *, repeat: bool | None = None, at: float | None = None) -> list[Hold]: ...
 
-    def release(self, key: str) -> list[Hold]: ...
+    def release(self, key: str, *, at: float | None = None) -> list[Hold]: ...
 
-    def poll(self) -> list[Hold]: ...
+    def poll(self, *, at: float | None = None) -> list[Hold]: ...
 
     def deadline(self) -> float | None: ...
 
     def current(self) -> ActiveHold | None: ...
 
     def reset(self) -> None: ...
+
+    def cancel(self) -> None: ...
 
     def header(self) -> dict[str, object]: ...
 
@@ -215,12 +224,22 @@ class SilenceEnded:
     _pending: PendingHold | None
     _clock: Clock
 
-    def poll(self) -> list[Hold]:
-        """End the pending move if the silence since its last key event reached the deadline."""
+    def poll(self, *, at: float | None = None) -> list[Hold]:
+        """End the pending move if the silence since its last key event reached the deadline by
+        `at` (default: now).
+
+        The caller must have fed every key event that happened before `at`: a poll run while
+        such events still wait in a queue would end a move those events extend (the play screen
+        polls only when none waits, `PlayScreen.tick`).
+        """
         pending = self._pending
-        if pending is None or self._clock() < self._deadline(pending):
+        if pending is None or self._now(at) < self._deadline(pending):
             return []
         return [self._end(pending)]
+
+    def _now(self, at: float | None) -> float:
+        """The time of a key event: `at` when the caller knows it, else the clock now."""
+        return self._clock() if at is None else at
 
     def deadline(self) -> float | None:
         """Clock time at which `poll` ends the pending move (None when there is none)."""
@@ -264,17 +283,22 @@ class HoldDetector(SilenceEnded):
         self.profile = profile
         self._clock = clock
         self._pending: PendingHold | None = None
+        self._cancelled: PendingHold | None = None
 
-    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
-        """A key press or autorepeat of `key`; returns the hold it ended, if any."""
+    def press(self, key: str, *, repeat: bool | None = None, at: float | None = None) -> list[Hold]:
+        """A key press or autorepeat of `key` at time `at` (default: now); returns the hold it ended, if any."""
         check_key(key, self.keys)
-        now = self._clock()
+        now = self._now(at)
+        cancelled, self._cancelled = self._cancelled, None
+        if cancelled is not None and self._continues(cancelled, key, repeat, now):
+            self._extend(cancelled, now)
+            self._cancelled = cancelled
+            return []
         done: list[Hold] = []
         pending = self._pending
-        if pending is not None and pending.key == key and repeat is not False:
-            if repeat or (now < self._deadline(pending) and not self._too_soon_for_a_repeat(pending, now)):
-                self._extend(pending, now)
-                return done
+        if pending is not None and self._continues(pending, key, repeat, now):
+            self._extend(pending, now)
+            return done
         if pending is not None:
             done.append(self._infer(pending))
             self._pending = None
@@ -282,17 +306,20 @@ class HoldDetector(SilenceEnded):
             self._pending = PendingHold(key=key, started=now, last=now)
         return done
 
-    def release(self, key: str) -> list[Hold]:
-        """A key-release event: ends the hold on `key` exactly (releases of other keys are ignored).
+    def release(self, key: str, *, at: float | None = None) -> list[Hold]:
+        """A key-release event at time `at` (default: now): ends the hold on `key` exactly
+        (releases of other keys are ignored).
 
         A release wins over inference even after the timeout, as long as `poll` has not yet
         ended the hold: it is a measurement, the timeout only a guess.
         """
+        if self._cancelled is not None and self._cancelled.key == key:
+            self._cancelled = None
         pending = self._pending
         if pending is None or pending.key != key:
             return []
         self._pending = None
-        hold_ms = (self._clock() - pending.started) * 1000.0
+        hold_ms = (self._now(at) - pending.started) * 1000.0
         return [self._hold(pending, hold_ms, exact=True)]
 
     def current(self) -> ActiveHold | None:
@@ -311,10 +338,30 @@ class HoldDetector(SilenceEnded):
     def reset(self) -> None:
         """Drop the hold in progress without committing it."""
         self._pending = None
+        self._cancelled = None
+
+    def cancel(self) -> None:
+        """Drop the hold in progress, and ignore its key until the player lets go of it.
+
+        A legacy terminal keeps autorepeating a key that is still down, and those repeats would
+        start a new hold the player never pressed for. So until the key has been silent for the
+        release timeout the hold had (`deadline` of the dropped hold, extended by each ignored
+        repeat as a hold would be), or a release or explicit press of it arrives (kitty), or
+        another key is pressed (a keyboard repeats only the newest key), the same key is
+        ignored. A press too soon for an autorepeat is, as in a hold, a new press.
+        """
+        if self._pending is not None:
+            self._cancelled, self._pending = self._pending, None
 
     def header(self) -> dict[str, object]:
         """The session header's `"input"` object."""
         return {"mode": self.mode, **self.profile.to_header()}
+
+    def _continues(self, held: PendingHold, key: str, repeat: bool | None, now: float) -> bool:
+        """Whether `key` at `now` is an autorepeat of the `held` key (not a press of its own)."""
+        if held.key != key or repeat is False:
+            return False
+        return bool(repeat) or (now < self._deadline(held) and not self._too_soon_for_a_repeat(held, now))
 
     def _extend(self, pending: PendingHold, now: float) -> None:
         pending.repeats += 1

@@ -47,13 +47,14 @@ class TapCounter(SilenceEnded):
         self._clock = clock
         self._pending: PendingHold | None = None
 
-    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
-        """A tap of `key`; returns the move it committed (a different arrow commits at once)."""
+    def press(self, key: str, *, repeat: bool | None = None, at: float | None = None) -> list[Hold]:
+        """A tap of `key` at time `at` (default: now); returns the move it committed (a pause
+        of the tap window before it, or a different arrow, commits at once)."""
         check_key(key, self.keys)
         if repeat:
             return []
-        done = self.poll()
-        now = self._clock()
+        now = self._now(at)
+        done = self.poll(at=now)
         pending = self._pending
         if pending is not None and pending.key == key:
             pending.repeats += 1
@@ -64,7 +65,7 @@ class TapCounter(SilenceEnded):
         self._pending = PendingHold(key=key, started=now, last=now)
         return done
 
-    def release(self, key: str) -> list[Hold]:
+    def release(self, key: str, *, at: float | None = None) -> list[Hold]:
         """Releases carry no meaning in tap mode."""
         return []
 
@@ -83,6 +84,10 @@ class TapCounter(SilenceEnded):
     def reset(self) -> None:
         """Drop the taps so far without committing them."""
         self._pending = None
+
+    def cancel(self) -> None:
+        """As `reset`: a key held down in tap mode already taps on every autorepeat."""
+        self.reset()
 
     def header(self) -> dict[str, object]:
         """The session header's `"input"` object."""
@@ -124,12 +129,12 @@ class DigitsInput:
         self._digits = ""
         self._started: float | None = None
 
-    def press(self, key: str, *, repeat: bool | None = None) -> list[Hold]:
-        """A digit, Backspace, Escape or arrow; an arrow returns the committed move."""
+    def press(self, key: str, *, repeat: bool | None = None, at: float | None = None) -> list[Hold]:
+        """A digit, Backspace, Escape or arrow at time `at` (default: now); an arrow returns the committed move."""
         check_key(key, self.keys)
         if repeat and key in DIRECTIONS:
             return []
-        now = self._clock()
+        now = self._clock() if at is None else at
         if key in DIGITS:
             if self._started is None:
                 self._started = now
@@ -155,11 +160,11 @@ class DigitsInput:
         self.reset()
         return [hold]
 
-    def release(self, key: str) -> list[Hold]:
+    def release(self, key: str, *, at: float | None = None) -> list[Hold]:
         """Releases carry no meaning in digits mode."""
         return []
 
-    def poll(self) -> list[Hold]:
+    def poll(self, *, at: float | None = None) -> list[Hold]:
         """Nothing commits by time in digits mode."""
         return []
 
@@ -182,6 +187,10 @@ class DigitsInput:
         """Forget the digits typed so far."""
         self._digits = ""
         self._started = None
+
+    def cancel(self) -> None:
+        """As `reset`: digits mode times nothing, so there is no held key to wait out."""
+        self.reset()
 
     def header(self) -> dict[str, object]:
         """The session header's `"input"` object."""

@@ -8,7 +8,8 @@ mirrors what it shows in reactives whose changes redraw it (the status and the h
 are drawn by `careful_tui.widgets.play_status`).
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
-default), shared by the input detector, the live gauge and the calibration screen. A 30 Hz
+default), shared by the input detector, the live gauge and the calibration screen. A key event
+is timed by when it reached the app, not when it was handled (`PlayScreen.arrival`). A 30 Hz
 timer runs only while a move is being entered; it calls `PlayScreen.tick`, which tests call
 directly after advancing a fake clock.
 
@@ -59,6 +60,9 @@ from irl_core.world import World
 
 FLASH_S = 0.8
 TICK_S = 1 / 30
+# Event-loop turns a key takes from Textual's input thread into the app's queue (Textual 8.2.8:
+# the thread schedules a coroutine, the coroutine queues the key).
+TURNS_TO_QUEUE = 2
 
 
 def minimum_size(world: World) -> tuple[int, int]:
@@ -77,7 +81,8 @@ class PlayScreen(Screen[None]):
     A study plays a set number of episodes on it: `episodes` (then space dismisses the screen),
     `episodes_done` of the `episodes_done + episodes` already played before, each called an
     `episode_word` ("Practice episode 1 of 2"), under the title `heading`; `command` names what a
-    too-small terminal is told needs more room.
+    too-small terminal is told needs more room. `event_times` says whether key events' own
+    times are on `clock` (see `arrival`; None: when `clock` is `time.monotonic`).
     """
 
     TITLE = "careful play"
@@ -127,6 +132,7 @@ class PlayScreen(Screen[None]):
         episodes_done: int = 0,
         episode_word: str = "Episode",
         command: str = "careful play",
+        event_times: bool | None = None,
     ) -> None:
         super().__init__()
         self.heading = heading
@@ -136,6 +142,7 @@ class PlayScreen(Screen[None]):
         self.recorder = recorder
         self.world = game.world
         self.clock = clock
+        self.event_times = clock is time.monotonic if event_times is None else event_times
         self.player = player
         self.input_mode = input_mode
         self.profile = profile or HoldProfile(levels=self.world.levels)
@@ -157,7 +164,7 @@ class PlayScreen(Screen[None]):
         yield from compose_game(self.world, slips=True, status=status, hold_info=hold_info)
 
     def on_mount(self) -> None:
-        self._ticker = self.set_interval(TICK_S, self.tick, pause=True)
+        self._ticker = self.set_interval(TICK_S, self._tick_behind_input, pause=True)
         self.game.begin_episode()
         self._mirror()
         self._check_size(*self.app.size)
@@ -184,7 +191,7 @@ class PlayScreen(Screen[None]):
         they chose: no move is better than a move at a level nobody saw.
         """
         if too_small and self.input.current() is not None:
-            self.input.reset()
+            self.input.cancel()
             self._mirror_hold()
             self.query_one(TooSmall).tell("The move being entered was cancelled.")
             self.message = Text("Move cancelled (window too small).", style=WARN)
@@ -196,9 +203,14 @@ class PlayScreen(Screen[None]):
         if key in self.input.keys:
             event.stop()
             event.prevent_default()
-            if self.game.live and not self.too_small:
-                self._last_key_at = self.clock()
-                self._commit(self.input.press(key, repeat=key_repeat(event)))
+            if self.game.live and self.too_small:
+                # No move while the board cannot be seen, nor later from this key's autorepeats
+                # (nothing is being entered while the window is too small, so nothing ends here).
+                self.input.press(key, repeat=key_repeat(event), at=self.arrival(event))
+                self.input.cancel()
+            elif self.game.live:
+                self._last_key_at = self.arrival(event)
+                self._commit(self.input.press(key, repeat=key_repeat(event), at=self._last_key_at))
                 self._mirror_hold()
                 if self.input.deadline() is not None or self.input.current() is not None:
                     self._ticker.resume()
@@ -214,15 +226,57 @@ class PlayScreen(Screen[None]):
     def on_key_release(self, event: KeyRelease) -> None:
         if event.key in self.input.keys:
             self.releases_seen = True
-            self._commit(self.input.release(event.key))
+            self._commit(self.input.release(event.key, at=self.arrival(event)))
             self._mirror_hold()
 
-    def tick(self) -> None:
-        """Commit a hold whose release timeout has passed and show the live gauge and arrow."""
-        self._commit(self.input.poll())
+    def arrival(self, event: events.Event) -> float:
+        """When `event` reached the app, on `clock`.
+
+        Textual stamps each event with `time.monotonic()` as it makes it (`Message.time`), and
+        its driver makes a key event in its input thread as it reads the key, so the stamp is
+        the key's arrival however long the event then waits behind a stalled app. The stamp is
+        on `clock` when `clock` is `time.monotonic` (Textual's clock on Linux and macOS, the
+        only systems play runs on) or `event_times` says so (a test stamping its events on its
+        fake clock); otherwise the event is timed as it is handled.
+        """
+        return event.time if self.event_times else self.clock()
+
+    async def _tick_behind_input(self) -> None:
+        """The timer's tick, run once every key that reached the app before it is in a queue.
+
+        After a stall of the event loop (a slow redraw, a garbage collection) the timer's
+        wake-up and the keys Textual's input thread read meanwhile are all in the loop's line,
+        the timer's possibly first: polling at once would judge a silence the keys still on their
+        way to the app's queue deny. Letting the loop turn `TURNS_TO_QUEUE` times puts them in
+        that queue, where `tick` sees them; the silence is judged up to when this tick began, as
+        a key that came later is not yet known to be queued.
+        """
+        began = self.clock()
+        for _ in range(TURNS_TO_QUEUE):
+            await asyncio.sleep(0)
+        self.tick(input_until=began)
+
+    def tick(self, *, input_until: float | None = None) -> None:
+        """Commit a hold whose release timeout passed by `input_until` (default: now), the time up
+        to which every key that came is handled or queued, and show the live gauge and arrow.
+
+        After a stall, key events that came during it can wait in the app's or this screen's
+        queue: the silence since the last key handled is then no silence, and ending the hold
+        would split one held key into two moves. So the hold is ended only when neither queue
+        holds a message; otherwise the waiting events are handled first (extending the hold,
+        timed by their arrival) and a later tick decides. A waiting message that is no key only
+        delays the end by a tick. Not covered: a stop of the whole process (the input thread
+        too), whose keys are read, and stamped, only when it resumes.
+        """
+        if not self._input_waiting():
+            self._commit(self.input.poll(at=input_until))
         self._mirror_hold()
         if self.input.current() is None and self.input.deadline() is None:
             self._ticker.pause()
+
+    def _input_waiting(self) -> bool:
+        """Whether a message (a key event, perhaps) waits to be handled by the app or this screen."""
+        return self.app.message_queue_size > 0 or self.message_queue_size > 0
 
     def _commit(self, holds: list[Hold]) -> None:
         for hold in holds:
