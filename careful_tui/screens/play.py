@@ -232,12 +232,11 @@ class PlayScreen(Screen[None]):
     def arrival(self, event: events.Event) -> float:
         """When `event` reached the app, on `clock`.
 
-        Textual stamps each event with `time.monotonic()` as it makes it (`Message.time`), and
-        its driver makes a key event in its input thread as it reads the key, so the stamp is
-        the key's arrival however long the event then waits behind a stalled app. The stamp is
-        on `clock` when `clock` is `time.monotonic` (Textual's clock on Linux and macOS, the
-        only systems play runs on) or `event_times` says so (a test stamping its events on its
-        fake clock); otherwise the event is timed as it is handled.
+        Textual stamps an event with `time.monotonic()` as it makes it (`Message.time`), and its
+        driver makes a key event in its input thread as it reads the key: the stamp is the key's
+        arrival however long the event then waits. It is on `clock` when `clock` is
+        `time.monotonic` (Textual's clock where play runs) or `event_times` says so (a test
+        stamping events on its fake clock); otherwise the event is timed as it is handled.
         """
         return event.time if self.event_times else self.clock()
 
@@ -260,23 +259,17 @@ class PlayScreen(Screen[None]):
         """Commit a hold whose release timeout passed by `input_until` (default: now), the time up
         to which every key that came is handled or queued, and show the live gauge and arrow.
 
-        After a stall, key events that came during it can wait in the app's or this screen's
-        queue: the silence since the last key handled is then no silence, and ending the hold
-        would split one held key into two moves. So the hold is ended only when neither queue
-        holds a message; otherwise the waiting events are handled first (extending the hold,
-        timed by their arrival) and a later tick decides. A waiting message that is no key only
-        delays the end by a tick. Not covered: a stop of the whole process (the input thread
-        too), whose keys are read, and stamped, only when it resumes.
+        After a stall, keys that came during it can wait in the app's or this screen's queue:
+        the silence since the last key handled is then no silence, and ending the hold would
+        split one held key into two moves. So the hold ends only when neither queue holds a
+        message (one that is no key only delays the end by a tick). Not covered: a stop of the
+        whole process (the input thread too), whose keys are read, and stamped, only when it resumes.
         """
-        if not self._input_waiting():
+        if self.app.message_queue_size == 0 and self.message_queue_size == 0:
             self._commit(self.input.poll(at=input_until))
         self._mirror_hold()
         if self.input.current() is None and self.input.deadline() is None:
             self._ticker.pause()
-
-    def _input_waiting(self) -> bool:
-        """Whether a message (a key event, perhaps) waits to be handled by the app or this screen."""
-        return self.app.message_queue_size > 0 or self.message_queue_size > 0
 
     def _commit(self, holds: list[Hold]) -> None:
         for hold in holds:
