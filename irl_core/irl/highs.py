@@ -232,6 +232,17 @@ class HighsModel:
     def set_cost(self, cost: np.ndarray) -> None:
         self.highs.changeColsCost(self.n_col, np.arange(self.n_col, dtype=np.int32), np.asarray(cost, dtype=float))
 
+    def set_basis(self, columns: np.ndarray, rows: np.ndarray) -> None:
+        """Start the next solve from a basis: (n_col,) and (n_row,) codes 0 basic, -1 nonbasic at
+        the lower bound, +1 nonbasic at the upper bound. Raises ValueError if HiGHS refuses it."""
+        status = {0: highspy.HighsBasisStatus.kBasic, -1: highspy.HighsBasisStatus.kLower,
+                  1: highspy.HighsBasisStatus.kUpper}
+        basis = highspy.HighsBasis()
+        basis.col_status = [status[int(c)] for c in columns]
+        basis.row_status = [status[int(r)] for r in rows]
+        if self.highs.setBasis(basis) != highspy.HighsStatus.kOk:
+            raise ValueError("HiGHS refused the basis")
+
     def set_row_bounds(self, rows: np.ndarray, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
         rows = np.asarray(rows, dtype=np.int32)
         self.highs.changeRowsBounds(rows.size, rows, _highs_bound(row_lower), _highs_bound(row_upper))
