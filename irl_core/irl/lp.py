@@ -51,10 +51,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
 from irl_core.irl.qmap import QMap
+from irl_core.planning import policy_evaluation
 
 INFEASIBLE_MESSAGE = (
     "the demonstrations are not optimal for any reward within ±rmax; "
@@ -262,25 +262,17 @@ def policy_vertex(problem: MarginLP, *, rmax: float, improvements: int = 10) -> 
     theta is +rmax for `aimed_unknowns` and -rmax for the others. The policy is pi at the
     demonstrated states and elsewhere the best action for the values of (theta, the policy),
     after `improvements` rounds of policy iteration (a start need not be optimal; ties can make
-    policy iteration cycle on big worlds). -1 at terminal cells and the exit.
+    policy iteration cycle on big worlds).
     """
     qmap = problem.qmap
-    mdp, k = qmap.mdp, qmap.k
+    mdp = qmap.mdp
     theta = np.where(aimed_unknowns(problem), rmax, -rmax)
+    R_S = qmap.unknowns.state_rewards(theta)
     free = mdp.nonterminal & (problem.policy < 0)
-    policy = np.where(mdp.nonterminal, np.maximum(problem.policy, 0), -1)
-    ends = np.flatnonzero(~mdp.nonterminal)
-    reward_at_ends = qmap.unknowns.state_rewards(theta)[ends]
+    policy = np.maximum(problem.policy, 0)  # any action at terminal cells and the exit: all lead out
     for _ in range(improvements + 1):
-        # V = Q(s, policy(s)) at non-terminal states, V = R_S at terminal cells, V(exit) = 0.
-        rows = qmap.M[np.arange(mdp.n_states) * mdp.n_actions + np.maximum(policy, 0)]
-        follow = sp.diags(mdp.nonterminal.astype(float)) @ rows[:, k:]
-        rhs = np.where(mdp.nonterminal, rows[:, :k] @ theta + qmap.q0[np.arange(mdp.n_states) * mdp.n_actions
-                                                                          + np.maximum(policy, 0)], 0.0)
-        rhs[ends] = reward_at_ends
-        V = spla.spsolve((sp.identity(mdp.n_states, format="csc") - follow).tocsc(), rhs)
-        best = qmap.q(np.concatenate([theta, V])).argmax(axis=1)
-        improved = np.where(free, best, policy)
+        V = policy_evaluation(mdp, policy, R_S=R_S)
+        improved = np.where(free, qmap.q(np.concatenate([theta, V])).argmax(axis=1), policy)
         if np.array_equal(improved, policy):
             break
         policy = improved
