@@ -26,7 +26,7 @@ import dataclasses
 import numpy as np
 
 from irl_core.irl.highs import LinearProgram
-from irl_core.irl.lp import LPConstraints, Progress, RowGeneration, margin_lp, margin_options, start_from_policy
+from irl_core.irl.lp import LPConstraints, Progress, RowGeneration, margin_lp, margin_options
 
 # The first LP starts from no basis and is solved as the margin is (`lp.margin_options`: the
 # dual simplex with Dantzig pricing), and so is any LP retried from scratch. After a new cost
@@ -64,9 +64,6 @@ def reward_intervals(constraints: LPConstraints, *, progress: Progress | None = 
     from_scratch = margin_options(problem)
     run = RowGeneration(dataclasses.replace(problem, base=feasible), options=INTERVAL_OPTIONS,
                         after_rows=AFTER_NEW_ROWS, warm_limit=WARM_LIMIT, scratch=from_scratch)
-    # The first LP from the policy's vertex, per cell or tied: on a 64x64 world 1.8 s against
-    # 15 s from HiGHS's own start (tied: 1.7 s against 11 s).
-    start_from_policy(run, rmax=float(base.upper[:k].max(initial=1.0)))
     intervals = np.empty((k, 2))
     cost = np.zeros(base.shape[1])
     for done, (j, end) in enumerate(interval_order(k), start=1):

@@ -285,10 +285,11 @@ def start_from_policy(run: RowGeneration, *, rmax: float) -> None:
     Basic: every V, every m_s (and u); theta nonbasic at its bound. Tight (nonbasic) rows: the
     equalities, at an undemonstrated state the row of the policy's action, at a demonstrated
     state the row of its best rival (whose slack m_s is), and u >= |theta| on theta's side.
-    With every m_s fixed at 0 (the intervals' lp set) m is nonbasic instead and no rival row
-    is tight. Any start leads the simplex to the same optimum; this one is near it: on a 64x64
-    world the fit's first round took 3,831 simplex iterations instead of 15,185 from HiGHS's
-    own start, the intervals' first LP 1.8 s instead of 15 s.
+    Any start leads the simplex to the same optimum; this one is near it: on a 64x64 world the
+    fit's first round took 3,831 simplex iterations instead of 15,185 from HiGHS's own start.
+    (The interval LPs do not use it: from the like vertex of the lp set a 64x64 world's first
+    interval LP took 1.8 s instead of 15 to 21 s, but its 126 LPs took 491 s in all against
+    188 s; why was not found.)
     """
     problem = run.problem
     qmap = problem.qmap
@@ -297,14 +298,11 @@ def start_from_policy(run: RowGeneration, *, rmax: float) -> None:
     tight = np.zeros_like(problem.rivals)
     free = np.flatnonzero(mdp.nonterminal & (problem.policy < 0))
     tight[free, policy[free]] = True
-    margin = bool(problem.base.upper[qmap.n : qmap.n + shown.size].max(initial=0.0) > 0)
-    if margin:
-        rival_q = np.where(problem.rivals, qmap.q(np.concatenate([theta, V])), -np.inf)
-        tight[shown, rival_q[shown].argmax(axis=1)] = True
+    rival_q = np.where(problem.rivals, qmap.q(np.concatenate([theta, V])), -np.inf)
+    tight[shown, rival_q[shown].argmax(axis=1)] = True
     run.add(tight & ~run.in_model)
     n_u = problem.base.shape[1] - qmap.n - shown.size
-    columns = np.concatenate([np.where(theta > 0, 1, -1), np.zeros(mdp.n_states, dtype=int),
-                              np.full(shown.size, 0 if margin else -1, dtype=int), np.zeros(n_u, dtype=int)])
+    columns = np.concatenate([np.where(theta > 0, 1, -1), np.zeros(mdp.n_states + shown.size + n_u, dtype=int)])
     base_rows = [np.full(qmap.E.shape[0] + shown.size, -1)]
     if n_u:  # theta - u <= 0 is tight at theta = +rmax, -theta - u <= 0 at -rmax
         base_rows += [np.where(theta > 0, 1, 0), np.where(theta > 0, 0, 1)]

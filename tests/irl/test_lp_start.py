@@ -61,13 +61,3 @@ def test_a_tied_fit_keeps_highs_own_start(monkeypatch):
         lp.solve_margin_lp(margin_problem(BUILTIN_WORLDS["mud"], tie=tie)[0])
     assert len(used) == 1 and not lp.shares_terminal_unknowns(used[0].problem)
 
-
-def test_the_intervals_start_there_too_with_the_same_intervals(monkeypatch):
-    import irl_core.irl.intervals as intervals
-
-    constraints, _ = margin_problem(cliff_world(16, 16))
-    started, started_iterations = intervals.reward_intervals(constraints)
-    monkeypatch.setattr(intervals, "start_from_policy", lambda run, **_: None)
-    plain, plain_iterations = intervals.reward_intervals(constraints)
-    np.testing.assert_allclose(started, plain, rtol=1e-7, atol=1e-6)
-    assert started_iterations < plain_iterations / 2  # 270 against 808 simplex iterations
