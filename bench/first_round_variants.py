@@ -96,7 +96,7 @@ def main() -> None:
     start = time.perf_counter()
     if args.variant == "policy-start":
         run = lp.RowGeneration(problem, options=options)
-        lp.start_from_policy(run, rmax=1000.0)
+        lp.start_from_policy(run)
         run.model.highs.run()  # one attempt, within the limit
         highs = run.model.highs
         info = highs.getInfo()

@@ -124,7 +124,7 @@ def _stopping(progress: Progress | None, stop: Callable[[], bool]) -> Progress:
 
     def heard(stage: str, done: int, total: int | None) -> None:
         if stop():
-            raise Stopped("the fit was stopped before it ended")
+            raise Stopped()
         if progress is not None:
             progress(stage, done, total)
 

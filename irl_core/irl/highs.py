@@ -364,7 +364,7 @@ def _run(highs: highspy.Highs) -> None:
             return
         _run_with_stop(highs, check)
         if check():
-            raise Stopped("the fit was stopped before it ended")
+            raise Stopped()
         return
     interrupted = False
 

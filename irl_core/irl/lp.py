@@ -256,16 +256,17 @@ def aimed_unknowns(problem: MarginLP) -> np.ndarray:
     return np.asarray(qmap.unknowns.basis[aimed & mdp.terminal].sum(axis=0)).ravel() > 0
 
 
-def policy_vertex(problem: MarginLP, *, rmax: float, improvements: int = 10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def policy_vertex(problem: MarginLP, *, improvements: int = 10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A vertex of the margin LP to start the first round from: theta (k,), V (S,) and a policy (S,).
 
-    theta is +rmax for `aimed_unknowns` and -rmax for the others. The policy is pi at the
+    theta is +rmax (the LP's bound on theta) for `aimed_unknowns` and -rmax for the others. The policy is pi at the
     demonstrated states and elsewhere the best action for the values of (theta, the policy),
     after `improvements` rounds of policy iteration (a start need not be optimal; ties can make
     policy iteration cycle on big worlds).
     """
     qmap = problem.qmap
     mdp = qmap.mdp
+    rmax = float(problem.base.upper[: qmap.k].max(initial=1.0))
     theta = np.where(aimed_unknowns(problem), rmax, -rmax)
     R_S = qmap.unknowns.state_rewards(theta)
     free = mdp.nonterminal & (problem.policy < 0)
@@ -279,7 +280,7 @@ def policy_vertex(problem: MarginLP, *, rmax: float, improvements: int = 10) -> 
     return theta, V, policy
 
 
-def start_from_policy(run: RowGeneration, *, rmax: float) -> None:
+def start_from_policy(run: RowGeneration) -> None:
     """Give `run`'s model the basis of `policy_vertex` before its first solve.
 
     Basic: every V, every m_s (and u); theta nonbasic at its bound. Tight (nonbasic) rows: the
@@ -294,7 +295,7 @@ def start_from_policy(run: RowGeneration, *, rmax: float) -> None:
     problem = run.problem
     qmap = problem.qmap
     mdp, shown = qmap.mdp, problem.demonstrated
-    theta, V, policy = policy_vertex(problem, rmax=rmax)
+    theta, V, policy = policy_vertex(problem)
     tight = np.zeros_like(problem.rivals)
     free = np.flatnonzero(mdp.nonterminal & (problem.policy < 0))
     tight[free, policy[free]] = True
@@ -347,7 +348,7 @@ def solve_margin_lp(
     if not shares_terminal_unknowns(problem):
         # Measured on the 64x64 world: per cell 5.3 s from this start against 10.3 s; tied
         # (theta's guess then far from the optimum's) 422 s against 8.8 s from HiGHS's own.
-        start_from_policy(run, rmax=float(constraints.program.upper[: constraints.qmap.k].max(initial=1.0)))
+        start_from_policy(run)
     z = run.solve(progress=progress)
     return _solution(problem, z, run.model, rounds=run.rounds)
 

@@ -32,7 +32,7 @@ def test_the_expert_aims_at_the_goal_and_at_no_cliff_cell():
 def test_the_start_is_the_policy_s_own_vertex():
     # Checked through the Q map (the LP's own rows), not the policy evaluation that built it.
     _, problem = margin_problem(BUILTIN_WORLDS["mud"])
-    theta, V, policy = lp.policy_vertex(problem, rmax=RMAX)
+    theta, V, policy = lp.policy_vertex(problem)
     qmap, mdp = problem.qmap, problem.qmap.mdp
     Q = qmap.q(np.concatenate([theta, V]))
     shown, free = problem.demonstrated, np.flatnonzero(mdp.nonterminal & (problem.policy < 0))
