@@ -1,9 +1,13 @@
 """The calibration screen: "hold an arrow for 2 seconds" measures the keyboard's autorepeat.
 
-It feeds every arrow press and autorepeat to `careful_tui.keys.hold.Calibration` and ends the
-attempt at the key's release: a kitty release event, or a silence of `SILENCE_S` once the
-autorepeat has started (`FIRST_REPEAT_S` before, longer than any initial delay it accepts).
+It feeds every arrow press and autorepeat to `careful_tui.keys.calibration.Calibration` and
+ends the attempt at the key's release: a kitty release event, or a silence of `SILENCE_S` once
+the autorepeat has started (`FIRST_REPEAT_S` before, longer than any initial delay it accepts).
 It returns the calibrated `HoldProfile`, or None when cancelled.
+
+Time: as in play, every key is timed by when it reached the app (`careful_tui.keys.arrival`),
+so keys a stall of the event loop held back still measure the delay and period they showed;
+the silence is the injectable `clock`'s time since the last key's arrival, on that clock.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from textual.containers import Vertical
 from textual.screen import ModalScreen
 from textual.widgets import Static
 
+from careful_tui.keys.arrival import KeyArrival
 from careful_tui.keys.calibration import Calibration
 from careful_tui.keys.hold import DIRECTIONS, Clock, HoldProfile
 from careful_tui.keys.kitty import KeyRelease
@@ -28,12 +33,16 @@ KEY_CHIP = f"bold {ON_NOTE} on {NOTE}"
 
 
 class CalibrationScreen(ModalScreen[HoldProfile | None]):
-    """Measure the autorepeat initial delay and period from one long hold of an arrow."""
+    """Measure the autorepeat initial delay and period from one long hold of an arrow.
 
-    def __init__(self, base: HoldProfile, *, clock: Clock) -> None:
+    `clock` and `event_times` are play's (`careful_tui.keys.arrival`).
+    """
+
+    def __init__(self, base: HoldProfile, *, clock: Clock, event_times: bool | None = None) -> None:
         super().__init__()
         self.base = base
         self._clock = clock
+        self.arrival = KeyArrival(clock, event_times=event_times)
         self._calibration = Calibration(base)
         self._first: float | None = None
         self._last: float | None = None
@@ -61,11 +70,11 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
         elif key == "r":
             self._restart()
         elif key in DIRECTIONS and self._result is None and self._problem is None:
-            now = self._clock()
+            came = self.arrival(event)
             if self._first is None:
-                self._first = now
-            self._last = now
-            self._calibration.feed(key, now)
+                self._first = came
+            self._last = came
+            self._calibration.feed(key, came)
             self._show()
 
     def on_key_release(self, event: KeyRelease) -> None:

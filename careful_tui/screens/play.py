@@ -9,7 +9,7 @@ are drawn by `careful_tui.widgets.play_status`).
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
 default), shared by the input detector, the live gauge and the calibration screen. A key event
-is timed by when it reached the app, not when it was handled (`PlayScreen.arrival`). A 30 Hz
+is timed by when it reached the app, not when it was handled (`careful_tui.keys.arrival`). A 30 Hz
 timer runs only while a move is being entered; it calls `PlayScreen.tick`, which tests call
 directly after advancing a fake clock.
 
@@ -43,6 +43,7 @@ from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
 
+from careful_tui.keys.arrival import KeyArrival
 from careful_tui.keys.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput
 from careful_tui.keys.modes import make_input
 from careful_tui.keys.kitty import KeyRelease, key_repeat
@@ -82,7 +83,7 @@ class PlayScreen(Screen[None]):
     `episodes_done` of the `episodes_done + episodes` already played before, each called an
     `episode_word` ("Practice episode 1 of 2"), under the title `heading`; `command` names what a
     too-small terminal is told needs more room. `event_times` says whether key events' own
-    times are on `clock` (see `arrival`; None: when `clock` is `time.monotonic`).
+    times are on `clock` (`careful_tui.keys.arrival`; None: when `clock` is `time.monotonic`).
     """
 
     TITLE = "careful play"
@@ -142,7 +143,7 @@ class PlayScreen(Screen[None]):
         self.recorder = recorder
         self.world = game.world
         self.clock = clock
-        self.event_times = clock is time.monotonic if event_times is None else event_times
+        self.arrival = KeyArrival(clock, event_times=event_times)
         self.player = player
         self.input_mode = input_mode
         self.profile = profile or HoldProfile(levels=self.world.levels)
@@ -228,17 +229,6 @@ class PlayScreen(Screen[None]):
             self.releases_seen = True
             self._commit(self.input.release(event.key, at=self.arrival(event)))
             self._mirror_hold()
-
-    def arrival(self, event: events.Event) -> float:
-        """When `event` reached the app, on `clock`.
-
-        Textual stamps an event with `time.monotonic()` as it makes it (`Message.time`), and its
-        driver makes a key event in its input thread as it reads the key: the stamp is the key's
-        arrival however long the event then waits. It is on `clock` when `clock` is
-        `time.monotonic` (Textual's clock where play runs) or `event_times` says so (a test
-        stamping events on its fake clock); otherwise the event is timed as it is handled.
-        """
-        return event.time if self.event_times else self.clock()
 
     async def _tick_behind_input(self) -> None:
         """The timer's tick, run once every key that reached the app before it is in a queue.
@@ -358,7 +348,8 @@ class PlayScreen(Screen[None]):
             return
         self.input.reset()
         self._mirror_hold()
-        self.app.push_screen(CalibrationScreen(self.profile, clock=self.clock), self.use_profile)
+        calibration = CalibrationScreen(self.profile, clock=self.clock, event_times=self.arrival.event_times)
+        self.app.push_screen(calibration, self.use_profile)
 
     def use_profile(self, profile: HoldProfile | None) -> None:
         """Play on with `profile` (a calibration's result); None keeps the current one."""

@@ -1,0 +1,151 @@
+"""A calibration whose keys are handled late still measures the autorepeat they showed (Pilot).
+
+While the app is stalled (a slow frame, a busy machine) the terminal's press and autorepeats
+queue up and are handled together when it resumes. Timed by when they were handled, a stall
+over the first repeat stretches the measured delay to its end, and keys handled in bunches
+make most repeat gaps 0, so the median period is clamped to 10 ms: every later hold is then
+read with the wrong rhythm. The screen times each key by its arrival (`careful_tui.keys.arrival`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import statistics
+import threading
+import time
+from itertools import groupby
+from pathlib import Path
+
+import pytest
+from textual import events
+from textual.pilot import Pilot
+
+from careful_tui.app import new_play_screen
+from careful_tui.screens.calibration import SILENCE_S, CalibrationScreen
+from careful_tui.screens.careful_app import CarefulApp
+from play_fixtures import FakeClock, corner_world
+from test_play_redraw import visible
+
+DELAY = 0.5
+PERIOD = 0.033
+HELD = 2.0
+# The arrivals are given exactly, so the measurement is exact but for float rounding.
+TOLERANCE_MS = 0.01
+
+
+def calibrating_app(tmp_path: Path, clock, **options) -> CarefulApp:
+    """Play opening on its calibration screen (`--calibrate`), in hold mode on `clock`."""
+    return CarefulApp(new_play_screen(corner_world(), out=tmp_path / "rec", player="tester", seed=1,
+                                      input_mode="hold", clock=clock, calibrate=True, **options))
+
+
+def stamped_key(key: str, at: float) -> events.Key:
+    """A legacy terminal's key event (press or autorepeat alike) that reached the app at `at`."""
+    event = events.Key(key, None)
+    event.time = at
+    return event
+
+
+def autorepeat(start: float) -> list[float]:
+    """A press at `start`, autorepeats from `DELAY` every `PERIOD` to `HELD` s after it."""
+    count = math.floor((HELD - DELAY) / PERIOD) + 1
+    return [start, *(start + DELAY + k * PERIOD for k in range(count))]
+
+
+def stalled_over_first_repeat(start: float, arrival: float) -> float:
+    """When a loop stalled from 0.3 s to 0.9 s after the press handles a key that came at `arrival`."""
+    stall_from, stall_ends = start + 0.3, start + 0.9
+    return stall_ends if stall_from <= arrival < stall_ends else arrival
+
+
+def busy_in_bunches(start: float, arrival: float) -> float:
+    """When a loop that gets to its keys only every 100 ms (a slow frame each time) handles one."""
+    return start + math.ceil(round((arrival - start) / 0.1, 9)) * 0.1
+
+
+@pytest.mark.parametrize("handled_at", [stalled_over_first_repeat, busy_in_bunches])
+def test_keys_handled_late_measure_the_delay_and_period_they_came_with(tmp_path: Path, handled_at) -> None:
+    clock = FakeClock()
+    start = clock.now
+    arrivals = autorepeat(start)
+    handled = [handled_at(start, t) for t in arrivals]
+    assert sum(h > t + 0.05 for t, h in zip(arrivals, handled)) >= 10, "keys handled over 50 ms late"
+    app = calibrating_app(tmp_path, clock, event_times=True)
+    seen: dict[str, object] = {}
+
+    async def body(pilot: Pilot) -> None:
+        screen = app.screen
+        assert isinstance(screen, CalibrationScreen)
+        for when, came in groupby(zip(handled, arrivals), key=lambda pair: pair[0]):
+            clock.now = when
+            screen.tick()  # the screen's timer may run before the keys that wait for it
+            for _, arrival in came:
+                app.post_message(stamped_key("up", arrival))
+            await pilot.pause()
+            assert screen._result is None and screen._problem is None, f"the attempt ended at {when - start:.2f} s"
+        measured = seen["measured"] = screen._calibration.result()
+        assert measured.initial_delay_ms == pytest.approx(DELAY * 1000, abs=TOLERANCE_MS)
+        assert measured.repeat_period_ms == pytest.approx(PERIOD * 1000, abs=TOLERANCE_MS)
+        # The silence after the last key counts from its arrival, on the screen's clock.
+        clock.now = arrivals[-1] + SILENCE_S - 0.01
+        screen.tick()
+        assert screen._result is None, "the attempt ended before a silence"
+        clock.now = arrivals[-1] + SILENCE_S + 1e-6
+        screen.tick()
+        await pilot.pause()
+        assert screen._result is not None, "no end SILENCE_S after the last key's arrival"
+        seen["shown"] = " ".join(visible(screen.query_one("#calibration-text")).split())
+        await pilot.press("enter")
+        await pilot.pause()
+        seen["profile"] = app.screen.profile
+
+    async def main() -> None:
+        async with app.run_test(size=(100, 35)) as pilot:
+            await pilot.pause()
+            await body(pilot)
+
+    asyncio.run(main())
+    assert seen["profile"] == seen["measured"] and seen["profile"].calibrated, "play goes on with the profile measured"
+    assert "Autorepeat starts after 500 ms and repeats every 33 ms." in seen["shown"]
+
+
+def test_a_real_stall_of_the_event_loop_over_the_first_repeat_leaves_the_delay_measured(tmp_path: Path) -> None:
+    """Real time: a thread types like a terminal's input thread while the loop blocks for 600 ms."""
+    app = calibrating_app(tmp_path, time.monotonic)
+    period, held_s = 0.04, 1.5
+    sent: list[float] = []
+
+    def keyboard() -> None:
+        sent.append(time.monotonic())
+        app._driver.process_message(events.Key("up", None))
+        time.sleep(DELAY)
+        while time.monotonic() - sent[0] < held_s:
+            sent.append(time.monotonic())
+            app._driver.process_message(events.Key("up", None))
+            time.sleep(period)
+
+    async def main() -> CalibrationScreen:
+        async with app.run_test(size=(100, 35)) as pilot:
+            await pilot.pause()
+            screen = app.screen
+            assert isinstance(screen, CalibrationScreen)
+            typing = threading.Thread(target=keyboard)
+            typing.start()
+            await pilot.pause(0.3)
+            time.sleep(0.6)  # the loop blocks over the first repeat: nothing is handled, the keys queue up
+            while typing.is_alive():
+                await pilot.pause(0.05)
+            for _ in range(100):  # the attempt ends SILENCE_S after the last repeat
+                await pilot.pause(0.02)
+                if screen._result is not None or screen._problem is not None:
+                    break
+            return screen
+
+    screen = asyncio.run(main())
+    gaps_ms = [(b - a) * 1000 for a, b in zip(sent, sent[1:])]
+    assert screen._problem is None and screen._result is not None, gaps_ms
+    # Stamped as it is made, a key event's time is its sending's to within the thread's switch
+    # (5 ms, more on a loaded machine); handled after the stall, the delay would be 900 ms.
+    assert screen._result.initial_delay_ms == pytest.approx(gaps_ms[0], abs=25.0), gaps_ms
+    assert screen._result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
