@@ -22,7 +22,8 @@ from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
-from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
+from irl_core.irl import lp
+from irl_core.irl.lp import Progress, first_round_rows, lp_constraints, margin_lp, solve_margin_lp
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -162,7 +163,14 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
         solution = solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax), lam=options.lam,
                                    progress=progress)
         theta, V = qmap.split(solution.x)
-        return _Fitted("lp", theta, V)
+        fitted = _Fitted("lp", theta, V, status=solution.status)
+        if solution.interior:
+            fitted.notes.append(
+                f"lp solved by the interior point method, as this world's LP has {solution.first_rows:,} rows in its "
+                f"first round (the simplex is used up to {lp.INTERIOR_ROWS:,}); the gap between its margin and the "
+                f"dual bound on the largest is {solution.gap:.2g} (relative), so the reward is a near-maximiser "
+                "of the margin")
+        return fitted
     if method == "loss":
         solution = fit_loss(qmap, demos.policy, rmax=options.rmax, lam=options.lam)
         theta, V = qmap.split(solution.x)
@@ -190,9 +198,15 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
                progress: Progress | None, workers: int | None) -> tuple[np.ndarray | None, str | None]:
     """(k, 2) intervals and their kind (``identified`` or ``confidence``), or (None, None) with a note why not."""
     if fitted.method == "lp":
+        constraints = lp_constraints(qmap, demos.most_frequent, rmax=options.rmax)
+        rows = first_round_rows(margin_lp(constraints))
+        if rows > lp.INTERIOR_ROWS:
+            notes.append(f"intervals not computed: past {lp.INTERIOR_ROWS:,} rows ({rows:,} here) each of the "
+                         f"{2 * qmap.k} interval LPs would be solved from nothing by the interior point method, "
+                         "each about as long as one round of the fit")
+            return None, None
         try:
-            bounds, _ = reward_intervals(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax),
-                                         progress=progress)
+            bounds, _ = reward_intervals(constraints, progress=progress)
         except InfeasibleError:
             notes.append("intervals not computed: the most frequent actions are not optimal for any reward "
                          "within ±rmax, so the lp constraints they come from are empty")

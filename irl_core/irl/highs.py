@@ -66,6 +66,18 @@ OUTCOMES: dict[highspy.HighsModelStatus, tuple[str, Kind]] = {
 
 DEFAULT_TOLERANCE = 1e-7
 
+# The interior point method without crossover (`INTERIOR`), for LPs past where the simplex is
+# reliable (`lp.INTERIOR_ROWS`), leaves no basis and on such LPs often no "optimal" either: on a
+# 128x128 world's first round IPX said "no progress" and HiGHS "unknown", with a point primal
+# feasible to 3e-8 and a dual point 0.3% from it in objective. Its point is taken as an answer
+# when both points are feasible within the tolerances and the gap between their objectives (a
+# bound on the primal's distance from the optimum) is at most INTERIOR_GAP, relative;
+# `SolveReport.gap` carries that gap on to the user. (Both points are feasible only within
+# HiGHS's tolerances, so on an ill-conditioned LP the optimum may lie a little outside it, as
+# any answer there is good only to the conditioning: README "How cost grows".)
+INTERIOR: dict[str, object] = {"solver": "ipx", "run_crossover": "off"}
+INTERIOR_GAP = 1e-2
+
 
 @dataclass(frozen=True)
 class SolveReport:
@@ -77,6 +89,8 @@ class SolveReport:
         objective: cost @ z at the answer (nan without one).
         iterations: simplex and interior point iterations of this solve, retries included.
         solver: the HiGHS solver that gave the final status ("simplex", "primal simplex", "ipx").
+        gap: an `INTERIOR` answer's gap to the dual objective, relative (`_interior_gap`); 0
+            for a vertex (optimal within the tolerances).
     """
 
     status: str
@@ -84,6 +98,7 @@ class SolveReport:
     objective: float
     iterations: int
     solver: str
+    gap: float = 0.0
 
     def check(self, infeasible_message: str) -> None:
         """Raise `InfeasibleError` (infeasible) or `SolverError` (anything but an answer)."""
@@ -218,6 +233,7 @@ class HighsModel:
         self.scratch = scratch or {}
         self.iterations = 0
         self.solves = 0
+        self.last: SolveReport | None = None
 
     def add_rows(self, A: sp.spmatrix, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
         """Append rows row_lower <= A z <= row_upper; the current basis is kept."""
@@ -253,6 +269,8 @@ class HighsModel:
         highs = self.highs
         iterations = 0
         first = {**self.options, **(options or {})}
+        interior = all(first.get(option) == value for option, value in INTERIOR.items())
+        gap = 0.0
         start = highs.getBasis()
         # A solve from a basis is given up after warm_limit seconds (numerical trouble), then retried.
         # (HiGHS's time limit is on its clock since the model was built.)
@@ -288,6 +306,10 @@ class HighsModel:
                 highs.setOptionValue("presolve", self.options.get("presolve", "choose"))
                 status = highs.getModelStatus()
             word, kind = OUTCOMES.get(status, ("unknown", "failure"))
+            if interior and solver == "as set" and kind in ("answer", "failure"):
+                found = _interior_gap(highs)
+                if found is not None:
+                    word, kind, gap = word if kind == "answer" else "optimal_inaccurate", "answer", found
             if kind != "failure":
                 break
         self._set({**self.options, "time_limit": float("inf")})
@@ -297,7 +319,8 @@ class HighsModel:
         if solver in ("as set", "from scratch", "other simplex"):
             solver = {"as set": first["solver"], "from scratch": f"{self.options['solver']} from scratch",
                       "other simplex": f"{'dual' if other == 1 else 'primal'} simplex from the same basis"}[solver]
-        return np.array(highs.getSolution().col_value), SolveReport(word, kind, objective, iterations, solver)
+        report = self.last = SolveReport(word, kind, objective, iterations, solver, gap)
+        return np.array(highs.getSolution().col_value), report
 
     def _set(self, options: dict[str, object]) -> None:
         for option, value in options.items():
@@ -395,6 +418,24 @@ def _run_with_stop(highs: highspy.Highs, check: Callable[[], bool]) -> None:
     finally:
         highs.cbSimplexInterrupt -= stop_if_asked
         highs.cbIpmInterrupt -= stop_if_asked
+
+
+def _interior_gap(highs: highspy.Highs) -> float | None:
+    """The gap between an `INTERIOR` solve's objective p and its dual objective d, relative to
+    |p| (or 1), which by weak duality holds the optimum when both points are feasible; None when
+    the point is not an answer (see `INTERIOR_GAP`).
+
+    HiGHS gives e = |p - d| / (1 + |p| + |d|); as |d| <= |p| + |p - d|, the gap
+    |p - d| <= e (1 + 2|p|) / (1 - e).
+    """
+    info = highs.getInfo()
+    feasible = highspy.SolutionStatus.kSolutionStatusFeasible
+    e = float(info.primal_dual_objective_error)
+    if info.primal_solution_status != feasible or info.dual_solution_status != feasible or not 0 <= e < 1:
+        return None
+    p = abs(float(info.objective_function_value))
+    gap = e * (1 + 2 * p) / (1 - e) / max(p, 1.0)
+    return gap if gap <= INTERIOR_GAP else None
 
 
 def _same_solve(a: dict[str, object], b: dict[str, object]) -> bool:

@@ -42,6 +42,12 @@ The first round starts from a vertex built from a policy (`start_from_policy`): 
 unknown at the bound the demonstrations suggest, V the values of pi with the best actions
 elsewhere. HiGHS's own start (all rows loose) took four times the simplex iterations on a
 64x64 world. Tied fits keep HiGHS's start, which is far better for them (`solve_margin_lp`).
+
+Big worlds. Past `INTERIOR_ROWS` rows in the first round the dual simplex meets nearly
+singular bases (README "How cost grows"), so every round is solved by the interior point
+method without crossover instead. It keeps no basis, so each round starts from nothing, and
+its answer is a point of (or near) the optimal face rather than a vertex: it comes with the
+gap between its margin and the dual bound on the largest (`LPSolution.gap`).
 """
 
 from __future__ import annotations
@@ -52,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
+from irl_core.irl.highs import INTERIOR, HighsModel, LinearProgram, linear_program
 from irl_core.irl.qmap import QMap
 from irl_core.planning import policy_evaluation
 
@@ -319,6 +325,13 @@ class LPSolution:
         rounds: LP solves (1 without row generation).
         rows: rows of the last model.
         iterations: HiGHS's simplex (and interior point) iterations over all rounds.
+        first_rows: rows of the first round (`first_round_rows`).
+        interior: whether the interior point method solved it (`INTERIOR_ROWS`).
+        status: HiGHS's word for the last round's answer, in ours: "optimal", or
+            "optimal_inaccurate" for an interior point answer HiGHS did not call optimal.
+        gap: the last round's gap between the margin and the dual bound on it, relative: 0 for
+            a vertex (optimal within HiGHS's tolerances), else the interior point method's
+            (`highs.INTERIOR_GAP`).
     """
 
     x: np.ndarray
@@ -326,6 +339,10 @@ class LPSolution:
     iterations: int
     rounds: int
     rows: int
+    first_rows: int
+    interior: bool = False
+    status: str = "optimal"
+    gap: float = 0.0
 
 
 def solve_margin_lp(
@@ -333,9 +350,12 @@ def solve_margin_lp(
     *,
     lam: float = 0.0,
     generate_rows: bool = True,
+    interior: bool | None = None,
     progress: Progress | None = None,
 ) -> LPSolution:
-    """Solve the margin LP by row generation (or, with `generate_rows=False`, whole).
+    """Solve the margin LP by row generation (or, with `generate_rows=False`, whole), every
+    round by the dual simplex or, with `interior`, by the interior point method (None: when the
+    first round has over `INTERIOR_ROWS` rows).
 
     Raises `InfeasibleError` or `SolverError`.
     """
@@ -343,14 +363,17 @@ def solve_margin_lp(
     if not generate_rows:
         model = HighsModel(problem.full())
         z, _ = model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
-        return _solution(problem, z, model, rounds=1)
-    run = RowGeneration(problem, options=margin_options(problem))
-    if not shares_terminal_unknowns(problem):
+        return _solution(problem, z, model, rounds=1, first_rows=model.n_row, interior=False)
+    first_rows = first_round_rows(problem)
+    if interior is None:
+        interior = first_rows > INTERIOR_ROWS
+    run = RowGeneration(problem, options=INTERIOR if interior else margin_options(problem))
+    if not interior and not shares_terminal_unknowns(problem):
         # Measured on the 64x64 world: per cell 5.3 s from this start against 10.3 s; tied
         # (theta's guess then far from the optimum's) 422 s against 8.8 s from HiGHS's own.
         start_from_policy(run)
     z = run.solve(progress=progress)
-    return _solution(problem, z, run.model, rounds=run.rounds)
+    return _solution(problem, z, run.model, rounds=run.rounds, first_rows=first_rows, interior=interior)
 
 
 # Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
@@ -361,9 +384,9 @@ MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
 
 
 def margin_options(problem: MarginLP) -> dict[str, object]:
-    """The HiGHS options of a margin LP solved from no basis: `MARGIN_OPTIONS`, and presolve off
-    when a reward unknown is shared by several terminal cells (`--tie`: one column in many of
-    the rows V(s) = R_S(s)).
+    """The HiGHS options of a margin LP solved by the simplex from no basis: `MARGIN_OPTIONS`,
+    and presolve off when a reward unknown is shared by several terminal cells (`--tie`: one
+    column in many of the rows V(s) = R_S(s)).
 
     Measured on the 64x64 world's first round, one solve at a time (`bench.tied_first_round`):
     with a shared unknown (2 columns, 62 and 1 cells) not solved in 60 s with presolve (over 12
@@ -371,6 +394,20 @@ def margin_options(problem: MarginLP) -> dict[str, object]:
     with presolve, not solved in 60 s without (over 4 minutes in the earlier session).
     """
     return {**MARGIN_OPTIONS, "presolve": "off"} if shares_terminal_unknowns(problem) else MARGIN_OPTIONS
+
+
+# The first round's rows past which the margin LP is solved by the interior point method,
+# round after round from no basis (`highs.INTERIOR`). The generated cliff worlds' fits by the
+# dual simplex, one run each on a busy machine (README "How cost grows"): 64x64 (19,052 rows)
+# 5 to 8 s; 80x80 (29,268) 80 s; 96x96 (41,232) not through its first round in 6.6 CPU
+# minutes; 128x128 (71,201) a solve error after 20 minutes. By the interior point method the
+# 128x128 fit took 6 rounds, 26 minutes on that machine, its last round's gap 2e-3.
+INTERIOR_ROWS = 35_000
+
+
+def first_round_rows(problem: MarginLP) -> int:
+    """The rows of the margin LP's first round: the base rows and the seed (`seed_pairs`)."""
+    return problem.base.shape[0] + int(seed_pairs(problem).sum())
 
 
 def shares_terminal_unknowns(problem: MarginLP) -> bool:
@@ -435,8 +472,11 @@ class RowGeneration:
             self.add(add)
 
 
-def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: int) -> LPSolution:
+def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: int, first_rows: int,
+              interior: bool) -> LPSolution:
     n, n_d = problem.qmap.n, problem.demonstrated.size
     return LPSolution(
-        x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=model.iterations, rounds=rounds, rows=model.n_row
+        x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=model.iterations, rounds=rounds, rows=model.n_row,
+        first_rows=first_rows, interior=interior,
+        status=model.last.status, gap=model.last.gap,
     )

@@ -1,0 +1,69 @@
+"""The margin LP past `lp.INTERIOR_ROWS`: solved by the interior point method, which says how
+near its answer is (the gap to its dual bound), and what the fit then says and leaves out.
+
+That the interior route reaches the whole LP's optimum on the worlds of the other routes is in
+`test_lp_paths.py` (`assert_margins_agree`).
+"""
+
+import numpy as np
+import pytest
+
+from bench.fit_stage import demonstrations_for
+from bench.worlds import cliff_world
+from irl_core.irl import fit, lp
+from irl_core.irl.highs import INTERIOR, HighsModel
+from irl_core.irl.qmap import build_qmap, build_unknowns
+from irl_core.mdp import build_mdp
+
+RMAX = 1000.0
+
+
+@pytest.fixture(scope="module")
+def cliff16():
+    mdp = build_mdp(cliff_world(16, 16))
+    demos = demonstrations_for(mdp, episodes=100, seed=0)
+    qmap = build_qmap(mdp, build_unknowns(mdp, reward_cells="special"))
+    return demos, lp.lp_constraints(qmap, demos.most_frequent, rmax=RMAX)
+
+
+def test_a_stopped_interior_answer_is_as_near_as_the_gap_it_reports(cliff16):
+    """IPX stopped early (a loose optimality tolerance) leaves a point short of the optimum; the
+    gap reported must cover how far short it is, as the fit's note says it does."""
+    _, constraints = cliff16
+    whole = lp.margin_lp(constraints).full()
+    optimum = HighsModel(whole).solve()[1].objective
+    inaccurate = 0
+    for tolerance in (1e-2, 1e-3, 1e-4, 1e-6):
+        _, report = HighsModel(whole, options={**INTERIOR, "ipm_optimality_tolerance": tolerance}).solve()
+        assert report.kind == "answer" and report.solver == "ipx"
+        short = abs(report.objective - optimum) / max(abs(report.objective), 1.0)
+        assert short <= report.gap + 1e-9, tolerance
+        inaccurate += report.gap > 1e-4
+    assert inaccurate >= 1  # the check above saw answers well short of the optimum
+
+
+def test_the_size_switch_is_by_the_first_rounds_rows(cliff16, monkeypatch):
+    _, constraints = cliff16
+    rows = lp.first_round_rows(lp.margin_lp(constraints))
+    assert rows == 1318  # the base rows and the seed of the 16x16 world
+    assert not lp.solve_margin_lp(constraints).interior
+    monkeypatch.setattr(lp, "INTERIOR_ROWS", rows - 1)
+    solution = lp.solve_margin_lp(constraints)
+    assert solution.interior and solution.first_rows == rows
+    assert solution.margin == pytest.approx(lp.solve_margin_lp(constraints, interior=False).margin, rel=1e-7)
+
+
+def test_a_fit_past_the_switch_says_how_it_was_solved_and_leaves_out_intervals(cliff16, monkeypatch):
+    demos, _ = cliff16
+    monkeypatch.setattr(lp, "INTERIOR_ROWS", 1000)
+    result = fit(demos, method="lp", reward_cells="special", intervals=True, rmax=RMAX)
+    notes = " ".join(result.notes)
+    assert "lp solved by the interior point method, as this world's LP has 1,318 rows in its first round" in notes
+    assert "(the simplex is used up to 1,000)" in notes
+    assert "intervals not computed: past 1,000 rows (1,318 here) each of the 30 interval LPs" in notes
+    assert result.intervals is None
+    assert result.status in ("optimal", "optimal_inaccurate")
+    # Still the lp's answer: the same reward as the simplex where the optimum is a single point
+    # is not promised (an interior point of the optimal face), but the cliff stays bad.
+    simplex = fit(demos, method="lp", reward_cells="special", rmax=RMAX)
+    assert np.sign(result.theta).tolist() == np.sign(simplex.theta).tolist()
