@@ -5,6 +5,11 @@ queue up and are handled together when it resumes. Timed by when they were handl
 over the first repeat stretches the measured delay to its end, and keys handled in bunches
 make most repeat gaps 0, so the median period is clamped to 10 ms: every later hold is then
 read with the wrong rhythm. The screen times each key by its arrival (`careful_tui.keys.arrival`).
+
+A stall once the repeats run is a silence to a timer that wakes before the keys queued behind it
+are handled: the attempt would end ("Measured.") while the key is still held, from the repeats
+before the stall. As play does, the screen judges a silence only once the keys that came are
+handled (`careful_tui.screens.behind_input`).
 """
 
 from __future__ import annotations
@@ -148,4 +153,96 @@ def test_a_real_stall_of_the_event_loop_over_the_first_repeat_leaves_the_delay_m
     # Stamped as it is made, a key event's time is its sending's to within the thread's switch
     # (5 ms, more on a loaded machine); handled after the stall, the delay would be 900 ms.
     assert screen._result.initial_delay_ms == pytest.approx(gaps_ms[0], abs=25.0), gaps_ms
+    assert screen._result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
+
+
+def test_autorepeats_queued_behind_a_stall_once_the_repeats_run_do_not_end_the_attempt(tmp_path: Path) -> None:
+    clock = FakeClock()
+    start = clock.now
+    arrivals = autorepeat(start)
+    stall_from, stall_ends = start + 0.8, start + 1.4
+    app = calibrating_app(tmp_path, clock, event_times=True)
+
+    async def body(pilot: Pilot) -> None:
+        screen = app.screen
+        backlog = [t for t in arrivals if stall_from <= t < stall_ends]
+        assert len(backlog) == 18 and stall_ends - max(t for t in arrivals if t < stall_from) > SILENCE_S
+        assert isinstance(screen, CalibrationScreen)
+        for t in arrivals:
+            if t in backlog:
+                continue
+            if t >= stall_ends and backlog:
+                # The stall ends: the keys read meanwhile are on their way from the driver to
+                # the app's queue, and the timer's tick is first.
+                clock.now = stall_ends
+                for queued in backlog:
+                    app._driver.process_message(stamped_key("up", queued))
+                await screen._tick_behind_input()
+                ended = screen._result is not None or screen._problem is not None
+                await pilot.pause()  # (the keys in transit are handled before any assertion can stop the app)
+                assert not ended, "the timer ended the attempt while its repeats were on their way"
+                backlog = []
+            clock.now = t
+            app.post_message(stamped_key("up", t))
+            await pilot.pause()
+            await screen._tick_behind_input()
+            assert screen._result is None and screen._problem is None, f"the attempt ended at {t - start:.2f} s"
+        assert screen._calibration.repeats == len(arrivals) - 1
+        clock.now = arrivals[-1] + SILENCE_S + 1e-6
+        await screen._tick_behind_input()
+        assert screen._result is not None, "no end SILENCE_S after the last key's arrival"
+        assert screen._result.initial_delay_ms == pytest.approx(DELAY * 1000, abs=TOLERANCE_MS)
+        assert screen._result.repeat_period_ms == pytest.approx(PERIOD * 1000, abs=TOLERANCE_MS)
+
+    async def main() -> None:
+        async with app.run_test(size=(100, 35)) as pilot:
+            await pilot.pause()
+            await body(pilot)
+
+    asyncio.run(main())
+
+
+def test_a_real_stall_of_the_event_loop_once_the_repeats_run_leaves_the_attempt_going(tmp_path: Path) -> None:
+    """Real time: a thread types like a terminal's input thread while the loop blocks for 600 ms,
+    from 0.8 s after the press (the repeats began at 0.5 s) to 1.4 s; the key is let go at 2 s."""
+    app = calibrating_app(tmp_path, time.monotonic)
+    period, held_s = 0.04, 2.0
+    sent: list[float] = []
+    ended_while_held: list[float] = []
+
+    def keyboard() -> None:
+        sent.append(time.monotonic())
+        app._driver.process_message(events.Key("up", None))
+        time.sleep(DELAY)
+        while time.monotonic() - sent[0] < held_s:
+            sent.append(time.monotonic())
+            app._driver.process_message(events.Key("up", None))
+            time.sleep(period)
+
+    async def main() -> CalibrationScreen:
+        async with app.run_test(size=(100, 35)) as pilot:
+            await pilot.pause()
+            screen = app.screen
+            assert isinstance(screen, CalibrationScreen)
+            typing = threading.Thread(target=keyboard)
+            typing.start()
+            await pilot.pause(0.8)
+            time.sleep(0.6)  # the loop blocks while the key repeats: nothing is handled, the keys queue up
+            while typing.is_alive():
+                await pilot.pause(0.05)
+                if screen._result is not None or screen._problem is not None:
+                    ended_while_held.append(time.monotonic() - sent[0])
+                    break
+            typing.join()
+            for _ in range(100):  # the attempt ends SILENCE_S after the last repeat
+                await pilot.pause(0.02)
+                if screen._result is not None or screen._problem is not None:
+                    break
+            return screen
+
+    screen = asyncio.run(main())
+    gaps_ms = [round((b - a) * 1000) for a, b in zip(sent, sent[1:])]
+    assert not ended_while_held, f"ended {ended_while_held[0]:.2f} s into the hold, repeats sent {gaps_ms} ms apart"
+    assert screen._problem is None and screen._result is not None, gaps_ms
+    assert screen._calibration.repeats == len(sent) - 1, f"{screen._calibration.repeats} of {len(sent) - 1} repeats used"
     assert screen._result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
