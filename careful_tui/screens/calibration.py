@@ -7,7 +7,9 @@ It returns the calibrated `HoldProfile`, or None when cancelled.
 
 Time: as in play, every key is timed by when it reached the app (`careful_tui.keys.arrival`),
 so keys a stall of the event loop held back still measure the delay and period they showed;
-the silence is the injectable `clock`'s time since the last key's arrival, on that clock.
+the silence is the injectable `clock`'s time since the last key's arrival, on that clock. As in
+play, the timer judges a silence only once the keys that came are handled
+(`careful_tui.screens.behind_input`): after a stall, repeats still queued are no release.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from careful_tui.keys.calibration import Calibration
 from careful_tui.keys.hold import DIRECTIONS, Clock, HoldProfile
 from careful_tui.keys.kitty import KeyRelease
 from careful_tui.render.palette import BAR, EMPTY, GOOD, NOTE, ON_NOTE, SLIP
+from careful_tui.screens.behind_input import TickBehindInput
 
 HOLD_S = 2.0
 SILENCE_S = 0.3
@@ -32,7 +35,7 @@ BAR_WIDTH = 30
 KEY_CHIP = f"bold {ON_NOTE} on {NOTE}"
 
 
-class CalibrationScreen(ModalScreen[HoldProfile | None]):
+class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
     """Measure the autorepeat initial delay and period from one long hold of an arrow.
 
     `clock` and `event_times` are play's (`careful_tui.keys.arrival`).
@@ -41,7 +44,7 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
     def __init__(self, base: HoldProfile, *, clock: Clock, event_times: bool | None = None) -> None:
         super().__init__()
         self.base = base
-        self._clock = clock
+        self.clock = clock
         self.arrival = KeyArrival(clock, event_times=event_times)
         self._calibration = Calibration(base)
         self._first: float | None = None
@@ -56,7 +59,7 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
             yield Static(id="calibration-text")
 
     def on_mount(self) -> None:
-        self._ticker = self.set_interval(1 / 20, self.tick)
+        self._ticker = self.set_interval(1 / 20, self._tick_behind_input)
         self._show()
 
     def on_key(self, event: events.Key) -> None:
@@ -82,11 +85,13 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
         if event.key in DIRECTIONS and self._first is not None and self._result is None:
             self._finish()
 
-    def tick(self) -> None:
-        """End the attempt once the key has been released (silent); redraw the progress."""
+    def tick(self, *, input_until: float | None = None) -> None:
+        """End the attempt once the key has been released (silent by `input_until`, default now,
+        with no key waiting to be handled); redraw the progress."""
         if self._last is not None and self._result is None and self._problem is None:
             silence = SILENCE_S if self._calibration.repeats else FIRST_REPEAT_S
-            if self._clock() - self._last >= silence:
+            until = self.clock() if input_until is None else input_until
+            if until - self._last >= silence and not self.input_waiting():
                 self._finish()
             else:
                 self._show()
@@ -104,7 +109,7 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
         self._show()
 
     def _show(self) -> None:
-        held = 0.0 if self._first is None else self._clock() - self._first
+        held = 0.0 if self._first is None else self.clock() - self._first
         state = (round(held, 1), self._calibration.repeats, self._result, self._problem)
         if state == self._shown:
             return
@@ -135,7 +140,7 @@ class CalibrationScreen(ModalScreen[HoldProfile | None]):
             text.append(" " * filled, style=f"on {BAR}")
             text.append(" " * (BAR_WIDTH - filled), style=f"on {EMPTY}")
             text.append(f"  {held:.1f} s   {self._calibration.repeats} repeats\n\n")
-            text.append("This measures your keyboard's autorepeat, so that levels count from it.\n", style="dim")
+            text.append("This measures your keyboard's autorepeat; levels count from it.\n\n", style="dim")
             text.append(" esc ", style=KEY_CHIP)
             text.append(" cancel")
         self.query_one("#calibration-text", Static).update(text)

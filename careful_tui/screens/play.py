@@ -48,6 +48,7 @@ from careful_tui.keys.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInpu
 from careful_tui.keys.modes import make_input
 from careful_tui.keys.kitty import KeyRelease, key_repeat
 from careful_tui.render.palette import NOTE, SLIP, WARN
+from careful_tui.screens.behind_input import TickBehindInput
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
@@ -61,9 +62,6 @@ from irl_core.world import World
 
 FLASH_S = 0.8
 TICK_S = 1 / 30
-# Event-loop turns a key takes from Textual's input thread into the app's queue (Textual 8.2.8:
-# the thread schedules a coroutine, the coroutine queues the key).
-TURNS_TO_QUEUE = 2
 
 
 def minimum_size(world: World) -> tuple[int, int]:
@@ -72,7 +70,7 @@ def minimum_size(world: World) -> tuple[int, int]:
     return game_minimum_size(world, side_padding=5, slips=True)
 
 
-class PlayScreen(Screen[None]):
+class PlayScreen(TickBehindInput, Screen[None]):
     """The play screen. Build its app with `careful_tui.app.make_play_app`, which the CLI and the tests share.
 
     Keys are read in `on_key`, which sees every press and autorepeat a hold needs (and is what
@@ -230,21 +228,6 @@ class PlayScreen(Screen[None]):
             self._commit(self.input.release(event.key, at=self.arrival(event)))
             self._mirror_hold()
 
-    async def _tick_behind_input(self) -> None:
-        """The timer's tick, run once every key that reached the app before it is in a queue.
-
-        After a stall of the event loop (a slow redraw, a garbage collection) the timer's
-        wake-up and the keys Textual's input thread read meanwhile are all in the loop's line,
-        the timer's possibly first: polling at once would judge a silence the keys still on their
-        way to the app's queue deny. Letting the loop turn `TURNS_TO_QUEUE` times puts them in
-        that queue, where `tick` sees them; the silence is judged up to when this tick began, as
-        a key that came later is not yet known to be queued.
-        """
-        began = self.clock()
-        for _ in range(TURNS_TO_QUEUE):
-            await asyncio.sleep(0)
-        self.tick(input_until=began)
-
     def tick(self, *, input_until: float | None = None) -> None:
         """Commit a hold whose release timeout passed by `input_until` (default: now), the time up
         to which every key that came is handled or queued, and show the live gauge and arrow.
@@ -252,10 +235,9 @@ class PlayScreen(Screen[None]):
         After a stall, keys that came during it can wait in the app's or this screen's queue:
         the silence since the last key handled is then no silence, and ending the hold would
         split one held key into two moves. So the hold ends only when neither queue holds a
-        message (one that is no key only delays the end by a tick). Not covered: a stop of the
-        whole process (the input thread too), whose keys are read, and stamped, only when it resumes.
+        message (`careful_tui.screens.behind_input`, whose `_tick_behind_input` the timer runs).
         """
-        if self.app.message_queue_size == 0 and self.message_queue_size == 0:
+        if not self.input_waiting():
             self._commit(self.input.poll(at=input_until))
         self._mirror_hold()
         if self.input.current() is None and self.input.deadline() is None:

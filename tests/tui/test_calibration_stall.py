@@ -5,6 +5,11 @@ queue up and are handled together when it resumes. Timed by when they were handl
 over the first repeat stretches the measured delay to its end, and keys handled in bunches
 make most repeat gaps 0, so the median period is clamped to 10 ms: every later hold is then
 read with the wrong rhythm. The screen times each key by its arrival (`careful_tui.keys.arrival`).
+
+A stall once the repeats run is a silence to a timer that wakes before the keys queued behind it
+are handled: the attempt would end ("Measured.") while the key is still held, from the repeats
+before the stall. As play does, the screen judges a silence only once the keys that came are
+handled (`careful_tui.screens.behind_input`).
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import math
 import statistics
 import threading
 import time
+from dataclasses import dataclass
 from itertools import groupby
 from pathlib import Path
 
@@ -110,10 +116,24 @@ def test_keys_handled_late_measure_the_delay_and_period_they_came_with(tmp_path:
     assert "Autorepeat starts after 500 ms and repeats every 33 ms." in seen["shown"]
 
 
-def test_a_real_stall_of_the_event_loop_over_the_first_repeat_leaves_the_delay_measured(tmp_path: Path) -> None:
-    """Real time: a thread types like a terminal's input thread while the loop blocks for 600 ms."""
+@dataclass
+class RealHold:
+    """What `hold_through_a_real_stall` saw: when each key was sent, the screen after the attempt,
+    and how far into the hold (s) the attempt ended while the key was still held, if it did."""
+
+    sent: list[float]
+    screen: CalibrationScreen
+    ended_while_held: float | None
+
+    @property
+    def gaps_ms(self) -> list[float]:
+        return [(b - a) * 1000 for a, b in zip(self.sent, self.sent[1:])]
+
+
+def hold_through_a_real_stall(tmp_path: Path, *, stall_at: float, held_s: float, period: float = 0.04) -> RealHold:
+    """Real time: a thread types like a terminal's input thread (a press, repeats from `DELAY`
+    every `period` to `held_s`) while the loop blocks for 600 ms from `stall_at` s after the press."""
     app = calibrating_app(tmp_path, time.monotonic)
-    period, held_s = 0.04, 1.5
     sent: list[float] = []
 
     def keyboard() -> None:
@@ -125,27 +145,97 @@ def test_a_real_stall_of_the_event_loop_over_the_first_repeat_leaves_the_delay_m
             app._driver.process_message(events.Key("up", None))
             time.sleep(period)
 
-    async def main() -> CalibrationScreen:
+    async def main() -> RealHold:
         async with app.run_test(size=(100, 35)) as pilot:
             await pilot.pause()
             screen = app.screen
             assert isinstance(screen, CalibrationScreen)
+
+            def ended() -> bool:
+                return screen._result is not None or screen._problem is not None
+
             typing = threading.Thread(target=keyboard)
             typing.start()
-            await pilot.pause(0.3)
-            time.sleep(0.6)  # the loop blocks over the first repeat: nothing is handled, the keys queue up
+            await pilot.pause(stall_at)
+            time.sleep(0.6)  # the loop blocks: nothing is handled, the keys queue up
+            ended_while_held = None
             while typing.is_alive():
                 await pilot.pause(0.05)
+                if ended() and ended_while_held is None:
+                    ended_while_held = time.monotonic() - sent[0]
             for _ in range(100):  # the attempt ends SILENCE_S after the last repeat
-                await pilot.pause(0.02)
-                if screen._result is not None or screen._problem is not None:
+                if ended():
                     break
-            return screen
+                await pilot.pause(0.02)
+            return RealHold(sent, screen, ended_while_held)
 
-    screen = asyncio.run(main())
-    gaps_ms = [(b - a) * 1000 for a, b in zip(sent, sent[1:])]
+    return asyncio.run(main())
+
+
+def test_a_real_stall_of_the_event_loop_over_the_first_repeat_leaves_the_delay_measured(tmp_path: Path) -> None:
+    hold = hold_through_a_real_stall(tmp_path, stall_at=0.3, held_s=1.5)
+    screen, gaps_ms = hold.screen, hold.gaps_ms
+    assert hold.ended_while_held is None, f"ended {hold.ended_while_held:.2f} s into the hold"
     assert screen._problem is None and screen._result is not None, gaps_ms
     # Stamped as it is made, a key event's time is its sending's to within the thread's switch
     # (5 ms, more on a loaded machine); handled after the stall, the delay would be 900 ms.
     assert screen._result.initial_delay_ms == pytest.approx(gaps_ms[0], abs=25.0), gaps_ms
+    assert screen._result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
+
+
+def test_autorepeats_queued_behind_a_stall_once_the_repeats_run_do_not_end_the_attempt(tmp_path: Path) -> None:
+    clock = FakeClock()
+    start = clock.now
+    arrivals = autorepeat(start)
+    stall_from, stall_ends = start + 0.8, start + 1.4
+    app = calibrating_app(tmp_path, clock, event_times=True)
+
+    async def body(pilot: Pilot) -> None:
+        screen = app.screen
+        backlog = [t for t in arrivals if stall_from <= t < stall_ends]
+        assert len(backlog) == 18 and stall_ends - max(t for t in arrivals if t < stall_from) > SILENCE_S
+        assert isinstance(screen, CalibrationScreen)
+        for t in arrivals:
+            if t in backlog:
+                continue
+            if t >= stall_ends and backlog:
+                # The stall ends: the keys read meanwhile are on their way from the driver to
+                # the app's queue, and the timer's tick is first.
+                clock.now = stall_ends
+                for queued in backlog:
+                    app._driver.process_message(stamped_key("up", queued))
+                await screen._tick_behind_input()
+                ended = screen._result is not None or screen._problem is not None
+                await pilot.pause()  # (the keys in transit are handled before any assertion can stop the app)
+                assert not ended, "the timer ended the attempt while its repeats were on their way"
+                backlog = []
+            clock.now = t
+            app.post_message(stamped_key("up", t))
+            await pilot.pause()
+            await screen._tick_behind_input()
+            assert screen._result is None and screen._problem is None, f"the attempt ended at {t - start:.2f} s"
+        assert screen._calibration.repeats == len(arrivals) - 1
+        clock.now = arrivals[-1] + SILENCE_S + 1e-6
+        await screen._tick_behind_input()
+        assert screen._result is not None, "no end SILENCE_S after the last key's arrival"
+        assert screen._result.initial_delay_ms == pytest.approx(DELAY * 1000, abs=TOLERANCE_MS)
+        assert screen._result.repeat_period_ms == pytest.approx(PERIOD * 1000, abs=TOLERANCE_MS)
+
+    async def main() -> None:
+        async with app.run_test(size=(100, 35)) as pilot:
+            await pilot.pause()
+            await body(pilot)
+
+    asyncio.run(main())
+
+
+def test_a_real_stall_of_the_event_loop_once_the_repeats_run_leaves_the_attempt_going(tmp_path: Path) -> None:
+    """The loop blocks from 0.8 s after the press (the repeats began at 0.5 s) to 1.4 s; the key is let go at 2 s."""
+    hold = hold_through_a_real_stall(tmp_path, stall_at=0.8, held_s=2.0)
+    screen, gaps_ms = hold.screen, hold.gaps_ms
+    assert hold.ended_while_held is None, \
+        f"ended {hold.ended_while_held:.2f} s into the hold, repeats sent {[round(gap) for gap in gaps_ms]} ms apart"
+    assert screen._problem is None and screen._result is not None, gaps_ms
+    used, sent = screen._calibration.repeats, len(hold.sent) - 1
+    assert used == sent, f"{used} of {sent} repeats used"
     assert screen._result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
