@@ -42,6 +42,7 @@ from irl_core.irl.loss import fit_loss
 from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
+from irl_core.irl.result import Stopped
 from irl_core.mdp import MDP
 
 VARIANTS = ("percentile", "basic")
@@ -179,6 +180,8 @@ def _refit_rows(refit: Refit, by_episode: sp.csr_matrix, weights: np.ndarray) ->
         counts = np.asarray(by_episode.T @ w).reshape(shape)
         try:
             out[i] = refit(counts)
+        except Stopped:
+            raise
         except Exception:  # noqa: BLE001 - one failed resample must not lose the others
             continue
     return out
