@@ -18,6 +18,7 @@ from irl_core.irl.qmap import build_unknowns
 from irl_core.irl.stopping import stop_when
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
+from maxent_evaluations import count_evaluations
 
 
 @pytest.fixture(scope="module")
@@ -28,17 +29,7 @@ def noisy_mud():
 
 @pytest.fixture
 def evaluations(monkeypatch):
-    """[n]: the objective evaluations finished so far."""
-    finished = [0]
-    real = maxent._likelihood
-
-    def counted(*args, **kwargs):
-        answer = real(*args, **kwargs)
-        finished[0] += 1
-        return answer
-
-    monkeypatch.setattr(maxent, "_likelihood", counted)
-    return finished
+    return count_evaluations(monkeypatch)
 
 
 @pytest.mark.parametrize("beta", [1.0, "auto"])

@@ -12,9 +12,10 @@ from careful_tui.render.fit_printout import progress_phrase
 from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.fit import FitScreen
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
-from irl_core.irl import FitOptions, Stopped, fit, maxent
+from irl_core.irl import FitOptions, Stopped, fit
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
+from maxent_evaluations import count_evaluations
 
 
 def test_progress_phrases():
@@ -99,15 +100,7 @@ def test_closing_the_view_stops_a_maxent_fit_inside_its_search(monkeypatch):
     now stops it at its next soft Bellman solve, where the app used to wait for the whole search
     (39 s on a 64x64 world). Counted in evaluations, not seconds."""
     demos = demonstrations_for(build_mdp(cliff_world(16, 16)), episodes=20, seed=0)
-    evaluations = [0]
-    real_likelihood = maxent._likelihood
-
-    def counted(*args, **kwargs):
-        answer = real_likelihood(*args, **kwargs)
-        evaluations[0] += 1
-        return answer
-
-    monkeypatch.setattr(maxent, "_likelihood", counted)
+    evaluations = count_evaluations(monkeypatch)
     ended = []
     over = threading.Event()
     real_fit = careful_tui.screens.fit.fit
