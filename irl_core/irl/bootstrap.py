@@ -35,7 +35,7 @@ import os
 import sys
 import threading
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,7 +46,7 @@ from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
 from irl_core.irl.result import Stopped
-from irl_core.irl.stopping import stop_when
+from irl_core.irl.stopping import stop_if_asked, stop_when
 from irl_core.mdp import MDP
 
 VARIANTS = ("percentile", "basic")
@@ -55,6 +55,8 @@ INTERVAL_VARIANT = "percentile"
 # stops at this projected gradient: its error is then far below the resampling noise.
 RESAMPLE_GRADIENT_TOLERANCE = 1e-5
 RESAMPLE_VALUE_TOLERANCE = 1e-12
+# While the workers refit, this process asks the fit's stop check this often (seconds).
+STOP_POLL_S = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,12 +166,17 @@ def bootstrap(
                     initargs=(refit, by_episode, stopping)))
                 futures = {pool.submit(_refit_chunk, weights[chunk]): chunk for chunk in chunks}
             try:
-                for future in as_completed(futures):
-                    chunk = futures[future]
-                    estimates[chunk] = future.result()
-                    done += chunk.size
-                    if progress:
-                        progress("resamples", done, resamples)
+                pending = set(futures)
+                while pending:
+                    # A chunk can take minutes: meanwhile ask the fit's stop check every STOP_POLL_S.
+                    finished, pending = wait(pending, timeout=STOP_POLL_S, return_when=FIRST_COMPLETED)
+                    stop_if_asked()
+                    for future in finished:
+                        chunk = futures[future]
+                        estimates[chunk] = future.result()
+                        done += chunk.size
+                        if progress:
+                            progress("resamples", done, resamples)
             except BaseException:
                 # Stopped (or Ctrl+C): leaving the pool would wait for every queued chunk (65 s of a
                 # 16x16 world's 200 resamples); the workers' refits stop at their next check instead.
