@@ -27,8 +27,8 @@ from irl_core.irl.lp import Progress, first_round_rows, lp_constraints, margin_l
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
-from irl_core.irl.highs import stop_when
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, Stopped
+from irl_core.irl.stopping import stop_when
 
 METHODS = FITTERS
 
@@ -62,8 +62,9 @@ def fit(
         progress: called as progress(stage, done, total) as long work goes on: the lp's
             ``rounds`` (total None), the ``intervals`` LPs done, the bootstrap's ``resamples``.
         workers: processes for the bootstrap (default: the cores).
-        stop: asked at every LP iteration and progress report; once it says True the fit
-            raises `Stopped` (a fitting thread whose answer is no longer wanted).
+        stop: asked at every LP iteration, every solve of maxent's soft Bellman equations
+            and every progress report; once it says True the fit raises `Stopped` (a
+            fitting thread whose answer is no longer wanted).
 
     Raises `BadInputError` (no demonstrated steps; `InfeasibleError` when the lp has no
     solution), `SolverError` or `Stopped`.

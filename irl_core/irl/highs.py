@@ -25,8 +25,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -35,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from irl_core.irl.result import InfeasibleError, SolverError, Stopped
+from irl_core.irl.stopping import stop_check
 
 Kind = Literal["answer", "infeasible", "unbounded", "failure"]
 _Status = highspy.HighsModelStatus
@@ -354,25 +354,9 @@ _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
 )
 
 
-_stop_check = threading.local()
-
-
-@contextmanager
-def stop_when(check: Callable[[], bool]) -> Iterator[None]:
-    """Within the block, a HiGHS solve on this thread stops within an iteration once `check()`
-    is true, raising `Stopped`: how a thread that fits (the fit view's) is stopped when its
-    answer is no longer wanted. (On the main thread Ctrl+C already stops a solve.)"""
-    previous = getattr(_stop_check, "check", None)
-    _stop_check.check = check
-    try:
-        yield
-    finally:
-        _stop_check.check = previous
-
-
 def _run(highs: highspy.Highs) -> None:
     """`highs.run()`, stopped within an iteration by Ctrl+C (which then raises KeyboardInterrupt)
-    or, on another thread, by its `stop_when` check (which then raises `Stopped`).
+    or, on another thread, by its `stopping.stop_when` check (which then raises `Stopped`).
 
     Python runs a signal's handler only between its own bytecodes, so during HiGHS's `run` it
     saw a Ctrl+C only once the solve was over: 20 minutes on a 128x128 world's first round.
@@ -381,7 +365,7 @@ def _run(highs: highspy.Highs) -> None:
     16x16 fit with its intervals 1.4x slower; the callback costs 1.02x.)
     """
     if threading.current_thread() is not threading.main_thread():
-        check = getattr(_stop_check, "check", None)
+        check = stop_check()
         if check is None:
             highs.run()
             return

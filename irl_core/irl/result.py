@@ -38,7 +38,7 @@ class SolverError(FitError):
 
 
 class Stopped(FitError):
-    """The fit was stopped on request before it ended (`irl_core.irl.highs.stop_when`)."""
+    """The fit was stopped on request before it ended (`irl_core.irl.stopping.stop_when`)."""
 
     def __init__(self, message: str = "the fit was stopped before it ended"):
         super().__init__(message)

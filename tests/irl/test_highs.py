@@ -14,9 +14,10 @@ from bench.worlds import cliff_world
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts, write_rollouts
 from irl_core.irl import InfeasibleError, SolverError, Stopped, fit
 from irl_core.irl import highs as highs_module
-from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program, stop_when
+from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program
 from irl_core.irl.lp import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
+from irl_core.irl.stopping import stop_when
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
 

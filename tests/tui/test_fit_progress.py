@@ -6,6 +6,8 @@ import asyncio
 import threading
 
 import careful_tui.screens.fit
+from bench.fit_stage import demonstrations_for
+from bench.worlds import cliff_world
 from careful_tui.render.fit_printout import progress_phrase
 from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.fit import FitScreen
@@ -13,6 +15,7 @@ from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, Stopped, fit
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
+from maxent_evaluations import count_evaluations
 
 
 def test_progress_phrases():
@@ -90,3 +93,42 @@ def test_a_refit_no_longer_wanted_is_stopped(monkeypatch):
 
     asyncio.run(go())
     assert stopped == ["loss", "maxent"]
+
+
+def test_closing_the_view_stops_a_maxent_fit_inside_its_search(monkeypatch):
+    """One maxent fit is one L-BFGS-B search with no progress report to stop at: closing the view
+    now stops it at its next soft Bellman solve, where the app used to wait for the whole search
+    (39 s on a 64x64 world). Counted in evaluations, not seconds."""
+    demos = demonstrations_for(build_mdp(cliff_world(16, 16)), episodes=20, seed=0)
+    evaluations = count_evaluations(monkeypatch)
+    ended = []
+    over = threading.Event()
+    real_fit = careful_tui.screens.fit.fit
+
+    def watched_fit(demos, options, *, progress=None, stop=None):
+        try:
+            real_fit(demos, options, progress=progress, stop=stop)
+            ended.append("finished")
+        except Stopped:
+            ended.append("stopped")
+            raise
+        finally:
+            over.set()
+
+    monkeypatch.setattr(careful_tui.screens.fit, "fit", watched_fit)
+    app = CarefulApp(FitScreen(demos, FitOptions(method="maxent")))  # no result yet: the view fits on opening
+    closed_at = []
+
+    async def go():
+        async with app.run_test(size=(180, 50)) as pilot:
+            for _ in range(500):
+                await pilot.pause(0.01)
+                if evaluations[0] >= 3:
+                    break
+            closed_at.append(evaluations[0])
+        # Leaving the app closes the view in the middle of the search.
+
+    asyncio.run(go())
+    assert over.wait(60)
+    assert 3 <= closed_at[0] < 50  # the whole search takes 93 evaluations on this world
+    assert ended == ["stopped"] and evaluations[0] <= closed_at[0] + 1
