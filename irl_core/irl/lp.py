@@ -331,7 +331,7 @@ class LPSolution:
             "optimal_inaccurate" for an interior point answer HiGHS did not call optimal.
         gap: the last round's gap between the margin and the dual bound on it, relative: 0 for
             a vertex (optimal within HiGHS's tolerances), else the interior point method's
-            (`highs.INTERIOR_GAP`).
+            (`highs.INTERIOR`).
     """
 
     x: np.ndarray
