@@ -11,7 +11,7 @@ asking before and after its sparse solves). On a 64x64 cliff world (`cliff_world
   alternating order. Target: under 1.01x. (On a loaded machine this ratio is as noisy as the
   machine.)
 * the checks alone: how many checks one evaluation makes, times one check's cost (timed in a
-  loop of 100,000), as a share of the evaluation: what the checks cost against code without
+  loop of 100,000, as in `bench_maxent_stop`), as a share of the evaluation: what the checks cost against code without
   them, measured apart from the evaluation's noise.
 * the longest stretch without a check: the largest gap between two checks (or between the
   start or end of `evaluate` and its nearest check), and where it falls: how late a stop can
@@ -26,21 +26,15 @@ import time
 
 import numpy as np
 
+from bench.bench_maxent_stop import Worker, seconds_per_check
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
 from irl_core.irl import fit
 from irl_core.irl.evaluation import evaluate
 from irl_core.mdp import build_mdp
-from irl_core.stopping import stop_if_asked, stop_when
+from irl_core.stopping import stop_when
 
 PAIRS = 7
-CHECKS_TIMED = 100_000
-
-
-class Worker:
-    """As a Textual worker: `is_cancelled` is read at every check."""
-
-    is_cancelled = False
 
 
 def main() -> None:
@@ -80,11 +74,7 @@ def main() -> None:
     moments = np.array([began, *asked, ended])
     gaps = np.diff(moments)
     longest = int(gaps.argmax())
-    with stop_when(lambda: worker.is_cancelled):
-        start = time.perf_counter()
-        for _ in range(CHECKS_TIMED):
-            stop_if_asked()
-        per_check = (time.perf_counter() - start) / CHECKS_TIMED
+    per_check = seconds_per_check(worker)
     evaluation_time = float(np.median(plain))
     print(f"one evaluation {evaluation_time * 1000:8.1f} ms (median of {len(plain)}), {len(asked)} checks")
     print(f"  with a stop check     {float(np.median(checked)) * 1000:8.1f} ms   {ratio:6.3f}x (median pair; "

@@ -39,6 +39,15 @@ class Worker:
     is_cancelled = False
 
 
+def seconds_per_check(worker: Worker) -> float:
+    """One `stop_if_asked` with a check like the fit view's, timed in a loop of CHECKS_TIMED."""
+    with stop_when(lambda: worker.is_cancelled):
+        start = time.perf_counter()
+        for _ in range(CHECKS_TIMED):
+            stop_if_asked()
+        return (time.perf_counter() - start) / CHECKS_TIMED
+
+
 def main() -> None:
     mud = build_mdp(BUILTIN_WORLDS["mud"])
     cliff = build_mdp(cliff_world(16, 16))
@@ -73,11 +82,7 @@ def main() -> None:
 
         with stop_when(counting):
             maxent.fit_maxent(demos.mdp, unknowns, demos.counts, beta=beta, rmax=1000.0)
-        with stop_when(lambda: worker.is_cancelled):
-            start = time.perf_counter()
-            for _ in range(CHECKS_TIMED):
-                stop_if_asked()
-            per_check = (time.perf_counter() - start) / CHECKS_TIMED
+        per_check = seconds_per_check(worker)
         fit_time = float(np.median(plain))
         print(f"{name}: one maxent fit {fit_time * 1000:8.1f} ms (median of {len(plain)}), {asked[0]} checks")
         print(f"  with a stop check     {float(np.median(checked)) * 1000:8.1f} ms   {ratio:6.3f}x (median pair; "

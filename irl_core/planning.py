@@ -198,8 +198,8 @@ def _backups(
 
     Stops when max |V_k - V_{k-1}| < tol * (1 - gamma) / gamma, which puts V within tol of the
     fixed point, or after max_iter sweeps. Before every sweep it asks the fit's stop check
-    (`stopping.stop_if_asked`, raising `Stopped`): a big world's planning takes thousands of
-    sweeps (1.6 s on a 64x64 world), a check costs one attribute read.
+    (`stopping.stop_if_asked`, raising `Stopped`): a big world's planning takes hundreds of
+    sweeps (370, 0.5 s, on a 64x64 cliff world), a check about 0.1 us.
     """
     gamma = mdp.gamma if gamma is None else gamma
     R = mdp.reward_matrix(R_S)

@@ -45,12 +45,12 @@ def test_an_evaluation_told_to_stop_after_n_sweeps_stops_there(cliff, monkeypatc
 
 def test_policy_ends_asks_before_and_after_each_sparse_solve(cliff, monkeypatch):
     solves = []
-    for name in ("absorption", "policy_evaluation"):
+    for name in ("ending_probabilities", "policy_evaluation"):
         real = getattr(evaluation, name)
         monkeypatch.setattr(evaluation, name, lambda *args, real=real, name=name: (solves.append(name), real(*args))[1])
     actions = value_iteration(cliff).greedy
-    for told_after, done in [(None, []), ("absorption", ["absorption"]),
-                             ("policy_evaluation", ["absorption", "policy_evaluation"])]:
+    for told_after, done in [(None, []), ("ending_probabilities", ["ending_probabilities"]),
+                             ("policy_evaluation", ["ending_probabilities", "policy_evaluation"])]:
         solves.clear()
         with stop_when(lambda: told_after is None or told_after in solves), pytest.raises(Stopped):
             policy_ends(cliff, actions)
