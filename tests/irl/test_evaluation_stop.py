@@ -45,9 +45,18 @@ def test_an_evaluation_told_to_stop_after_n_sweeps_stops_there(cliff, monkeypatc
 
 def test_policy_ends_asks_before_and_after_each_sparse_solve(cliff, monkeypatch):
     solves = []
-    for name in ("ending_probabilities", "policy_evaluation"):
+
+    def noted(name):
         real = getattr(evaluation, name)
-        monkeypatch.setattr(evaluation, name, lambda *args, real=real, name=name: (solves.append(name), real(*args))[1])
+
+        def solve(*args):
+            solves.append(name)
+            return real(*args)
+
+        return solve
+
+    for name in ("ending_probabilities", "policy_evaluation"):
+        monkeypatch.setattr(evaluation, name, noted(name))
     actions = value_iteration(cliff).greedy
     for told_after, done in [(None, []), ("ending_probabilities", ["ending_probabilities"]),
                              ("policy_evaluation", ["ending_probabilities", "policy_evaluation"])]:
