@@ -25,8 +25,8 @@ from bench.worlds import cliff_world
 from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import maxent
 from irl_core.irl.qmap import build_unknowns
-from irl_core.irl.stopping import stop_if_asked, stop_when
 from irl_core.mdp import build_mdp
+from irl_core.stopping import stop_if_asked, stop_when
 from irl_core.world import BUILTIN_WORLDS
 
 PAIRS = {"mud, beta auto": 41, "cliff 16x16, beta 1": 15}
@@ -37,6 +37,15 @@ class Worker:
     """As a Textual worker: `is_cancelled` is read at every check."""
 
     is_cancelled = False
+
+
+def seconds_per_check(worker: Worker) -> float:
+    """One `stop_if_asked` with a check like the fit view's, timed in a loop of CHECKS_TIMED."""
+    with stop_when(lambda: worker.is_cancelled):
+        start = time.perf_counter()
+        for _ in range(CHECKS_TIMED):
+            stop_if_asked()
+        return (time.perf_counter() - start) / CHECKS_TIMED
 
 
 def main() -> None:
@@ -73,11 +82,7 @@ def main() -> None:
 
         with stop_when(counting):
             maxent.fit_maxent(demos.mdp, unknowns, demos.counts, beta=beta, rmax=1000.0)
-        with stop_when(lambda: worker.is_cancelled):
-            start = time.perf_counter()
-            for _ in range(CHECKS_TIMED):
-                stop_if_asked()
-            per_check = (time.perf_counter() - start) / CHECKS_TIMED
+        per_check = seconds_per_check(worker)
         fit_time = float(np.median(plain))
         print(f"{name}: one maxent fit {fit_time * 1000:8.1f} ms (median of {len(plain)}), {asked[0]} checks")
         print(f"  with a stop check     {float(np.median(checked)) * 1000:8.1f} ms   {ratio:6.3f}x (median pair; "

@@ -16,6 +16,7 @@ import scipy.sparse.linalg as spla
 from scipy.special import logsumexp, softmax
 
 from irl_core.mdp import MDP
+from irl_core.stopping import stop_if_asked
 
 # Two actions whose Q differ by less than this (relative to |Q|) count as tied; ties go to
 # the lowest action index, so the optimal policy does not depend on rounding noise.
@@ -196,7 +197,9 @@ def _backups(
     """Iterate V <- backup(Q), Q = R + gamma P V, from V = 0; return (Q, sweeps, residual, converged).
 
     Stops when max |V_k - V_{k-1}| < tol * (1 - gamma) / gamma, which puts V within tol of the
-    fixed point, or after max_iter sweeps.
+    fixed point, or after max_iter sweeps. Before every sweep it asks the fit's stop check
+    (`stopping.stop_if_asked`, raising `Stopped`): a big world's planning takes hundreds of
+    sweeps (370, 0.5 s, on a 64x64 cliff world), a check about 0.1 us.
     """
     gamma = mdp.gamma if gamma is None else gamma
     R = mdp.reward_matrix(R_S)
@@ -204,6 +207,7 @@ def _backups(
     V = np.zeros(mdp.n_states)
     residual, iterations = np.inf, 0
     while iterations < max_iter and residual >= threshold:
+        stop_if_asked()
         V_new = backup(R + gamma * mdp.expected_next(V))
         residual = float(np.abs(V_new - V).max())
         V, iterations = V_new, iterations + 1

@@ -45,9 +45,8 @@ from irl_core.irl.loss import fit_loss
 from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
-from irl_core.irl.result import Stopped
-from irl_core.irl.stopping import stop_if_asked, stop_when
 from irl_core.mdp import MDP
+from irl_core.stopping import Stopped, stop_if_asked, stop_when
 
 VARIANTS = ("percentile", "basic")
 INTERVAL_VARIANT = "percentile"

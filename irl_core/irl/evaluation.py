@@ -5,7 +5,8 @@ exactly in the world with its true rewards, from the world's start distribution:
 
 Under a fixed policy the world is an absorbing Markov chain. With T the non-terminal states,
 Q = P^pi restricted to T x T and B = P^pi restricted to T x (terminal cells), the probability
-of ending in each terminal cell from each start is X = (I - Q)^-1 B, one sparse solve.
+of ending in each terminal cell from each start is X = (I - Q)^-1 B; from the start
+distribution p it is p_T X = y B with (I - Q)^T y = p_T, one sparse solve with one right-hand side.
 States from which no terminal cell can be reached (a deterministic world and a policy that
 walks in circles) never end: they are taken out of the solve, and their mass is `never_ends`.
 The expected discounted return is V^pi from `planning.policy_evaluation` with the true
@@ -24,6 +25,7 @@ import scipy.sparse.linalg as spla
 
 from irl_core.mdp import MDP
 from irl_core.planning import policy_evaluation, policy_matrix, value_iteration
+from irl_core.stopping import stop_if_asked
 
 
 @dataclass(frozen=True)
@@ -70,24 +72,25 @@ def start_distribution(mdp: MDP) -> np.ndarray:
     return p
 
 
-def absorption(mdp: MDP, actions: np.ndarray) -> np.ndarray:
-    """(S, S) X[s, t]: the probability that the policy `actions` (S,), started at s, ends in terminal t.
+def ending_probabilities(mdp: MDP, actions: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """(S,) the probability that the policy `actions` (S,), started from the distribution `start` (S,),
+    ends in each state: non-zero only at terminal cells (a start at a terminal cell ends there).
 
-    Non-zero only in the columns of terminal cells; a terminal s ends in itself.
+    Solves for y = (I - Q)^-T p_T, one right-hand side, rather than for X = (I - Q)^-1 B: a
+    right-hand side per terminal cell (63 on a 64x64 cliff world) and an (S, S) answer.
     """
     P_pi, _ = policy_matrix(mdp, np.asarray(actions))
     P_pi = P_pi.tocsr()
     transient = np.flatnonzero(mdp.nonterminal)
     terminal = np.flatnonzero(mdp.terminal)
-    ending = _can_end(P_pi, transient, terminal)
-    live = transient[ending]
-    out = np.zeros((mdp.n_states, mdp.n_states))
-    out[terminal, terminal] = 1.0
+    live = transient[_can_end(P_pi, transient, terminal)]
+    out = np.zeros(mdp.n_states)
+    out[terminal] = start[terminal]
     if live.size and terminal.size:
         Q = P_pi[live][:, live]
-        B = P_pi[live][:, terminal].toarray()
-        X = spla.spsolve((sp.identity(live.size, format="csc") - Q).tocsc(), B)
-        out[np.ix_(live, terminal)] = np.asarray(X).reshape(live.size, terminal.size)
+        B = P_pi[live][:, terminal]
+        y = spla.spsolve((sp.identity(live.size, format="csc") - Q).T.tocsc(), start[live])
+        out[terminal] += B.T @ y
     return out
 
 
@@ -105,14 +108,21 @@ def _can_end(P_pi: sp.csr_matrix, transient: np.ndarray, terminal: np.ndarray) -
 
 
 def policy_ends(mdp: MDP, actions: np.ndarray) -> Ends:
-    """Where the deterministic policy `actions` (S,) ends and its expected return, from the start cells."""
+    """Where the deterministic policy `actions` (S,) ends and its expected return, from the start cells.
+
+    Asks the fit's stop check (`stopping.stop_if_asked`) before each of its two sparse solves and
+    after the last.
+    """
     start = start_distribution(mdp)
-    reached = start @ absorption(mdp, actions)
+    stop_if_asked()
+    reached = ending_probabilities(mdp, actions, start)
+    stop_if_asked()
     ends: dict[str, float] = {}
     for s in np.flatnonzero(mdp.terminal):
         symbol = mdp.symbols[s]
         ends[symbol] = ends.get(symbol, 0.0) + float(reached[s])
     expected = float(start @ policy_evaluation(mdp, np.asarray(actions)))
+    stop_if_asked()
     return Ends(ends=ends, never=max(0.0, 1.0 - sum(ends.values())), expected_return=expected)
 
 

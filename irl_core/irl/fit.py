@@ -22,13 +22,13 @@ from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
-from irl_core.irl import lp
+import irl_core.irl.lp as lp
 from irl_core.irl.lp import Progress, first_round_rows, lp_constraints, margin_lp, solve_margin_lp
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
-from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, Stopped
-from irl_core.irl.stopping import stop_when
+from irl_core.irl.result import BadInputError, FitResult, InfeasibleError
+from irl_core.stopping import Stopped, stop_when
 
 METHODS = FITTERS
 

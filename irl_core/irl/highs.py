@@ -33,8 +33,8 @@ import highspy
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.result import InfeasibleError, SolverError, Stopped
-from irl_core.irl.stopping import stop_check
+from irl_core.irl.result import InfeasibleError, SolverError
+from irl_core.stopping import Stopped, stop_check
 
 Kind = Literal["answer", "infeasible", "unbounded", "failure"]
 _Status = highspy.HighsModelStatus

@@ -37,13 +37,6 @@ class SolverError(FitError):
     """The solver failed or gave up (exit 1)."""
 
 
-class Stopped(FitError):
-    """The fit was stopped on request before it ended (`irl_core.irl.stopping.stop_when`)."""
-
-    def __init__(self, message: str = "the fit was stopped before it ended"):
-        super().__init__(message)
-
-
 @dataclass(frozen=True)
 class PolicyCell:
     """The most frequent demonstrated action at one cell, and how often it was taken."""

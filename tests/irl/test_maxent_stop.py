@@ -16,8 +16,8 @@ from bench.worlds import cliff_world
 from irl_core.irl import Stopped, bootstrap as bootstrap_module, fit, maxent
 from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.qmap import build_unknowns
-from irl_core.irl.stopping import stop_when
 from irl_core.mdp import build_mdp
+from irl_core.stopping import stop_when
 from irl_core.world import BUILTIN_WORLDS
 from maxent_evaluations import count_evaluations
 

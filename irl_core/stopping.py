@@ -1,12 +1,14 @@
-"""Stopping a fit whose answer is no longer wanted, from inside its long loops.
+"""Stopping work whose answer is no longer wanted, from inside its long loops.
 
 `fit(stop=...)` hands its check to this thread for the length of the fit (`stop_when`), and
-the solvers' inner loops ask it: HiGHS at every simplex or IPX iteration (`highs`), maxent
-before every solve of its soft Bellman equations (`maxent`). Once the check says True they
-raise `Stopped`. The check lives on the thread, not in every function's arguments, because
-the loops that ask it sit several calls below `fit` (L-BFGS-B's objective, a bootstrap's
-refit), and because two fits on two threads (the fit view's old one and its new one) must
-each hear only their own.
+the inner loops ask it: HiGHS at every simplex or IPX iteration (`irl.highs`), maxent before
+every solve of its soft Bellman equations (`irl.maxent`), value iteration at every sweep and
+the fit's evaluation before and after each of its sparse solves (`planning`,
+`irl.evaluation`). Once the check says True they raise `Stopped`. The check lives on the
+thread, not in every function's arguments, because the loops that ask it sit several calls
+below `fit` (L-BFGS-B's objective, a bootstrap's refit, the evaluation's planning), and
+because two fits on two threads (the fit view's old one and its new one) must each hear only
+their own. It sits beside `planning`, below `irl`, so that both can import it.
 """
 
 from __future__ import annotations
@@ -15,9 +17,14 @@ import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
-from irl_core.irl.result import Stopped
-
 _stop_check = threading.local()
+
+
+class Stopped(RuntimeError):
+    """The work (a fit) was stopped on request before it ended (`stop_when`)."""
+
+    def __init__(self, message: str = "the fit was stopped before it ended"):
+        super().__init__(message)
 
 
 @contextmanager
