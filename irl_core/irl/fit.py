@@ -169,8 +169,8 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
             fitted.notes.append(
                 f"lp solved by the interior point method, as this world's LP has {solution.first_rows:,} rows in its "
                 f"first round (the simplex is used up to {lp.INTERIOR_ROWS:,}); the gap between its margin and the "
-                f"dual bound on the largest is {solution.gap:.2g} (relative), so the reward is a near-maximiser "
-                "of the margin")
+                f"dual bound on the largest is {100 * solution.gap:.2g}% of it, so the reward is a "
+                "near-maximiser of the margin")
         return fitted
     if method == "loss":
         solution = fit_loss(qmap, demos.policy, rmax=options.rmax, lam=options.lam)
