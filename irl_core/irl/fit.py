@@ -204,7 +204,7 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
         if rows > lp.INTERIOR_ROWS:
             notes.append(f"intervals not computed: past {lp.INTERIOR_ROWS:,} rows ({rows:,} here) each of the "
                          f"{2 * qmap.k} interval LPs would be solved from nothing by the interior point method, "
-                         "each about as long as one round of the fit")
+                         "each at least as long as one round of the fit")
             return None, None
         try:
             bounds, _ = reward_intervals(constraints, progress=progress)
