@@ -356,8 +356,9 @@ _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
 
 
 def _run(highs: highspy.Highs) -> None:
-    """`highs.run()`, stopped within an iteration by Ctrl+C (which then raises KeyboardInterrupt)
-    or, on another thread, by its `stopping.stop_when` check (which then raises `Stopped`).
+    """`highs.run()`, stopped within an iteration by Ctrl+C on the main thread (which then raises
+    KeyboardInterrupt) or by the thread's `stopping.stop_when` check (which then raises
+    `Stopped`; on the main thread too, where a bootstrap pool's worker refits by loss).
 
     Python runs a signal's handler only between its own bytecodes, so during HiGHS's `run` it
     saw a Ctrl+C only once the solve was over: 20 minutes on a 128x128 world's first round.
@@ -365,8 +366,8 @@ def _run(highs: highspy.Highs) -> None:
     and which asks HiGHS to stop. (Running HiGHS in highspy's solver thread instead made a
     16x16 fit with its intervals 1.4x slower; the callback costs 1.02x.)
     """
+    check = stop_check()
     if threading.current_thread() is not threading.main_thread():
-        check = stop_check()
         if check is None:
             highs.run()
             return
@@ -374,6 +375,7 @@ def _run(highs: highspy.Highs) -> None:
         if check():
             raise Stopped()
         return
+    asked = check or (lambda: False)
     interrupted = False
 
     def on_ctrl_c(signum, frame) -> None:
@@ -382,11 +384,13 @@ def _run(highs: highspy.Highs) -> None:
 
     previous = signal.signal(signal.SIGINT, on_ctrl_c)
     try:
-        _run_with_stop(highs, lambda: interrupted)
+        _run_with_stop(highs, lambda: interrupted or asked())
     finally:
         signal.signal(signal.SIGINT, previous)
     if interrupted:
         raise KeyboardInterrupt
+    if asked():
+        raise Stopped()
 
 
 def _run_with_stop(highs: highspy.Highs, check: Callable[[], bool]) -> None:

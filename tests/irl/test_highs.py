@@ -164,6 +164,20 @@ def test_a_solve_on_another_thread_stops_when_asked_and_raises_stopped():
     assert model.solves == 0  # not retried, not counted as answered
 
 
+def test_a_solve_on_the_main_thread_stops_when_asked_too():
+    # A bootstrap pool's worker refits (by loss, on HiGHS) on its process's main thread, where
+    # Ctrl+C has its own route: the stop check must still be heard there.
+    mdp = build_mdp(cliff_world(16, 16))
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
+    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
+    model = HighsModel(margin_lp(constraints).full())
+    asked = []
+    with stop_when(lambda: asked.append(True) or len(asked) >= 5), pytest.raises(Stopped):
+        model.solve()
+    assert model.highs.getModelStatus() == highspy.HighsModelStatus.kInterrupt
+    assert model.solves == 0
+
+
 def test_a_failed_solve_from_no_basis_is_not_repeated_from_scratch(mud_demos, monkeypatch):
     # HiGHS is deterministic: a 128x128 world's first round failed after 1,170 s, and the retry
     # from scratch with the same settings retraced it iteration for iteration.
