@@ -200,18 +200,17 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
     """(k, 2) intervals and their kind (``identified`` or ``confidence``), or (None, None) with a note why not."""
     if fitted.method == "lp":
         constraints = lp_constraints(qmap, demos.most_frequent, rmax=options.rmax)
-        rows = first_round_rows(margin_lp(constraints))
-        if rows > lp.INTERIOR_ROWS:
-            notes.append(f"intervals not computed: past {lp.INTERIOR_ROWS:,} rows ({rows:,} here) each of the "
-                         f"{2 * qmap.k} interval LPs would be solved from nothing by the interior point method, "
-                         "each at least as long as one round of the fit")
-            return None, None
+        interior = first_round_rows(margin_lp(constraints)) > lp.INTERIOR_ROWS
         try:
-            bounds, _ = reward_intervals(constraints, progress=progress)
+            bounds, _ = reward_intervals(constraints, interior=interior, progress=progress)
         except InfeasibleError:
             notes.append("intervals not computed: the most frequent actions are not optimal for any reward "
                          "within ±rmax, so the lp constraints they come from are empty")
             return None, None
+        if interior:
+            notes.append(f"intervals by the interior point method, as the fit: each of the {2 * qmap.k} interval LPs "
+                         "solved from nothing, and each end moved out by its LP's gap to the dual bound, so the "
+                         "intervals hold the identified set (they may be a little wider)")
         return bounds, "identified"
     episodes = 0 if demos.by_episode is None else demos.by_episode.shape[0]
     if episodes < 2:

@@ -126,11 +126,16 @@ def assert_margins_agree(constraints, *, lam):
 def assert_intervals_agree(constraints):
     fresh = fresh_intervals(constraints)
     if fresh is None:
-        with pytest.raises(InfeasibleError):
-            reward_intervals(constraints)
+        for interior in (False, True):
+            with pytest.raises(InfeasibleError):
+                reward_intervals(constraints, interior=interior)
     else:
         ours, _ = reward_intervals(constraints)
         np.testing.assert_allclose(ours, fresh, rtol=1e-7, atol=1e-6)
+        # The interior point route's ends are moved out by their gaps: outer bounds, and near.
+        outer, _ = reward_intervals(constraints, interior=True)
+        assert np.all(outer[:, 0] <= fresh[:, 0] + 1e-6) and np.all(outer[:, 1] >= fresh[:, 1] - 1e-6)
+        np.testing.assert_allclose(outer, fresh, rtol=1e-4, atol=1e-3)
 
 
 @pytest.mark.parametrize(("name", "episodes"), [("paper", 100), ("mud", 10), ("walled", 30), ("cliff-16", 100)])
