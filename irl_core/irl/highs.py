@@ -13,7 +13,8 @@ HiGHS's model status is read through one table, `OUTCOMES`: our word for it and 
 is an answer, a proof of infeasibility or unboundedness, or a failure. A failure is retried
 from scratch (unless it was that very solve already), then by the primal simplex, then by the
 interior point method IPX with crossover; only when all of them fail does `SolverError` reach
-the user.
+the user. An `INTERIOR` solve (IPX without crossover, for big worlds) whose points HiGHS finds
+primal and dual feasible is an answer even when HiGHS does not call it optimal, with its gap.
 
 The solver is always named ("simplex", "ipx"): HiGHS's "ipm" means IPX in a plain install but
 HiPO when `highspy-extras` is installed, which took 12x longer on a 32x32 world's fit.
