@@ -398,10 +398,10 @@ def margin_options(problem: MarginLP) -> dict[str, object]:
 
 # The first round's rows past which the margin LP is solved by the interior point method,
 # round after round from no basis (`highs.INTERIOR`). The generated cliff worlds' fits by the
-# dual simplex, one run each on a busy machine (README "How cost grows"): 64x64 (19,052 rows)
-# 5 to 8 s; 80x80 (29,268) 80 s; 96x96 (41,232) not through its first round in 6.6 CPU
-# minutes; 128x128 (71,201) a solve error after 20 minutes. By the interior point method the
-# 128x128 fit took 6 rounds, 26 minutes on that machine, its last round's gap 2e-3.
+# dual simplex, one run each (README "How cost grows"): 64x64 (19,052 rows) 5 to 9 s; 80x80
+# (29,268) 15 s against 61 s by the interior point method; 88x88 (35,281) not through its first
+# round in 8.5 CPU minutes, against 103 s; 96x96 (41,232) not in 6.6 CPU minutes; 128x128
+# (71,201) a solve error after 20 minutes, against 555 to 685 s.
 INTERIOR_ROWS = 35_000
 
 
