@@ -1,8 +1,10 @@
 """The margin LP past `lp.INTERIOR_ROWS`: solved by the interior point method, which says how
-near its answer is (the gap to its dual bound), and what the fit then says and leaves out.
+near its answer is (the gap to its dual bound), and what the fit then says, with intervals that
+hold the identified set.
 
-That the interior route reaches the whole LP's optimum on the worlds of the other routes is in
-`test_lp_paths.py` (`assert_margins_agree`).
+That the interior route reaches the whole LP's optimum, and outer bounds of its intervals, on
+the worlds of the other routes is in `test_lp_paths.py` (`assert_margins_agree`,
+`assert_intervals_agree`).
 """
 
 import numpy as np
