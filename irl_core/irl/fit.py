@@ -23,7 +23,7 @@ from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 import irl_core.irl.lp as lp
-from irl_core.irl.lp import Progress, first_round_rows, lp_constraints, margin_lp, solve_margin_lp
+from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -35,7 +35,8 @@ METHODS = FITTERS
 
 @dataclasses.dataclass
 class _Fitted:
-    """One method's answer before the intervals: theta (k,), V (S,), beta (maxent's), status, notes."""
+    """One method's answer before the intervals: theta (k,), V (S,), beta (maxent's), status, notes,
+    and whether the lp was solved by the interior point method (so are its intervals)."""
 
     method: str
     theta: np.ndarray
@@ -44,6 +45,7 @@ class _Fitted:
     beta_auto: bool = False
     status: str = "optimal"
     notes: list[str] = dataclasses.field(default_factory=list)
+    interior: bool = False
 
 
 def fit(
@@ -164,7 +166,7 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
         solution = solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax), lam=options.lam,
                                    progress=progress)
         theta, V = qmap.split(solution.x)
-        fitted = _Fitted("lp", theta, V, status=solution.status)
+        fitted = _Fitted("lp", theta, V, status=solution.status, interior=solution.interior)
         if solution.interior:
             fitted.notes.append(
                 f"lp solved by the interior point method, as this world's LP has {solution.first_rows:,} rows in its "
@@ -200,14 +202,13 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
     """(k, 2) intervals and their kind (``identified`` or ``confidence``), or (None, None) with a note why not."""
     if fitted.method == "lp":
         constraints = lp_constraints(qmap, demos.most_frequent, rmax=options.rmax)
-        interior = first_round_rows(margin_lp(constraints)) > lp.INTERIOR_ROWS
         try:
-            bounds, _ = reward_intervals(constraints, interior=interior, progress=progress)
+            bounds, _ = reward_intervals(constraints, interior=fitted.interior, progress=progress)
         except InfeasibleError:
             notes.append("intervals not computed: the most frequent actions are not optimal for any reward "
                          "within ±rmax, so the lp constraints they come from are empty")
             return None, None
-        if interior:
+        if fitted.interior:
             notes.append(f"intervals by the interior point method, as the fit: each of the {2 * qmap.k} interval LPs "
                          "solved from nothing, and each end moved out by its LP's gap to the dual bound, so the "
                          "intervals hold the identified set (they may be a little wider)")

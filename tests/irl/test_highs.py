@@ -116,14 +116,19 @@ def test_an_lp_the_simplex_cannot_finish_is_answered_by_ipx_with_the_same_optimu
     assert report.objective == pytest.approx(reference.objective, rel=1e-7)
 
 
+def cliff16_margin_model() -> HighsModel:
+    """A fresh model of a 16x16 world's whole margin LP (20 optimal episodes): long enough to stop."""
+    mdp = build_mdp(cliff_world(16, 16))
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
+    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
+    return HighsModel(margin_lp(constraints).full())
+
+
 def test_ctrl_c_stops_a_solve_at_once_and_is_not_retried():
     # Ctrl+C used to reach Python only when HiGHS returned (20 minutes on a 128x128 world's first
     # round). Here it comes (from the solver thread, deterministically) at the 5th simplex
     # callback of a 16x16 world's margin LP.
-    mdp = build_mdp(cliff_world(16, 16))
-    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
-    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
-    model = HighsModel(margin_lp(constraints).full())
+    model = cliff16_margin_model()
     seen = []
 
     def ctrl_c_at_the_fifth(event):
@@ -140,10 +145,7 @@ def test_ctrl_c_stops_a_solve_at_once_and_is_not_retried():
 
 def test_a_solve_on_another_thread_stops_when_asked_and_raises_stopped():
     # The fit view's worker: closing the view must not leave HiGHS running for minutes.
-    mdp = build_mdp(cliff_world(16, 16))
-    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
-    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
-    model = HighsModel(margin_lp(constraints).full())
+    model = cliff16_margin_model()
     asked, outcome = [], []
 
     def stop_at_the_fifth() -> bool:
@@ -167,10 +169,7 @@ def test_a_solve_on_another_thread_stops_when_asked_and_raises_stopped():
 def test_a_solve_on_the_main_thread_stops_when_asked_too():
     # A bootstrap pool's worker refits (by loss, on HiGHS) on its process's main thread, where
     # Ctrl+C has its own route: the stop check must still be heard there.
-    mdp = build_mdp(cliff_world(16, 16))
-    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
-    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp)), demos.most_frequent, rmax=1000.0)
-    model = HighsModel(margin_lp(constraints).full())
+    model = cliff16_margin_model()
     asked = []
     with stop_when(lambda: asked.append(True) or len(asked) >= 5), pytest.raises(Stopped):
         model.solve()

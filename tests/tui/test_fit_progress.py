@@ -15,6 +15,7 @@ from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, Stopped, fit
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
+from fit_view_fits import watch_view_fits
 from maxent_evaluations import count_evaluations
 
 
@@ -101,21 +102,7 @@ def test_closing_the_view_stops_a_maxent_fit_inside_its_search(monkeypatch):
     (39 s on a 64x64 world). Counted in evaluations, not seconds."""
     demos = demonstrations_for(build_mdp(cliff_world(16, 16)), episodes=20, seed=0)
     evaluations = count_evaluations(monkeypatch)
-    ended = []
-    over = threading.Event()
-    real_fit = careful_tui.screens.fit.fit
-
-    def watched_fit(demos, options, *, progress=None, stop=None):
-        try:
-            real_fit(demos, options, progress=progress, stop=stop)
-            ended.append("finished")
-        except Stopped:
-            ended.append("stopped")
-            raise
-        finally:
-            over.set()
-
-    monkeypatch.setattr(careful_tui.screens.fit, "fit", watched_fit)
+    watched = watch_view_fits(monkeypatch)
     app = CarefulApp(FitScreen(demos, FitOptions(method="maxent")))  # no result yet: the view fits on opening
     closed_at = []
 
@@ -129,6 +116,6 @@ def test_closing_the_view_stops_a_maxent_fit_inside_its_search(monkeypatch):
         # Leaving the app closes the view in the middle of the search.
 
     asyncio.run(go())
-    assert over.wait(60)
+    assert watched.over.wait(60)
     assert 3 <= closed_at[0] < 50  # the whole search takes 93 evaluations on this world
-    assert ended == ["stopped"] and evaluations[0] <= closed_at[0] + 1
+    assert watched.ended == ["stopped"] and evaluations[0] <= closed_at[0] + 1

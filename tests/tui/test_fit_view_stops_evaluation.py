@@ -8,13 +8,13 @@ import asyncio
 import sys
 import threading
 
-import careful_tui.screens.fit
 from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.fit import FitScreen
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
-from irl_core.irl import FitOptions, Stopped
+from irl_core.irl import FitOptions
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
+from fit_view_fits import watch_view_fits
 from planning_sweeps import count_sweeps
 
 
@@ -23,33 +23,21 @@ def test_closing_the_view_during_the_evaluation_ends_the_fit(monkeypatch):
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
     sweeps = count_sweeps(monkeypatch)
     fit_module = sys.modules["irl_core.irl.fit"]
-    real_evaluate, real_fit = fit_module.evaluate, careful_tui.screens.fit.fit
-    stops, ended = [], []
-    evaluating, over = threading.Event(), threading.Event()
+    real_evaluate = fit_module.evaluate
+    evaluating = threading.Event()
+    watched = watch_view_fits(monkeypatch)
 
     def held_evaluate(*args):
         # The view closes while the evaluation is under way: hold it at its start until then.
         evaluating.set()
         for _ in range(1000):
-            if stops[0]():
+            if watched.stops[0]():
                 break
             threading.Event().wait(0.01)
         sweeps[0] = 0
         return real_evaluate(*args)
 
-    def watched_fit(demos, options, *, progress=None, stop=None):
-        stops.append(stop)
-        try:
-            real_fit(demos, options, progress=progress, stop=stop)
-            ended.append("finished")
-        except Stopped:
-            ended.append("stopped")
-            raise
-        finally:
-            over.set()
-
     monkeypatch.setattr(fit_module, "evaluate", held_evaluate)
-    monkeypatch.setattr(careful_tui.screens.fit, "fit", watched_fit)
     app = CarefulApp(FitScreen(demos, FitOptions(method="lp")))  # no result yet: the view fits on opening
     reached = []
 
@@ -63,6 +51,6 @@ def test_closing_the_view_during_the_evaluation_ends_the_fit(monkeypatch):
         # Leaving the app closes the view in the middle of the evaluation.
 
     asyncio.run(go())
-    assert over.wait(60)
+    assert watched.over.wait(60)
     assert reached == [True]
-    assert ended == ["stopped"] and sweeps[0] == 0  # not one sweep of its planning after the view closed
+    assert watched.ended == ["stopped"] and sweeps[0] == 0  # not one sweep of its planning after the view closed
