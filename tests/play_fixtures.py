@@ -49,10 +49,12 @@ def corner_world(name: str = "abuse") -> World:
     return world_from_dict(tomllib.loads(corner_world_toml(name)))
 
 
-def write_two_episodes(folder: Path, world: World) -> Path:
+def write_two_episodes(folder: Path, world: World, *, created: datetime | None = None) -> Path:
     """A recording in `folder` of two quit episodes in `world`: down, down, down, right, then right,
-    right, down, at levels 1, 2, 3, ... with hold times of 100 ms per level."""
-    header = SessionHeader(world=world, player="abuse", created=datetime.now().astimezone(), seed=0)
+    right, down, at levels 1, 2, 3, ... with hold times of 100 ms per level. The session starts at
+    `created` (default now); the file is named after it."""
+    created = datetime.now().astimezone() if created is None else created
+    header = SessionHeader(world=world, player="abuse", created=created, seed=0)
     recorder = SessionRecorder(folder, header)
     game = Game(world, seed=0, sink=recorder)
     for moves in (["down", "down", "down", "right"], ["right", "right", "down"]):

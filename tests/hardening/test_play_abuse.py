@@ -35,6 +35,7 @@ import time
 import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager, nullcontext
+from datetime import datetime
 from itertools import groupby
 from pathlib import Path
 
@@ -422,8 +423,8 @@ def test_holding_two_arrows_at_once_records_every_move(tmp_path: Path) -> None:
     assert rec.steps[0].carefulness >= 2
 
 
-def write_replay_recording(tmp_path: Path) -> Path:
-    return write_two_episodes(tmp_path / "rec", corner_world())
+def write_replay_recording(tmp_path: Path, *, created: datetime | None = None) -> Path:
+    return write_two_episodes(tmp_path / "rec", corner_world(), created=created)
 
 
 @needs_tmux
@@ -475,7 +476,10 @@ def test_replay_survives_resizing_and_kitty_sequences(tmp_path: Path) -> None:
 @needs_tmux
 def test_replay_of_a_folder_steps_from_file_to_file_and_names_a_bad_one(tmp_path: Path) -> None:
     # Two sessions of one player started in the same second: the second is named ...-abuse-2.jsonl.
-    first, second = write_replay_recording(tmp_path), write_replay_recording(tmp_path)
+    # The start is fixed so that a second boundary between the two cannot split them.
+    created = datetime.now().astimezone()
+    first = write_replay_recording(tmp_path, created=created)
+    second = write_replay_recording(tmp_path, created=created)
     assert second.name == first.name.replace(".jsonl", "-2.jsonl")
     bad = tmp_path / "rec" / "zz-bad.jsonl"
     bad.write_text('{"kind": "session", "schema": 1}\n')
