@@ -181,10 +181,10 @@ def test_sigkill_mid_episode_keeps_every_committed_step(tmp_path: Path) -> None:
     assert demos.episodes == 2 and demos.steps == 5 + last_shown
 
 
-@needs_tmux
-def test_two_games_started_at_once_write_two_files(tmp_path: Path) -> None:
-    out = tmp_path / "rec"
-    with terminal(tmp_path, play_args(tmp_path)) as one, terminal(tmp_path, play_args(tmp_path)) as two:
+def play_two_games_at_once(folder: Path) -> list[Path]:
+    """Two `careful play` in `folder`, same player and output, first moves sent early in one second;
+    the files written, shortest name first."""
+    with terminal(folder, play_args(folder)) as one, terminal(folder, play_args(folder)) as two:
         one.wait_for("carefulness")
         two.wait_for("carefulness")
         # A session file is created at its first move: make both first moves early in one second.
@@ -196,12 +196,24 @@ def test_two_games_started_at_once_write_two_files(tmp_path: Path) -> None:
             assert settle(term, 2) == 2
         for term in (one, two):
             assert "recorded to" in quit_game(term)
+    return sorted((folder / "rec").glob("*.jsonl"), key=lambda path: len(path.name))
 
-    paths = sorted(out.glob("*.jsonl"), key=lambda path: len(path.name))
-    assert len(paths) == 2, paths
-    recs = [read_recording(path) for path in paths]
-    created = {rec.header.created.replace(microsecond=0) for rec in recs}
-    assert len(created) == 1, f"the first moves fell in different seconds: {created}"
+
+@needs_tmux
+def test_two_games_started_at_once_write_two_files(tmp_path: Path) -> None:
+    # On a loaded machine the two first moves can still land in two seconds, and then the files do
+    # not share a name: that run says nothing about the clash, so it is played again, up to 3 times.
+    for attempt in range(3):
+        folder = tmp_path / f"attempt{attempt}"
+        folder.mkdir()
+        paths = play_two_games_at_once(folder)
+        assert len(paths) == 2, paths
+        recs = [read_recording(path) for path in paths]
+        created = {rec.header.created.replace(microsecond=0) for rec in recs}
+        if len(created) == 1:
+            break
+    else:
+        pytest.fail(f"in 3 attempts the first moves never fell in one second: {created}")
     stem = paths[0].stem
     assert [path.name for path in paths] == [f"{stem}.jsonl", f"{stem}-2.jsonl"]
     for rec in recs:
