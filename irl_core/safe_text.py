@@ -40,10 +40,16 @@ def printable(text: str, *, limit: int | None = None, keep_newlines: bool = Fals
     return safe if limit is None else cut(safe, limit)
 
 
-def cut(text: str, limit: int) -> str:
-    """`text` cut to about `limit` characters, saying how long it was: "abc… (5,000 characters)"."""
+def cut(text: str, limit: int, *, say_length: bool = True) -> str:
+    """`text` cut to about `limit` characters, saying how long it was: "abc… (5,000 characters)".
+
+    Without `say_length` it is cut to exactly `limit` characters, the last an ellipsis ("abcdefgh…"),
+    for a title where a count would take the room the name needs.
+    """
     if len(text) <= limit:
         return text
+    if not say_length:
+        return f"{text[: max(0, limit - 1)]}…"
     return f"{text[: max(1, limit - 24)]}… ({len(text):,} characters)"
 
 

@@ -67,7 +67,9 @@ def assert_every_text_is_plain(figure) -> None:
 
 def test_plain_escapes_dollars_and_controls_and_matplotlib_draws_them_as_written():
     assert plain("a$b\x1b") == "a\\$b\\x1b"
-    assert plain("x" * 100).endswith("(100 characters)")
+    # A long name keeps as much of itself as fits, and the ellipsis says it was cut.
+    assert plain("participant-" + "x" * 100) == "participant-" + "x" * 27 + "…"
+    assert plain("y" * 40) == "y" * 40
     figure = mpl.figure.Figure()
     with figure_style():
         figure.subplots().set_title(plain(HOSTILE))

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from careful_tui.render.figures import FIGURE_SUFFIXES
 from careful_tui.render.grid import SYMBOL_NAMES
 from irl_core.safe_files import write_output
-from irl_core.safe_text import printable
+from irl_core.safe_text import cut, printable
 
 DPI = 300
 PANEL_WIDTH = 2.2  # inches: a third of a page's width
@@ -73,9 +73,10 @@ def plain(text: str, *, limit: int = 40) -> str:
     """Text from a file for a figure: control characters escaped, and `$` kept from starting mathtext.
 
     matplotlib reads a text with an even number of unescaped `$` as mathtext (and raises on bad
-    mathtext); it draws an escaped `\\$` as `$`. A long text is cut to about `limit` characters.
+    mathtext); it draws an escaped `\\$` as `$`. A text longer than `limit` characters keeps its first
+    `limit - 1` and an ellipsis: a figure's title has no room for "(N characters)".
     """
-    return printable(text, limit=limit).replace("$", r"\$")
+    return cut(printable(text), limit, say_length=False).replace("$", r"\$")
 
 
 def symbol_label(symbol: str) -> str:
