@@ -140,7 +140,7 @@ class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
             text.append(" " * filled, style=f"on {BAR}")
             text.append(" " * (BAR_WIDTH - filled), style=f"on {EMPTY}")
             text.append(f"  {held:.1f} s   {self._calibration.repeats} repeats\n\n")
-            text.append("This measures your keyboard's autorepeat; levels count from it.\n\n", style="dim")
+            text.append("This measures your key repeat; levels count from it.\n\n", style="dim")
             text.append(" esc ", style=KEY_CHIP)
             text.append(" cancel")
         self.query_one("#calibration-text", Static).update(text)
