@@ -168,9 +168,11 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
         theta, V = qmap.split(solution.x)
         fitted = _Fitted("lp", theta, V, status=solution.status, interior=solution.interior)
         if solution.interior:
+            why = (f"the dual simplex failed ({solution.simplex_failure})" if solution.simplex_failure else
+                   f"this world's LP has {solution.first_rows:,} rows in its first round (the simplex is used up "
+                   f"to {lp.INTERIOR_ROWS:,})")
             fitted.notes.append(
-                f"lp solved by the interior point method, as this world's LP has {solution.first_rows:,} rows in its "
-                f"first round (the simplex is used up to {lp.INTERIOR_ROWS:,}); the gap between its margin and the "
+                f"lp solved by the interior point method, as {why}; the gap between its margin and the "
                 f"dual bound on the largest is {100 * solution.gap:.2g}% of it, so the reward is a "
                 "near-maximiser of the margin")
         return fitted

@@ -13,7 +13,8 @@ HiGHS's model status is read through one table, `OUTCOMES`: our word for it and 
 is an answer, a proof of infeasibility or unboundedness, or a failure. A failure is retried
 from scratch (unless it was that very solve already), then by the primal simplex, then by the
 interior point method IPX with crossover; only when all of them fail does `SolverError` reach
-the user. An `INTERIOR` solve (IPX without crossover, for big worlds) whose points HiGHS finds
+the user. (A model built with `retry=False` raises at once: the lp fit's dual simplex, which has
+a faster way on, `lp.solve_margin_lp`.) An `INTERIOR` solve (IPX without crossover, for big worlds) whose points HiGHS finds
 primal and dual feasible is an answer even when HiGHS does not call it optimal, with its gap.
 
 The solver is always named ("simplex", "ipx"): HiGHS's "ipm" means IPX in a plain install but
@@ -207,11 +208,12 @@ class HighsModel:
     `tolerance` sets HiGHS's primal and dual feasibility tolerances (default 1e-7); `options`
     are further HiGHS options, kept for every solve; `scratch` are those of a retry from
     scratch; `warm_limit` (seconds) gives up a solve from a basis that takes longer, as a failure.
+    Without `retry` a failed solve is not retried (`_ATTEMPTS`): for a caller with a better way on.
     """
 
     def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE,
                  options: dict[str, object] | None = None, warm_limit: float | None = None,
-                 scratch: dict[str, object] | None = None):
+                 scratch: dict[str, object] | None = None, retry: bool = True):
         A = sp.csc_matrix(problem.A)
         A.sort_indices()
         n_row, n_col = A.shape
@@ -233,6 +235,7 @@ class HighsModel:
         self.highs.passModel(lp)
         self.warm_limit = warm_limit
         self.scratch = scratch or {}
+        self.retry = retry
         self.iterations = 0
         self.solves = 0
         self.last: SolveReport | None = None
@@ -279,7 +282,7 @@ class HighsModel:
         warm = {"time_limit": highs.getRunTime() + self.warm_limit} if self.warm_limit and start.valid else {}
         # The other simplex: primal after the dual (or HiGHS's choice), dual after the primal.
         other = 1 if first.get("simplex_strategy") == 4 else 4
-        for solver, setup in _ATTEMPTS:
+        for solver, setup in _ATTEMPTS if self.retry else _ATTEMPTS[:1]:
             if solver == "as set":
                 self._set({**first, **warm})
             elif solver == "other simplex":

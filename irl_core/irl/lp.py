@@ -45,7 +45,8 @@ elsewhere. HiGHS's own start (all rows loose) took four times the simplex iterat
 
 Big worlds. Past `INTERIOR_ROWS` rows in the first round the dual simplex meets nearly
 singular bases (README "How cost grows"), so every round is solved by the interior point
-method without crossover instead. It keeps no basis, so each round starts from nothing, and
+method without crossover instead; below it too, when a round of the dual simplex fails, the
+LP is solved again that way. It keeps no basis, so each round starts from nothing, and
 its answer is a point of (or near) the optimal face rather than a vertex: it comes with the
 gap between its margin and the dual bound on the largest (`LPSolution.gap`).
 """
@@ -60,6 +61,7 @@ import scipy.sparse as sp
 
 from irl_core.irl.highs import INTERIOR, HighsModel, LinearProgram, linear_program
 from irl_core.irl.qmap import QMap
+from irl_core.irl.result import SolverError
 from irl_core.planning import policy_evaluation
 
 INFEASIBLE_MESSAGE = (
@@ -332,6 +334,8 @@ class LPSolution:
         gap: the last round's gap between the margin and the dual bound on it, relative: 0 for
             a vertex (optimal within HiGHS's tolerances), else the interior point method's
             (`highs.INTERIOR`).
+        simplex_failure: how the dual simplex failed ("solve error in round 1") when it was
+            given up for the interior point method, else None.
     """
 
     x: np.ndarray
@@ -343,6 +347,7 @@ class LPSolution:
     interior: bool = False
     status: str = "optimal"
     gap: float = 0.0
+    simplex_failure: str | None = None
 
 
 def solve_margin_lp(
@@ -355,7 +360,8 @@ def solve_margin_lp(
 ) -> LPSolution:
     """Solve the margin LP by row generation (or, with `generate_rows=False`, whole), every
     round by the dual simplex or, with `interior`, by the interior point method (None: when the
-    first round has over `INTERIOR_ROWS` rows).
+    first round has over `INTERIOR_ROWS` rows). When a round of the dual simplex fails, the LP
+    is solved again by the interior point method, from nothing.
 
     Raises `InfeasibleError` or `SolverError`.
     """
@@ -367,13 +373,31 @@ def solve_margin_lp(
     first_rows = first_round_rows(problem)
     if interior is None:
         interior = first_rows > INTERIOR_ROWS
-    run = RowGeneration(problem, options=INTERIOR if interior else margin_options(problem))
-    if not interior and not shares_terminal_unknowns(problem):
-        # Measured on the 64x64 world: per cell 5.3 s from this start against 10.3 s; tied
-        # (theta's guess then far from the optimum's) 422 s against 8.8 s from HiGHS's own.
-        start_from_policy(run)
-    z = run.solve(progress=progress)
-    return _solution(problem, z, run.model, rounds=run.rounds, first_rows=first_rows, interior=interior)
+    simplex_failure = None
+    rounds = iterations = 0
+    if not interior:
+        # A failed round is not retried by the other solvers (`HighsModel`'s cascade): on an
+        # 84x84 world the dual simplex failed its first round in 70 s ("solve error"), and with
+        # the cascade the fit was not done in 8.5 CPU minutes; by the interior point method 93 s.
+        run = RowGeneration(problem, options=margin_options(problem), retry=False)
+        if not shares_terminal_unknowns(problem):
+            # Measured on the 64x64 world: per cell 5.3 s from this start against 10.3 s; tied
+            # (theta's guess then far from the optimum's) 422 s against 8.8 s from HiGHS's own.
+            start_from_policy(run)
+        try:
+            z = run.solve(progress=progress)
+            return _solution(problem, z, run.model, rounds=run.rounds, first_rows=first_rows, interior=False)
+        except SolverError:
+            simplex_failure = f"{run.model.last.status.replace('_', ' ')} in round {run.rounds + 1}"
+            rounds, iterations = run.rounds + 1, run.model.iterations
+
+    def counted(stage: str, done: int, total: int | None) -> None:  # rounds go on from the simplex's
+        progress(stage, rounds + done, total)
+
+    run = RowGeneration(problem, options=INTERIOR)
+    z = run.solve(progress=None if progress is None else counted)
+    return _solution(problem, z, run.model, rounds=rounds + run.rounds, first_rows=first_rows, interior=True,
+                     simplex_failure=simplex_failure, iterations=iterations)
 
 
 # Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
@@ -398,11 +422,13 @@ def margin_options(problem: MarginLP) -> dict[str, object]:
 
 # The first round's rows past which the margin LP is solved by the interior point method,
 # round after round from no basis (`highs.INTERIOR`). The generated cliff worlds' fits by the
-# dual simplex, one run each (README "How cost grows"): 64x64 (19,052 rows) 5 to 9 s; 80x80
-# (29,268) 15 s against 61 s by the interior point method; 88x88 (35,281) not through its first
-# round in 8.5 CPU minutes, against 103 s; 96x96 (41,232) not in 6.6 CPU minutes; 128x128
-# (71,201) a solve error after 20 minutes, against 555 to 685 s.
-INTERIOR_ROWS = 35_000
+# dual simplex, one run each (README "How cost grows"): 64x64 (19,052 rows) 5 to 9 s; 76x76
+# (26,483) its first round in 19 s; 80x80 (29,268) 15 s against 61 s by the interior point
+# method; 84x84 (32,019) a solve error in its first round after 70 s, against 93 s for the whole
+# fit; 88x88 (35,281) not through its first round in 8.5 CPU minutes, against 103 s; 96x96
+# (41,232) not in 6.6 CPU minutes; 128x128 (71,201) a solve error after 20 minutes, against
+# 555 to 685 s.
+INTERIOR_ROWS = 30_000
 
 
 def first_round_rows(problem: MarginLP) -> int:
@@ -419,7 +445,7 @@ def shares_terminal_unknowns(problem: MarginLP) -> bool:
 class RowGeneration:
     """The margin LP solved by row generation in one live HiGHS model (see the module docstring).
 
-    `options`, `warm_limit` and `scratch` are the model's (`HighsModel`); `after_rows` are the
+    `options`, `warm_limit`, `scratch` and `retry` are the model's (`HighsModel`); `after_rows` are the
     HiGHS options of the solves after new rows (default: the model's).
 
     Attributes:
@@ -431,12 +457,12 @@ class RowGeneration:
 
     def __init__(self, problem: MarginLP, *, options: dict[str, object],
                  after_rows: dict[str, object] | None = None, warm_limit: float | None = None,
-                 scratch: dict[str, object] | None = None):
+                 scratch: dict[str, object] | None = None, retry: bool = True):
         self.problem = problem
         self.in_model = np.zeros_like(problem.rivals)
         self.pairs = np.zeros((0, 2), dtype=np.int64)
         self.after_rows = after_rows
-        self.model = HighsModel(problem.base, options=options, warm_limit=warm_limit, scratch=scratch)
+        self.model = HighsModel(problem.base, options=options, warm_limit=warm_limit, scratch=scratch, retry=retry)
         self.add(seed_pairs(problem))
         self.rounds = 0
 
@@ -473,10 +499,11 @@ class RowGeneration:
 
 
 def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: int, first_rows: int,
-              interior: bool) -> LPSolution:
+              interior: bool, simplex_failure: str | None = None, iterations: int = 0) -> LPSolution:
+    """The answer `z` of `model`'s last solve; `iterations` of a route given up before it are added."""
     n, n_d = problem.qmap.n, problem.demonstrated.size
     return LPSolution(
-        x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=model.iterations, rounds=rounds, rows=model.n_row,
-        first_rows=first_rows, interior=interior,
-        status=model.last.status, gap=model.last.gap,
+        x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=iterations + model.iterations, rounds=rounds,
+        rows=model.n_row, first_rows=first_rows, interior=interior,
+        status=model.last.status, gap=model.last.gap, simplex_failure=simplex_failure,
     )

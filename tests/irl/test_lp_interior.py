@@ -1,6 +1,6 @@
-"""The margin LP past `lp.INTERIOR_ROWS`: solved by the interior point method, which says how
-near its answer is (the gap to its dual bound), and what the fit then says, with intervals that
-hold the identified set.
+"""The margin LP past `lp.INTERIOR_ROWS`, or after the dual simplex failed: solved by the interior
+point method, which says how near its answer is (the gap to its dual bound), and what the fit
+then says, with intervals that hold the identified set.
 
 That the interior route reaches the whole LP's optimum, and outer bounds of its intervals, on
 the worlds of the other routes is in `test_lp_paths.py` (`assert_margins_agree`,
@@ -76,3 +76,21 @@ def test_a_fit_past_the_switch_says_how_it_was_solved_and_its_intervals_hold_the
     # is not promised (an interior point of the optimal face), but the cliff stays bad.
     simplex = fit(demos, method="lp", reward_cells="special", rmax=RMAX)
     assert np.sign(result.theta).tolist() == np.sign(simplex.theta).tolist()
+
+
+def test_a_failed_round_of_the_simplex_is_solved_again_by_the_interior_point_method(cliff16, monkeypatch):
+    """Below the switch the dual simplex can still fail (an 84x84 world's first round: "solve
+    error" after 70 s). The fit then goes on by the interior point method, not by the cascade of
+    retries, and says why. The failure here is HiGHS's own: an iteration limit of 0."""
+    demos, constraints = cliff16
+    simplex = lp.solve_margin_lp(constraints)
+    monkeypatch.setattr(lp, "MARGIN_OPTIONS", {**lp.MARGIN_OPTIONS, "simplex_iteration_limit": 0})
+    seen = []
+    solution = lp.solve_margin_lp(constraints, progress=lambda stage, done, total: seen.append(done))
+    assert solution.interior and solution.simplex_failure == "iteration limit in round 1"
+    assert abs(solution.margin - simplex.margin) <= solution.gap * max(simplex.margin, 1.0) + 1e-7
+    # The failed round is one of the rounds, and the progress counts on from it.
+    assert seen == list(range(2, solution.rounds + 1)) and solution.rounds >= 2
+    notes = " ".join(fit(demos, method="lp", reward_cells="special", rmax=RMAX).notes)
+    assert ("lp solved by the interior point method, as the dual simplex failed (iteration limit in round 1); "
+            "the gap between its margin") in notes
