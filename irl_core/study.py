@@ -45,6 +45,8 @@ Phase = Literal["practice", "main"]
 _PARTICIPANT_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=-]{0,79}")
 # `<out>/report/` holds the report, so no participant may be called that.
 REPORT_FOLDER = "report"
+# The report's rows of every participant together carry this id (`irl_core.study_report.POOLED`).
+POOLED = "pooled"
 _MAX_STUDY_FILE_BYTES = 1 << 20
 FINISHED_OUTCOMES = ("terminal", "step_limit")
 
@@ -146,7 +148,8 @@ def check_participant(participant: str) -> str:
 
     Raises:
         StudyError: the id is empty, too long, holds other characters than letters, digits
-            and ``_ . = -``, starts with another, or is ``report`` (the report's folder).
+            and ``_ . = -``, starts with another, or is ``report`` (the report's folder) or
+            ``pooled`` (the report's rows of everyone together).
     """
     if not _PARTICIPANT_ID.fullmatch(participant):
         raise StudyError(
@@ -155,6 +158,9 @@ def check_participant(participant: str) -> str:
         )
     if participant.lower() == REPORT_FOLDER:
         raise StudyError(f"participant id {participant!r} is taken: <out>/{REPORT_FOLDER}/ holds the study's report")
+    if participant.lower() == POOLED:
+        raise StudyError(f"participant id {participant!r} is taken: the report's rows of everyone together are "
+                         f"called {POOLED!r}")
     return participant
 
 

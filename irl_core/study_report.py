@@ -25,11 +25,9 @@ from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitError, FitOptions, fit
 from irl_core.irl.bootstrap import process_context
 from irl_core.step_table import StepTable
-from irl_core.study import REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
+from irl_core.study import POOLED, REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
     interrupted_episodes, read_participant
 from irl_core.summary import distance_to_terminal, outcome_code
-
-POOLED = "pooled"
 
 
 def report_options(*, resamples: int = 200, seed: int = 0, rmax: float = 5000.0) -> FitOptions:

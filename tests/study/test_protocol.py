@@ -107,7 +107,8 @@ def test_fixed_order_follows_the_file(tmp_path):
     assert any("practice recording" in p for p in protocol.problems)
 
 
-@pytest.mark.parametrize("bad", ["", "../x", "..", ".hidden", "a/b", "a b", "report", "Report", "x" * 81, "é"])
+@pytest.mark.parametrize("bad", ["", "../x", "..", ".hidden", "a/b", "a b", "report", "Report", "pooled", "Pooled",
+                                 "x" * 81, "é"])
 def test_participant_ids_that_cannot_be_folders_are_refused(study, bad):
     from irl_core.study import StudyError
 

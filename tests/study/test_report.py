@@ -70,6 +70,19 @@ def test_a_corrupt_file_is_named_and_its_participant_still_reported(study_path):
     assert data.cell("sim02", 0).episodes == 4
 
 
+def test_a_folder_named_pooled_is_left_out_not_taken_for_the_pool(study):
+    """The report's pooled rows are the participant `pooled`: a folder of that name would be a second
+    `pooled` row in the CSV, and the carefulness figure would take it for the pool."""
+    recording = write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
+    (study.out / "pooled").mkdir()
+    (study.out / "pooled" / "a.jsonl").write_bytes(recording.read_bytes())
+    data = gather(study)
+    assert data.participants == ("p01",)
+    assert [c.participant for c in data.cells if c.world_index == 0] == ["p01", POOLED]
+    assert data.cell(POOLED, 0).episodes == 2
+    assert any("pooled" in p and "left out" in p for p in data.problems)
+
+
 def test_parallel_fits_equal_serial_ones(study_path):
     data = gather(load_study(study_path))
     cells = [data.cell("sim03", 1), data.cell(POOLED, 0)]
