@@ -40,7 +40,7 @@ from careful_tui.render.palette import GOOD, NOTE, WARN
 from careful_tui.render.session import plural
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
-from irl_core.safe_text import printable
+from irl_core.safe_text import cut, printable
 from irl_core.study import Block, LoadedStudy, Protocol, read_protocol
 
 Stage = Literal["instructions", "practice_over", "next_world", "end"]
@@ -53,17 +53,27 @@ MODE_WORDS = {
               "backspace takes back a digit.",
 }
 PROBLEMS_SHOWN = 3
+# The play screen shows this much of its heading; the study's name takes at most STUDY_NAME_LIMIT of it.
+HEADING_LIMIT, STUDY_NAME_LIMIT = 60, 20
 
 PlayBlock = Callable[[Protocol, Block, HoldProfile | None], PlayScreen]
 
 
+def block_heading(protocol: Protocol, block: Block) -> str:
+    """ "pilot · world 1 of 2 (paper) · practice", at most `HEADING_LIMIT` characters: a long
+    study or world name is cut, never the place and the phase."""
+    name = cut(printable(protocol.study.study.name), STUDY_NAME_LIMIT, say_length=False)
+    place = f" · world {block.position + 1} of {len(protocol.order)} ("
+    phase = f") · {block.phase}"
+    room = max(8, HEADING_LIMIT - len(name) - len(place) - len(phase))
+    world = cut(printable(protocol.world(block).name), room, say_length=False)
+    return f"{name}{place}{world}{phase}"
+
+
 def block_play_options(protocol: Protocol, block: Block) -> dict[str, object]:
     """The `PlayScreen` options of a block: its title, its remaining episodes and how they are counted."""
-    world = protocol.world(block)
-    heading = (f"{protocol.study.study.name} · world {block.position + 1} of {len(protocol.order)} "
-               f"({world.name}) · {block.phase}")
     return {
-        "heading": heading,
+        "heading": block_heading(protocol, block),
         "episodes": block.remaining,
         "episodes_done": block.done,
         "episode_word": "Practice episode" if block.phase == "practice" else "Episode",

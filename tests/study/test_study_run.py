@@ -22,7 +22,7 @@ from careful_tui.screens.study import StudyScreen
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import read_recording
 from irl_core.study import load_study, read_protocol
-from study.study_run_files import write_study
+from study.study_run_files import RIGHT, write_study
 from play_fixtures import FakeClock
 
 ENDING_MOVE = {"right": "right", "left": "left"}
@@ -329,3 +329,21 @@ def test_a_calibration_in_a_hold_study_carries_over_to_the_next_world_with_its_l
         assert recording.header.input["calibrated"] is True
         assert recording.header.input["initial_delay_ms"] == pytest.approx(400.0)
     assert [step.carefulness for step in blocks[(1, "main")][0].steps] == [1]
+
+
+def test_a_long_study_name_is_cut_so_the_title_keeps_the_world_and_the_phase(tmp_path: Path) -> None:
+    """The play screen shows at most 60 characters of its heading; long study and world names are
+    cut, not the "world 1 of 2 (...) · practice" the participant needs."""
+    path = write_study(tmp_path)
+    path.write_text(path.read_text().replace('name = "pilot"', 'name = "carefulness-pilot-spring-2026-group-b"'))
+    (tmp_path / "right.toml").write_text(RIGHT.replace('name = "right"', 'name = "right-hand-goal-next-to-start"'))
+    app = new_app(path)
+
+    async def body(pilot: Pilot) -> None:
+        await pilot.press("space")
+        await pilot.pause()
+        title = str(app.screen.query_one("#title", Static).render())
+        heading = title.split(" · player ")[0]
+        assert heading == "carefulness-pilot-s… · world 1 of 2 (right-hand…) · practice"
+
+    run(app, body)
