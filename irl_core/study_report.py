@@ -17,7 +17,6 @@ from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -302,8 +301,3 @@ def csv_text(columns: list[str], rows: list[list[str]]) -> str:
     writer.writerow(columns)
     writer.writerows(rows)
     return buffer.getvalue()
-
-
-def report_path(study: LoadedStudy, out: Path | None, name: str) -> Path:
-    """A report file: under `out` when given, else ``<study out>/report/``."""
-    return (out if out is not None else study.report_folder) / name

@@ -167,6 +167,21 @@ def test_the_figures_show_each_participant_the_pool_and_the_truth(study_path):
     assert plain("a$b\x1b") == "a\\$b\\x1b"
 
 
+def test_figure_titles_say_the_rewards_are_point_estimates_and_count_in_words(study):
+    """One participant with one episode: "1 participant, 1 episode", not "1 participants, 1 episodes";
+    the rewards figure says its panels are point estimates (their intervals are in the table)."""
+    from careful_tui.render.figures.study_figures import report_figures
+
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=1)
+    data = gather(study)
+    fits = [fit_cell(cell, report_options(resamples=20)) if cell.world_index == 0 else CellFit(error="none")
+            for cell in data.cells]
+    figures = dict(report_figures(data, fits))
+    pooled = [ax.get_title() for ax in figures["intervals-pooled"].axes if ax.get_title()]
+    assert pooled == ["paper: pooled over 1 participant, 1 episode"]
+    assert "point estimates" in figures["rewards-w0-paper"].get_suptitle()
+
+
 def test_outcomes_are_worded_as_replay_and_play_word_them(study, capsys):
     # Two falls, then a quit mid-episode; another file's episode cut off without an end.
     write_block(study, "p1", 0, "main", name="a.jsonl", finished=2, then="quit")
