@@ -99,8 +99,11 @@ def plan_text(protocol: Protocol) -> Text:
     if study.practice_episodes:
         each = f"{plural(study.practice_episodes, 'practice episode')}, then {each} that count"
     text = Text()
-    text.append(f"You will play {plural(worlds, 'world')}. In each: {each}. ")
+    text.append(f"You will play {plural(worlds, 'world')}" + (f". In each: {each}. " if worlds > 1 else f": {each}. "))
     text.append("Every episode ends when you reach a cell that ends it (the goal, or worse) or run out of steps.\n\n")
+    if all(world.levels == 1 for world in protocol.study.worlds):
+        text.append("Move with the arrow keys.")
+        return text
     text.append("Each move has a carefulness level. ", style="bold")
     text.append("A careful move costs more points and slips less: a slip sends you another way than "
                 "you chose. Beside the gauge on the left, every level shows its cost and its chance "

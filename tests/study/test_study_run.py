@@ -347,3 +347,21 @@ def test_a_long_study_name_is_cut_so_the_title_keeps_the_world_and_the_phase(tmp
         assert heading == "carefulness-pilot-s… · world 1 of 2 (right-hand…) · practice"
 
     run(app, body)
+
+
+def test_a_study_without_carefulness_levels_does_not_explain_them(tmp_path: Path) -> None:
+    """Worlds of one level (``paper-simple``, a control condition) have no level to choose: the
+    instructions say so instead of describing the gauge and how to type a level."""
+    path = write_study(tmp_path)
+    path.write_text(path.read_text().replace('worlds = ["right.toml", "left.toml"]', 'worlds = ["paper-simple"]'))
+    app = new_app(path)
+    seen: dict[str, str] = {}
+
+    async def body(pilot: Pilot) -> None:
+        seen["instructions"] = shown(app)
+
+    run(app, body)
+    text = " ".join(seen["instructions"].split())
+    assert "You will play 1 world: 1 practice episode, then 2 episodes that count." in text
+    assert "Move with the arrow keys." in text
+    assert "carefulness level" not in text and "gauge" not in text and "Type the level" not in text
