@@ -192,7 +192,7 @@ def world_order(study: Study, participant: str) -> list[int]:
 @dataclass(frozen=True)
 class ParticipantRecordings:
     """The study recordings in a participant's folder; `problems` names each file left out (and
-    any reader warning) in one line, `left_out` counts the files left out."""
+    each reader warning of a file that is counted) in one line, `left_out` counts the files left out."""
 
     participant: str
     folder: Path
@@ -221,11 +221,11 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
         except RecordingError as exc:
             problems.append(f"{exc}; left out")
             continue
-        problems.extend(recording.warnings)
         problem = _foreign(study, participant, recording)
         if problem:
             problems.append(f"{path}: {problem}; left out")
             continue
+        problems.extend(f"{warning}; the rest of the file is counted" for warning in recording.warnings)
         found.append((recording.header.study, recording))
     return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
 

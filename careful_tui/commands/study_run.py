@@ -69,4 +69,4 @@ def standing(study: LoadedStudy, participant: str) -> str:
 
 def report_problems(problems: tuple[str, ...]) -> None:
     for problem in problems:
-        print(f"not counted: {printable(problem)}", file=sys.stderr)
+        print(f"warning: {printable(problem)}", file=sys.stderr)

@@ -162,11 +162,12 @@ def end_text(protocol: Protocol) -> Group:
 
 
 def problems_text(protocol: Protocol) -> list[Text]:
-    """Files in the folder that are not counted, for the experimenter (a few, then how many more)."""
+    """Files in the folder that are not counted, or counted in part, for the experimenter (a few,
+    then how many more); each line says which."""
     if not protocol.problems:
         return []
-    text = Text(f"For the experimenter: {plural(len(protocol.problems), 'problem')} in the folder "
-                "(those files are not counted):", style=f"bold {WARN}")
+    text = Text(f"For the experimenter: {plural(len(protocol.problems), 'problem')} in the folder:",
+                style=f"bold {WARN}")
     for problem in protocol.problems[:PROBLEMS_SHOWN]:
         text.append(f"\n- {printable(problem, limit=300)}", style=WARN)
     if len(protocol.problems) > PROBLEMS_SHOWN:
