@@ -61,7 +61,7 @@ class Study(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 
     name: str = Field(min_length=1)
-    instructions: str = ""
+    instructions: str = Field("", max_length=20_000)
     worlds: tuple[str, ...] = Field(min_length=1, strict=False)
     order: Literal["fixed", "shuffled"] = "fixed"
     practice_episodes: int = Field(1, ge=0, le=1000)

@@ -122,7 +122,8 @@ def instructions_text(protocol: Protocol) -> Group:
         back.append_text(where_next(protocol))
         parts.append(back)
     if study.instructions.strip():
-        parts.append(Text(printable(study.instructions.strip(), limit=4000, keep_newlines=True)))
+        # Whole (the study file caps them at 20,000 characters; the screen scrolls).
+        parts.append(Text(printable(study.instructions.strip(), keep_newlines=True)))
     parts.append(plan_text(protocol))
     parts.extend(problems_text(protocol))
     parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))

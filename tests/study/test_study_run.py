@@ -365,3 +365,22 @@ def test_a_study_without_carefulness_levels_does_not_explain_them(tmp_path: Path
     assert "You will play 1 world: 1 practice episode, then 2 episodes that count." in text
     assert "Move with the arrow keys." in text
     assert "carefulness level" not in text and "gauge" not in text and "Type the level" not in text
+
+
+def test_long_instructions_are_shown_whole(tmp_path: Path) -> None:
+    """A consent text of a few pages is shown to its end (the screen scrolls), not cut at 4,000 characters."""
+    path = write_study(tmp_path)
+    paragraphs = "\n".join(f"Paragraph {i}: the rules of payment and consent, read them with care." for i in range(80))
+    text = path.read_text()
+    start = text.index('instructions = """') + len('instructions = """')
+    path.write_text(text[:start] + paragraphs + text[text.index('"""', start):])
+    app = new_app(path)
+    seen: dict[str, str] = {}
+
+    async def body(pilot: Pilot) -> None:
+        seen["instructions"] = shown(app)
+
+    run(app, body)
+    assert len(paragraphs) > 5000
+    assert "Paragraph 79: the rules of payment and consent, read them with care." in seen["instructions"]
+    assert "characters)" not in seen["instructions"]
