@@ -92,14 +92,19 @@ def run_study_report(args: argparse.Namespace) -> int:
     if not out_console.is_terminal:
         out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
     out_console.print(report_table(data, fits))
-    left_out = sum(data.left_out.values())
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
         f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')}; reading {timings.reading:.1f} s, "
-        f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s"
-        + (f"; {left_out} file{'s' * (left_out != 1)} left out (named above the table)" if left_out else "")),
+        f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s" + left_out_text(data)),
         soft_wrap=True)
     return EXIT_OK
+
+
+def left_out_text(data: StudyData) -> str:
+    """"; 1 file and 2 folders left out (named above the table)", or "" when nothing was."""
+    counts = [(sum(data.left_out.values()), "file"), (data.folders_left_out, "folder")]
+    said = " and ".join(plural(n, word) for n, word in counts if n)
+    return f"; {said} left out (named above the table)" if said else ""
 
 
 def write_report(data: StudyData, fits: list[CellFit], out: Path) -> list[Path]:

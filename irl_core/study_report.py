@@ -81,6 +81,7 @@ class StudyData:
     cells: tuple[Cell, ...]
     problems: tuple[str, ...]
     left_out: dict[str, int]  # participant -> files left out (participants with none are not listed)
+    folders_left_out: int = 0  # folders under out whose names cannot be participant ids
 
     def cell(self, participant: str, world_index: int) -> Cell:
         return next(c for c in self.cells if c.participant == participant and c.world_index == world_index)
@@ -109,6 +110,7 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
         progress: called as progress(participants read, participants) after each participant.
     """
     ids, problems = participant_ids(study)
+    folders_left_out = len(problems)
     per_world: dict[int, list[Recording]] = {i: [] for i in range(len(study.worlds))}
     cells, left_out = [], {}
     for n, participant in enumerate(ids, 1):
@@ -132,7 +134,7 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
     # World by world: its participants in name order, then its pool.
     cells.sort(key=lambda cell: (cell.world_index, cell.participant == POOLED))
     return StudyData(study=study, participants=tuple(ids), cells=tuple(cells), problems=tuple(problems),
-                     left_out=left_out)
+                     left_out=left_out, folders_left_out=folders_left_out)
 
 
 def _finished_only(recording: Recording) -> Recording:

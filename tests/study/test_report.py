@@ -83,6 +83,22 @@ def test_a_folder_named_pooled_is_left_out_not_taken_for_the_pool(study):
     assert any("pooled" in p and "left out" in p for p in data.problems)
 
 
+def test_the_last_line_counts_the_folders_left_out_too(study):
+    """A folder whose name cannot be a participant's ("P 07", a typo) holds a participant's files:
+    the command's last line counts it beside the files left out, not only the warning above the table."""
+    from careful_tui.study_report import left_out_text
+
+    recording = write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
+    assert left_out_text(gather(study)) == ""
+    (study.out / "P 07").mkdir()
+    (study.out / "P 07" / "a.jsonl").write_bytes(recording.read_bytes())
+    data = gather(study)
+    assert any("P 07: participant id 'P 07' cannot name a folder" in p for p in data.problems)
+    assert left_out_text(data) == "; 1 folder left out (named above the table)"
+    (study.participant_folder("p01") / "b.jsonl").write_text("not json\n")
+    assert left_out_text(gather(study)) == "; 1 file and 1 folder left out (named above the table)"
+
+
 def test_parallel_fits_equal_serial_ones(study_path):
     data = gather(load_study(study_path))
     cells = [data.cell("sim03", 1), data.cell(POOLED, 0)]
