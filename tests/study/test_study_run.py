@@ -237,12 +237,14 @@ def test_a_finished_participant_is_told_so_and_bad_input_is_one_line(tmp_path: P
     assert out.startswith("participant p01 has finished study 'pilot'") and "nothing is left to play" in out
 
     (tmp_path / "data" / "p03").write_text("not a folder")
+    (tmp_path / "other.toml").write_text(path.read_text().replace('out = "data"', 'out = "pilot.toml"'))
     for argv, fragment in [
         (["study", "run", str(path), "--participant", "p02"], "needs an interactive terminal"),
         (["study", "run", str(path), "--participant", "p03"], "is a file, not the participant's folder"),
         (["study", "run", str(path), "--participant", "../x"], "cannot name a folder"),
         (["study", "run", str(path), "--participant", "report"], "is taken"),
         (["study", "run", str(tmp_path / "missing.toml"), "--participant", "p01"], "cannot read the study file"),
+        (["study", "run", str(tmp_path / "other.toml"), "--participant", "p01"], "is a file, not the study's out folder"),
     ]:
         assert main(argv) == 2
         err = capsys.readouterr().err
