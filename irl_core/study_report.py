@@ -312,7 +312,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
             _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",
-            result.error or "",
+            result.error or "; ".join(result.notes),
         ])
     return columns, rows
 

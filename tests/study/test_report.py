@@ -234,6 +234,31 @@ def test_figure_titles_say_the_rewards_are_point_estimates_and_count_in_words(st
     assert "point estimates" in figures["rewards-w0-paper"].get_suptitle()
 
 
+def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
+    """A fit's notes that qualify its numbers (too few episodes for a bootstrap, beta not identified,
+    not converged) reach the user: once each on stdout with the rows they apply to, and in the
+    CSV's note column; the beta estimate the table shows already is not repeated."""
+    from careful_tui.study_report import fit_notes
+    from irl_core.study_report import report_rows
+
+    for participant in ("p1", "p2"):
+        write_block(study, participant, 0, "main", name="a.jsonl", finished=2)
+    data = gather(study)
+    rough = "only 2 episodes: a bootstrap interval from so few is rough (it tends to be too narrow)"
+    fits = []
+    for cell in data.cells:
+        if cell.world_index == 0 and cell.participant != POOLED:
+            fits.append(CellFit(method="maxent", beta=0.5, beta_auto=True,
+                                notes=("beta estimated by maximum likelihood: 0.5", rough)))
+        else:
+            fits.append(CellFit(error="no finished main episodes"))
+    assert fit_notes(data, fits) == [f"{rough}: p1 · paper, p2 · paper"]
+    columns, rows = report_rows(data, fits)
+    notes = [row[columns.index("note")] for row in rows]
+    assert notes[:2] == [f"beta estimated by maximum likelihood: 0.5; {rough}"] * 2
+    assert notes[2] == "no finished main episodes"
+
+
 def test_outcomes_are_worded_as_replay_and_play_word_them(study, capsys):
     # Two falls, then a quit mid-episode; another file's episode cut off without an end.
     write_block(study, "p1", 0, "main", name="a.jsonl", finished=2, then="quit")
