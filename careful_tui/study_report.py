@@ -38,6 +38,8 @@ from irl_core.study_report import (
 )
 
 FIGURE_FORMATS = (".png", ".pdf")
+# How `irl_core.irl.fit` begins its notes of what the table shows already (the method, beta).
+TABLE_NOTES = ("method auto chose", "beta estimated by maximum likelihood", "beta's ")
 TABLE_WIDTH = 200
 
 
@@ -92,14 +94,21 @@ def run_study_report(args: argparse.Namespace) -> int:
     if not out_console.is_terminal:
         out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
     out_console.print(report_table(data, fits))
-    left_out = sum(data.left_out.values())
+    for note in fit_notes(data, fits):
+        out_console.print(Text(f"note: {note}"), soft_wrap=True)
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
         f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')}; reading {timings.reading:.1f} s, "
-        f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s"
-        + (f"; {left_out} file{'s' * (left_out != 1)} left out (named above the table)" if left_out else "")),
+        f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s" + left_out_text(data)),
         soft_wrap=True)
     return EXIT_OK
+
+
+def left_out_text(data: StudyData) -> str:
+    """"; 1 file and 2 folders left out (named above the table)", or "" when nothing was."""
+    counts = [(sum(data.left_out.values()), "file"), (data.folders_left_out, "folder")]
+    said = " and ".join(plural(n, word) for n, word in counts if n)
+    return f"; {said} left out (named above the table)" if said else ""
 
 
 def write_report(data: StudyData, fits: list[CellFit], out: Path) -> list[Path]:
@@ -177,6 +186,24 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
             style="bold" if pooled else None,
         )
     return table
+
+
+def fit_notes(data: StudyData, fits: list[CellFit]) -> list[str]:
+    """The fits' notes that qualify their numbers (too few episodes for a bootstrap, beta not
+    identified, ...), each once with the rows it applies to: "only 4 episodes: ...: p1 · paper, p2 · paper".
+    Notes of what the table shows already (why auto chose the method, beta) are left out; the CSV keeps them
+    all, beta's interval too."""
+    where: dict[str, list[str]] = {}
+    for cell, result in zip(data.cells, fits):
+        world = printable(data.study.worlds[cell.world_index].name, limit=40)
+        for note in result.notes:
+            if not note.startswith(TABLE_NOTES):
+                where.setdefault(note, []).append(f"{cell.participant} · {world}")
+    return [f"{printable(note, limit=300)}: {_first_rows(rows)}" for note, rows in where.items()]
+
+
+def _first_rows(rows: list[str], shown: int = 6) -> str:
+    return ", ".join(rows[:shown]) + (f" and {len(rows) - shown} more" if len(rows) > shown else "")
 
 
 def outcomes_text(outcomes: dict[str, int], interrupted: dict[str, int]) -> str:

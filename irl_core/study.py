@@ -45,6 +45,8 @@ Phase = Literal["practice", "main"]
 _PARTICIPANT_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=-]{0,79}")
 # `<out>/report/` holds the report, so no participant may be called that.
 REPORT_FOLDER = "report"
+# The report's rows of every participant together carry this id (`irl_core.study_report.POOLED`).
+POOLED = "pooled"
 _MAX_STUDY_FILE_BYTES = 1 << 20
 FINISHED_OUTCOMES = ("terminal", "step_limit")
 
@@ -59,7 +61,7 @@ class Study(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 
     name: str = Field(min_length=1)
-    instructions: str = ""
+    instructions: str = Field("", max_length=20_000)
     worlds: tuple[str, ...] = Field(min_length=1, strict=False)
     order: Literal["fixed", "shuffled"] = "fixed"
     practice_episodes: int = Field(1, ge=0, le=1000)
@@ -146,7 +148,8 @@ def check_participant(participant: str) -> str:
 
     Raises:
         StudyError: the id is empty, too long, holds other characters than letters, digits
-            and ``_ . = -``, starts with another, or is ``report`` (the report's folder).
+            and ``_ . = -``, starts with another, or is ``report`` (the report's folder) or
+            ``pooled`` (the report's rows of everyone together).
     """
     if not _PARTICIPANT_ID.fullmatch(participant):
         raise StudyError(
@@ -155,6 +158,9 @@ def check_participant(participant: str) -> str:
         )
     if participant.lower() == REPORT_FOLDER:
         raise StudyError(f"participant id {participant!r} is taken: <out>/{REPORT_FOLDER}/ holds the study's report")
+    if participant.lower() == POOLED:
+        raise StudyError(f"participant id {participant!r} is taken: the report's rows of everyone together are "
+                         f"called {POOLED!r}")
     return participant
 
 
@@ -186,7 +192,7 @@ def world_order(study: Study, participant: str) -> list[int]:
 @dataclass(frozen=True)
 class ParticipantRecordings:
     """The study recordings in a participant's folder; `problems` names each file left out (and
-    any reader warning) in one line, `left_out` counts the files left out."""
+    each reader warning of a file that is counted) in one line, `left_out` counts the files left out."""
 
     participant: str
     folder: Path
@@ -215,11 +221,11 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
         except RecordingError as exc:
             problems.append(f"{exc}; left out")
             continue
-        problems.extend(recording.warnings)
         problem = _foreign(study, participant, recording)
         if problem:
             problems.append(f"{path}: {problem}; left out")
             continue
+        problems.extend(f"{warning}; the rest of the file is counted" for warning in recording.warnings)
         found.append((recording.header.study, recording))
     return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
 

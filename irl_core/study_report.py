@@ -12,12 +12,12 @@ asked for twice. `report_rows` is the table the command prints and writes as CSV
 from __future__ import annotations
 
 import dataclasses
+import multiprocessing.synchronize
 import os
 from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -25,11 +25,9 @@ from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitError, FitOptions, fit
 from irl_core.irl.bootstrap import process_context
 from irl_core.step_table import StepTable
-from irl_core.study import REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
+from irl_core.study import POOLED, REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
     interrupted_episodes, read_participant
 from irl_core.summary import distance_to_terminal, outcome_code
-
-POOLED = "pooled"
 
 
 def report_options(*, resamples: int = 200, seed: int = 0, rmax: float = 5000.0) -> FitOptions:
@@ -83,6 +81,7 @@ class StudyData:
     cells: tuple[Cell, ...]
     problems: tuple[str, ...]
     left_out: dict[str, int]  # participant -> files left out (participants with none are not listed)
+    folders_left_out: int = 0  # folders under out whose names cannot be participant ids
 
     def cell(self, participant: str, world_index: int) -> Cell:
         return next(c for c in self.cells if c.participant == participant and c.world_index == world_index)
@@ -111,6 +110,7 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
         progress: called as progress(participants read, participants) after each participant.
     """
     ids, problems = participant_ids(study)
+    folders_left_out = len(problems)
     per_world: dict[int, list[Recording]] = {i: [] for i in range(len(study.worlds))}
     cells, left_out = [], {}
     for n, participant in enumerate(ids, 1):
@@ -134,7 +134,7 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
     # World by world: its participants in name order, then its pool.
     cells.sort(key=lambda cell: (cell.world_index, cell.participant == POOLED))
     return StudyData(study=study, participants=tuple(ids), cells=tuple(cells), problems=tuple(problems),
-                     left_out=left_out)
+                     left_out=left_out, folders_left_out=folders_left_out)
 
 
 def _finished_only(recording: Recording) -> Recording:
@@ -198,12 +198,16 @@ class CellFit:
     error: str | None = None
 
 
-def fit_cell(cell: Cell, options: FitOptions) -> CellFit:
-    """Fit one cell (its bootstrap in this process); a cell without steps or a failed fit gives an error."""
+def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None = None) -> CellFit:
+    """Fit one cell (its bootstrap in this process); a cell without steps or a failed fit gives an error.
+
+    Raises:
+        irl_core.stopping.Stopped: `stop()` became true during the fit.
+    """
     if cell.demos is None:
         return CellFit(error="no finished main episodes")
     try:
-        result = fit(cell.demos, options, workers=1)
+        result = fit(cell.demos, options, workers=1, stop=stop)
     except FitError as exc:
         return CellFit(error=str(exc))
     return CellFit(method=result.method, beta=result.beta, beta_auto=result.beta_auto,
@@ -232,14 +236,37 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
             if progress:
                 progress(done, len(cells))
         return fits
-    with ProcessPoolExecutor(max_workers=workers, mp_context=process_context()) as pool:
-        futures = {pool.submit(fit_cell, cells[i], options): i for i in order}
-        for future in as_completed(futures):
-            fits[futures[future]] = future.result()
-            done += 1
-            if progress:
-                progress(done, len(cells))
+    context = process_context()
+    stopping = context.Event()
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_install_stop,
+                             initargs=(stopping,)) as pool:
+        futures = {pool.submit(_fit_in_worker, cells[i], options): i for i in order}
+        try:
+            for future in as_completed(futures):
+                fits[futures[future]] = future.result()
+                done += 1
+                if progress:
+                    progress(done, len(cells))
+        except BaseException:
+            # Ctrl+C: leaving the pool would wait for every fit queued (24 s of a 26-fit report); the
+            # running fits stop at their next check, the others are dropped.
+            stopping.set()
+            pool.shutdown(cancel_futures=True)
+            raise
     return fits
+
+
+_STOP: Callable[[], bool] | None = None
+
+
+def _install_stop(stopping: multiprocessing.synchronize.Event) -> None:
+    """Worker initialiser: keep the parent's stop signal (set on Ctrl+C)."""
+    global _STOP
+    _STOP = stopping.is_set
+
+
+def _fit_in_worker(cell: Cell, options: FitOptions) -> CellFit:
+    return fit_cell(cell, options, stop=_STOP)
 
 
 # ---------------------------------------------------------------------------- the table
@@ -285,7 +312,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
             _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",
-            result.error or "",
+            result.error or "; ".join(result.notes),
         ])
     return columns, rows
 
@@ -304,8 +331,3 @@ def csv_text(columns: list[str], rows: list[list[str]]) -> str:
     writer.writerow(columns)
     writer.writerows(rows)
     return buffer.getvalue()
-
-
-def report_path(study: LoadedStudy, out: Path | None, name: str) -> Path:
-    """A report file: under `out` when given, else ``<study out>/report/``."""
-    return (out if out is not None else study.report_folder) / name

@@ -47,7 +47,7 @@ def run_export(args: argparse.Namespace) -> int:
         reading = progress.add_task("reading", total=sum(sizes))
         recordings: list[Recording] = []
         for path, size in zip(args.files, sizes):
-            progress.update(reading, description=f"reading {escape(path.name)}")
+            progress.update(reading, description=f"reading {escape(printable(path.name, limit=60))}")
             recordings.append(read_recording(path))
             progress.advance(reading, size)
         for recording in recordings:
@@ -77,7 +77,7 @@ def _export_csv(out: Path, recordings: list[Recording], progress: Progress) -> s
     except OSError as exc:
         raise UsageError(f"{out}: cannot write the CSV file ({exc.strerror or exc})") from None
     files = len(recordings)
-    return f"wrote {rows} rows (one per step) from {files} file{'s' * (files != 1)} to {out}"
+    return f"wrote {rows} rows (one per step) from {files} file{'s' * (files != 1)} to {printable(str(out))}"
 
 
 def _export_minari(dataset_id: str, recordings: list[Recording], progress: Progress) -> str:
@@ -99,4 +99,5 @@ def _export_minari(dataset_id: str, recordings: list[Recording], progress: Progr
     except FileExistsError as exc:
         raise UsageError(str(exc)) from None
     return (f"wrote Minari dataset {dataset_id}: {dataset.total_episodes} episodes, {dataset.total_steps} steps of "
-            f"world {world.name!r}, at {minari_dataset_path(dataset_id)}; load it with minari.load_dataset({dataset_id!r})")
+            f"world {world.name!r}, at {printable(str(minari_dataset_path(dataset_id)))}; "
+            f"load it with minari.load_dataset({dataset_id!r})")

@@ -30,8 +30,9 @@ def run_study_run(args: argparse.Namespace) -> int:
         return 0
     # The study's folder, not the participant's: that is made at the first move, so a participant
     # who leaves before it leaves no empty folder for the report to count.
-    if protocol.folder.exists() and not protocol.folder.is_dir():
-        raise UsageError(f"{printable(str(protocol.folder))} is a file, not the participant's folder; move it away")
+    for folder, what in ((study.out, "the study's out folder"), (protocol.folder, "the participant's folder")):
+        if folder.exists() and not folder.is_dir():
+            raise UsageError(f"{printable(str(folder))} is a file, not {what}; move it away")
     target = protocol.folder if protocol.folder.is_dir() else study.out
     try:
         check_writable(target)
@@ -69,4 +70,4 @@ def standing(study: LoadedStudy, participant: str) -> str:
 
 def report_problems(problems: tuple[str, ...]) -> None:
     for problem in problems:
-        print(f"not counted: {printable(problem)}", file=sys.stderr)
+        print(f"warning: {printable(problem)}", file=sys.stderr)

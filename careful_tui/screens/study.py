@@ -40,7 +40,7 @@ from careful_tui.render.palette import GOOD, NOTE, WARN
 from careful_tui.render.session import plural
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
-from irl_core.safe_text import printable
+from irl_core.safe_text import cut, printable
 from irl_core.study import Block, LoadedStudy, Protocol, read_protocol
 
 Stage = Literal["instructions", "practice_over", "next_world", "end"]
@@ -53,17 +53,27 @@ MODE_WORDS = {
               "backspace takes back a digit.",
 }
 PROBLEMS_SHOWN = 3
+# The play screen shows this much of its heading; the study's name takes at most STUDY_NAME_LIMIT of it.
+HEADING_LIMIT, STUDY_NAME_LIMIT = 60, 20
 
 PlayBlock = Callable[[Protocol, Block, HoldProfile | None], PlayScreen]
 
 
+def block_heading(protocol: Protocol, block: Block) -> str:
+    """ "pilot · world 1 of 2 (paper) · practice", at most `HEADING_LIMIT` characters: a long
+    study or world name is cut, never the place and the phase."""
+    name = cut(printable(protocol.study.study.name), STUDY_NAME_LIMIT, say_length=False)
+    place = f" · world {block.position + 1} of {len(protocol.order)} ("
+    phase = f") · {block.phase}"
+    room = max(8, HEADING_LIMIT - len(name) - len(place) - len(phase))
+    world = cut(printable(protocol.world(block).name), room, say_length=False)
+    return f"{name}{place}{world}{phase}"
+
+
 def block_play_options(protocol: Protocol, block: Block) -> dict[str, object]:
     """The `PlayScreen` options of a block: its title, its remaining episodes and how they are counted."""
-    world = protocol.world(block)
-    heading = (f"{protocol.study.study.name} · world {block.position + 1} of {len(protocol.order)} "
-               f"({world.name}) · {block.phase}")
     return {
-        "heading": heading,
+        "heading": block_heading(protocol, block),
         "episodes": block.remaining,
         "episodes_done": block.done,
         "episode_word": "Practice episode" if block.phase == "practice" else "Episode",
@@ -89,8 +99,11 @@ def plan_text(protocol: Protocol) -> Text:
     if study.practice_episodes:
         each = f"{plural(study.practice_episodes, 'practice episode')}, then {each} that count"
     text = Text()
-    text.append(f"You will play {plural(worlds, 'world')}. In each: {each}. ")
+    text.append(f"You will play {plural(worlds, 'world')}" + (f". In each: {each}. " if worlds > 1 else f": {each}. "))
     text.append("Every episode ends when you reach a cell that ends it (the goal, or worse) or run out of steps.\n\n")
+    if all(world.levels == 1 for world in protocol.study.worlds):
+        text.append("Move with the arrow keys.")
+        return text
     text.append("Each move has a carefulness level. ", style="bold")
     text.append("A careful move costs more points and slips less: a slip sends you another way than "
                 "you chose. Beside the gauge on the left, every level shows its cost and its chance "
@@ -109,7 +122,8 @@ def instructions_text(protocol: Protocol) -> Group:
         back.append_text(where_next(protocol))
         parts.append(back)
     if study.instructions.strip():
-        parts.append(Text(printable(study.instructions.strip(), limit=4000, keep_newlines=True)))
+        # Whole (the study file caps them at 20,000 characters; the screen scrolls).
+        parts.append(Text(printable(study.instructions.strip(), keep_newlines=True)))
     parts.append(plan_text(protocol))
     parts.extend(problems_text(protocol))
     parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
@@ -149,11 +163,12 @@ def end_text(protocol: Protocol) -> Group:
 
 
 def problems_text(protocol: Protocol) -> list[Text]:
-    """Files in the folder that are not counted, for the experimenter (a few, then how many more)."""
+    """Files in the folder that are not counted, or counted in part, for the experimenter (a few,
+    then how many more); each line says which."""
     if not protocol.problems:
         return []
-    text = Text(f"For the experimenter: {plural(len(protocol.problems), 'problem')} in the folder "
-                "(those files are not counted):", style=f"bold {WARN}")
+    text = Text(f"For the experimenter: {plural(len(protocol.problems), 'problem')} in the folder:",
+                style=f"bold {WARN}")
     for problem in protocol.problems[:PROBLEMS_SHOWN]:
         text.append(f"\n- {printable(problem, limit=300)}", style=WARN)
     if len(protocol.problems) > PROBLEMS_SHOWN:

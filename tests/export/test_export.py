@@ -122,6 +122,14 @@ def test_csv_never_overwrites(tmp_path, session, capsys):
     assert session.read_bytes() == before
 
 
+def test_a_path_with_control_characters_is_shown_escaped(tmp_path, session, capsys):
+    """`ESC ] 0 ; ... BEL` in a file name would retitle the terminal (Rich drops the BEL, not the ESC)."""
+    out = tmp_path / "o\x1b]0;title\x07.csv"
+    code, err = run(capsys, session, "--format", "csv", "--out", out)
+    assert code == 0 and out.exists()
+    assert "\x1b" not in err and "o\\x1b]0;title\\x07.csv" in err
+
+
 # ---------------------------------------------------------------------------- bad input
 
 

@@ -107,7 +107,25 @@ def test_fixed_order_follows_the_file(tmp_path):
     assert any("practice recording" in p for p in protocol.problems)
 
 
-@pytest.mark.parametrize("bad", ["", "../x", "..", ".hidden", "a/b", "a b", "report", "Report", "x" * 81, "é"])
+def test_a_file_cut_mid_line_by_a_crash_is_counted_and_not_called_left_out(study):
+    """A crash mid-write leaves a truncated last line: the reader skips that line and the file's
+    episodes count; the experimenter is told so, not that the file is left out."""
+    from careful_tui.screens.study import problems_text
+
+    path = write_block(study, "p01", 1, "practice", name="a.jsonl", finished=1)
+    with path.open("a") as file:
+        file.write('{"kind": "step", "episode": 1, "t": 0, "sta')
+    protocol = read_protocol(study, "p01")
+    assert blocks(protocol)[0] == (1, "practice", 1, 0, 1)
+    (problem,) = protocol.problems
+    assert "a.jsonl:4: the last line is truncated" in problem and "left out" not in problem
+    assert "the rest of the file is counted" in problem
+    shown = " ".join(text.plain for text in problems_text(protocol))
+    assert "not counted" not in shown and "the rest of the file is counted" in shown
+
+
+@pytest.mark.parametrize("bad", ["", "../x", "..", ".hidden", "a/b", "a b", "report", "Report", "pooled", "Pooled",
+                                 "x" * 81, "é"])
 def test_participant_ids_that_cannot_be_folders_are_refused(study, bad):
     from irl_core.study import StudyError
 

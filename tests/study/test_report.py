@@ -70,6 +70,35 @@ def test_a_corrupt_file_is_named_and_its_participant_still_reported(study_path):
     assert data.cell("sim02", 0).episodes == 4
 
 
+def test_a_folder_named_pooled_is_left_out_not_taken_for_the_pool(study):
+    """The report's pooled rows are the participant `pooled`: a folder of that name would be a second
+    `pooled` row in the CSV, and the carefulness figure would take it for the pool."""
+    recording = write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
+    (study.out / "pooled").mkdir()
+    (study.out / "pooled" / "a.jsonl").write_bytes(recording.read_bytes())
+    data = gather(study)
+    assert data.participants == ("p01",)
+    assert [c.participant for c in data.cells if c.world_index == 0] == ["p01", POOLED]
+    assert data.cell(POOLED, 0).episodes == 2
+    assert any("pooled" in p and "left out" in p for p in data.problems)
+
+
+def test_the_last_line_counts_the_folders_left_out_too(study):
+    """A folder whose name cannot be a participant's ("P 07", a typo) holds a participant's files:
+    the command's last line counts it beside the files left out, not only the warning above the table."""
+    from careful_tui.study_report import left_out_text
+
+    recording = write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
+    assert left_out_text(gather(study)) == ""
+    (study.out / "P 07").mkdir()
+    (study.out / "P 07" / "a.jsonl").write_bytes(recording.read_bytes())
+    data = gather(study)
+    assert any("P 07: participant id 'P 07' cannot name a folder" in p for p in data.problems)
+    assert left_out_text(data) == "; 1 folder left out (named above the table)"
+    (study.participant_folder("p01") / "b.jsonl").write_text("not json\n")
+    assert left_out_text(gather(study)) == "; 1 file and 1 folder left out (named above the table)"
+
+
 def test_parallel_fits_equal_serial_ones(study_path):
     data = gather(load_study(study_path))
     cells = [data.cell("sim03", 1), data.cell(POOLED, 0)]
@@ -107,6 +136,42 @@ def test_study_report_prints_a_row_per_participant_and_world_and_writes_csv_and_
                  "intervals-pooled"):
         for suffix in (".png", ".pdf"):
             assert (report / f"{name}{suffix}").stat().st_size > 1000
+
+
+def _stand_in_fit(cell, options, *, stop=None):
+    """A stand-in fit that checks `stop` as the solvers do, and marks each fit it ends (in the
+    worker's process): the biggest cell (sent first) takes 0.1 s, the others 2 s."""
+    import time
+
+    from irl_core.stopping import Stopped
+
+    for _ in range(10 if cell.steps == 11 else 200):
+        if stop is not None and stop():
+            raise Stopped()
+        time.sleep(0.01)
+    with open(options, "a") as marks:
+        marks.write("fit\n")
+    return CellFit(error="stand-in")
+
+
+def test_ctrl_c_during_the_fits_stops_the_running_ones_and_drops_the_rest(tmp_path, monkeypatch):
+    """Ctrl+C (here KeyboardInterrupt in the parent after the first fit) leaves at once: the running
+    fits stop at their next check and the queued ones are dropped, instead of every fit running to
+    its end while the user waits (a 26-fit report went on for 24 s)."""
+    from types import SimpleNamespace
+
+    from irl_core import study_report
+
+    marks = tmp_path / "marks"
+    monkeypatch.setattr(study_report, "fit_cell", _stand_in_fit)
+
+    def interrupt(done, total):
+        raise KeyboardInterrupt
+
+    cells = [SimpleNamespace(steps=i) for i in range(12)]
+    with pytest.raises(KeyboardInterrupt):
+        run_fits(cells, str(marks), workers=2, progress=interrupt)
+    assert len(marks.read_text().splitlines()) <= 2
 
 
 def test_a_bad_study_file_or_no_participants_exits_2_with_one_line(tmp_path, capsys):
@@ -152,6 +217,46 @@ def test_the_figures_show_each_participant_the_pool_and_the_truth(study_path):
                                                  "mud: pooled over 3 participants, 12 episodes"]
     assert [t.get_text() for t in panels[1].get_yticklabels()] == ["cliff", "mud", "goal"]
     assert plain("a$b\x1b") == "a\\$b\\x1b"
+
+
+def test_figure_titles_say_the_rewards_are_point_estimates_and_count_in_words(study):
+    """One participant with one episode: "1 participant, 1 episode", not "1 participants, 1 episodes";
+    the rewards figure says its panels are point estimates (their intervals are in the table)."""
+    from careful_tui.render.figures.study_figures import report_figures
+
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=1)
+    data = gather(study)
+    fits = [fit_cell(cell, report_options(resamples=20)) if cell.world_index == 0 else CellFit(error="none")
+            for cell in data.cells]
+    figures = dict(report_figures(data, fits))
+    pooled = [ax.get_title() for ax in figures["intervals-pooled"].axes if ax.get_title()]
+    assert pooled == ["paper: pooled over 1 participant, 1 episode"]
+    assert "point estimates" in figures["rewards-w0-paper"].get_suptitle()
+
+
+def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
+    """A fit's notes that qualify its numbers (too few episodes for a bootstrap, beta not identified,
+    not converged) reach the user: once each on stdout with the rows they apply to, and in the
+    CSV's note column; the beta estimate the table shows already is not repeated."""
+    from careful_tui.study_report import fit_notes
+    from irl_core.study_report import report_rows
+
+    for participant in ("p1", "p2"):
+        write_block(study, participant, 0, "main", name="a.jsonl", finished=2)
+    data = gather(study)
+    rough = "only 2 episodes: a bootstrap interval from so few is rough (it tends to be too narrow)"
+    fits = []
+    for cell in data.cells:
+        if cell.world_index == 0 and cell.participant != POOLED:
+            fits.append(CellFit(method="maxent", beta=0.5, beta_auto=True,
+                                notes=("beta estimated by maximum likelihood: 0.5", rough)))
+        else:
+            fits.append(CellFit(error="no finished main episodes"))
+    assert fit_notes(data, fits) == [f"{rough}: p1 · paper, p2 · paper"]
+    columns, rows = report_rows(data, fits)
+    notes = [row[columns.index("note")] for row in rows]
+    assert notes[:2] == [f"beta estimated by maximum likelihood: 0.5; {rough}"] * 2
+    assert notes[2] == "no finished main episodes"
 
 
 def test_outcomes_are_worded_as_replay_and_play_word_them(study, capsys):

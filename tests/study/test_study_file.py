@@ -29,6 +29,7 @@ def test_a_study_file_reads_with_worlds_relative_to_it(tmp_path):
     ('worlds = ["paper"]\nparticipants = 3', "pilot.toml: participants: Extra inputs are not permitted"),
     ('worlds = ["paper", "nowhere.toml"]', "pilot.toml: worlds[1]: 'nowhere.toml' is neither a built-in world"),
     ('worlds = ["paper"', "pilot.toml: not valid TOML"),
+    (f'worlds = ["paper"]\ninstructions = "{"x" * 20_001}"', "pilot.toml: instructions: String should have at most 20000"),
 ])
 def test_a_bad_study_file_is_one_line_naming_file_and_field(tmp_path, text, message):
     path = tmp_path / "pilot.toml"

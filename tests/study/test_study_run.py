@@ -22,7 +22,7 @@ from careful_tui.screens.study import StudyScreen
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import read_recording
 from irl_core.study import load_study, read_protocol
-from study.study_run_files import write_study
+from study.study_run_files import RIGHT, write_study
 from play_fixtures import FakeClock
 
 ENDING_MOVE = {"right": "right", "left": "left"}
@@ -237,12 +237,14 @@ def test_a_finished_participant_is_told_so_and_bad_input_is_one_line(tmp_path: P
     assert out.startswith("participant p01 has finished study 'pilot'") and "nothing is left to play" in out
 
     (tmp_path / "data" / "p03").write_text("not a folder")
+    (tmp_path / "other.toml").write_text(path.read_text().replace('out = "data"', 'out = "pilot.toml"'))
     for argv, fragment in [
         (["study", "run", str(path), "--participant", "p02"], "needs an interactive terminal"),
         (["study", "run", str(path), "--participant", "p03"], "is a file, not the participant's folder"),
         (["study", "run", str(path), "--participant", "../x"], "cannot name a folder"),
         (["study", "run", str(path), "--participant", "report"], "is taken"),
         (["study", "run", str(tmp_path / "missing.toml"), "--participant", "p01"], "cannot read the study file"),
+        (["study", "run", str(tmp_path / "other.toml"), "--participant", "p01"], "is a file, not the study's out folder"),
     ]:
         assert main(argv) == 2
         err = capsys.readouterr().err
@@ -329,3 +331,58 @@ def test_a_calibration_in_a_hold_study_carries_over_to_the_next_world_with_its_l
         assert recording.header.input["calibrated"] is True
         assert recording.header.input["initial_delay_ms"] == pytest.approx(400.0)
     assert [step.carefulness for step in blocks[(1, "main")][0].steps] == [1]
+
+
+def test_a_long_study_name_is_cut_so_the_title_keeps_the_world_and_the_phase(tmp_path: Path) -> None:
+    """The play screen shows at most 60 characters of its heading; long study and world names are
+    cut, not the "world 1 of 2 (...) · practice" the participant needs."""
+    path = write_study(tmp_path)
+    path.write_text(path.read_text().replace('name = "pilot"', 'name = "carefulness-pilot-spring-2026-group-b"'))
+    (tmp_path / "right.toml").write_text(RIGHT.replace('name = "right"', 'name = "right-hand-goal-next-to-start"'))
+    app = new_app(path)
+
+    async def body(pilot: Pilot) -> None:
+        await pilot.press("space")
+        await pilot.pause()
+        title = str(app.screen.query_one("#title", Static).render())
+        heading = title.split(" · player ")[0]
+        assert heading == "carefulness-pilot-s… · world 1 of 2 (right-hand…) · practice"
+
+    run(app, body)
+
+
+def test_a_study_without_carefulness_levels_does_not_explain_them(tmp_path: Path) -> None:
+    """Worlds of one level (``paper-simple``, a control condition) have no level to choose: the
+    instructions say so instead of describing the gauge and how to type a level."""
+    path = write_study(tmp_path)
+    path.write_text(path.read_text().replace('worlds = ["right.toml", "left.toml"]', 'worlds = ["paper-simple"]'))
+    app = new_app(path)
+    seen: dict[str, str] = {}
+
+    async def body(pilot: Pilot) -> None:
+        seen["instructions"] = shown(app)
+
+    run(app, body)
+    text = " ".join(seen["instructions"].split())
+    assert "You will play 1 world: 1 practice episode, then 2 episodes that count." in text
+    assert "Move with the arrow keys." in text
+    assert "carefulness level" not in text and "gauge" not in text and "Type the level" not in text
+
+
+def test_long_instructions_are_shown_whole(tmp_path: Path) -> None:
+    """A consent text of a few pages is shown to its end (the screen scrolls), not cut at 4,000 characters."""
+    path = write_study(tmp_path)
+    paragraphs = "\n".join(f"Paragraph {i}: the rules of payment and consent, read them with care." for i in range(80))
+    text = path.read_text()
+    start = text.index('instructions = """') + len('instructions = """')
+    path.write_text(text[:start] + paragraphs + text[text.index('"""', start):])
+    app = new_app(path)
+    seen: dict[str, str] = {}
+
+    async def body(pilot: Pilot) -> None:
+        seen["instructions"] = shown(app)
+
+    run(app, body)
+    assert len(paragraphs) > 5000
+    assert "Paragraph 79: the rules of payment and consent, read them with care." in seen["instructions"]
+    assert "characters)" not in seen["instructions"]

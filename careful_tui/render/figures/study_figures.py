@@ -1,7 +1,7 @@
 """The figures of a study's report (`careful study report`), named as the files they become.
 
 Per world ``w<i>-<world>``:
-- ``rewards-...``: the fitted reward of each participant as small multiples, beside the
+- ``rewards-...``: the fitted reward (point estimate) of each participant as small multiples, beside the
   world file's reward and the pooled fit, on one colour scale;
 - ``carefulness-...`` (worlds with carefulness levels): mean carefulness against distance to
   danger, a panel per participant, everyone pooled as the faint reference line.
@@ -19,6 +19,7 @@ from careful_tui.render.figures.carefulness import carefulness_by_distance, stat
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.small_multiples import carefulness_multiples, reward_multiples
 from careful_tui.render.figures.style import plain, symbol_label
+from careful_tui.render.session import plural
 from irl_core.recording_writer import slug
 from irl_core.study_report import POOLED, CellFit, StudyData
 
@@ -49,7 +50,7 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
         panels += [(_who(cell), fit.reward_grid) for cell, fit in mine if fit.reward_grid is not None]
         if panels:
             how = method_phrase([f for _, f in mine])
-            title = f"{name}: fitted reward per participant ({how}, one value per symbol)"
+            title = f"{name}: fitted reward per participant, point estimates ({how}, one value per symbol)"
             figures.append((f"rewards-{key}", reward_multiples(panels, board, title=title)))
         played = [cell for cell, _ in mine if cell.demos is not None]
         if world.levels > 1 and played:
@@ -81,7 +82,8 @@ def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple
                             float(estimate), float(truth))
                 for symbol, (low, high), estimate, truth in zip(fit.symbols, fit.intervals, fit.estimate, fit.truth)]
         world = data.study.worlds[cell.world_index]
-        title = f"{plain(world.name)}: pooled over {cell.participants} participants, {cell.episodes} episodes"
+        title = (f"{plain(world.name)}: pooled over {plural(cell.participants, 'participant')}, "
+                 f"{plural(cell.episodes, 'episode')}")
         by_kind.setdefault(fit.interval_kind, []).append((title, rows))
         if fit.interval_kind == "confidence":
             confidence = fit.confidence
