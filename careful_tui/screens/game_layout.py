@@ -14,7 +14,7 @@ from textual.containers import Horizontal, Vertical
 from textual.widget import Widget
 from textual.widgets import Static
 
-from careful_tui.render.session import legend
+from careful_tui.render.session import legend, plural
 from careful_tui.widgets import Board, Gauge, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -38,7 +38,7 @@ def carefulness_gauge(world: World, *, slips: bool = False) -> Gauge:
 def world_board(world: World) -> Board:
     """The board of the play and replay screens, titled with the world and its legend."""
     board = Board(world, id="board")
-    board.border_title = Text(f"{printable(world.name, limit=40)} · {world.levels} levels · slip {world.slip}")
+    board.border_title = Text(f"{printable(world.name, limit=40)} · {plural(world.levels, 'level')} · slip {world.slip}")
     board.border_subtitle = legend(world)
     return board
 

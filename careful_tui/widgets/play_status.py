@@ -87,8 +87,10 @@ class GameStatus(Static):
                 status.append(f"Last {names.word.lower()} ({names.number(end.episode)}): ", style="dim")
                 status.append(outcome_text(end), style=outcome_colour(outcome_code(end)))
                 status.append(f", score {format_value(end.score)}", style="dim")
-            else:
+            elif self.world.levels > 1:
                 status.append("Careful moves cost more and slip less.", style="dim")
+            else:  # one level: no carefulness to choose
+                status.append("Move with the arrow keys.", style="dim")
             status.append("\n")
             status.append_text(self.message)
             return status

@@ -54,6 +54,7 @@ def screen_texts(world: World, input_mode: str, tmp_path: Path) -> dict[str, obj
             seen["subtitle"] = str(screen.query_one(Gauge).border_subtitle)
             seen["help"] = str(screen.query_one("#hold-info", Static).render())
             seen["status"] = str(screen.query_one("#status", Static).render())
+            seen["title"] = str(screen.query_one("#board").border_title)
             seen["keys"] = screen.query_one(KeyBar).keys
             bar = screen.query_one(KeyBar).render()
             bar.rstrip()
@@ -74,7 +75,14 @@ def test_the_gauge_shows_each_levels_cost_and_slip_chance_and_fits_the_minimum_s
     assert bottom.split() == ["1", "-1", "50%"]
     assert seen["subtitle"] == "points slip"
     assert "Careful moves cost more and slip less." in seen["status"]
+    assert seen["title"] == "paper · 14 levels · slip halving"
     assert [line.split()[-1] for line in screen_texts(NO_SLIP, "hold", tmp_path / "flat")["gauge"]] == ["0%"] * 3
+
+
+def test_a_world_of_one_level_does_not_speak_of_carefulness(tmp_path: Path) -> None:
+    seen = screen_texts(load_world("paper-simple"), "hold", tmp_path)
+    assert seen["title"] == "paper-simple · 1 level · slip halving"
+    assert "Move with the arrow keys." in seen["status"] and "Careful" not in seen["status"]
 
 
 @pytest.mark.parametrize(("mode", "first_line", "keys"), [
