@@ -91,6 +91,7 @@ class PlayScreen(TickBehindInput, Screen[None]):
         Binding("1,2,3,4,5,6,7,8,9", "move('digits')", "level", key_display="1-9"),
         Binding("up,right,down,left", "move('digits')", "move", key_display="←↑→↓"),
         Binding("backspace", "move('digits')", "fix", key_display="⌫"),
+        Binding("up,right,down,left", "move('one level')", "move", key_display="←↑→↓"),
         Binding("space,enter", "next_episode", "next episode", key_display="space"),
         Binding("space,enter", "next_episode('last')", "go on", key_display="space"),
         Binding("c", "calibrate", "calibrate"),
@@ -278,12 +279,12 @@ class PlayScreen(TickBehindInput, Screen[None]):
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """Show and allow the keys that do something now (the footer follows)."""
-        if action == "move":
-            return self.live and parameters == (self.input_mode,)
+        if action == "move":  # a world of one level has no carefulness to choose in any mode
+            return self.live and parameters == ((self.input_mode,) if self.world.levels > 1 else ("one level",))
         if action == "next_episode":
             return not self.live and self.all_played == (parameters == ("last",))
         if action == "calibrate":
-            return self.input_mode == "hold" and (not self.live or self.step == 0)
+            return self.input_mode == "hold" and self.world.levels > 1 and (not self.live or self.step == 0)
         return super().check_action(action, parameters)
 
     def action_move(self, mode: str) -> None:

@@ -27,6 +27,8 @@ def mode_help(input_mode: str, levels: int) -> str:
     """Under the gauge before the first move: how to choose a level in `input_mode` (the key bar
     says it too), with an example. Lines of at most 17 characters, the width under the narrowest
     gauge; the first alone must make sense, as a terminal of the minimum size shows only that."""
+    if levels == 1:
+        return "arrows: move"
     k = min(3, levels)
     return {
         "hold": "hold = careful\nlet go: move",

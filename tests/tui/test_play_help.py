@@ -83,6 +83,8 @@ def test_a_world_of_one_level_does_not_speak_of_carefulness(tmp_path: Path) -> N
     seen = screen_texts(load_world("paper-simple"), "hold", tmp_path)
     assert seen["title"] == "paper-simple · 1 level · slip halving"
     assert "Move with the arrow keys." in seen["status"] and "Careful" not in seen["status"]
+    assert seen["help"] == "arrows: move"
+    assert list(seen["keys"]) == [("←↑→↓", "move"), ("q", "quit")]  # no calibration: it only times levels
 
 
 @pytest.mark.parametrize(("mode", "first_line", "keys"), [
