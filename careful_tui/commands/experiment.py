@@ -20,7 +20,7 @@ from careful_tui.errors import UsageError
 from careful_tui.render.grid import WorldGrid, action_label, format_value, symbol_legend
 from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption, run_experiment as run_stages
 from irl_core.irl import FitOptions
-from irl_core.safe_files import check_output_folder
+from irl_core.safe_files import check_output, check_output_folder, write_output
 
 
 def figure_panel(figure: Figure) -> Panel:
@@ -61,6 +61,7 @@ def intervals_table(result: ExperimentResult) -> Table:
 
 
 FIGURE_FORMATS = (".pdf", ".png")
+REPORT_FILES = ("summary.json", "report.md")
 
 
 def write_figures(result: ExperimentResult, out: Path) -> None:
@@ -140,6 +141,8 @@ def run_experiment(args: argparse.Namespace) -> int:
         raise UsageError(f"cannot create {out}: {exc.strerror}") from None
     if args.recordings is not None and not args.recordings.is_dir():
         raise UsageError(f"--recordings {args.recordings}: not a folder")
+    for name in REPORT_FILES:  # refused before the stages run, not after
+        check_output(out / name, option="--out")
     console = Console()
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
                   console=Console(stderr=True), transient=True) as progress:
@@ -153,7 +156,8 @@ def run_experiment(args: argparse.Namespace) -> int:
     console.print(intervals_table(result))
     for note in result.notes:
         console.print(f"[dim]note: {note}[/]")
-    (out / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
-    (out / "report.md").write_text(report_markdown(result))
+    summary, report = REPORT_FILES
+    write_output(out / summary, json.dumps(result.summary(), indent=2) + "\n", option="--out")
+    write_output(out / report, report_markdown(result), option="--out")
     console.print(f"done in {result.seconds:.1f} s; figures, summary.json and report.md are in {out}/")
     return 0

@@ -36,3 +36,16 @@ def test_experiment_refuses_a_file_as_out(tmp_path, capsys):
     target.write_text("")
     assert main(["experiment", "--quick", "--out", str(target)]) == 2
     assert "is a file" in capsys.readouterr().err
+
+
+def test_experiment_never_overwrites_a_recording_in_its_folder(tmp_path, capsys):
+    """summary.json and report.md go through the same output guard as the figures."""
+    out = tmp_path / "exp"
+    out.mkdir()
+    recording = out / "report.md"
+    assert main(["simulate", "--world", "paper", "--policy", "optimal", "--episodes", "2", "--seed", "0",
+                 "--out", str(recording)]) == 0
+    before = recording.read_bytes()
+    assert main(["experiment", "--quick", "--out", str(out)]) == 2
+    assert recording.read_bytes() == before
+    assert "report.md" in capsys.readouterr().err

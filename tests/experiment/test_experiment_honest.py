@@ -26,6 +26,40 @@ def test_the_cliff_caption_follows_the_estimate():
     assert "goal is not recovered" in severity(estimate(-950.0, goal=-5.0))
 
 
+def test_a_cliff_the_bound_set_is_not_called_recovered():
+    """The loss stage on 10 noisy episodes put 3 of 4 cliff cells at -rmax = -1000: their mean
+    (-957) is near the truth because the bound is the truth, not because the data said so."""
+    bound_set = Estimate(stage="s", method="m", data="d", cliff=-956.7, goal=100.0, true_cliff=-1000.0,
+                         true_goal=100.0, seconds=0.0, cliff_cells=4, cliff_at_bound=3, cliff_inside=-827.0,
+                         rmax=1000.0)
+    caption = severity(bound_set)
+    assert "recovered" not in caption.replace("not recovered", "")
+    assert "3 of its 4 cells are at the fit's bound (-1000)" in caption
+    assert "the one the data set is -827 (17% off)" in caption
+    every = severity(Estimate(stage="s", method="m", data="d", cliff=-1000.0, goal=100.0, true_cliff=-1000.0,
+                              true_goal=100.0, seconds=0.0, cliff_cells=4, cliff_at_bound=4, rmax=1000.0))
+    assert "recovered" not in every.replace("not recovered", "") and "every cell" in every
+    one = severity(Estimate(stage="s", method="m", data="d", cliff=-981.0, goal=90.0, true_cliff=-1000.0,
+                            true_goal=100.0, seconds=0.0, cliff_cells=4, cliff_at_bound=1, cliff_inside=-975.0,
+                            rmax=1000.0))
+    assert "1 of its 4 cells is at the fit's bound (-1000)" in one and "the 3 the data set average -975" in one
+
+
+def test_the_experiment_counts_the_cliff_cells_at_the_bound(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "exp"
+    assert main(["experiment", "--quick", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    report = (out / "report.md").read_text()
+    for e in summary["estimates"]:
+        assert 0 <= e["cliff_at_bound"] <= e["cliff_cells"] == 4
+    loss = {e["stage"]: e for e in summary["estimates"]}["loss, noisy"]
+    caption = report.split("### Figure 8")[1].split("###")[0]
+    if loss["cliff_at_bound"]:
+        assert f"{loss['cliff_at_bound']} of its 4 cells" in caption
+        assert "severity is recovered" not in caption
+
+
 def test_the_interval_caption_follows_the_intervals():
     apart = Separation("mud", (-1000.0, -600.0), (-50.0, -10.0), 0.0)
     overlap = Separation("mud-simple", (-1000.0, 30.0), (-100.0, 40.0), 0.0, kind="confidence")
