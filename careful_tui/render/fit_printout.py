@@ -59,7 +59,7 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
     """
     world = result.world
     scale = reward_scale(result)
-    grids = [Group(Text("fitted R_S", style="bold"), WorldGrid(world, values=result.reward_grid, scale=scale))]
+    grids = [Group(Text.assemble(("fitted R_S", "bold"), " (point estimate)"), WorldGrid(world, values=result.reward_grid, scale=scale))]
     if world.rewards:
         grids.append(Group(Text("true R_S (world file)", style="bold"),
                            WorldGrid(world, values=result.true_reward_grid, scale=scale)))

@@ -127,8 +127,9 @@ def interval_readings(result: FitResult) -> list[str]:
 class IntervalChart:
     """Every unknown's interval as a bar on the reward colours' signed-log axis, from -rmax to rmax.
 
-    ● marks the fitted value, ○ the world's own (◉ both); ◀ or ▶ at an end of a bar means the
-    demonstrations do not bound it there (the bar runs into ±rmax). Rows are grouped by symbol,
+    ● marks the fitted value, ○ the world's own (◉ both); ◀ or ▶ just outside the axis means the
+    demonstrations do not bound it there (the bar runs into ±rmax): outside, so a mark at that
+    end cannot hide it. Rows are grouped by symbol,
     lowest symbol first (as `interval_readings`). The bars take the width they are given.
     """
 
@@ -146,16 +147,19 @@ class IntervalChart:
         label_width = max(map(len, labels), default=0)
         span_width = max(map(len, spans), default=0)
         # An odd number of positions puts 0 in the middle.
-        room = options.max_width - label_width - span_width - 4
+        room = options.max_width - label_width - span_width - 6
         axis = max(21, room if room % 2 else room - 1)
         for j in rows:
             low, high = (float(v) for v in result.intervals[j])
+            open_low, open_high = _open_ends(low, high, rmax)
             line = Text(f"{labels[j]:<{label_width}}  ", no_wrap=True, overflow="crop")
+            line.append("◀" if open_low else " ", style="bold")
             line.append_text(self._bar(axis, rmax, low, high, float(result.theta[j]),
                                        None if true is None else float(true[j])))
+            line.append("▶" if open_high else " ", style="bold")
             line.append(f"  {spans[j]:>{span_width}}", style="bold")
             yield line
-        indent = " " * (label_width + 2)
+        indent = " " * (label_width + 3)
         yield Text(indent) + _axis_ticks(axis, rmax)
         yield Text.assemble(indent, ("● fitted  ○ true  ◉ both  ", "dim"),
                             ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
@@ -179,11 +183,6 @@ class IntervalChart:
             chars[i] = "━"
             value = signed_log_value(i / (axis - 1) * 2 - 1, rmax)
             styles[i] = Style(color=diverging_colour(value, rmax), bold=True)
-        open_low, open_high = _open_ends(low, high, rmax)
-        if open_low:
-            chars[start] = "◀"
-        if open_high:
-            chars[end] = "▶"
         marks = {at(fitted): "●"}
         if true is not None:
             marks[at(true)] = "◉" if at(true) in marks else "○"

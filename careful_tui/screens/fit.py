@@ -369,7 +369,7 @@ class FitScreen(Screen[None]):
             return
         scale = reward_scale(result)
         fitted, true = self.query_one("#fitted", Board), self.query_one("#true", Board)
-        fitted.border_title = f"fitted R_S · {result.method}, {METHOD_NAMES[result.method]}"
+        fitted.border_title = f"fitted R_S · {result.method} point estimate"
         fitted.border_subtitle = scale_legend(scale)
         fitted.values, fitted.scale = result.reward_grid, scale
         true.values, true.scale = result.true_reward_grid, scale
@@ -391,6 +391,7 @@ class FitScreen(Screen[None]):
         return Text.assemble(
             ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
             (f"  ·  {files}: {demos.episodes} episodes, {demos.steps} steps", "dim"),
+            (f"  ·  {METHOD_NAMES[method]}" if method in METHOD_NAMES else "", "dim"),
         )
 
     def _status(self) -> Text:

@@ -86,6 +86,8 @@ def test_every_method_prints_and_saves_svg(tmp_path, capsys, mud_file, method):
     code, out, err = run(capsys, mud_file, "--method", method, "--svg", svg)
     assert code == 0, err
     assert svg.read_text().startswith("<svg") and "fitted R_S" in out and "demonstrated policy" in out
+    # The grid is one reward among those that fit: it says it is a point estimate.
+    assert "fitted R_S (point estimate)" in out
 
 
 def assert_one_line_error(code, err, *fragments):
@@ -184,3 +186,17 @@ def test_bad_input_with_a_terminal_exits_2_before_the_view(tmp_path, capsys, ope
     code, _, err = run(capsys, a, b)
     assert_one_line_error(code, err, "one world at a time")
     assert opened == []
+
+
+def test_the_interval_chart_marks_an_open_end_even_under_the_estimate(capsys, mud_file):
+    """On mud every cliff cell's identified set runs to -rmax, and its estimate (and the truth,
+    -1000) sits at that end: the ◀ that says "no lower bound" must still be drawn."""
+    code, out, err = run(capsys, mud_file, "--intervals", "--no-view")
+    assert code == 0, err
+    chart = [line for line in out.splitlines() if line.startswith("C (") and "─" in line]
+    assert len(chart) == 4
+    for line in chart:
+        assert "◀" in line and ("◉" in line or "●" in line), line
+        assert "▶" not in line
+    goal = next(line for line in out.splitlines() if line.startswith("G (") and "─" in line)
+    assert "◀" not in goal and "▶" not in goal

@@ -137,7 +137,7 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
         release.set()
         await settle(app, pilot)
         assert not app.first_screen.busy and app.first_screen.result.method == "loss"
-        assert "loss on mud" in shown(app, "#title") and "fitted R_S · loss" in app.query_one("#fitted").border_title
+        assert "loss on mud" in shown(app, "#title") and "fitted R_S · loss point estimate" in app.query_one("#fitted").border_title
         loss_values = app.query_one("#fitted", Board).values
         np.testing.assert_allclose(loss_values, app.first_screen.result.reward_grid)
         assert not np.allclose(loss_values, lp_values)
