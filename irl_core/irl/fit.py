@@ -46,6 +46,7 @@ class _Fitted:
     status: str = "optimal"
     notes: list[str] = dataclasses.field(default_factory=list)
     interior: bool = False
+    unique: bool | None = None
 
 
 def fit(
@@ -178,7 +179,7 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
         solution = fit_loss(qmap, demos.policy, rmax=options.rmax, lam=options.lam)
         theta, V = qmap.split(solution.x)
         return _Fitted("loss", theta, V, status="optimal_inaccurate" if solution.gap > STALL_TOLERANCE else "optimal",
-                       notes=list(solution.notes))
+                       notes=list(solution.notes), unique=solution.unique)
     solution = fit_maxent(qmap.mdp, qmap.unknowns, demos.counts, beta=beta, rmax=options.rmax)
     fitted = _Fitted("maxent", solution.theta, solution.V, beta=solution.beta, beta_auto=beta == "auto")
     if not solution.converged:
@@ -213,6 +214,13 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
                          "solved from nothing, and each end moved out by its LP's gap to the dual bound, so the "
                          "intervals hold the identified set (they may be a little wider)")
         return bounds, "identified"
+    if fitted.unique is False:
+        # Resampling would move only the pick among equally good rewards: no interval for the reward.
+        notes.append("intervals not computed: many rewards minimise the loss equally, so resampling episodes "
+                     "would show only how the smallest-||R_S||_1 pick among them moves, not which rewards the "
+                     "data allow; for a deterministic expert --method lp --intervals gives every value the "
+                     "demonstrations allow")
+        return None, None
     episodes = 0 if demos.by_episode is None else demos.by_episode.shape[0]
     if episodes < 2:
         notes.append("intervals not computed: a confidence interval comes from resampling whole episodes, and "
