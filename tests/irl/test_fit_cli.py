@@ -200,3 +200,13 @@ def test_the_interval_chart_marks_an_open_end_even_under_the_estimate(capsys, mu
         assert "▶" not in line
     goal = next(line for line in out.splitlines() if line.startswith("G (") and "─" in line)
     assert "◀" not in goal and "▶" not in goal
+
+
+@pytest.mark.parametrize("command", ["fit", "simulate", "replay", "experiment"])
+def test_every_argument_says_what_it_is_in_help(command):
+    from careful_tui.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command" or hasattr(a, "choices") and command in (a.choices or {}))
+    arguments = [a for a in sub.choices[command]._actions if a.dest != "help"]
+    assert arguments and all(a.help for a in arguments), [a.dest for a in arguments if not a.help]
