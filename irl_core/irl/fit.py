@@ -240,9 +240,23 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
                        seed=options.seed, bounds=(-options.rmax, options.rmax), progress=progress, workers=workers)
     if result.failed:
         notes.append(f"{result.failed} of {options.resamples} resamples failed to fit and were left out")
+    bounds = result.intervals[: qmap.k]
+    inside = np.abs(bounds).max(axis=1) < options.rmax * (1 - 1e-9)
+    stayed = inside & (bounds[:, 1] - bounds[:, 0] <= 1e-9 * np.maximum(1.0, np.abs(bounds).max(axis=1)))
+    if stayed.any() and stayed.sum() == inside.sum():
+        # Zero width inside the bound: the refits never left the full fit, which measures nothing.
+        why = (", as for a deterministic expert, whose beta would grow without end (--method lp fits one)"
+               if fitted.beta_auto else "")
+        notes.append("intervals not computed: every resample's refit stayed at the full fit's value, so they "
+                     f"would show no sampling noise; the likelihood is flat around this estimate{why}")
+        return None, None
+    if stayed.any():
+        labels = ", ".join(label for label, flat in zip(qmap.unknowns.labels, stayed) if flat)
+        notes.append(f"the refits never moved {labels}: their intervals have no width and show no sampling noise "
+                     "(the likelihood is flat in them)")
     if fitted.beta_auto:
         low, high = result.intervals[-1]
         notes.append(f"beta's {options.confidence:.0%} confidence interval: {low:.3g} to {high:.3g}")
     if episodes < 10:
         notes.append(f"only {episodes} episodes: a bootstrap interval from so few is rough (it tends to be too narrow)")
-    return result.intervals[: qmap.k], "confidence"
+    return bounds, "confidence"
