@@ -47,7 +47,7 @@ from careful_tui.render.fit_printout import (
 from careful_tui.render.grid import format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, scale_legend
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
-from careful_tui.render.session import legend
+from careful_tui.render.session import legend, plural
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -390,7 +390,7 @@ class FitScreen(Screen[None]):
         files = printable(self.sources[0].name, limit=80) if len(self.sources) == 1 else f"{demos.files} files"
         return Text.assemble(
             ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
-            (f"  ·  {files}: {demos.episodes} episodes, {demos.steps} steps", "dim"),
+            (f"  ·  {files}: {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}", "dim"),
             (f"  ·  {METHOD_NAMES[method]}" if method in METHOD_NAMES else "", "dim"),
         )
 

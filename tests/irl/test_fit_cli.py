@@ -210,3 +210,10 @@ def test_every_argument_says_what_it_is_in_help(command):
     sub = next(a for a in parser._actions if a.dest == "command" or hasattr(a, "choices") and command in (a.choices or {}))
     arguments = [a for a in sub.choices[command]._actions if a.dest != "help"]
     assert arguments and all(a.help for a in arguments), [a.dest for a in arguments if not a.help]
+
+
+def test_one_episode_is_counted_in_the_singular(tmp_path, capsys):
+    one = simulate(tmp_path / "one.jsonl", BUILTIN_WORLDS["paper"], episodes=1)
+    code, out, err = run(capsys, one, "--no-view")
+    assert code == 0, err
+    assert "from 1 file, 1 episode, " in out and "1 episodes" not in out

@@ -153,7 +153,7 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
 
 
 def test_intervals_toggle(mud_file):
-    # loss's intervals are bootstrap confidence intervals: 20 resamples keep the test quick.
+    # maxent's intervals are bootstrap confidence intervals: 20 resamples keep the test quick.
     app = make_app(mud_file, "--resamples", "20")
 
     async def body(pilot):
@@ -170,9 +170,15 @@ def test_intervals_toggle(mud_file):
         # Back on: the intervals are there already; nothing to refit.
         await pilot.press("i")
         assert not app.first_screen.busy and "Cliff:" in shown(app, "#intervals")
+        # loss on an optimal expert: many rewards minimise it, so resampling measures nothing; the view says so.
         await pilot.press("o")
         await settle(app, pilot)
-        assert app.first_screen.result.method == "loss" and app.first_screen.result.intervals is not None
+        assert app.first_screen.result.method == "loss" and app.first_screen.result.intervals is None
+        assert "could not be computed" in shown(app, "#intervals")
+        assert "many rewards minimise the loss equally" in shown(app, "#notes")
+        await pilot.press("m")
+        await settle(app, pilot)
+        assert app.first_screen.result.method == "maxent" and app.first_screen.result.intervals is not None
         assert app.first_screen.result.interval_kind == "confidence" and "95% confidence" in shown(app, "#intervals")
     drive(app, body, size=(100, 40))
 
