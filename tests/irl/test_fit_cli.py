@@ -217,3 +217,11 @@ def test_one_episode_is_counted_in_the_singular(tmp_path, capsys):
     code, out, err = run(capsys, one, "--no-view")
     assert code == 0, err
     assert "from 1 file, 1 episode, " in out and "1 episodes" not in out
+
+
+def test_two_outputs_on_one_path_are_refused_before_fitting(tmp_path, capsys, mud_file):
+    """--figure x.svg --svg x.svg would write the figure, then the printout over it."""
+    same = tmp_path / "x.svg"
+    code, out, err = run(capsys, mud_file, "--no-view", "--figure", same, "--svg", same)
+    assert_one_line_error(code, err, "--svg", "--figure", "x.svg")
+    assert not same.exists()
