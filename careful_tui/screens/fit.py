@@ -285,8 +285,9 @@ class FitScreen(Screen[None]):
         self._start(dataclasses.replace(self._wanted(), method=method))
 
     def action_next_method(self) -> None:
-        current = self._wanted().method
-        self.action_method(METHODS[(METHODS.index(current) + 1) % len(METHODS)])
+        """The next of auto, lp, loss, maxent (the order of the keys a, l, o, m), after the one asked for."""
+        cycle = ("auto", *METHODS)
+        self.action_method(cycle[(cycle.index(self._wanted().method) + 1) % len(cycle)])
 
     def action_toggle_intervals(self) -> None:
         """Show the intervals (computing them if the shown fit has none) or hide them."""

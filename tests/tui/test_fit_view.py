@@ -152,6 +152,21 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
     drive(app, body, size=(100, 40))
 
 
+def test_tab_cycles_auto_lp_loss_maxent_from_the_default_auto(mud_file):
+    """The view opens on auto (the default); tab crashed there (auto was not in the cycle)."""
+    app = make_app(mud_file, "--method", "auto")
+
+    async def body(pilot):
+        seen = []
+        for _ in range(4):
+            await pilot.press("tab")
+            await settle(app, pilot)
+            assert app.is_running and app.first_screen.error is None
+            seen.append(app.first_screen.options.method)
+        assert seen == ["lp", "loss", "maxent", "auto"]
+    drive(app, body, size=(100, 40))
+
+
 def test_intervals_toggle(mud_file):
     # maxent's intervals are bootstrap confidence intervals: 20 resamples keep the test quick.
     app = make_app(mud_file, "--resamples", "20")
