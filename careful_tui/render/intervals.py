@@ -94,12 +94,14 @@ def interval_readings(result: FitResult) -> list[str]:
     """One sentence per symbol, lowest first: its interval and how it stands against the next symbol up.
 
     e.g. "cliff: at most -661; no lower bound; catastrophic next to mud's -49.3..-14.8 (at least
-    13× worse under every reward the demonstrations allow)"; a confidence interval says "at 95%
-    confidence" instead. A symbol's interval spans those of all its cells.
+    13× worse under every reward the demonstrations allow)"; with confidence intervals the ratio
+    compares their ends ("end to end of their 95% confidence intervals"): each interval is 95%
+    sure on its own, their ratio is not. A symbol's interval spans those of all its cells.
     """
     rmax = result.rmax
     confident = result.interval_kind == "confidence"
-    sure = f"at {result.options.confidence:.0%} confidence" if confident else "under every reward the demonstrations allow"
+    sure = (f"end to end of their {result.options.confidence:.0%} confidence intervals" if confident
+            else "under every reward the demonstrations allow")
     hulls = symbol_intervals(result)
     order = _low_to_high(hulls)
     lines = []
@@ -116,7 +118,7 @@ def interval_readings(result: FitResult) -> list[str]:
             elif ratio >= CATASTROPHIC_RATIO:
                 line += f"; catastrophic next to {other} (at least {ratio:.0f}× worse {sure})"
             elif ratio > 0:
-                line += f"; at least {ratio:.1f}× worse than {other}{' ' + sure if confident else ''}"
+                line += f"; at least {ratio:.1f}× worse than {other}{', ' + sure if confident else ''}"
             else:
                 line += f"; below {other}"
         lines.append(line)
