@@ -29,6 +29,13 @@ def test_quick_experiment_tells_the_papers_story(tmp_path, monkeypatch):
     report = (out / "report.md").read_text()
     assert "| careful lp |" in report and "![Figure 6" in report and "(fig6-lp.png)" in report
     assert "simulated noisy experts" in report
+    # Cliff cells at the fit's bound are counted, and such a cliff is not called recovered.
+    for e in summary["estimates"]:
+        assert 0 <= e["cliff_at_bound"] <= e["cliff_cells"] == 4
+    caption = report.split("### Figure 8")[1].split("###")[0]
+    # 10 noisy episodes leave most of the loss's cliff at -rmax (3 of 4 cells with seed 0).
+    assert loss["cliff_at_bound"] >= 1
+    assert f"{loss['cliff_at_bound']} of its 4 cells" in caption and "severity is recovered" not in caption
 
 
 def test_experiment_refuses_a_file_as_out(tmp_path, capsys):

@@ -45,21 +45,6 @@ def test_a_cliff_the_bound_set_is_not_called_recovered():
     assert "1 of its 4 cells is at the fit's bound (-1000)" in one and "the 3 the data set average -975" in one
 
 
-def test_the_experiment_counts_the_cliff_cells_at_the_bound(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    out = tmp_path / "exp"
-    assert main(["experiment", "--quick", "--out", str(out)]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    report = (out / "report.md").read_text()
-    for e in summary["estimates"]:
-        assert 0 <= e["cliff_at_bound"] <= e["cliff_cells"] == 4
-    loss = {e["stage"]: e for e in summary["estimates"]}["loss, noisy"]
-    caption = report.split("### Figure 8")[1].split("###")[0]
-    if loss["cliff_at_bound"]:
-        assert f"{loss['cliff_at_bound']} of its 4 cells" in caption
-        assert "severity is recovered" not in caption
-
-
 def test_the_interval_caption_follows_the_intervals():
     apart = Separation("mud", (-1000.0, -600.0), (-50.0, -10.0), 0.0)
     overlap = Separation("mud-simple", (-1000.0, 30.0), (-100.0, 40.0), 0.0, kind="confidence")
