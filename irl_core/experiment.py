@@ -308,7 +308,7 @@ def run_experiment(
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
                                           time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes",
                                           rmax=result.options.rmax))
-        out.figures.append(_fitted(result, f"Intervals on {name}: lp estimate", f"intervals-{name}",
+        out.figures.append(_fitted(result, f"Identified sets on {name}: every value the lp allows", f"intervals-{name}",
                                    interval_caption(out.separations[-1])))
 
     # 6. The same with noisy experts: confidence intervals.
