@@ -89,6 +89,8 @@ def how_to_read(result: ExperimentResult) -> list[str]:
     lines = ["Each figure is a PDF (fonts embedded) and a PNG (300 dpi), a third of a page wide. "
              f"Rewards share one colour scale, symmetric-log from -{vmax:.0f} to {vmax:.0f} (white is 0, "
              "red worse, blue better); terminal cells are outlined, walls hatched. "
+             "A fitted reward is a point estimate: the one reward its method picked, not every reward "
+             "that fits the data (the interval plots show those). "
              "A policy is an arrow per cell whose width and number give the carefulness level."]
     kinds = {s.kind for s in result.separations}
     if kinds:

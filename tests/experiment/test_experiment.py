@@ -29,6 +29,7 @@ def test_quick_experiment_tells_the_papers_story(tmp_path, monkeypatch):
     report = (out / "report.md").read_text()
     assert "| careful lp |" in report and "![Figure 6" in report and "(fig6-lp.png)" in report
     assert "simulated noisy experts" in report
+    assert "A fitted reward is a point estimate" in report
     # Each interval figure is titled with its kind of interval.
     assert "### Identified sets on mud: every value the lp allows" in report
     assert "### Confidence intervals on mud: maxent from noisy experts" in report
