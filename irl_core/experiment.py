@@ -195,17 +195,19 @@ def symbol_interval(result: FitResult, symbol: str) -> tuple[float, float]:
     return float(min(grid[c][0] for c in cells)), float(max(grid[c][1] for c in cells))
 
 
-def human_sessions(folder: Path, world: World) -> list[Path]:
-    """Readable sessions in `folder` played by a person (not `expert:...`) in `world`."""
-    found = []
+def human_sessions(folder: Path, world: World) -> tuple[list[Path], list[str]]:
+    """Readable sessions in `folder` played by a person (not `expert:...`) in `world`, and a line
+    per file that could not be read ("file:line: field: problem; left out")."""
+    found, left_out = [], []
     for path in sorted(folder.glob("*.jsonl")) if folder.is_dir() else []:
         try:
             recording = read_recording(path)
-        except RecordingError:
+        except RecordingError as exc:
+            left_out.append(f"{exc}; left out")
             continue
         if recording.world == world and not recording.header.player.startswith("expert:") and recording.steps:
             found.append(path)
-    return found
+    return found, left_out
 
 
 def _estimate(stage: str, data: str, result: FitResult, seconds: float) -> Estimate:
@@ -276,7 +278,8 @@ def run_experiment(
                                severity(out.estimates[-1])))
 
     # 4. Figures 7 and 8: the loss method on a handful of noisy demonstrations.
-    humans = human_sessions(recordings, paper.world) if recordings is not None else []
+    humans, left_out = human_sessions(recordings, paper.world) if recordings is not None else ([], [])
+    out.notes += left_out
     t = time.perf_counter()
     if humans:
         progress(f"loss method: {len(humans)} human session(s) from {recordings} (figures 7, 8)")

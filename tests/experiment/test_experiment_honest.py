@@ -83,12 +83,17 @@ def careless_person(folder):
                                           terminal_symbol=symbol, steps=t + 1, **{"return": -(t + 1.0)}, score=score))
 
 
-def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(tmp_path, monkeypatch):
+def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(tmp_path, capsys):
     people = tmp_path / "people"
     people.mkdir()
     careless_person(people)
+    # A file that cannot be read is named in the notes, as text: its name is not markup.
+    lines = (people / "careless.jsonl").read_text().splitlines()
+    (people / "[bold]broken.jsonl").write_text("\n".join([lines[0], '{"kind": "step"', *lines[2:]]) + "\n")
     out = tmp_path / "exp"
     assert main(["experiment", "--quick", "--recordings", str(people), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out.replace("\n", "")
+    assert "[bold]broken.jsonl:2: not valid JSON" in printed and "left out" in printed
     summary = json.loads((out / "summary.json").read_text())
     loss = {e["stage"]: e for e in summary["estimates"]}["loss, noisy"]
     assert "human episodes" in loss["data"]
@@ -96,6 +101,20 @@ def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(
     caption = report.split("### Figure 8")[1].split("###")[0]
     assert loss["cliff_error"] > 0.25 and "not recovered" in caption
     assert "simulated noisy experts" not in report
+
+
+def test_an_unreadable_recording_in_the_folder_is_named_in_the_notes(tmp_path):
+    from irl_core.experiment import human_sessions
+
+    people = tmp_path / "people"
+    people.mkdir()
+    careless_person(people)
+    lines = (people / "careless.jsonl").read_text().splitlines()
+    lines[3] = lines[3].replace('"carefulness": 1', '"carefulness": 99')
+    (people / "broken.jsonl").write_text("\n".join(lines) + "\n")
+    found, left_out = human_sessions(people, BUILTIN_WORLDS["paper"])
+    assert [path.name for path in found] == ["careless.jsonl"]
+    assert len(left_out) == 1 and "broken.jsonl:4: carefulness" in left_out[0]
 
 
 def test_a_missing_recordings_folder_is_bad_input(tmp_path, capsys):
