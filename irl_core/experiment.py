@@ -311,8 +311,8 @@ def run_experiment(
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
                                           time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes",
                                           rmax=result.options.rmax))
-        out.figures.append(_fitted(result, f"Identified sets on {name}: every value the lp allows", f"intervals-{name}",
-                                   interval_caption(out.separations[-1])))
+        out.figures.append(_fitted(result, f"Identified sets on {name}: every value the lp allows",
+                                   f"intervals-{name}", interval_caption(out.separations[-1])))
 
     # 6. The same with noisy experts: confidence intervals.
     for name in ("mud", "mud-simple"):

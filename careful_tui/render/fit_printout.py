@@ -60,7 +60,8 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
     """
     world = result.world
     scale = reward_scale(result)
-    grids = [Group(Text.assemble(("fitted R_S", "bold"), " (point estimate)"), WorldGrid(world, values=result.reward_grid, scale=scale))]
+    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate)")
+    grids = [Group(fitted, WorldGrid(world, values=result.reward_grid, scale=scale))]
     if world.rewards:
         grids.append(Group(Text("true R_S (world file)", style="bold"),
                            WorldGrid(world, values=result.true_reward_grid, scale=scale)))

@@ -207,7 +207,7 @@ def test_every_argument_says_what_it_is_in_help(command):
     from careful_tui.cli import build_parser
 
     parser = build_parser()
-    sub = next(a for a in parser._actions if a.dest == "command" or hasattr(a, "choices") and command in (a.choices or {}))
+    sub = next(a for a in parser._actions if isinstance(a.choices, dict) and command in a.choices)
     arguments = [a for a in sub.choices[command]._actions if a.dest != "help"]
     assert arguments and all(a.help for a in arguments), [a.dest for a in arguments if not a.help]
 
