@@ -173,6 +173,7 @@ class FitScreen(Screen[None]):
         self._progress = ""
         self._save_first = svg is not None
         self._too_small = False
+        self._failed_method = ""
         self._redraw_asked = False
 
     # ------------------------------------------------------------------ layout
@@ -263,14 +264,16 @@ class FitScreen(Screen[None]):
         if message.request != self._request:
             return
         self.fitting = None
-        self.options = message.options
         if message.result is None:
+            # The view keeps the fit it shows, and its settings: the next key acts on that fit.
+            self._failed_method = message.options.method
             self.error = error_message(message.error)
             self.notify(printable(self.error), title=f"{message.options.method} failed", severity="error", timeout=8,
                         markup=False)
         else:
             if not self.query_one("#policy", Board).labels:
                 self.query_one("#policy", Board).labels = policy_labels(message.result)
+            self.options = message.options
             self.result = message.result
 
     @property
@@ -400,7 +403,7 @@ class FitScreen(Screen[None]):
             return Text(f"⟳ fitting {self.fitting.describe()}…{self._progress}", style=f"bold {WARN}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
-            return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
+            return Text.assemble((f"✗ {self._failed_method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
         if self.result is None:
             return Text()
         return Text.assemble(("✓ ", f"bold {GOOD}"), status_text(self.result, times=self.show_times, notes=()),

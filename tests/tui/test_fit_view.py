@@ -216,6 +216,23 @@ def test_an_infeasible_refit_is_shown_and_the_view_keeps_running(noisy_file):
     drive(app, body, size=(100, 40))
 
 
+def test_after_a_failed_refit_i_bounds_the_fit_on_screen(noisy_file):
+    """lp fails on noisy play and the view keeps showing maxent: i then asks for maxent's intervals,
+    not the failed lp's again (which said "could not be computed: see the notes", with no such note)."""
+    app = make_app(noisy_file, "--method", "maxent", "--resamples", "20")
+
+    async def body(pilot):
+        await pilot.press("l")
+        await settle(app, pilot)
+        assert "✗ lp" in shown(app, "#status") and app.first_screen.result.method == "maxent"
+        await pilot.press("i")
+        await settle(app, pilot)
+        result = app.first_screen.result
+        assert result.method == "maxent" and result.interval_kind == "confidence" and result.intervals is not None
+        assert app.first_screen.error is None and "95% confidence" in shown(app, "#intervals")
+    drive(app, body, size=(100, 40))
+
+
 def test_a_first_fit_in_the_worker(mud_file):
     app = make_app(mud_file, "--method", "maxent", fitted=False)
 
