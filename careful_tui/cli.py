@@ -113,7 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     fit = commands.add_parser("fit", help="fit a reward to recordings (inverse RL)", description=(
         "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "
         "the fit view; without one, or with --no-view, it prints the result and exits."))
-    fit.add_argument("files", type=Path, nargs="+", metavar="FILE")
+    fit.add_argument("files", type=Path, nargs="+", metavar="FILE",
+                     help="recordings (JSONL) of one world, fitted together")
     fit.add_argument("--method", choices=["auto", "lp", "loss", "maxent"], default="auto",
                      help="auto (default): lp for a deterministic expert whose lp is feasible, else maxent "
                      "with --beta auto (a person's noisy play); lp: the paper's simple IRL agent; loss: its "
@@ -142,11 +143,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     simulate = commands.add_parser("simulate", help="record a computer expert", description=(
         "Roll out a computer expert and write its episodes as a recording."))
-    simulate.add_argument("--world", required=True, metavar="NAME|FILE")
-    simulate.add_argument("--policy", choices=["optimal", "boltzmann"], required=True)
+    simulate.add_argument("--world", required=True, metavar="NAME|FILE", help="built-in world or TOML file")
+    simulate.add_argument("--policy", choices=["optimal", "boltzmann"], required=True,
+                          help="optimal: the best action in every state; boltzmann: actions with probability "
+                               "proportional to exp(beta Q)")
     simulate.add_argument("--beta", type=positive_float, default=1.0, help="Boltzmann inverse temperature (default 1.0)")
-    simulate.add_argument("--episodes", type=positive_int, required=True)
-    simulate.add_argument("--seed", type=seed_int, required=True)
+    simulate.add_argument("--episodes", type=positive_int, required=True, help="episodes to roll out")
+    simulate.add_argument("--seed", type=seed_int, required=True,
+                          help="seed of the rollouts (the same seed writes the same file)")
     simulate.add_argument("--out", type=Path, required=True, metavar="FILE", help="the new recording (never overwritten)")
 
     worlds = commands.add_parser("worlds", help="list the built-in worlds", description="List the built-in worlds, or show one.")

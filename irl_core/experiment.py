@@ -75,7 +75,11 @@ class Figure:
 
 @dataclass(frozen=True)
 class Estimate:
-    """A fit's cliff and goal against the truth (means over the cells of each symbol)."""
+    """A fit's cliff and goal against the truth (means over the cells of each symbol).
+
+    `cliff_at_bound` of the `cliff_cells` sit at the fit's bound -`rmax`, which set them, not the
+    data; `cliff_inside` is the mean of the others (None when there are none).
+    """
 
     stage: str
     method: str
@@ -85,6 +89,10 @@ class Estimate:
     true_cliff: float
     true_goal: float
     seconds: float
+    cliff_cells: int = 0
+    cliff_at_bound: int = 0
+    cliff_inside: float | None = None
+    rmax: float | None = None
 
     @property
     def cliff_error(self) -> float:
@@ -141,6 +149,7 @@ class ExperimentResult:
                     "stage": e.stage, "method": e.method, "data": e.data,
                     "cliff": e.cliff, "true_cliff": e.true_cliff, "cliff_error": e.cliff_error,
                     "goal": e.goal, "true_goal": e.true_goal, "goal_error": e.goal_error,
+                    "cliff_cells": e.cliff_cells, "cliff_at_bound": e.cliff_at_bound, "cliff_inside": e.cliff_inside,
                     "seconds": e.seconds,
                 }
                 for e in self.estimates
@@ -186,25 +195,32 @@ def symbol_interval(result: FitResult, symbol: str) -> tuple[float, float]:
     return float(min(grid[c][0] for c in cells)), float(max(grid[c][1] for c in cells))
 
 
-def human_sessions(folder: Path, world: World) -> list[Path]:
-    """Readable sessions in `folder` played by a person (not `expert:...`) in `world`."""
-    found = []
+def human_sessions(folder: Path, world: World) -> tuple[list[Path], list[str]]:
+    """Readable sessions in `folder` played by a person (not `expert:...`) in `world`, and a line
+    per file that could not be read ("file:line: field: problem; left out")."""
+    found, left_out = [], []
     for path in sorted(folder.glob("*.jsonl")) if folder.is_dir() else []:
         try:
             recording = read_recording(path)
-        except RecordingError:
+        except RecordingError as exc:
+            left_out.append(f"{exc}; left out")
             continue
         if recording.world == world and not recording.header.player.startswith("expert:") and recording.steps:
             found.append(path)
-    return found
+    return found, left_out
 
 
 def _estimate(stage: str, data: str, result: FitResult, seconds: float) -> Estimate:
     world = result.world
+    rmax = result.options.rmax
+    cliff = np.array([result.R_S[s] for s, sym in enumerate(result.mdp.symbols) if sym == "C"])
+    at_bound = np.abs(cliff) >= rmax * (1 - 1e-9)
     return Estimate(
         stage=stage, method=result.method, data=data,
         cliff=symbol_mean(result, "C"), goal=symbol_mean(result, "G"),
         true_cliff=world.reward_of("C"), true_goal=world.reward_of("G"), seconds=seconds,
+        cliff_cells=len(cliff), cliff_at_bound=int(at_bound.sum()),
+        cliff_inside=float(cliff[~at_bound].mean()) if (~at_bound).any() else None, rmax=rmax,
     )
 
 
@@ -262,7 +278,8 @@ def run_experiment(
                                severity(out.estimates[-1])))
 
     # 4. Figures 7 and 8: the loss method on a handful of noisy demonstrations.
-    humans = human_sessions(recordings, paper.world) if recordings is not None else []
+    humans, left_out = human_sessions(recordings, paper.world) if recordings is not None else ([], [])
+    out.notes += left_out
     t = time.perf_counter()
     if humans:
         progress(f"loss method: {len(humans)} human session(s) from {recordings} (figures 7, 8)")
@@ -294,8 +311,8 @@ def run_experiment(
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
                                           time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes",
                                           rmax=result.options.rmax))
-        out.figures.append(_fitted(result, f"Intervals on {name}: lp estimate", f"intervals-{name}",
-                                   interval_caption(out.separations[-1])))
+        out.figures.append(_fitted(result, f"Identified sets on {name}: every value the lp allows",
+                                   f"intervals-{name}", interval_caption(out.separations[-1])))
 
     # 6. The same with noisy experts: confidence intervals.
     for name in ("mud", "mud-simple"):
@@ -324,8 +341,14 @@ def run_experiment(
 
 
 def severity(e: Estimate) -> str:
-    """What a stage's fit says about the cliff and the goal, against the truth, in one or two sentences."""
-    if e.cliff >= 0:
+    """What a stage's fit says about the cliff and the goal, against the truth, in one or two sentences.
+
+    Cliff cells at the fit's bound were set by the bound, not the data: with any of them the
+    cliff is not called recovered (with rmax at the truth's size, the bound alone would look right).
+    """
+    if e.cliff_at_bound:
+        cliff = _bound_set_cliff(e)
+    elif e.cliff >= 0:
         cliff = f"The cliff is not recovered: fitted {e.cliff:.0f}, not even negative (truth {e.true_cliff:.0f})."
     elif e.cliff_error <= 0.25:
         cliff = (f"The cliff's severity is recovered: {e.cliff:.0f} against {e.true_cliff:.0f} "
@@ -341,6 +364,21 @@ def severity(e: Estimate) -> str:
     else:
         goal = f" Goal {e.goal:.0f} against {e.true_goal:.0f} ({e.goal_error:.0%} off)."
     return cliff + goal
+
+
+def _bound_set_cliff(e: Estimate) -> str:
+    """The cliff sentence when some of its cells sit at the fit's bound."""
+    n, bound = e.cliff_at_bound, f"{-e.rmax:.0f}" if e.rmax is not None else "-rmax"
+    if n == e.cliff_cells:
+        return (f"The cliff is not recovered: every cell is at the fit's bound ({bound}), which set them, not the "
+                f"data (truth {e.true_cliff:.0f}).")
+    sentence = (f"The cliff comes out at {e.cliff:.0f} against {e.true_cliff:.0f} ({e.cliff_error:.0%} off), but "
+                f"{n} of its {e.cliff_cells} cells {'is' if n == 1 else 'are'} at the fit's bound ({bound}), "
+                f"which set {'it' if n == 1 else 'them'}, not the data")
+    inside, error = e.cliff_inside, abs(e.cliff_inside - e.true_cliff) / abs(e.true_cliff)
+    rest = e.cliff_cells - n
+    what = f"the one the data set is {inside:.0f}" if rest == 1 else f"the {rest} the data set average {inside:.0f}"
+    return f"{sentence}; {what} ({error:.0%} off)."
 
 
 def _carefulness_caption(mdp: MDP, actions: np.ndarray) -> str:

@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 
 from rich.console import Console, Group
+from rich.markup import escape
 from rich.panel import Panel
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
@@ -20,7 +21,8 @@ from careful_tui.errors import UsageError
 from careful_tui.render.grid import WorldGrid, action_label, format_value, symbol_legend
 from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption, run_experiment as run_stages
 from irl_core.irl import FitOptions
-from irl_core.safe_files import check_output_folder
+from irl_core.safe_files import check_output, check_output_folder, write_output
+from irl_core.safe_text import printable
 
 
 def figure_panel(figure: Figure) -> Panel:
@@ -61,6 +63,7 @@ def intervals_table(result: ExperimentResult) -> Table:
 
 
 FIGURE_FORMATS = (".pdf", ".png")
+REPORT_FILES = ("summary.json", "report.md")
 
 
 def write_figures(result: ExperimentResult, out: Path) -> None:
@@ -88,6 +91,8 @@ def how_to_read(result: ExperimentResult) -> list[str]:
     lines = ["Each figure is a PDF (fonts embedded) and a PNG (300 dpi), a third of a page wide. "
              f"Rewards share one colour scale, symmetric-log from -{vmax:.0f} to {vmax:.0f} (white is 0, "
              "red worse, blue better); terminal cells are outlined, walls hatched. "
+             "A fitted reward is a point estimate: the one reward its method picked, not every reward "
+             "that fits the data (the interval plots show those). "
              "A policy is an arrow per cell whose width and number give the carefulness level."]
     kinds = {s.kind for s in result.separations}
     if kinds:
@@ -140,20 +145,23 @@ def run_experiment(args: argparse.Namespace) -> int:
         raise UsageError(f"cannot create {out}: {exc.strerror}") from None
     if args.recordings is not None and not args.recordings.is_dir():
         raise UsageError(f"--recordings {args.recordings}: not a folder")
+    for name in REPORT_FILES:  # refused before the stages run, not after
+        check_output(out / name, option="--out")
     console = Console()
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
                   console=Console(stderr=True), transient=True) as progress:
         task = progress.add_task("starting", total=None)
         result = run_stages(sizes=QUICK if args.quick else FULL, recordings=args.recordings, seed=args.seed,
-                            progress=lambda stage: progress.update(task, description=stage))
+                            progress=lambda stage: progress.update(task, description=escape(printable(stage))))
     for figure in result.figures:
         console.print(figure_panel(figure))
     write_figures(result, out)
     console.print(estimates_table(result))
     console.print(intervals_table(result))
-    for note in result.notes:
-        console.print(f"[dim]note: {note}[/]")
-    (out / "summary.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
-    (out / "report.md").write_text(report_markdown(result))
+    for note in result.notes:  # text, never markup: a note may name a file
+        console.print(Text(f"note: {printable(note, limit=400)}", style="dim"))
+    summary, report = REPORT_FILES
+    write_output(out / summary, json.dumps(result.summary(), indent=2) + "\n", option="--out")
+    write_output(out / report, report_markdown(result), option="--out")
     console.print(f"done in {result.seconds:.1f} s; figures, summary.json and report.md are in {out}/")
     return 0

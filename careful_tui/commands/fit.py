@@ -87,9 +87,13 @@ def run_fit(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     if args.figure is not None and (problem := figure_suffix_problem(args.figure)):
         raise UsageError(problem)
+    outputs: dict[Path, str] = {}
     for option, path in (("--json", args.json), ("--svg", args.svg), ("--figure", args.figure)):
         if path is not None:
             check_output(path, option=option, inputs=args.files)
+            if (earlier := outputs.setdefault(path.resolve(), option)) != option:
+                raise UsageError(f"{option} and {earlier} both name {printable(str(path), limit=160)}: "
+                                 "one would overwrite the other; choose two paths")
     try:
         demos, result = fit_from_args(args, err=err)
     except SolverError as exc:

@@ -16,6 +16,7 @@ from rich.text import Text
 
 from careful_tui.render.grid import ARROWS, SYMBOL_NAMES, WorldGrid, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table
+from careful_tui.render.session import plural
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import FitResult
 from irl_core.safe_text import printable
@@ -30,7 +31,7 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> Non
             ("careful fit", "bold"),
             f": {method_phrase(result)} on ",
             (printable(world.name, limit=80), "bold"),
-            f" from {files}, {demos.episodes} episodes, {demos.steps} steps",
+            f" from {files}, {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}",
         )
     )
     console.print(reward_grids(result, width=console.width))
@@ -59,7 +60,8 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
     """
     world = result.world
     scale = reward_scale(result)
-    grids = [Group(Text("fitted R_S", style="bold"), WorldGrid(world, values=result.reward_grid, scale=scale))]
+    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate)")
+    grids = [Group(fitted, WorldGrid(world, values=result.reward_grid, scale=scale))]
     if world.rewards:
         grids.append(Group(Text("true R_S (world file)", style="bold"),
                            WorldGrid(world, values=result.true_reward_grid, scale=scale)))

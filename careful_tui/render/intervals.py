@@ -94,12 +94,14 @@ def interval_readings(result: FitResult) -> list[str]:
     """One sentence per symbol, lowest first: its interval and how it stands against the next symbol up.
 
     e.g. "cliff: at most -661; no lower bound; catastrophic next to mud's -49.3..-14.8 (at least
-    13× worse under every reward the demonstrations allow)"; a confidence interval says "at 95%
-    confidence" instead. A symbol's interval spans those of all its cells.
+    13× worse under every reward the demonstrations allow)"; with confidence intervals the ratio
+    compares their ends ("end to end of their 95% confidence intervals"): each interval is 95%
+    sure on its own, their ratio is not. A symbol's interval spans those of all its cells.
     """
     rmax = result.rmax
     confident = result.interval_kind == "confidence"
-    sure = f"at {result.options.confidence:.0%} confidence" if confident else "under every reward the demonstrations allow"
+    sure = (f"end to end of their {result.options.confidence:.0%} confidence intervals" if confident
+            else "under every reward the demonstrations allow")
     hulls = symbol_intervals(result)
     order = _low_to_high(hulls)
     lines = []
@@ -116,7 +118,7 @@ def interval_readings(result: FitResult) -> list[str]:
             elif ratio >= CATASTROPHIC_RATIO:
                 line += f"; catastrophic next to {other} (at least {ratio:.0f}× worse {sure})"
             elif ratio > 0:
-                line += f"; at least {ratio:.1f}× worse than {other}{' ' + sure if confident else ''}"
+                line += f"; at least {ratio:.1f}× worse than {other}{', ' + sure if confident else ''}"
             else:
                 line += f"; below {other}"
         lines.append(line)
@@ -127,8 +129,9 @@ def interval_readings(result: FitResult) -> list[str]:
 class IntervalChart:
     """Every unknown's interval as a bar on the reward colours' signed-log axis, from -rmax to rmax.
 
-    ● marks the fitted value, ○ the world's own (◉ both); ◀ or ▶ at an end of a bar means the
-    demonstrations do not bound it there (the bar runs into ±rmax). Rows are grouped by symbol,
+    ● marks the fitted value, ○ the world's own (◉ both); ◀ or ▶ just outside the axis means the
+    demonstrations do not bound it there (the bar runs into ±rmax): outside, so a mark at that
+    end cannot hide it. Rows are grouped by symbol,
     lowest symbol first (as `interval_readings`). The bars take the width they are given.
     """
 
@@ -146,16 +149,19 @@ class IntervalChart:
         label_width = max(map(len, labels), default=0)
         span_width = max(map(len, spans), default=0)
         # An odd number of positions puts 0 in the middle.
-        room = options.max_width - label_width - span_width - 4
+        room = options.max_width - label_width - span_width - 6
         axis = max(21, room if room % 2 else room - 1)
         for j in rows:
             low, high = (float(v) for v in result.intervals[j])
+            open_low, open_high = _open_ends(low, high, rmax)
             line = Text(f"{labels[j]:<{label_width}}  ", no_wrap=True, overflow="crop")
+            line.append("◀" if open_low else " ", style="bold")
             line.append_text(self._bar(axis, rmax, low, high, float(result.theta[j]),
                                        None if true is None else float(true[j])))
+            line.append("▶" if open_high else " ", style="bold")
             line.append(f"  {spans[j]:>{span_width}}", style="bold")
             yield line
-        indent = " " * (label_width + 2)
+        indent = " " * (label_width + 3)
         yield Text(indent) + _axis_ticks(axis, rmax)
         yield Text.assemble(indent, ("● fitted  ○ true  ◉ both  ", "dim"),
                             ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
@@ -179,11 +185,6 @@ class IntervalChart:
             chars[i] = "━"
             value = signed_log_value(i / (axis - 1) * 2 - 1, rmax)
             styles[i] = Style(color=diverging_colour(value, rmax), bold=True)
-        open_low, open_high = _open_ends(low, high, rmax)
-        if open_low:
-            chars[start] = "◀"
-        if open_high:
-            chars[end] = "▶"
         marks = {at(fitted): "●"}
         if true is not None:
             marks[at(true)] = "◉" if at(true) in marks else "○"

@@ -47,7 +47,7 @@ from careful_tui.render.fit_printout import (
 from careful_tui.render.grid import format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, scale_legend
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
-from careful_tui.render.session import legend
+from careful_tui.render.session import legend, plural
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -173,6 +173,7 @@ class FitScreen(Screen[None]):
         self._progress = ""
         self._save_first = svg is not None
         self._too_small = False
+        self._failed_method = ""
         self._redraw_asked = False
 
     # ------------------------------------------------------------------ layout
@@ -263,14 +264,16 @@ class FitScreen(Screen[None]):
         if message.request != self._request:
             return
         self.fitting = None
-        self.options = message.options
         if message.result is None:
+            # The view keeps the fit it shows, and its settings: the next key acts on that fit.
+            self._failed_method = message.options.method
             self.error = error_message(message.error)
             self.notify(printable(self.error), title=f"{message.options.method} failed", severity="error", timeout=8,
                         markup=False)
         else:
             if not self.query_one("#policy", Board).labels:
                 self.query_one("#policy", Board).labels = policy_labels(message.result)
+            self.options = message.options
             self.result = message.result
 
     @property
@@ -285,8 +288,9 @@ class FitScreen(Screen[None]):
         self._start(dataclasses.replace(self._wanted(), method=method))
 
     def action_next_method(self) -> None:
-        current = self._wanted().method
-        self.action_method(METHODS[(METHODS.index(current) + 1) % len(METHODS)])
+        """The next of auto, lp, loss, maxent (the order of the keys a, l, o, m), after the one asked for."""
+        cycle = ("auto", *METHODS)
+        self.action_method(cycle[(cycle.index(self._wanted().method) + 1) % len(cycle)])
 
     def action_toggle_intervals(self) -> None:
         """Show the intervals (computing them if the shown fit has none) or hide them."""
@@ -369,7 +373,7 @@ class FitScreen(Screen[None]):
             return
         scale = reward_scale(result)
         fitted, true = self.query_one("#fitted", Board), self.query_one("#true", Board)
-        fitted.border_title = f"fitted R_S · {result.method}, {METHOD_NAMES[result.method]}"
+        fitted.border_title = f"fitted R_S · {result.method} point estimate"
         fitted.border_subtitle = scale_legend(scale)
         fitted.values, fitted.scale = result.reward_grid, scale
         true.values, true.scale = result.true_reward_grid, scale
@@ -390,7 +394,8 @@ class FitScreen(Screen[None]):
         files = printable(self.sources[0].name, limit=80) if len(self.sources) == 1 else f"{demos.files} files"
         return Text.assemble(
             ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
-            (f"  ·  {files}: {demos.episodes} episodes, {demos.steps} steps", "dim"),
+            (f"  ·  {files}: {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}", "dim"),
+            (f"  ·  {METHOD_NAMES[method]}" if method in METHOD_NAMES else "", "dim"),
         )
 
     def _status(self) -> Text:
@@ -398,7 +403,7 @@ class FitScreen(Screen[None]):
             return Text(f"⟳ fitting {self.fitting.describe()}…{self._progress}", style=f"bold {WARN}")
         if self.error is not None:
             shown = f" (showing {self.result.method})" if self.result is not None else ""
-            return Text.assemble((f"✗ {self.options.method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
+            return Text.assemble((f"✗ {self._failed_method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
         if self.result is None:
             return Text()
         return Text.assemble(("✓ ", f"bold {GOOD}"), status_text(self.result, times=self.show_times, notes=()),

@@ -46,6 +46,7 @@ class _Fitted:
     status: str = "optimal"
     notes: list[str] = dataclasses.field(default_factory=list)
     interior: bool = False
+    unique: bool | None = None
 
 
 def fit(
@@ -180,7 +181,7 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
         solution = fit_loss(qmap, demos.policy, rmax=options.rmax, lam=options.lam)
         theta, V = qmap.split(solution.x)
         return _Fitted("loss", theta, V, status="optimal_inaccurate" if solution.gap > STALL_TOLERANCE else "optimal",
-                       notes=list(solution.notes))
+                       notes=list(solution.notes), unique=solution.unique)
     solution = fit_maxent(qmap.mdp, qmap.unknowns, demos.counts, beta=beta, rmax=options.rmax)
     fitted = _Fitted("maxent", solution.theta, solution.V, beta=solution.beta, beta_auto=beta == "auto")
     if not solution.converged:
@@ -215,6 +216,13 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
                          "solved from nothing, and each end moved out by its LP's gap to the dual bound, so the "
                          "intervals hold the identified set (they may be a little wider)")
         return bounds, "identified"
+    if fitted.unique is False:
+        # Resampling would move only the pick among equally good rewards: no interval for the reward.
+        notes.append("intervals not computed: many rewards minimise the loss equally, so resampling episodes "
+                     "would show only how the smallest-||R_S||_1 pick among them moves, not which rewards the "
+                     "data allow; for a deterministic expert --method lp --intervals gives every value the "
+                     "demonstrations allow")
+        return None, None
     episodes = 0 if demos.by_episode is None else demos.by_episode.shape[0]
     if episodes < 2:
         notes.append("intervals not computed: a confidence interval comes from resampling whole episodes, and "
@@ -234,9 +242,23 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
                        seed=options.seed, bounds=(-options.rmax, options.rmax), progress=progress, workers=workers)
     if result.failed:
         notes.append(f"{result.failed} of {options.resamples} resamples failed to fit and were left out")
+    bounds = result.intervals[: qmap.k]
+    inside = np.abs(bounds).max(axis=1) < options.rmax * (1 - 1e-9)
+    stayed = inside & (bounds[:, 1] - bounds[:, 0] <= 1e-9 * np.maximum(1.0, np.abs(bounds).max(axis=1)))
+    if stayed.any() and stayed.sum() == inside.sum():
+        # Zero width inside the bound: the refits never left the full fit, which measures nothing.
+        why = (", as for a deterministic expert, whose beta would grow without end (--method lp fits one)"
+               if fitted.beta_auto else "")
+        notes.append("intervals not computed: every resample's refit stayed at the full fit's value, so they "
+                     f"would show no sampling noise; the likelihood is flat around this estimate{why}")
+        return None, None
+    if stayed.any():
+        labels = ", ".join(label for label, flat in zip(qmap.unknowns.labels, stayed) if flat)
+        notes.append(f"the refits never moved {labels}: their intervals have no width and show no sampling noise "
+                     "(the likelihood is flat in them)")
     if fitted.beta_auto:
         low, high = result.intervals[-1]
         notes.append(f"beta's {options.confidence:.0%} confidence interval: {low:.3g} to {high:.3g}")
     if episodes < 10:
         notes.append(f"only {episodes} episodes: a bootstrap interval from so few is rough (it tends to be too narrow)")
-    return result.intervals[: qmap.k], "confidence"
+    return bounds, "confidence"

@@ -29,6 +29,17 @@ def test_quick_experiment_tells_the_papers_story(tmp_path, monkeypatch):
     report = (out / "report.md").read_text()
     assert "| careful lp |" in report and "![Figure 6" in report and "(fig6-lp.png)" in report
     assert "simulated noisy experts" in report
+    assert "A fitted reward is a point estimate" in report
+    # Each interval figure is titled with its kind of interval.
+    assert "### Identified sets on mud: every value the lp allows" in report
+    assert "### Confidence intervals on mud: maxent from noisy experts" in report
+    # Cliff cells at the fit's bound are counted, and such a cliff is not called recovered.
+    for e in summary["estimates"]:
+        assert 0 <= e["cliff_at_bound"] <= e["cliff_cells"] == 4
+    caption = report.split("### Figure 8")[1].split("###")[0]
+    # 10 noisy episodes leave most of the loss's cliff at -rmax (3 of 4 cells with seed 0).
+    assert loss["cliff_at_bound"] >= 1
+    assert f"{loss['cliff_at_bound']} of its 4 cells" in caption and "severity is recovered" not in caption
 
 
 def test_experiment_refuses_a_file_as_out(tmp_path, capsys):
@@ -36,3 +47,16 @@ def test_experiment_refuses_a_file_as_out(tmp_path, capsys):
     target.write_text("")
     assert main(["experiment", "--quick", "--out", str(target)]) == 2
     assert "is a file" in capsys.readouterr().err
+
+
+def test_experiment_never_overwrites_a_recording_in_its_folder(tmp_path, capsys):
+    """summary.json and report.md go through the same output guard as the figures."""
+    out = tmp_path / "exp"
+    out.mkdir()
+    recording = out / "report.md"
+    assert main(["simulate", "--world", "paper", "--policy", "optimal", "--episodes", "2", "--seed", "0",
+                 "--out", str(recording)]) == 0
+    before = recording.read_bytes()
+    assert main(["experiment", "--quick", "--out", str(out)]) == 2
+    assert recording.read_bytes() == before
+    assert "report.md" in capsys.readouterr().err

@@ -26,6 +26,25 @@ def test_the_cliff_caption_follows_the_estimate():
     assert "goal is not recovered" in severity(estimate(-950.0, goal=-5.0))
 
 
+def test_a_cliff_the_bound_set_is_not_called_recovered():
+    """The loss stage on 10 noisy episodes put 3 of 4 cliff cells at -rmax = -1000: their mean
+    (-957) is near the truth because the bound is the truth, not because the data said so."""
+    bound_set = Estimate(stage="s", method="m", data="d", cliff=-956.7, goal=100.0, true_cliff=-1000.0,
+                         true_goal=100.0, seconds=0.0, cliff_cells=4, cliff_at_bound=3, cliff_inside=-827.0,
+                         rmax=1000.0)
+    caption = severity(bound_set)
+    assert "recovered" not in caption.replace("not recovered", "")
+    assert "3 of its 4 cells are at the fit's bound (-1000)" in caption
+    assert "the one the data set is -827 (17% off)" in caption
+    every = severity(Estimate(stage="s", method="m", data="d", cliff=-1000.0, goal=100.0, true_cliff=-1000.0,
+                              true_goal=100.0, seconds=0.0, cliff_cells=4, cliff_at_bound=4, rmax=1000.0))
+    assert "recovered" not in every.replace("not recovered", "") and "every cell" in every
+    one = severity(Estimate(stage="s", method="m", data="d", cliff=-981.0, goal=90.0, true_cliff=-1000.0,
+                            true_goal=100.0, seconds=0.0, cliff_cells=4, cliff_at_bound=1, cliff_inside=-975.0,
+                            rmax=1000.0))
+    assert "1 of its 4 cells is at the fit's bound (-1000)" in one and "the 3 the data set average -975" in one
+
+
 def test_the_interval_caption_follows_the_intervals():
     apart = Separation("mud", (-1000.0, -600.0), (-50.0, -10.0), 0.0)
     overlap = Separation("mud-simple", (-1000.0, 30.0), (-100.0, 40.0), 0.0, kind="confidence")
@@ -64,12 +83,17 @@ def careless_person(folder):
                                           terminal_symbol=symbol, steps=t + 1, **{"return": -(t + 1.0)}, score=score))
 
 
-def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(tmp_path, monkeypatch):
+def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(tmp_path, capsys):
     people = tmp_path / "people"
     people.mkdir()
     careless_person(people)
+    # A file that cannot be read is named in the notes, as text: its name is not markup.
+    lines = (people / "careless.jsonl").read_text().splitlines()
+    (people / "[bold]broken.jsonl").write_text("\n".join([lines[0], '{"kind": "step"', *lines[2:]]) + "\n")
     out = tmp_path / "exp"
     assert main(["experiment", "--quick", "--recordings", str(people), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out.replace("\n", "")
+    assert "[bold]broken.jsonl:2: not valid JSON" in printed and "left out" in printed
     summary = json.loads((out / "summary.json").read_text())
     loss = {e["stage"]: e for e in summary["estimates"]}["loss, noisy"]
     assert "human episodes" in loss["data"]
@@ -77,6 +101,20 @@ def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(
     caption = report.split("### Figure 8")[1].split("###")[0]
     assert loss["cliff_error"] > 0.25 and "not recovered" in caption
     assert "simulated noisy experts" not in report
+
+
+def test_an_unreadable_recording_in_the_folder_is_named_in_the_notes(tmp_path):
+    from irl_core.experiment import human_sessions
+
+    people = tmp_path / "people"
+    people.mkdir()
+    careless_person(people)
+    lines = (people / "careless.jsonl").read_text().splitlines()
+    lines[3] = lines[3].replace('"carefulness": 1', '"carefulness": 99')
+    (people / "broken.jsonl").write_text("\n".join(lines) + "\n")
+    found, left_out = human_sessions(people, BUILTIN_WORLDS["paper"])
+    assert [path.name for path in found] == ["careless.jsonl"]
+    assert len(left_out) == 1 and "broken.jsonl:4: carefulness" in left_out[0]
 
 
 def test_a_missing_recordings_folder_is_bad_input(tmp_path, capsys):

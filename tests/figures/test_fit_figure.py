@@ -126,6 +126,7 @@ def test_fit_figure_panels(mud_fit):
     names = {ax.get_label() for ax in figure.axes}
     assert {"fitted", "true", "policy", "intervals", "carefulness"} <= names
     fitted = next(ax for ax in figure.axes if ax.get_label() == "fitted")
+    assert fitted.get_title() == "fitted reward (lp point estimate)"
     # The image holds the fitted reward, walls and all, cell for cell.
     shown = fitted.images[0].get_array()
     assert np.allclose(shown.filled(np.nan), mud_fit.reward_grid, equal_nan=True)

@@ -86,6 +86,8 @@ def test_every_method_prints_and_saves_svg(tmp_path, capsys, mud_file, method):
     code, out, err = run(capsys, mud_file, "--method", method, "--svg", svg)
     assert code == 0, err
     assert svg.read_text().startswith("<svg") and "fitted R_S" in out and "demonstrated policy" in out
+    # The grid is one reward among those that fit: it says it is a point estimate.
+    assert "fitted R_S (point estimate)" in out
 
 
 def assert_one_line_error(code, err, *fragments):
@@ -184,3 +186,42 @@ def test_bad_input_with_a_terminal_exits_2_before_the_view(tmp_path, capsys, ope
     code, _, err = run(capsys, a, b)
     assert_one_line_error(code, err, "one world at a time")
     assert opened == []
+
+
+def test_the_interval_chart_marks_an_open_end_even_under_the_estimate(capsys, mud_file):
+    """On mud every cliff cell's identified set runs to -rmax, and its estimate (and the truth,
+    -1000) sits at that end: the ◀ that says "no lower bound" must still be drawn."""
+    code, out, err = run(capsys, mud_file, "--intervals", "--no-view")
+    assert code == 0, err
+    chart = [line for line in out.splitlines() if line.startswith("C (") and "─" in line]
+    assert len(chart) == 4
+    for line in chart:
+        assert "◀" in line and ("◉" in line or "●" in line), line
+        assert "▶" not in line
+    goal = next(line for line in out.splitlines() if line.startswith("G (") and "─" in line)
+    assert "◀" not in goal and "▶" not in goal
+
+
+@pytest.mark.parametrize("command", ["fit", "simulate", "replay", "experiment"])
+def test_every_argument_says_what_it_is_in_help(command):
+    from careful_tui.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a.choices, dict) and command in a.choices)
+    arguments = [a for a in sub.choices[command]._actions if a.dest != "help"]
+    assert arguments and all(a.help for a in arguments), [a.dest for a in arguments if not a.help]
+
+
+def test_one_episode_is_counted_in_the_singular(tmp_path, capsys):
+    one = simulate(tmp_path / "one.jsonl", BUILTIN_WORLDS["paper"], episodes=1)
+    code, out, err = run(capsys, one, "--no-view")
+    assert code == 0, err
+    assert "from 1 file, 1 episode, " in out and "1 episodes" not in out
+
+
+def test_two_outputs_on_one_path_are_refused_before_fitting(tmp_path, capsys, mud_file):
+    """--figure x.svg --svg x.svg would write the figure, then the printout over it."""
+    same = tmp_path / "x.svg"
+    code, out, err = run(capsys, mud_file, "--no-view", "--figure", same, "--svg", same)
+    assert_one_line_error(code, err, "--svg", "--figure", "x.svg")
+    assert not same.exists()

@@ -103,3 +103,15 @@ def test_one_episode_with_intervals_warns_and_claims_no_interval(tmp_path, capsy
     assert "warning: intervals not computed" in err and "one episode" in err
     data = json.loads(out_json.read_text())
     assert data["interval_kind"] is None and all(cell is None for row in data["interval"] for cell in row)
+
+
+def test_a_ratio_of_confidence_intervals_is_read_end_to_end_not_as_a_confidence(tmp_path, capsys):
+    """Per-unknown 95% intervals do not make their ratio 95% sure: the sentence says it compares ends."""
+    recording = tmp_path / "noisy.jsonl"
+    assert main(["simulate", "--world", "mud", "--policy", "boltzmann", "--beta", "0.5", "--episodes", "40",
+                 "--seed", "0", "--out", str(recording)]) == 0
+    code, out, err = run(capsys, recording, "--tie", "--intervals", "--resamples", "20", "--no-view")
+    assert code == 0, err
+    cliff = next(line for line in out.splitlines() if line.startswith("cliff: "))
+    assert "× worse than mud's" in cliff, cliff
+    assert "end to end of their 95% confidence intervals" in cliff and "× worse at 95%" not in out

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from irl_core.demonstrations import Demonstrations
-from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
+from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.loss import fit_loss
 from irl_core.irl.loss_model import loss_constraints, loss_problem, loss_value, relu_terms
@@ -141,3 +141,15 @@ def test_absurd_demonstrations_give_a_huge_loss_without_overflow(rmax):
     z = relu_terms(qmap, demos.policy, solution.x)
     assert z.max() > 200 and np.all(np.isfinite(solution.x))
     assert solution.gap < 1e-4
+
+
+def test_a_loss_minimiser_that_is_not_unique_gets_no_confidence_interval():
+    """A deterministic expert's loss is at its floor for a whole set of rewards; resampling it
+    only moves the smallest-||R_S||_1 pick (on mud: zero-width intervals that miss the cliff's
+    -1000), which is no confidence interval for the reward."""
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=40, seed=0))
+    result = fit(demos, method="loss", intervals=True, resamples=20, workers=1)
+    assert any(note.startswith("not unique") for note in result.notes)
+    assert result.intervals is None and result.interval_kind is None
+    assert any(note.startswith("intervals not computed") and "--method lp --intervals" in note for note in result.notes)

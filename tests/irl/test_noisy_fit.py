@@ -76,3 +76,18 @@ def test_one_episode_gives_no_interval_and_says_why():
     result = fit(demos, method="maxent", intervals=True, tie=True)
     assert result.intervals is None and result.interval_kind is None
     assert any("one episode" in note for note in result.notes)
+
+
+def test_refits_that_never_move_give_no_confidence_interval():
+    """maxent with beta estimated on an optimal expert: the likelihood keeps rising with beta and
+    is flat around the estimate, so every resample's refit stays at the full fit (zero-width
+    intervals that said "95% confidence"); a noisy expert's refits spread and keep their intervals."""
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    optimal = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=40, seed=0))
+    flat = fit(optimal, method="maxent", beta="auto", intervals=True, resamples=20, workers=1)
+    assert flat.intervals is None and flat.interval_kind is None
+    assert any(note.startswith("intervals not computed: every resample's refit stayed") for note in flat.notes)
+    noisy = fit(boltzmann("mud", 0.5, 40, seed=0), method="maxent", beta="auto", intervals=True, resamples=20,
+                workers=1)
+    assert noisy.interval_kind == "confidence" and (np.diff(noisy.intervals, axis=1) > 1.0).all()
+    assert not any("stayed" in note for note in noisy.notes)

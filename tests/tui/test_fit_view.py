@@ -137,7 +137,7 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
         release.set()
         await settle(app, pilot)
         assert not app.first_screen.busy and app.first_screen.result.method == "loss"
-        assert "loss on mud" in shown(app, "#title") and "fitted R_S · loss" in app.query_one("#fitted").border_title
+        assert "loss on mud" in shown(app, "#title") and "fitted R_S · loss point estimate" in app.query_one("#fitted").border_title
         loss_values = app.query_one("#fitted", Board).values
         np.testing.assert_allclose(loss_values, app.first_screen.result.reward_grid)
         assert not np.allclose(loss_values, lp_values)
@@ -152,8 +152,23 @@ def test_switching_method_refits_in_a_worker(mud_file, monkeypatch):
     drive(app, body, size=(100, 40))
 
 
+def test_tab_cycles_auto_lp_loss_maxent_from_the_default_auto(mud_file):
+    """The view opens on auto (the default); tab crashed there (auto was not in the cycle)."""
+    app = make_app(mud_file, "--method", "auto")
+
+    async def body(pilot):
+        seen = []
+        for _ in range(4):
+            await pilot.press("tab")
+            await settle(app, pilot)
+            assert app.is_running and app.first_screen.error is None
+            seen.append(app.first_screen.options.method)
+        assert seen == ["lp", "loss", "maxent", "auto"]
+    drive(app, body, size=(100, 40))
+
+
 def test_intervals_toggle(mud_file):
-    # loss's intervals are bootstrap confidence intervals: 20 resamples keep the test quick.
+    # maxent's intervals are bootstrap confidence intervals: 20 resamples keep the test quick.
     app = make_app(mud_file, "--resamples", "20")
 
     async def body(pilot):
@@ -170,9 +185,15 @@ def test_intervals_toggle(mud_file):
         # Back on: the intervals are there already; nothing to refit.
         await pilot.press("i")
         assert not app.first_screen.busy and "Cliff:" in shown(app, "#intervals")
+        # loss on an optimal expert: many rewards minimise it, so resampling measures nothing; the view says so.
         await pilot.press("o")
         await settle(app, pilot)
-        assert app.first_screen.result.method == "loss" and app.first_screen.result.intervals is not None
+        assert app.first_screen.result.method == "loss" and app.first_screen.result.intervals is None
+        assert "could not be computed" in shown(app, "#intervals")
+        assert "many rewards minimise the loss equally" in shown(app, "#notes")
+        await pilot.press("m")
+        await settle(app, pilot)
+        assert app.first_screen.result.method == "maxent" and app.first_screen.result.intervals is not None
         assert app.first_screen.result.interval_kind == "confidence" and "95% confidence" in shown(app, "#intervals")
     drive(app, body, size=(100, 40))
 
@@ -192,6 +213,23 @@ def test_an_infeasible_refit_is_shown_and_the_view_keeps_running(noisy_file):
         await pilot.press("o")
         await settle(app, pilot)
         assert app.first_screen.error is None and "✓" in shown(app, "#status")
+    drive(app, body, size=(100, 40))
+
+
+def test_after_a_failed_refit_i_bounds_the_fit_on_screen(noisy_file):
+    """lp fails on noisy play and the view keeps showing maxent: i then asks for maxent's intervals,
+    not the failed lp's again (which said "could not be computed: see the notes", with no such note)."""
+    app = make_app(noisy_file, "--method", "maxent", "--resamples", "20")
+
+    async def body(pilot):
+        await pilot.press("l")
+        await settle(app, pilot)
+        assert "✗ lp" in shown(app, "#status") and app.first_screen.result.method == "maxent"
+        await pilot.press("i")
+        await settle(app, pilot)
+        result = app.first_screen.result
+        assert result.method == "maxent" and result.interval_kind == "confidence" and result.intervals is not None
+        assert app.first_screen.error is None and "95% confidence" in shown(app, "#intervals")
     drive(app, body, size=(100, 40))
 
 

@@ -85,7 +85,7 @@ def fit_figure(result: FitResult) -> Figure:
     world, mdp = result.world, result.mdp
     board = Board.of(world)
     rows, cols = board.shape
-    rewards = [(f"fitted reward ({result.method})", result.reward_grid)]
+    rewards = [(f"fitted reward ({result.method} point estimate)", result.reward_grid)]
     if world.rewards:
         rewards.append(("true reward (world file)", result.true_reward_grid))
     vmax = reward_limit(*(grid for _, grid in rewards))
