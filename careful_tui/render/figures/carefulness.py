@@ -87,7 +87,7 @@ def draw_carefulness(ax: Axes, series: Sequence[tuple[str, CarefulnessByDistance
     if title:
         ax.set_title(title, pad=3)
     if series:
-        ax.legend(title="mean ± 95% interval", title_fontsize=6, loc="upper right")
+        ax.legend(title="mean ± 95% confidence interval", title_fontsize=6, loc="upper right")
 
 
 def carefulness_figure(series: Sequence[tuple[str, CarefulnessByDistance]], *, levels: int,

@@ -112,7 +112,7 @@ def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *
         figure.supxlabel("steps to the nearest terminal cell", fontsize=7)
         figure.supylabel("mean carefulness level", fontsize=7)
         # The key goes under the title as words: a legend box collides with the title or the axis label.
-        key = "blue: the participant's mean carefulness ± 95% interval"
+        key = "blue: the participant's mean carefulness ± 95% confidence interval (1.96 standard errors)"
         if reference is not None:
             key += f"; grey: {reference[0]}"
         figure.suptitle(f"{title}\n{key}" if title else key, fontsize=7, wrap=True)
