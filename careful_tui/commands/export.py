@@ -15,6 +15,7 @@ from rich.markup import escape
 from rich.progress import Progress
 from rich.text import Text
 
+from careful_tui.commands.notices import warn
 from careful_tui.errors import UsageError
 from careful_tui.version import app_version
 from irl_core.demonstrations import Recording, read_recording
@@ -52,7 +53,7 @@ def run_export(args: argparse.Namespace) -> int:
             progress.advance(reading, size)
         for recording in recordings:
             for warning in recording.warnings:
-                err.print(Text(f"warning: {printable(warning, limit=400)}", style="yellow"), soft_wrap=True)
+                warn(err, warning)
         if args.format == "csv":
             summary = _export_csv(Path(args.out), recordings, progress)
         else:
