@@ -30,6 +30,7 @@ from irl_core.demonstrations import Demonstrations
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.safe_files import check_output, write_output
 from irl_core.safe_text import printable
+from irl_core.words import plural
 
 
 def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
@@ -67,7 +68,7 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
     columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn())
     with Progress(*columns, console=err, transient=True) as progress:
-        task = progress.add_task(f"fitting ({options.describe()}) to {demos.steps} steps", total=None)
+        task = progress.add_task(f"fitting ({options.describe()}) to {plural(demos.steps, 'step')}", total=None)
 
         def heard(stage: str, done: int, total: int | None) -> None:
             what = {"rounds": "lp rounds", "intervals": "interval LPs", "resamples": "resampling episodes"}[stage]

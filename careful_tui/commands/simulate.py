@@ -15,6 +15,7 @@ from irl_core.experts import NotConverged, boltzmann_policy, expert_name, optima
 from irl_core.mdp import build_mdp
 from irl_core.safe_files import check_output
 from irl_core.safe_text import one_line
+from irl_core.words import plural
 from irl_core.world import load_world
 
 DEFAULT_BETA = 1.0  # --beta's default (cli.py's help says so)
@@ -46,6 +47,6 @@ def run_simulate(args: argparse.Namespace) -> int:
                              "nothing was kept") from None
     summary = ", ".join(f"{ended[k]} {k}" for k in sorted(ended))
     Console(stderr=True, highlight=False).print(
-        Text(one_line(f"wrote {args.episodes} episodes (ended: {summary}) to {args.out}")), soft_wrap=True
+        Text(one_line(f"wrote {plural(args.episodes, 'episode')} (ended: {summary}) to {args.out}")), soft_wrap=True
     )
     return EXIT_OK
