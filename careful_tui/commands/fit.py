@@ -88,7 +88,7 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
     return demos, result
 
 
-# The options each one depends on, as the command line spells them and `FitOptions` names them.
+# The options only resampling uses (maxent's and loss's intervals): each flag and its `FitOptions` field.
 RESAMPLING = (("--confidence", "confidence"), ("--resamples", "resamples"), ("--seed", "seed"))
 
 

@@ -59,14 +59,14 @@ class KeyBar(Widget):
     def render(self) -> Text:
         chips, width = self._chips(), self.size.width
         bar = _bar(chips, roomy=True)
-        if not width or _width(bar) <= width:
-            return bar
-        while True:  # closed up, then without the last chip that does not quit, until it fits
+        if width and _width(bar) > width:  # closed up, then without the last chips that do not quit
             bar = _bar(chips, roomy=False)
-            dropped = next((i for i in reversed(range(len(chips))) if not chips[i][2]), None)
-            if _width(bar) <= width or dropped is None:
-                return bar
-            del chips[dropped]
+            while _width(bar) > width and not all(quits for *_, quits in chips):
+                del chips[max(i for i, (*_, quits) in enumerate(chips) if not quits)]
+                bar = _bar(chips, roomy=False)
+        if width and bar.cell_len > width:
+            bar.rstrip()  # its last gap, which would be cut with an ellipsis
+        return bar
 
 
 def _bar(chips: list[tuple[str, str, bool]], *, roomy: bool) -> Text:
@@ -80,5 +80,5 @@ def _bar(chips: list[tuple[str, str, bool]], *, roomy: bool) -> Text:
 
 
 def _width(bar: Text) -> int:
-    """The columns `bar` needs: its trailing spaces may be cut."""
+    """The columns `bar` needs: its last gap may be cut."""
     return cell_len(bar.plain.rstrip())
