@@ -147,7 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--policy", choices=["optimal", "boltzmann"], required=True,
                           help="optimal: the best action in every state; boltzmann: actions with probability "
                                "proportional to exp(beta Q)")
-    simulate.add_argument("--beta", type=positive_float, default=1.0, help="Boltzmann inverse temperature (default 1.0)")
+    simulate.add_argument("--beta", type=positive_float, default=None,
+                          help="Boltzmann inverse temperature, for --policy boltzmann (default 1.0)")
     simulate.add_argument("--episodes", type=positive_int, required=True, help="episodes to roll out")
     simulate.add_argument("--seed", type=seed_int, required=True,
                           help="seed of the rollouts (the same seed writes the same file)")

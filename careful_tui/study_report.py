@@ -22,6 +22,7 @@ from rich.text import Text
 from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words, plural
+from irl_core.irl import at_bound
 from irl_core.safe_files import check_output_folder, write_output
 from irl_core.safe_text import printable
 from irl_core.study import StudyError, load_study
@@ -147,7 +148,7 @@ def table_caption(data: StudyData, fits: list[CellFit]) -> str:
     """What the table's brackets, columns and marks mean, as far as this report has them."""
     parts = [interval_caption(fits), "Careful: mean carefulness one step from a terminal cell",
              "Episodes quit or unfinished are counted, not fitted"]
-    boxed = [f for f in fits if f.intervals is not None and (abs(f.intervals) >= f.rmax * (1 - 1e-9)).any()]
+    boxed = [f for f in fits if f.intervals is not None and at_bound(f.intervals, f.rmax).any()]
     if boxed:
         parts.append(f"An end at ±{boxed[0].rmax:g} is the fit's bound (--rmax), not a bound from the data")
     if data.left_out:

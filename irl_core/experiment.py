@@ -34,7 +34,7 @@ from irl_core.experts import (
 )
 from irl_core.irl.fit import fit
 from irl_core.irl.options import FitOptions
-from irl_core.irl.result import FitResult
+from irl_core.irl.result import FitResult, at_bound
 from irl_core.mdp import MDP, action_parts, build_mdp
 from irl_core.planning import value_iteration
 from irl_core.world import BUILTIN_WORLDS, World
@@ -214,13 +214,13 @@ def _estimate(stage: str, data: str, result: FitResult, seconds: float) -> Estim
     world = result.world
     rmax = result.options.rmax
     cliff = np.array([result.R_S[s] for s, sym in enumerate(result.mdp.symbols) if sym == "C"])
-    at_bound = np.abs(cliff) >= rmax * (1 - 1e-9)
+    bounded = at_bound(cliff, rmax)
     return Estimate(
         stage=stage, method=result.method, data=data,
         cliff=symbol_mean(result, "C"), goal=symbol_mean(result, "G"),
         true_cliff=world.reward_of("C"), true_goal=world.reward_of("G"), seconds=seconds,
-        cliff_cells=len(cliff), cliff_at_bound=int(at_bound.sum()),
-        cliff_inside=float(cliff[~at_bound].mean()) if (~at_bound).any() else None, rmax=rmax,
+        cliff_cells=len(cliff), cliff_at_bound=int(bounded.sum()),
+        cliff_inside=float(cliff[~bounded].mean()) if (~bounded).any() else None, rmax=rmax,
     )
 
 
@@ -415,9 +415,9 @@ def interval_caption(s: Separation) -> str:
     caption = (f"{what}: cliff between {s.cliff[0]:.0f} and {s.cliff[1]:.0f}; mud between {s.mud[0]:.0f} "
                f"and {s.mud[1]:.0f}; {verdict}.")
     if s.rmax is not None:
-        at_bound = [f"the {name}'s {end:.0f}" for name, interval in (("cliff", s.cliff), ("mud", s.mud))
-                    for end in interval if abs(end) >= s.rmax * (1 - 1e-9)]
-        if at_bound:
-            caption += (f" At ±{s.rmax:.0f}, {' and '.join(at_bound)} {'is' if len(at_bound) == 1 else 'are'} "
+        bounded = [f"the {name}'s {end:.0f}" for name, interval in (("cliff", s.cliff), ("mud", s.mud))
+                   for end in interval if at_bound(end, s.rmax)]
+        if bounded:
+            caption += (f" At ±{s.rmax:.0f}, {' and '.join(bounded)} {'is' if len(bounded) == 1 else 'are'} "
                         "the bound of the fit, not a value the data set.")
     return caption

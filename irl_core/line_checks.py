@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from irl_core.mdp import DIRECTIONS, MDP
 from irl_core.recording_lines import EpisodeEnd, Step
+from irl_core.words import plural
 
 
 class Mismatch(ValueError):
@@ -72,7 +73,7 @@ class LineChecker:
     def _check_move(self, step: Step, number: int) -> None:
         world, mdp = self.mdp.world, self.mdp
         if step.carefulness > world.levels:
-            raise self._error(number, "carefulness", f"{step.carefulness} is above the world's {world.levels} levels")
+            raise self._error(number, "carefulness", f"{step.carefulness} is above the world's {plural(world.levels, 'level')}")
         for name in ("state", "next_state"):
             cell = getattr(step, name)
             if cell not in mdp.state_of:

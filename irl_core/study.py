@@ -38,6 +38,7 @@ from irl_core.recording_lines import StudyTag
 from irl_core.recording_writer import slug
 from irl_core.safe_files import open_regular
 from irl_core.safe_text import VALUE_LIMIT, printable
+from irl_core.words import plural
 from irl_core.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world
 
 Phase = Literal["practice", "main"]
@@ -240,7 +241,7 @@ def _foreign(study: LoadedStudy, participant: str, recording: Recording) -> str 
     if tag.participant != participant:
         return f"recorded for participant {printable(tag.participant, limit=VALUE_LIMIT)!r}, not {participant!r}"
     if tag.world_index >= len(study.worlds):
-        return f"study.world_index {tag.world_index} is beyond the study's {len(study.worlds)} worlds"
+        return f"study.world_index {tag.world_index} is beyond the study's {plural(len(study.worlds), 'world')}"
     if recording.world != study.worlds[tag.world_index]:
         return f"recorded in another world than the study's worlds[{tag.world_index}] (was the study file changed?)"
     return None

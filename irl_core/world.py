@@ -31,6 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from irl_core.safe_files import open_regular
 from irl_core.safe_text import VALUE_LIMIT, cut, printable
+from irl_core.words import plural
 
 WALL = "#"
 GROUND = "."
@@ -86,7 +87,7 @@ class World(BaseModel):
         if len(widths) != 1:
             ragged = next(i for i, row in enumerate(rows) if len(row) != len(rows[0]))
             raise ValueError(
-                f"the layout is ragged: row 0 has {len(rows[0])} cells but row {ragged} has {len(rows[ragged])}"
+                f"the layout is ragged: row 0 has {plural(len(rows[0]), 'cell')} but row {ragged} has {len(rows[ragged])}"
             )
         if any(ch.isspace() for row in rows for ch in row):
             raise ValueError("the layout contains a space inside a row; use '.' for ground")
@@ -132,7 +133,7 @@ class World(BaseModel):
             )
         if not self.cost_per_level * self.levels <= MAX_MAGNITUDE:
             raise ValueError(
-                f"cost_per_level {self.cost_per_level:g} x {self.levels} levels is {self.cost_per_level * self.levels:g}; "
+                f"cost_per_level {self.cost_per_level:g} x {plural(self.levels, 'level')} is {self.cost_per_level * self.levels:g}; "
                 f"the most careful move may cost at most {MAX_MAGNITUDE:g}"
             )
         symbols = {ch for row in self.grid for ch in row}

@@ -15,11 +15,13 @@ from rich.markup import escape
 from rich.progress import Progress
 from rich.text import Text
 
+from careful_tui.commands.notices import warn
 from careful_tui.errors import UsageError
 from careful_tui.version import app_version
 from irl_core.demonstrations import Recording, read_recording
 from irl_core.safe_files import check_output
 from irl_core.safe_text import printable
+from irl_core.words import plural
 from irl_core.export import check_dataset_id, minari_dataset_path, one_world, recorded_episodes, write_csv, write_minari
 
 # Inputs at least this large (in bytes, all files together) get progress bars.
@@ -52,7 +54,7 @@ def run_export(args: argparse.Namespace) -> int:
             progress.advance(reading, size)
         for recording in recordings:
             for warning in recording.warnings:
-                err.print(Text(f"warning: {printable(warning, limit=400)}", style="yellow"), soft_wrap=True)
+                warn(err, warning)
         if args.format == "csv":
             summary = _export_csv(Path(args.out), recordings, progress)
         else:
@@ -76,8 +78,7 @@ def _export_csv(out: Path, recordings: list[Recording], progress: Progress) -> s
         raise UsageError(f"{out} already exists; export never overwrites a file, choose another --out") from None
     except OSError as exc:
         raise UsageError(f"{out}: cannot write the CSV file ({exc.strerror or exc})") from None
-    files = len(recordings)
-    return f"wrote {rows} rows (one per step) from {files} file{'s' * (files != 1)} to {printable(str(out))}"
+    return f"wrote {plural(rows, 'row')} (one per step) from {plural(len(recordings), 'file')} to {printable(str(out))}"
 
 
 def _export_minari(dataset_id: str, recordings: list[Recording], progress: Progress) -> str:
@@ -86,7 +87,7 @@ def _export_minari(dataset_id: str, recordings: list[Recording], progress: Progr
     steps = sum(len(r.steps) for r in recordings)
     names = ", ".join(r.path.name for r in recordings[:3]) + (f" and {len(recordings) - 3} more" if len(recordings) > 3 else "")
     description = (
-        f"{episodes} episodes ({steps} steps) recorded in the careful world {world.name!r} by "
+        f"{plural(episodes, 'episode')} ({plural(steps, 'step')}) recorded in the careful world {world.name!r} by "
         f"{', '.join(sorted({r.header.player for r in recordings}))}; exported from {names} by careful {app_version()}. "
         "Observations are cells (row * cols + col), actions d * L + c - 1; infos hold the hold time of each move."
     )
@@ -98,6 +99,7 @@ def _export_minari(dataset_id: str, recordings: list[Recording], progress: Progr
                                progress=lambda done: progress.update(writing, completed=done))
     except FileExistsError as exc:
         raise UsageError(str(exc)) from None
-    return (f"wrote Minari dataset {dataset_id}: {dataset.total_episodes} episodes, {dataset.total_steps} steps of "
+    return (f"wrote Minari dataset {dataset_id}: {plural(dataset.total_episodes, 'episode')}, "
+            f"{plural(dataset.total_steps, 'step')} of "
             f"world {world.name!r}, at {printable(str(minari_dataset_path(dataset_id)))}; "
             f"load it with minari.load_dataset({dataset_id!r})")

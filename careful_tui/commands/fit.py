@@ -21,14 +21,16 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn
 from rich.text import Text
 
 from careful_tui.arguments import options_from_args
+from careful_tui.commands.notices import ignored, warn
 from careful_tui.commands.reading import read_with_progress
 from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import print_fit
 from irl_core.demonstrations import Demonstrations
-from irl_core.irl import BadInputError, FitResult, SolverError, fit
+from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.safe_files import check_output, write_output
 from irl_core.safe_text import printable
+from irl_core.words import plural
 
 
 def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
@@ -46,21 +48,27 @@ def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
     return demos
 
 
-def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tuple[Demonstrations, FitResult]:
+def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
+                  printout: bool = False) -> tuple[Demonstrations, FitResult]:
     """The demonstrations and the fit that `careful fit` options ask for.
 
     A spinner runs on stderr while it fits, and a progress bar while bootstrap resamples come back.
+    For the `printout` (no view) it warns of options the fit does not use: before fitting, or
+    for --method auto after it, once the method is known.
     """
     err = err or Console(stderr=True, highlight=False)
     options = options_from_args(args)
     problem = options.problem()
     if problem:
         raise UsageError(problem)
+    if printout and options.method != "auto":
+        for warning in ignored_options(options, options.method):
+            warn(err, warning)
     demos = load_demonstrations(list(args.files), err)
     columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn())
     with Progress(*columns, console=err, transient=True) as progress:
-        task = progress.add_task(f"fitting ({options.describe()}) to {demos.steps} steps", total=None)
+        task = progress.add_task(f"fitting ({options.describe()}) to {plural(demos.steps, 'step')}", total=None)
 
         def heard(stage: str, done: int, total: int | None) -> None:
             what = {"rounds": "lp rounds", "intervals": "interval LPs", "resamples": "resampling episodes"}[stage]
@@ -73,8 +81,37 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None) -> tu
     if options.intervals and result.intervals is None:
         for note in result.notes:
             if note.startswith("intervals not computed"):
-                err.print(Text(f"warning: {note}", style="yellow"), soft_wrap=True)
+                warn(err, note)
+    if printout and options.method == "auto":
+        for warning in ignored_options(options, result.method):
+            warn(err, warning)
     return demos, result
+
+
+# The options only resampling uses (maxent's and loss's intervals): each flag and its `FitOptions` field.
+RESAMPLING = (("--confidence", "confidence"), ("--resamples", "resamples"), ("--seed", "seed"))
+
+
+def ignored_options(options: FitOptions, method: str) -> list[str]:
+    """A warning per group of options a fit by `method` (lp, loss or maxent) does not use.
+
+    An option left at its default is never named: ignoring it changes nothing. The fit view uses
+    them all (its keys switch methods and turn intervals on), so only the printout asks.
+    """
+    default = FitOptions()
+    chosen = f" (method auto chose {method})" if options.method == "auto" else ""
+    resampling = [flag for flag, name in RESAMPLING if getattr(options, name) != getattr(default, name)]
+    warnings = []
+    if resampling and not options.intervals:
+        warnings.append(ignored(resampling, "with --intervals"))
+    elif resampling and method == "lp":
+        warnings.append(ignored(resampling, "to loss's and maxent's intervals, which resample episodes "
+                                            f"(lp's is every value the demonstrations allow){chosen}"))
+    if options.beta is not None and method != "maxent":
+        warnings.append(ignored(["--beta"], f"to maxent{chosen}"))
+    if options.lam != default.lam and method == "maxent":
+        warnings.append(ignored(["--lambda"], f"to lp and loss{chosen}"))
+    return warnings
 
 
 def wants_view(args: argparse.Namespace) -> bool:
@@ -94,8 +131,9 @@ def run_fit(args: argparse.Namespace) -> int:
             if (earlier := outputs.setdefault(path.resolve(), option)) != option:
                 raise UsageError(f"{option} and {earlier} both name {printable(str(path), limit=160)}: "
                                  "one would overwrite the other; choose two paths")
+    view = wants_view(args)
     try:
-        demos, result = fit_from_args(args, err=err)
+        demos, result = fit_from_args(args, err=err, printout=not view)
     except SolverError as exc:
         err.print(Text(f"careful fit: {exc}", style="bold red"), soft_wrap=True)
         return EXIT_FAILURE
@@ -108,7 +146,7 @@ def run_fit(args: argparse.Namespace) -> int:
         from careful_tui.render.figures.style import save_figure
 
         save_figure(fit_figure(result), args.figure, option="--figure", inputs=args.files)
-    if wants_view(args):
+    if view:
         # Imported here for start-up speed: Textual loads only when the view opens.
         from careful_tui.keys.kitty import PassiveKittyDriver
         from careful_tui.app import make_fit_app

@@ -6,7 +6,10 @@ import argparse
 import getpass
 import secrets
 
+from rich.console import Console
+
 from careful_tui.app import make_play_app
+from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
 from irl_core.recording_writer import SessionRecorder, check_writable
@@ -34,10 +37,15 @@ def run_play(args: argparse.Namespace) -> int:
         raise UsageError(f"cannot write recordings to {args.out} ({exc.strerror or exc}); "
                          "choose a writable folder with --out") from None
     require_terminal("play")
+    # Calibration times how long a held key takes per level: other inputs and one level time nothing.
+    calibrate = args.calibrate and args.input == "hold" and world.levels > 1
+    if args.calibrate and not calibrate:
+        applies = "to --input hold" if args.input != "hold" else f"to a world of several levels ({world.name!r} has one)"
+        warn(Console(stderr=True, highlight=False), ignored(["--calibrate"], applies))
     seed = args.seed if args.seed is not None else secrets.randbelow(2**32)
     player = args.player or default_player()
     app = make_play_app(world, out=args.out, player=player, seed=seed, input_mode=args.input,
-                        calibrate=args.calibrate, driver_class=KittyDriver)
+                        calibrate=calibrate, driver_class=KittyDriver)
     play = app.first_screen
     try:
         app.run()

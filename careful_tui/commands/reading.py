@@ -6,10 +6,9 @@ from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn
-from rich.text import Text
 
+from careful_tui.commands.notices import warn
 from irl_core.demonstrations import Recording, read_recordings
-from irl_core.safe_text import printable
 
 # Below this many bytes in all, reading takes under a second or so: no bar.
 PROGRESS_FROM_BYTES = 32 << 20
@@ -31,5 +30,5 @@ def read_with_progress(paths: list[Path], err: Console) -> list[Recording]:
         task = progress.add_task("reading", total=total)
         recordings, warnings = read_recordings(paths, progress=lambda done: progress.advance(task, done))
     for warning in warnings:
-        err.print(Text(f"warning: {printable(warning, limit=400)}", style="yellow"), soft_wrap=True)
+        warn(err, warning)
     return recordings

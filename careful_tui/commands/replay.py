@@ -7,9 +7,9 @@ import re
 from pathlib import Path
 
 from rich.console import Console
-from rich.text import Text
 
 from careful_tui.app import make_replay_app
+from careful_tui.commands.notices import warn
 from careful_tui.commands.reading import read_with_progress
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import PassiveKittyDriver
@@ -63,7 +63,7 @@ def read_replayable(paths: list[Path], err: Console) -> tuple[list[Recording], l
             if len(paths) == 1:
                 raise
             skipped.append(f"{exc}; left out")
-            err.print(Text(f"warning: {printable(skipped[-1], limit=400)}", style="yellow"), soft_wrap=True)
+            warn(err, skipped[-1])
     if not recordings:
         raise UsageError(f"none of the {len(paths)} files can be replayed (each is named above)")
     return recordings, skipped

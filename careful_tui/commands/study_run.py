@@ -13,6 +13,7 @@ from careful_tui.keys.kitty import KittyDriver
 from irl_core.recording_writer import check_writable
 from irl_core.safe_text import printable
 from irl_core.study import LoadedStudy, StudyError, load_study, read_protocol
+from irl_core.words import plural
 
 
 def run_study_run(args: argparse.Namespace) -> int:
@@ -64,7 +65,7 @@ def standing(study: LoadedStudy, participant: str) -> str:
     if protocol.finished:
         return f"participant {participant} has finished study {name!r}"
     done, total = protocol.progress
-    return (f"participant {participant}: {done} of {total} episodes of study {name!r} done; "
+    return (f"participant {participant}: {done} of {plural(total, 'episode')} of study {name!r} done; "
             "run the same command to go on")
 
 

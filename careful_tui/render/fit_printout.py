@@ -25,13 +25,12 @@ from irl_core.safe_text import printable
 def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> None:
     """The reward grid (beside the world's own), the intervals, the policy and the status."""
     world = result.world
-    files = f"{demos.files} file{'s' * (demos.files != 1)}"
     console.print(
         Text.assemble(
             ("careful fit", "bold"),
             f": {method_phrase(result)} on ",
             (printable(world.name, limit=80), "bold"),
-            f" from {files}, {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}",
+            f" from {plural(demos.files, 'file')}, {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}",
         )
     )
     console.print(reward_grids(result, width=console.width))

@@ -16,7 +16,7 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.render.grid import LINEAR_THRESHOLD, SYMBOL_NAMES, diverging_colour, format_value, signed_log_fraction
-from irl_core.irl import FitResult
+from irl_core.irl import FitResult, at_bound
 
 
 def interval_table(result: FitResult) -> Table:
@@ -47,7 +47,7 @@ def interval_title(result: FitResult) -> str:
 
 def _open_ends(low: float, high: float, rmax: float) -> tuple[bool, bool]:
     """Whether each end of an interval sits at the ±rmax bound (no bound from the demonstrations)."""
-    return low <= -rmax * (1 - 1e-9), high >= rmax * (1 - 1e-9)
+    return bool(low < 0 and at_bound(low, rmax)), bool(high > 0 and at_bound(high, rmax))
 
 
 def interval_reading(low: float, high: float, rmax: float) -> str:

@@ -15,6 +15,7 @@ from irl_core.demonstrations import Recording
 from irl_core.recording_lines import EpisodeEnd
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.summary import SessionSummary, outcome_code
+from irl_core.words import plural
 from irl_core.world import World
 
 MEAN_BAR = 5
@@ -51,10 +52,6 @@ def legend(world: World) -> Text:
         if symbol in world.terminal:
             text.append(" (ends)", style="dim")
     return text
-
-
-def plural(n: int, word: str) -> str:
-    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 def short_warning(recording: Recording, warning: str) -> str:

@@ -9,6 +9,7 @@ from rich.text import Text
 
 from careful_tui.render.grid import WorldGrid, format_value, symbol_legend
 from irl_core.safe_text import VALUE_LIMIT, printable
+from irl_core.words import plural
 from irl_core.world import BUILTIN_WORLDS, WORLD_PURPOSES, World
 
 
@@ -25,8 +26,7 @@ def print_world_table(console: Console) -> None:
 def print_world(console: Console, world: World) -> None:
     # The name is text from a file: shown escaped and cut, never as markup.
     console.print(Text.assemble((printable(world.name, limit=VALUE_LIMIT), "bold"),
-                                f": {world.rows}x{world.cols} cells, {world.levels} carefulness "
-                                f"levels, slip {world.slip}, gamma {world.gamma}"), soft_wrap=True)
+                                f": {world.rows}x{world.cols} cells, {plural(world.levels, 'carefulness level')}, slip {world.slip}, gamma {world.gamma}"), soft_wrap=True)
     console.print(WorldGrid(world))
     console.print(symbol_legend(world))
     console.print(Syntax(world.to_toml(), "toml", theme="ansi_dark", background_color="default"))

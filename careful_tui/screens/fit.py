@@ -391,7 +391,7 @@ class FitScreen(Screen[None]):
     def _title(self) -> Text:
         demos = self.demos
         method = self._shown_method()
-        files = printable(self.sources[0].name, limit=80) if len(self.sources) == 1 else f"{demos.files} files"
+        files = printable(self.sources[0].name, limit=80) if len(self.sources) == 1 else plural(demos.files, "file")
         return Text.assemble(
             ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
             (f"  ·  {files}: {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}", "dim"),

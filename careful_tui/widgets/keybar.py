@@ -5,10 +5,15 @@ The keys come from the app's and the screen's `BINDINGS`, as `check_action` allo
 share a chip ("a/l/o/m auto/lp/loss/maxent"). It plays the part of Textual's `Footer`, but draws
 in the very first frame (the Footer composes its keys only after a refresh, which a terminal
 test reading the first frame sees as a missing key bar) and keeps the chip look of careful.
+
+When the chips do not fit the terminal's width they close up (no padding in the chip, one space
+between), and if that is still too wide the last chips give way, quitting's never: `q quit` is on
+screen at every size a screen accepts.
 """
 
 from __future__ import annotations
 
+from rich.cells import cell_len
 from rich.text import Text
 from textual.widget import Widget
 
@@ -32,24 +37,48 @@ class KeyBar(Widget):
     def keys(self) -> tuple[tuple[str, str], ...]:
         """(keys, what they do) per chip, in the order of `BINDINGS`; only quitting while the
         screen is too small (`TooSmall` hides everything else)."""
+        return tuple((keys, what) for keys, what, _ in self._chips())
+
+    def _chips(self) -> list[tuple[str, str, bool]]:
+        """(keys, what they do, whether they quit) per chip."""
         too_small = self.screen.has_class("-too-small")
         first_of_action = {}  # several keys of one binding (or one action and text) make one chip
         for active in self.screen.active_bindings.values():
             binding = active.binding
             if binding.show and active.enabled and (binding.action == "quit" or not too_small):
                 first_of_action.setdefault((binding.action, binding.description), binding)
-        chips: dict[object, tuple[list[str], str]] = {}
+        chips: dict[object, tuple[list[str], str, bool]] = {}
         for binding in first_of_action.values():
             shown = binding.key_display or self.app.get_key_display(binding)
             if binding.group is None:
-                chips[binding] = ([shown], binding.description)
+                chips[binding] = ([shown], binding.description, binding.action == "quit")
             else:
-                chips.setdefault(binding.group, ([], binding.group.description))[0].append(shown)
-        return tuple((joined(keys), what) for keys, what in chips.values())
+                chips.setdefault(binding.group, ([], binding.group.description, False))[0].append(shown)
+        return [(joined(keys), what, quits) for keys, what, quits in chips.values()]
 
     def render(self) -> Text:
-        text = Text(no_wrap=True, overflow="ellipsis")
-        for key, action in self.keys:
-            text.append(f" {key} ", style=f"bold {ON_NOTE} on {NOTE}")
-            text.append(f" {action}  ")
-        return text
+        chips, width = self._chips(), self.size.width
+        bar = _bar(chips, roomy=True)
+        if width and _width(bar) > width:  # closed up, then without the last chips that do not quit
+            bar = _bar(chips, roomy=False)
+            while _width(bar) > width and not all(quits for *_, quits in chips):
+                del chips[max(i for i, (*_, quits) in enumerate(chips) if not quits)]
+                bar = _bar(chips, roomy=False)
+        if width and bar.cell_len > width:
+            bar.rstrip()  # its last gap, which would be cut with an ellipsis
+        return bar
+
+
+def _bar(chips: list[tuple[str, str, bool]], *, roomy: bool) -> Text:
+    """The chips on one line: `roomy` pads each key and leaves two spaces after its words."""
+    pad, gap = (" ", "  ") if roomy else ("", " ")
+    text = Text(no_wrap=True, overflow="ellipsis")
+    for key, action, _ in chips:
+        text.append(f"{pad}{key}{pad}", style=f"bold {ON_NOTE} on {NOTE}")
+        text.append(f" {action}{gap}")
+    return text
+
+
+def _width(bar: Text) -> int:
+    """The columns `bar` needs: its last gap may be cut."""
+    return cell_len(bar.plain.rstrip())

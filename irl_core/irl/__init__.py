@@ -22,8 +22,8 @@ interval). `evaluation` says what an agent trained on the fitted reward would do
 
 from irl_core.irl.fit import METHODS, fit
 from irl_core.irl.options import FitOptions
-from irl_core.irl.result import BadInputError, FitError, FitResult, InfeasibleError, SolverError
+from irl_core.irl.result import BadInputError, FitError, FitResult, InfeasibleError, SolverError, at_bound
 from irl_core.stopping import Stopped
 
 __all__ = ["METHODS", "BadInputError", "FitError", "FitOptions", "FitResult", "InfeasibleError", "SolverError",
-           "Stopped", "fit"]
+           "Stopped", "at_bound", "fit"]

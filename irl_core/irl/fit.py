@@ -27,7 +27,7 @@ from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
-from irl_core.irl.result import BadInputError, FitResult, InfeasibleError
+from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bound
 from irl_core.stopping import Stopped, stop_when
 
 METHODS = FITTERS
@@ -98,11 +98,10 @@ def fit(
     if options.intervals and unknowns.k:
         bounds, kind = _intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers)
 
-    at_bound = [label for label, value in zip(unknowns.labels, fitted.theta)
-                if abs(value) >= options.rmax * (1 - 1e-9)]
-    if at_bound:
+    bounded = [label for label, value in zip(unknowns.labels, fitted.theta) if at_bound(value, options.rmax)]
+    if bounded:
         notes.append(
-            f"at ±rmax: {', '.join(at_bound)}; there the bound, not the demonstrations, set the value"
+            f"at ±rmax: {', '.join(bounded)}; there the bound, not the demonstrations, set the value"
         )
     R_S = unknowns.state_rewards(fitted.theta)
     return FitResult(
@@ -243,7 +242,7 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
     if result.failed:
         notes.append(f"{result.failed} of {options.resamples} resamples failed to fit and were left out")
     bounds = result.intervals[: qmap.k]
-    inside = np.abs(bounds).max(axis=1) < options.rmax * (1 - 1e-9)
+    inside = ~at_bound(bounds, options.rmax).any(axis=1)
     stayed = inside & (bounds[:, 1] - bounds[:, 0] <= 1e-9 * np.maximum(1.0, np.abs(bounds).max(axis=1)))
     if stayed.any() and stayed.sum() == inside.sum():
         # Zero width inside the bound: the refits never left the full fit, which measures nothing.

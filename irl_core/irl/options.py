@@ -66,8 +66,8 @@ class FitOptions:
 
         `fit` does not refuse them (the fit view switches methods freely); the command line does.
         """
-        if self.method == "lp" and self.beta == "auto":
-            return "--beta auto needs --method maxent or auto: the lp has no temperature to estimate"
+        if self.method in ("lp", "loss") and self.beta == "auto":
+            return f"--beta auto needs --method maxent or auto: {self.method} has no temperature to estimate"
         if not 0 < self.confidence < 1:
             return f"--confidence must lie strictly between 0 and 1, not {self.confidence:g}"
         if self.resamples < MIN_RESAMPLES:

@@ -35,6 +35,7 @@ from careful_tui.render.figures.policy import NOTE_HEIGHT, draw_policy, policy_n
 from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure, symbol_label
 from careful_tui.render.intervals import interval_title
 from irl_core.irl import FitResult
+from irl_core.words import plural
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
 MAX_INTERVAL_ROWS = 24
@@ -59,8 +60,7 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     for symbol in dict.fromkeys(row.symbol for row in rows):
         mine = [row for row in rows if row.symbol == symbol]
         truths = {row.truth for row in mine}
-        cells = f"{len(mine)} cell{'s' * (len(mine) != 1)}"
-        hulls.append(IntervalRow(f"{symbol_label(symbol)} ({cells})", symbol,
+        hulls.append(IntervalRow(f"{symbol_label(symbol)} ({plural(len(mine), 'cell')})", symbol,
                                  min(r.low for r in mine), max(r.high for r in mine),
                                  float(np.mean([r.estimate for r in mine])),
                                  truths.pop() if len(truths) == 1 else float("nan")))
@@ -124,7 +124,7 @@ def fit_figure(result: FitResult) -> Figure:
         ax_policy.set_label("policy")
         if careful:
             series = carefulness_by_distance(result.counts, state_distances(mdp), levels=world.levels)
-            draw_carefulness(ax_careful[0], [(f"{result.demonstrations['steps']} steps", series)],
+            draw_carefulness(ax_careful[0], [(plural(result.demonstrations['steps'], 'step'), series)],
                              levels=world.levels, title="carefulness by distance to danger")
             ax_careful[0].set_label("carefulness")
         if interval_row:

@@ -21,6 +21,7 @@ from matplotlib.lines import Line2D
 
 from careful_tui.render.figures.heatmap import LINTHRESH, reward_limit, symlog_ticks, value_label
 from careful_tui.render.figures.style import INK, OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
+from irl_core.irl import at_bound as core_at_bound
 
 INTERVAL_KINDS = ("identified", "confidence")
 SYMBOL_COLOURS = {"C": OKABE_ITO[0], "G": OKABE_ITO[1], "U": OKABE_ITO[2]}
@@ -58,7 +59,7 @@ def at_bound(value: float, rmax: float | None) -> bool:
 
     With `rmax` None (the bound is not known) no end is.
     """
-    return rmax is not None and abs(value) >= rmax * (1 - 1e-9)
+    return rmax is not None and bool(core_at_bound(value, rmax))
 
 
 def axis_limit(rows: Sequence[IntervalRow], rmax: float | None, *, linthresh: float = LINTHRESH) -> float:
