@@ -21,7 +21,7 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
-from careful_tui.render.session import outcome_words, plural
+from careful_tui.render.session import outcome_words
 from irl_core.irl import at_bound
 from irl_core.safe_files import check_output_folder, write_output
 from irl_core.safe_text import printable
@@ -37,6 +37,7 @@ from irl_core.study_report import (
     report_symbols,
     run_fits,
 )
+from irl_core.words import plural
 
 FIGURE_FORMATS = (".png", ".pdf")
 # How `irl_core.irl.fit` begins its notes of what the table shows already (the method, beta).

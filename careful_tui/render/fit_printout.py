@@ -16,10 +16,10 @@ from rich.text import Text
 
 from careful_tui.render.grid import ARROWS, SYMBOL_NAMES, WorldGrid, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table
-from careful_tui.render.session import plural
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import FitResult
 from irl_core.safe_text import printable
+from irl_core.words import plural
 
 
 def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> None:

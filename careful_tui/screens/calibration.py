@@ -27,6 +27,7 @@ from careful_tui.keys.hold import DIRECTIONS, Clock, HoldProfile
 from careful_tui.keys.kitty import KeyRelease
 from careful_tui.render.palette import BAR, EMPTY, GOOD, NOTE, ON_NOTE, SLIP
 from careful_tui.screens.behind_input import TickBehindInput
+from irl_core.words import plural
 
 HOLD_S = 2.0
 SILENCE_S = 0.3
@@ -139,7 +140,7 @@ class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
             filled = round(BAR_WIDTH * min(1.0, held / HOLD_S))
             text.append(" " * filled, style=f"on {BAR}")
             text.append(" " * (BAR_WIDTH - filled), style=f"on {EMPTY}")
-            text.append(f"  {held:.1f} s   {self._calibration.repeats} repeats\n\n")
+            text.append(f"  {held:.1f} s   {plural(self._calibration.repeats, 'repeat')}\n\n")
             text.append("This measures your key repeat; levels count from it.\n\n", style="dim")
             text.append(" esc ", style=KEY_CHIP)
             text.append(" cancel")

@@ -47,7 +47,7 @@ from careful_tui.render.fit_printout import (
 from careful_tui.render.grid import format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, scale_legend
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
-from careful_tui.render.session import legend, plural
+from careful_tui.render.session import legend
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
@@ -56,6 +56,7 @@ from irl_core.recording_writer import slug
 from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable
+from irl_core.words import plural
 
 METHOD_NAMES = {"lp": "the simple IRL agent", "loss": "the loss IRL agent", "maxent": "the MaxEnt baseline"}
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.

@@ -14,12 +14,13 @@ from textual.containers import Horizontal, Vertical
 from textual.widget import Widget
 from textual.widgets import Static
 
-from careful_tui.render.session import legend, plural
+from careful_tui.render.session import legend
 from careful_tui.widgets import Board, Gauge, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.game import level_costs, level_slip_chances
 from irl_core.safe_text import printable
+from irl_core.words import plural
 from irl_core.world import World
 
 STATUS_LINES = 3

@@ -30,7 +30,7 @@ from textual.widgets import Static
 
 from careful_tui.render.grid import format_value
 from careful_tui.render.palette import NOTE, SLIP, WARN, level_colour
-from careful_tui.render.session import outcome_colour, outcome_text, plural, summary_panel
+from careful_tui.render.session import outcome_colour, outcome_text, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.screens.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from careful_tui.widgets import Arrow, Board, Gauge
@@ -40,6 +40,7 @@ from irl_core.recording_lines import Step
 from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.summary import distance_to_terminal, outcome_code, summarise
+from irl_core.words import plural
 from irl_core.world import World
 
 FRAME_S = 0.5

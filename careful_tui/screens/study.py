@@ -37,11 +37,11 @@ from textual.widgets import Static
 
 from careful_tui.keys.hold import HoldProfile
 from careful_tui.render.palette import GOOD, NOTE, WARN
-from careful_tui.render.session import plural
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
 from irl_core.safe_text import cut, printable
 from irl_core.study import Block, LoadedStudy, Protocol, read_protocol
+from irl_core.words import plural
 
 Stage = Literal["instructions", "practice_over", "next_world", "end"]
 # How to choose a carefulness level, per input mode (the instructions' words; play says it shorter).
@@ -118,7 +118,7 @@ def instructions_text(protocol: Protocol) -> Group:
     parts: list[Text] = [Text(printable(study.name, limit=80), style=f"bold {NOTE}")]
     if protocol.started:
         done, total = protocol.progress
-        back = Text(f"Welcome back: {done} of {total} episodes are done. You go on with: ", style=f"bold {GOOD}")
+        back = Text(f"Welcome back: {done} of {plural(total, 'episode')} {'is' if total == 1 else 'are'} done. You go on with: ", style=f"bold {GOOD}")
         back.append_text(where_next(protocol))
         parts.append(back)
     if study.instructions.strip():
@@ -147,7 +147,7 @@ def between_text(protocol: Protocol, finished: Block) -> Group:
                  Text.assemble("Next: ", where_next(protocol),
                                " It may differ from the last one: look at the board and the gauge before "
                                "your first move.")]
-    parts.append(Text(f"{done} of {total} episodes done.", style="dim"))
+    parts.append(Text(f"{done} of {plural(total, 'episode')} done.", style="dim"))
     parts.append(Text("Press space to go on. q leaves; what you played is kept.", style="dim"))
     return _spaced(parts)
 
@@ -156,7 +156,8 @@ def end_text(protocol: Protocol) -> Group:
     done, total = protocol.progress
     return _spaced([
         Text("That is the end of the study. Thank you!", style=f"bold {GOOD}"),
-        Text(f"All {total} episodes are recorded in {printable(str(protocol.folder), limit=200)}."),
+        Text(f"{'The episode is' if total == 1 else f'All {total} episodes are'} recorded in "
+             f"{printable(str(protocol.folder), limit=200)}."),
         *problems_text(protocol),
         Text("Press space or q to leave.", style="dim"),
     ])

@@ -58,3 +58,18 @@ def test_the_fit_views_title_counts_one_file_as_one_file():
 
     asyncio.run(go())
     assert "1 file: 3 episodes, 17 steps" in seen["title"]
+
+
+def test_a_study_of_one_episode_counts_it_in_the_singular(tmp_path):
+    from careful_tui.screens.study import end_text, instructions_text
+    from irl_core.study import load_study, read_protocol
+    from study.conftest import write_study
+
+    study = load_study(write_study(tmp_path, worlds='["paper"]', practice=0, episodes=1))
+    protocol = read_protocol(study, "p01")
+
+    def text(group) -> str:
+        return " ".join(part.plain for part in group.renderables if hasattr(part, "plain"))
+
+    assert "1 episode" in text(instructions_text(protocol)) and "1 episodes" not in text(instructions_text(protocol))
+    assert "The episode is recorded in" in text(end_text(protocol))
