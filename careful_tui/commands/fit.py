@@ -12,6 +12,7 @@ exit 1 and one line, with or without a terminal.
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import sys
 from pathlib import Path
@@ -157,9 +158,12 @@ def run_fit(args: argparse.Namespace) -> int:
         for path in dict.fromkeys(app.first_screen.saved):
             print(f"saved {printable(str(path))}")
         return EXIT_OK
-    console = Console(record=args.svg is not None, highlight=False)
+    console = Console(highlight=False)
     print_fit(console, demos, result)
     if args.svg is not None:
+        # The SVG is a page, not a terminal: its sentences wrap at its width instead of being cut there.
+        page = Console(record=True, file=io.StringIO(), width=console.width, highlight=False)
+        print_fit(page, demos, result, soft_wrap=False)
         title = f"careful fit: {result.method} on {printable(result.world.name, limit=80)}"
-        write_output(args.svg, console.export_svg(title=title), option="--svg", inputs=args.files)
+        write_output(args.svg, page.export_svg(title=title), option="--svg", inputs=args.files)
     return EXIT_OK

@@ -22,8 +22,12 @@ from irl_core.safe_text import printable
 from irl_core.words import plural
 
 
-def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> None:
-    """The reward grid (beside the world's own), the intervals, the policy and the status."""
+def print_fit(console: Console, demos: Demonstrations, result: FitResult, *, soft_wrap: bool = True) -> None:
+    """The reward grid (beside the world's own), the intervals, the policy and the status.
+
+    Sentences are printed `soft_wrap` (whole lines, for the terminal or a pipe to wrap or keep);
+    without it Rich wraps them at the console's width, as a page (`--svg`) needs.
+    """
     world = result.world
     console.print(
         Text.assemble(
@@ -39,10 +43,10 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult) -> Non
         console.print(interval_table(result))
         console.print(IntervalChart(result))
         for line in interval_readings(result):
-            console.print(Text(line), soft_wrap=True)
+            console.print(Text(line), soft_wrap=soft_wrap)
     console.print(policy_grid(result))
-    console.print(Text(evaluation_line(result)), soft_wrap=True)
-    console.print(status_text(result), soft_wrap=True)
+    console.print(Text(evaluation_line(result)), soft_wrap=soft_wrap)
+    console.print(status_text(result), soft_wrap=soft_wrap)
 
 
 def reward_scale(result: FitResult) -> float:

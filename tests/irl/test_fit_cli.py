@@ -88,6 +88,10 @@ def test_every_method_prints_and_saves_svg(tmp_path, capsys, mud_file, method):
     assert svg.read_text().startswith("<svg") and "fitted R_S" in out and "demonstrated policy" in out
     # The grid is one reward among those that fit: it says it is a point estimate.
     assert "fitted R_S (point estimate)" in out
+    # The SVG keeps every sentence whole (wrapped at its width, not cut there): the evaluation's
+    # last words are in it, though the sentence is longer than the 80 columns of a pipe.
+    evaluation = next(line for line in out.splitlines() if line.startswith("An agent trained"))
+    assert len(evaluation) > 80 and evaluation.split()[-1] in svg.read_text().replace("&#160;", " ")
 
 
 def assert_one_line_error(code, err, *fragments):
