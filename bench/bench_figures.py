@@ -1,6 +1,6 @@
 """How long `careful experiment` takes with its figures, and what writing them costs.
 
-Target: the whole command (a fresh process: imports, the five stages, 8 figures as PDF and
+Target: the whole command (a fresh process: imports, the five stages, 10 figures as PDF and
 PNG, the report) under 10 s on this 2-core machine. It reports the command's wall time and
 CPU time, and, in this process, the time the figures take against the stages that compute
 them (the share of the command that drawing is).
