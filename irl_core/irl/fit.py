@@ -22,7 +22,6 @@ from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
-import irl_core.irl.lp as lp
 from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
@@ -170,7 +169,7 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
         if solution.interior:
             why = (f"the dual simplex failed ({solution.simplex_failure})" if solution.simplex_failure else
                    f"this world's LP has {solution.first_rows:,} rows in its first round (the simplex is used up "
-                   f"to {lp.INTERIOR_ROWS:,})")
+                   f"to {solution.interior_rows:,})")
             fitted.notes.append(
                 f"lp solved by the interior point method, as {why}; the gap between its margin and the "
                 f"dual bound on the largest is {100 * solution.gap:.2g}% of it, so the reward is a "

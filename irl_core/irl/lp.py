@@ -328,7 +328,9 @@ class LPSolution:
         rows: rows of the last model.
         iterations: HiGHS's simplex (and interior point) iterations over all rounds.
         first_rows: rows of the first round (`first_round_rows`).
-        interior: whether the interior point method solved it (`INTERIOR_ROWS`).
+        interior: whether the interior point method solved it.
+        interior_rows: the first round's rows past which it would have been (`interior_rows`;
+            None when the whole LP was solved).
         status: HiGHS's word for the last round's answer, in ours: "optimal", or
             "optimal_inaccurate" for an interior point answer HiGHS did not call optimal.
         gap: the last round's gap between the margin and the dual bound on it, relative: 0 for
@@ -345,6 +347,7 @@ class LPSolution:
     rows: int
     first_rows: int
     interior: bool = False
+    interior_rows: int | None = None
     status: str = "optimal"
     gap: float = 0.0
     simplex_failure: str | None = None
@@ -360,7 +363,7 @@ def solve_margin_lp(
 ) -> LPSolution:
     """Solve the margin LP by row generation (or, with `generate_rows=False`, whole), every
     round by the dual simplex or, with `interior`, by the interior point method (None: when the
-    first round has over `INTERIOR_ROWS` rows). When a round of the dual simplex fails, the LP
+    first round has over `interior_rows` rows). When a round of the dual simplex fails, the LP
     is solved again by the interior point method, from nothing.
 
     Raises `InfeasibleError` or `SolverError`.
@@ -370,9 +373,9 @@ def solve_margin_lp(
         model = HighsModel(problem.full())
         z, _ = model.minimise(infeasible_message=INFEASIBLE_MESSAGE)
         return _solution(problem, z, model, rounds=1, first_rows=model.n_row, interior=False)
-    first_rows = first_round_rows(problem)
+    first_rows, limit = first_round_rows(problem), interior_rows(problem)
     if interior is None:
-        interior = first_rows > INTERIOR_ROWS
+        interior = first_rows > limit
     simplex_failure = None
     rounds = iterations = 0
     if not interior:
@@ -386,7 +389,8 @@ def solve_margin_lp(
             start_from_policy(run)
         try:
             z = run.solve(progress=progress)
-            return _solution(problem, z, run.model, rounds=run.rounds, first_rows=first_rows, interior=False)
+            return _solution(problem, z, run.model, rounds=run.rounds, first_rows=first_rows, interior=False,
+                             limit=limit)
         except SolverError:
             simplex_failure = f"{run.model.last.status.replace('_', ' ')} in round {run.rounds + 1}"
             rounds, iterations = run.rounds + 1, run.model.iterations
@@ -397,7 +401,7 @@ def solve_margin_lp(
     run = RowGeneration(problem, options=INTERIOR)
     z = run.solve(progress=None if progress is None else counted)
     return _solution(problem, z, run.model, rounds=rounds + run.rounds, first_rows=first_rows, interior=True,
-                     simplex_failure=simplex_failure, iterations=iterations)
+                     limit=limit, simplex_failure=simplex_failure, iterations=iterations)
 
 
 # Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
@@ -429,6 +433,17 @@ def margin_options(problem: MarginLP) -> dict[str, object]:
 # (41,232) not in 6.6 CPU minutes; 128x128 (71,201) a solve error after 20 minutes, against
 # 555 to 685 s.
 INTERIOR_ROWS = 30_000
+# The same for a tied fit (one unknown for many terminal cells, solved by the simplex from HiGHS's
+# own start without presolve, `margin_options`), whose simplex gives out sooner. Tied fits of the
+# same worlds, one run each at load 2 to 3: 72x72 (23,934 rows) 21 s by the simplex; 76x76
+# (26,483) and 80x80 (29,268) the simplex failed its first round after about 4 minutes ("unknown",
+# "solve error"); 84x84 (32,019) 68 s by the interior point method.
+TIED_INTERIOR_ROWS = 25_000
+
+
+def interior_rows(problem: MarginLP) -> int:
+    """The first round's rows past which `problem` is solved by the interior point method."""
+    return TIED_INTERIOR_ROWS if shares_terminal_unknowns(problem) else INTERIOR_ROWS
 
 
 def first_round_rows(problem: MarginLP) -> int:
@@ -499,11 +514,12 @@ class RowGeneration:
 
 
 def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: int, first_rows: int,
-              interior: bool, simplex_failure: str | None = None, iterations: int = 0) -> LPSolution:
+              interior: bool, limit: int | None = None, simplex_failure: str | None = None,
+              iterations: int = 0) -> LPSolution:
     """The answer `z` of `model`'s last solve; `iterations` of a route given up before it are added."""
     n, n_d = problem.qmap.n, problem.demonstrated.size
     return LPSolution(
         x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=iterations + model.iterations, rounds=rounds,
-        rows=model.n_row, first_rows=first_rows, interior=interior,
+        rows=model.n_row, first_rows=first_rows, interior=interior, interior_rows=limit,
         status=model.last.status, gap=model.last.gap, simplex_failure=simplex_failure,
     )

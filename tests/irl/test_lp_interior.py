@@ -56,6 +56,23 @@ def test_the_size_switch_is_by_the_first_rounds_rows(cliff16, monkeypatch):
     assert solution.margin == pytest.approx(lp.solve_margin_lp(constraints, interior=False).margin, rel=1e-7)
 
 
+def test_a_tied_fit_switches_at_its_own_rows(cliff16, monkeypatch):
+    """Tied fits are solved by the simplex from HiGHS's own start, which gives out sooner
+    (`lp.TIED_INTERIOR_ROWS`); a fit per cell keeps `lp.INTERIOR_ROWS`."""
+    demos, constraints = cliff16
+    qmap = build_qmap(constraints.qmap.mdp, build_unknowns(constraints.qmap.mdp, reward_cells="special", tie=True))
+    tied = lp.lp_constraints(qmap, demos.most_frequent, rmax=RMAX)
+    assert lp.interior_rows(lp.margin_lp(tied)) == lp.TIED_INTERIOR_ROWS < lp.INTERIOR_ROWS
+    assert lp.interior_rows(lp.margin_lp(constraints)) == lp.INTERIOR_ROWS
+    rows = lp.first_round_rows(lp.margin_lp(tied))
+    monkeypatch.setattr(lp, "TIED_INTERIOR_ROWS", rows - 1)
+    solution = lp.solve_margin_lp(tied)
+    assert solution.interior and solution.interior_rows == rows - 1
+    assert not lp.solve_margin_lp(constraints).interior
+    notes = " ".join(fit(demos, method="lp", reward_cells="special", tie=True, rmax=RMAX).notes)
+    assert f"(the simplex is used up to {rows - 1:,})" in notes
+
+
 def test_a_fit_past_the_switch_says_how_it_was_solved_and_its_intervals_hold_the_identified_set(cliff16, monkeypatch):
     demos, constraints = cliff16
     simplex_intervals, _ = reward_intervals(constraints)
