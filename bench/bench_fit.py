@@ -29,7 +29,7 @@ from irl_core.irl import fit
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import fit_loss
 from irl_core.irl.loss_model import loss_constraints, loss_problem
-from irl_core.irl.lp import lp_constraints, margin_lp
+from irl_core.irl.margin import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS

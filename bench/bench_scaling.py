@@ -66,7 +66,8 @@ def check(size: str) -> None:
     """Row generation against HiGHS's simplex on the whole slack-form LP: the same optimum? And
     the per-cell intervals: every LP answered, each interval holding the true and the fitted reward."""
     from bench.fit_stage import demonstrations_for
-    from irl_core.irl.lp import lp_constraints, solve_margin_lp
+    from irl_core.irl.lp import solve_margin_lp
+    from irl_core.irl.margin import lp_constraints
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(size)
@@ -107,7 +108,8 @@ def conditioning(size: str, *, whole: list[str]) -> None:
     """
     from bench.fit_stage import demonstrations_for
     from irl_core.irl.highs import HighsModel
-    from irl_core.irl.lp import MARGIN_OPTIONS, RowGeneration, lp_constraints, margin_lp
+    from irl_core.irl.lp import MARGIN_OPTIONS, RowGeneration
+    from irl_core.irl.margin import lp_constraints, margin_lp
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(size)

@@ -82,6 +82,7 @@ def main() -> None:
     args = parser.parse_args()
 
     import irl_core.irl.lp as lp
+    from irl_core.irl.margin import lp_constraints
     from bench.bench_scaling import _setup
     from bench.fit_stage import demonstrations_for
     from irl_core.irl.highs import HighsModel, LinearProgram
@@ -90,7 +91,7 @@ def main() -> None:
     mdp = _setup(args.size)
     demos = demonstrations_for(mdp, episodes=100, seed=0)
     qmap = build_qmap(mdp, build_unknowns(mdp, reward_cells="special"))
-    problem = lp.margin_lp(lp.lp_constraints(qmap, demos.most_frequent, rmax=1000.0))
+    problem = lp.margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=1000.0))
     n, d = qmap.n, problem.demonstrated
     options = {**lp.margin_options(problem), "time_limit": args.limit}
     start = time.perf_counter()

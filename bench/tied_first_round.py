@@ -32,7 +32,8 @@ def main() -> None:
 
     from bench.bench_scaling import _setup
     from bench.fit_stage import demonstrations_for
-    from irl_core.irl.lp import RowGeneration, lp_constraints, margin_lp
+    from irl_core.irl.lp import RowGeneration
+    from irl_core.irl.margin import lp_constraints, margin_lp
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(args.size)

@@ -22,7 +22,8 @@ from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
-from irl_core.irl.lp import Progress, lp_constraints, solve_margin_lp
+from irl_core.irl.lp import Progress, solve_margin_lp
+from irl_core.irl.margin import lp_constraints
 from irl_core.irl.maxent import curvature_scale, fit_maxent, identification
 from irl_core.irl.options import FITTERS, FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns

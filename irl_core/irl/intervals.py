@@ -1,7 +1,7 @@
 """How far the demonstrations pin each reward: the range of every unknown over the lp set.
 
 For each unknown theta_j, the smallest and the largest value it takes over all (R_S, V)
-that satisfy the simple IRL agent's constraints (`lp.lp_constraints`): 2 LPs per unknown.
+that satisfy the simple IRL agent's constraints (`margin.lp_constraints`): 2 LPs per unknown.
 An end at +-rmax means the demonstrations do not bound it on that side.
 
 This is what carefulness buys (README "Fitting a reward"). Without a carefulness choice an expert who
@@ -32,7 +32,8 @@ import dataclasses
 import numpy as np
 
 from irl_core.irl.highs import INTERIOR, LinearProgram
-from irl_core.irl.lp import LPConstraints, Progress, RowGeneration, margin_lp, margin_options
+from irl_core.irl.lp import Progress, RowGeneration, margin_options
+from irl_core.irl.margin import LPConstraints, margin_lp
 
 # The first LP starts from no basis and is solved as the margin is (`lp.margin_options`: the
 # dual simplex with Dantzig pricing), and so is any LP retried from scratch. After a new cost

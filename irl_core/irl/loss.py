@@ -44,7 +44,7 @@ from scipy.special import logsumexp
 
 from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
 from irl_core.irl.loss_model import LossConstraints, loss_constraints, relu_terms
-from irl_core.irl.lp import check_bounds
+from irl_core.irl.margin import check_bounds
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import InfeasibleError, SolverError
 

@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from irl_core.irl.highs import LinearProgram, linear_program
-from irl_core.irl.lp import check_bounds
+from irl_core.irl.margin import check_bounds
 from irl_core.irl.qmap import QMap
 
 if TYPE_CHECKING:

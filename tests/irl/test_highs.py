@@ -15,7 +15,7 @@ from irl_core.experts import demonstrations_of, optimal_policy, rollouts, write_
 from irl_core.irl import InfeasibleError, SolverError, Stopped, fit
 from irl_core.irl import highs as highs_module
 from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program
-from irl_core.irl.lp import lp_constraints, margin_lp
+from irl_core.irl.margin import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp
 from irl_core.stopping import stop_when

@@ -8,7 +8,7 @@ from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.lp import lp_constraints
+from irl_core.irl.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS

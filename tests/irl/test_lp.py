@@ -6,7 +6,7 @@ import pytest
 from irl_core.demonstrations import Demonstrations
 from irl_core.experts import optimal_policy, rollouts
 from irl_core.irl import InfeasibleError, fit
-from irl_core.irl.lp import lp_constraints
+from irl_core.irl.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import action_index, build_mdp
 from irl_core.planning import value_iteration

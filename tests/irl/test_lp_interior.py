@@ -15,6 +15,7 @@ from bench.worlds import cliff_world
 from irl_core.irl import fit, lp
 from irl_core.irl.highs import INTERIOR, HighsModel
 from irl_core.irl.intervals import reward_intervals
+from irl_core.irl.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.mdp import build_mdp
 
@@ -26,7 +27,7 @@ def cliff16():
     mdp = build_mdp(cliff_world(16, 16))
     demos = demonstrations_for(mdp, episodes=100, seed=0)
     qmap = build_qmap(mdp, build_unknowns(mdp, reward_cells="special"))
-    return demos, lp.lp_constraints(qmap, demos.most_frequent, rmax=RMAX)
+    return demos, lp_constraints(qmap, demos.most_frequent, rmax=RMAX)
 
 
 def test_a_stopped_interior_answer_is_as_near_as_the_gap_it_reports(cliff16):
@@ -61,7 +62,7 @@ def test_a_tied_fit_switches_at_its_own_rows(cliff16, monkeypatch):
     (`lp.TIED_INTERIOR_ROWS`); a fit per cell keeps `lp.INTERIOR_ROWS`."""
     demos, constraints = cliff16
     qmap = build_qmap(constraints.qmap.mdp, build_unknowns(constraints.qmap.mdp, reward_cells="special", tie=True))
-    tied = lp.lp_constraints(qmap, demos.most_frequent, rmax=RMAX)
+    tied = lp_constraints(qmap, demos.most_frequent, rmax=RMAX)
     assert lp.interior_rows(lp.margin_lp(tied)) == lp.TIED_INTERIOR_ROWS < lp.INTERIOR_ROWS
     assert lp.interior_rows(lp.margin_lp(constraints)) == lp.INTERIOR_ROWS
     rows = lp.first_round_rows(lp.margin_lp(tied))

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import irl_core.irl.lp as lp
+from irl_core.irl.margin import lp_constraints
 from bench.worlds import cliff_world
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl.qmap import build_qmap, build_unknowns
@@ -18,7 +19,7 @@ RMAX = 1000.0
 def margin_problem(world, *, episodes=100, tie=False):
     mdp = build_mdp(world)
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=episodes, seed=0))
-    constraints = lp.lp_constraints(build_qmap(mdp, build_unknowns(mdp, tie=tie)), demos.most_frequent, rmax=RMAX)
+    constraints = lp_constraints(build_qmap(mdp, build_unknowns(mdp, tie=tie)), demos.most_frequent, rmax=RMAX)
     return constraints, lp.margin_lp(constraints)
 
 
