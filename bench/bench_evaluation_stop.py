@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from bench.bench_maxent_stop import Worker, seconds_per_check
+from bench.bench_maxent_stop import Worker, seconds_per_check, timed_in_pairs
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
 from irl_core.irl import fit
@@ -46,20 +46,7 @@ def main() -> None:
     R_S = fitted.R_S
     worker = Worker()
 
-    def one_evaluation() -> float:
-        start = time.perf_counter()
-        evaluate(mdp, R_S)
-        return time.perf_counter() - start
-
-    plain, checked = [], []
-    for pair in range(PAIRS):
-        for with_check in (pair % 2 == 0, pair % 2 == 1):
-            if with_check:
-                with stop_when(lambda: worker.is_cancelled):
-                    checked.append(one_evaluation())
-            else:
-                plain.append(one_evaluation())
-    ratio = float(np.median(np.array(checked) / np.array(plain)))
+    ratio, plain, checked = timed_in_pairs(lambda: evaluate(mdp, R_S), PAIRS, worker)
 
     asked: list[float] = []
 

@@ -12,19 +12,18 @@ asked for twice. `report_rows` is the table the command prints and writes as CSV
 from __future__ import annotations
 
 import dataclasses
-import multiprocessing.synchronize
 import os
 from collections import Counter
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 
 import numpy as np
 
 from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitError, FitOptions, fit
-from irl_core.irl.bootstrap import process_context
+from irl_core.irl.bootstrap import run_in_pool
 from irl_core.step_table import StepTable
+from irl_core.stopping import stop_check
 from irl_core.study import POOLED, REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
     interrupted_episodes, read_participant
 from irl_core.summary import distance_to_terminal, outcome_code
@@ -229,44 +228,25 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
     order = sorted(range(len(cells)), key=lambda i: -cells[i].steps)
     workers = max(1, min(workers or os.cpu_count() or 1, len(cells)))
     done = 0
+
+    def returned(k: int, fitted: CellFit) -> None:
+        nonlocal done
+        fits[order[k]] = fitted
+        done += 1
+        if progress:
+            progress(done, len(cells))
+
     if workers == 1:
-        for i in order:
-            fits[i] = fit_cell(cells[i], options)
-            done += 1
-            if progress:
-                progress(done, len(cells))
-        return fits
-    context = process_context()
-    stopping = context.Event()
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_install_stop,
-                             initargs=(stopping,)) as pool:
-        futures = {pool.submit(_fit_in_worker, cells[i], options): i for i in order}
-        try:
-            for future in as_completed(futures):
-                fits[futures[future]] = future.result()
-                done += 1
-                if progress:
-                    progress(done, len(cells))
-        except BaseException:
-            # Ctrl+C: leaving the pool would wait for every fit queued (24 s of a 26-fit report); the
-            # running fits stop at their next check, the others are dropped.
-            stopping.set()
-            pool.shutdown(cancel_futures=True)
-            raise
+        for k, i in enumerate(order):
+            returned(k, fit_cell(cells[i], options))
+    else:
+        run_in_pool(_fit_in_worker, [(cells[i], options) for i in order], workers=workers, on_result=returned)
     return fits
 
 
-_STOP: Callable[[], bool] | None = None
-
-
-def _install_stop(stopping: multiprocessing.synchronize.Event) -> None:
-    """Worker initialiser: keep the parent's stop signal (set on Ctrl+C)."""
-    global _STOP
-    _STOP = stopping.is_set
-
-
 def _fit_in_worker(cell: Cell, options: FitOptions) -> CellFit:
-    return fit_cell(cell, options, stop=_STOP)
+    """`fit_cell` in a worker of `run_in_pool`, stopping when the report is left (Ctrl+C)."""
+    return fit_cell(cell, options, stop=stop_check())
 
 
 # ---------------------------------------------------------------------------- the table

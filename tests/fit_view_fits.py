@@ -1,7 +1,9 @@
 """Watching the fits the fit view starts: how the stop tests see whether a fit ran to its end or
 was stopped, and with which stop check."""
 
+import asyncio
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import careful_tui.screens.fit
@@ -35,3 +37,20 @@ def watch_view_fits(monkeypatch) -> WatchedFits:
 
     monkeypatch.setattr(careful_tui.screens.fit, "fit", watched_fit)
     return watched
+
+
+def close_the_view_when(app, reached: Callable[[], bool], *, seen: Callable[[], object]) -> object:
+    """Run the fit view's `app` until `reached()` (looked at every 10 ms, at most 5 s), then close
+    it, in the middle of whatever its fit is doing; `seen()` as it was when the view closed."""
+    closed_on = []
+
+    async def go():
+        async with app.run_test(size=(180, 50)) as pilot:
+            for _ in range(500):
+                await pilot.pause(0.01)
+                if reached():
+                    break
+            closed_on.append(seen())
+
+    asyncio.run(go())
+    return closed_on[0]

@@ -15,7 +15,7 @@ from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, Stopped, fit
 from irl_core.mdp import build_mdp
 from irl_core.world import BUILTIN_WORLDS
-from fit_view_fits import watch_view_fits
+from fit_view_fits import close_the_view_when, watch_view_fits
 from maxent_evaluations import count_evaluations
 
 
@@ -104,18 +104,8 @@ def test_closing_the_view_stops_a_maxent_fit_inside_its_search(monkeypatch):
     evaluations = count_evaluations(monkeypatch)
     watched = watch_view_fits(monkeypatch)
     app = CarefulApp(FitScreen(demos, FitOptions(method="maxent")))  # no result yet: the view fits on opening
-    closed_at = []
-
-    async def go():
-        async with app.run_test(size=(180, 50)) as pilot:
-            for _ in range(500):
-                await pilot.pause(0.01)
-                if evaluations[0] >= 3:
-                    break
-            closed_at.append(evaluations[0])
-        # Leaving the app closes the view in the middle of the search.
-
-    asyncio.run(go())
+    # Closed in the middle of the search.
+    closed_at = close_the_view_when(app, lambda: evaluations[0] >= 3, seen=lambda: evaluations[0])
     assert watched.over.wait(60)
-    assert 3 <= closed_at[0] < 50  # the whole search takes 93 evaluations on this world
-    assert watched.ended == ["stopped"] and evaluations[0] <= closed_at[0] + 1
+    assert 3 <= closed_at < 50  # the whole search takes 93 evaluations on this world
+    assert watched.ended == ["stopped"] and evaluations[0] <= closed_at + 1
