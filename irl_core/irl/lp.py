@@ -72,7 +72,7 @@ from irl_core.planning import policy_evaluation
 
 INFEASIBLE_MESSAGE = (
     "the demonstrations are not optimal for any reward within ±rmax; "
-    "they may be noisy: try --method loss, or raise --rmax"
+    "they may be noisy: try {method=loss}, or raise {rmax}"
 )
 # A row of the full LP violated by more than this (HiGHS's own feasibility tolerance) is added.
 CUT_TOLERANCE = 1e-7
