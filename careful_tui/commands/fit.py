@@ -57,14 +57,15 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
 
     A spinner runs on stderr while it fits, and a progress bar while bootstrap resamples come back.
     For the `printout` (no view) it warns of options the fit does not use: before fitting, or
-    for --method auto after it, once the method is known.
+    for a chooser (--method auto) after it, once the method is known.
     """
     err = err or Console(stderr=True, highlight=False)
     options = options_from_args(args)
     problem = options.problem()
     if problem:
         raise UsageError(said(problem))
-    if printout and options.method != "auto":
+    chooser = fit_methods.method(options.method).chooser
+    if printout and not chooser:
         for warning in ignored_options(options, options.method):
             warn(err, warning)
     demos = load_demonstrations(list(args.files), err)
@@ -85,7 +86,7 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
         for note in result.notes:
             if note.code == "intervals_not_computed":
                 warn(err, said(note))
-    if printout and options.method == "auto":
+    if printout and chooser:
         for warning in ignored_options(options, result.method):
             warn(err, warning)
     return demos, result

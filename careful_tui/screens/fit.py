@@ -6,15 +6,16 @@ It shows the fitted R_S coloured on the diverging log scale of `careful_tui.rend
 world's own R_S beside it on the same scale, how far the demonstrations pin each reward
 (`IntervalChart` and a sentence per symbol), the demonstrated policy, the status and notes.
 
-Keys switch the method (a for auto, l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
-view (s) and quit (q). A refit runs in a thread worker while the last result stays on screen,
-dimmed, under a "fitting…" status; the thread posts `FitScreen.Progress` while it works and
-hands back a `FitScreen.Fitted`, and only the answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
-demonstrations, a solver that gives up) is reported in the status line and the view keeps
-the last result.
+Keys switch the method (one per entry of `irl_core.fit_methods`: a for auto, l, o, m; tab cycles),
+toggle the intervals (i), save an SVG of the view (s) and quit (q). A refit runs in a thread worker
+while the last result stays on screen, dimmed, under a "fitting…" status; the thread posts
+`FitScreen.Progress` while it works and hands back a `FitScreen.Fitted`. A newer request, or closing
+the view, stops the fit that is running (`fit(stop=...)`), so only the latest is shown. A refit that
+fails (an lp with no solution on noisy demonstrations, a solver that gives up) is reported in the
+status line, in the command line's words (`careful_tui.option_words`), and the view keeps the last result.
 
-Everything drawn comes from `careful_tui.commands.fit` and the shared `Board`; this module is layout
-and keys.
+The words and numbers drawn come from `careful_tui.render.fit_printout` and `careful_tui.render.intervals`
+(shared with the printout) and the boards are the shared `Board`; this module is layout and keys.
 """
 
 from __future__ import annotations
