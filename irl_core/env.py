@@ -1,4 +1,4 @@
-"""A Gymnasium environment over a careful world's MDP (README "Use careful worlds in your RL code").
+"""A Gymnasium environment over a careful world's MDP (docs/environment.md).
 
 ``import irl_core.env`` registers ``careful/Careful-v0``::
 

@@ -1,4 +1,4 @@
-"""Worlds: the cliff gridworlds of the paper as validated data (README "Worlds").
+"""Worlds: the cliff gridworlds of the paper as validated data (docs/worlds.md).
 
 A world is a layout string plus the numbers that turn it into an MDP. It is read from
 TOML with the standard library and validated with pydantic; six worlds are built in.
@@ -55,7 +55,7 @@ class WorldError(ValueError):
 
 
 class World(BaseModel):
-    """One gridworld, exactly as README "Worlds" and the recordings' headers describe it."""
+    """One gridworld, exactly as docs/worlds.md and the recordings' headers describe it."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 

@@ -78,7 +78,7 @@ DEFAULT_TOLERANCE = 1e-7
 # matters is the last round's. Going on to the simplex instead, as for other failures, took
 # 350 s where the next rounds took 8 s each on a 64x64 world.) Both points are feasible only
 # within HiGHS's tolerances, so on an ill-conditioned LP the optimum may lie a little outside
-# the gap, as any answer there is good only to the conditioning (README "How cost grows").
+# the gap, as any answer there is good only to the conditioning (docs/benchmarks.md, "How cost grows").
 INTERIOR: dict[str, object] = {"solver": "ipx", "run_crossover": "off"}
 
 

@@ -4,7 +4,7 @@ For each unknown theta_j, the smallest and the largest value it takes over all (
 that satisfy the simple IRL agent's constraints (`margin.lp_constraints`): 2 LPs per unknown.
 An end at +-rmax means the demonstrations do not bound it on that side.
 
-This is what carefulness buys (README "Fitting a reward"). Without a carefulness choice an expert who
+This is what carefulness buys (docs/fitting.md). Without a carefulness choice an expert who
 walks around the mud and an expert who walks around the cliff behave alike, and the two
 intervals overlap; with it, the expert's extra care beside the cliff bounds the cliff's
 reward far below the mud's.

@@ -3,7 +3,7 @@
 Ng & Russell (2000), extended by Hanslope & Aitchison to rewards R(s, a) = R_S(s) + R_A(a)
 with a known action cost. The demonstrated policy pi(s) is the most frequent action at s
 (ties: lowest action index). The paper writes Q^pi through (I - gamma T^pi)^-1, which needs
-pi everywhere; we keep the values V as variables (README "Fitting a reward"), so that
+pi everywhere; we keep the values V as variables (docs/fitting.md), so that
 
     V(s) >= Q(s, a)             every non-terminal s, every a      (no action beats V)
     V(s)  = Q(s, pi(s))         every demonstrated s               (pi(s) attains it)
@@ -44,7 +44,7 @@ elsewhere. HiGHS's own start (all rows loose) took four times the simplex iterat
 64x64 world. Tied fits keep HiGHS's start, which is far better for them (`solve_margin_lp`).
 
 Big worlds. Past `INTERIOR_ROWS` rows in the first round the dual simplex meets nearly
-singular bases (README "How cost grows"), so every round is solved by the interior point
+singular bases (docs/benchmarks.md, "How cost grows"), so every round is solved by the interior point
 method without crossover instead; below it too, when a round of the dual simplex fails, the
 LP is solved again that way. It keeps no basis, so each round starts from nothing, and
 its answer is a point of (or near) the optimal face rather than a vertex: it comes with the
@@ -254,7 +254,7 @@ def margin_options(problem: MarginLP) -> dict[str, object]:
 
 # The first round's rows past which the margin LP is solved by the interior point method,
 # round after round from no basis (`highs.INTERIOR`). The generated cliff worlds' fits by the
-# dual simplex, one run each (README "How cost grows"): 64x64 (19,052 rows) 5 to 9 s; 76x76
+# dual simplex, one run each (docs/benchmarks.md, "How cost grows"): 64x64 (19,052 rows) 5 to 9 s; 76x76
 # (26,483) its first round in 19 s; 80x80 (29,268) 15 s against 61 s by the interior point
 # method; 84x84 (32,019) a solve error in its first round after 70 s, against 93 s for the whole
 # fit; 88x88 (35,281) not through its first round in 8.5 CPU minutes, against 103 s; 96x96
