@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 
@@ -81,13 +82,12 @@ def main() -> None:
     for name, demos, beta in cases:
         unknowns = build_unknowns(demos.mdp, reward_cells="special", tie=False)
 
-        def one_fit() -> None:
-            maxent.fit_maxent(demos.mdp, unknowns, demos.counts, beta=beta, rmax=1000.0)
+        one_fit = partial(maxent.fit_maxent, demos.mdp, unknowns, demos.counts, beta=beta, rmax=1000.0)
 
         ratio, plain, checked = timed_in_pairs(one_fit, PAIRS[name], worker)
         asked = [0]
 
-        def counting() -> bool:
+        def counting(asked: list[int] = asked) -> bool:
             asked[0] += 1
             return worker.is_cancelled
 

@@ -80,7 +80,7 @@ async def measure(samples: int, size: tuple[int, int]) -> dict[str, list[tuple[f
                 await pilot.press(key)
                 clock.now += 0.5
                 for _ in range(25):  # the autorepeats of a 1.3 s hold: the gauge fills to level 7
-                    results["autorepeat"].append(await frames.time(lambda: app.post_message(events.Key(key, None))))
+                    results["autorepeat"].append(await frames.time(lambda key=key: app.post_message(events.Key(key, None))))
                     clock.now += PERIOD_MS / 1000
                 clock.now += 1.0
                 results["commit"].append(await frames.time(app.first_screen.tick))

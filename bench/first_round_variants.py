@@ -82,10 +82,10 @@ def main() -> None:
     args = parser.parse_args()
 
     import irl_core.irl.lp as lp
-    from irl_core.irl.margin import lp_constraints
     from bench.bench_scaling import _setup
     from bench.fit_stage import demonstrations_for
     from irl_core.irl.highs import HighsModel, LinearProgram
+    from irl_core.irl.margin import lp_constraints
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(args.size)

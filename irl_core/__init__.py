@@ -23,19 +23,19 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-if TYPE_CHECKING:
-    from irl_core.demonstrations import Demonstrations, Recording, RecordingError, read_recording, read_recordings
-    from irl_core.env import ENV_ID, CarefulEnv
-    from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts, simulate_to_file
-    from irl_core.irl.evaluation import Evaluation, evaluate
-    from irl_core.irl.fit import METHODS, fit
-    from irl_core.irl.options import FitOptions
-    from irl_core.irl.result import FitError, FitResult, InfeasibleError
-    from irl_core.mdp import MDP, build_mdp
-    from irl_core.planning import value_iteration
-    from irl_core.simulated_study import simulated_participants, write_simulated_participant
-    from irl_core.study import LoadedStudy, Study, StudyError, load_study, read_protocol
-    from irl_core.world import BUILTIN_WORLDS, World, WorldError, load_world, world_from_dict
+if TYPE_CHECKING:  # for type checkers and the API reference; at run time __getattr__ imports them
+    from irl_core.demonstrations import Demonstrations, Recording, RecordingError, read_recording, read_recordings  # noqa: F401
+    from irl_core.env import ENV_ID, CarefulEnv  # noqa: F401
+    from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts, simulate_to_file  # noqa: F401
+    from irl_core.irl.evaluation import Evaluation, evaluate  # noqa: F401
+    from irl_core.irl.fit import METHODS, fit  # noqa: F401
+    from irl_core.irl.options import FitOptions  # noqa: F401
+    from irl_core.irl.result import FitError, FitResult, InfeasibleError  # noqa: F401
+    from irl_core.mdp import MDP, build_mdp  # noqa: F401
+    from irl_core.planning import value_iteration  # noqa: F401
+    from irl_core.simulated_study import simulated_participants, write_simulated_participant  # noqa: F401
+    from irl_core.study import LoadedStudy, Study, StudyError, load_study, read_protocol  # noqa: F401
+    from irl_core.world import BUILTIN_WORLDS, World, WorldError, load_world, world_from_dict  # noqa: F401
 
 # Each public name and the module it comes from.
 _HOMES = {

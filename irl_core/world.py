@@ -133,7 +133,8 @@ class World(BaseModel):
             )
         if not self.cost_per_level * self.levels <= MAX_MAGNITUDE:
             raise ValueError(
-                f"cost_per_level {self.cost_per_level:g} x {plural(self.levels, 'level')} is {self.cost_per_level * self.levels:g}; "
+                f"cost_per_level {self.cost_per_level:g} x {plural(self.levels, 'level')} is "
+                f"{self.cost_per_level * self.levels:g}; "
                 f"the most careful move may cost at most {MAX_MAGNITUDE:g}"
             )
         symbols = {ch for row in self.grid for ch in row}
@@ -186,7 +187,8 @@ class World(BaseModel):
     def start_cells(self) -> list[tuple[int, int]]:
         """Cells an episode may start from: a fixed start, or every non-terminal state."""
         if self.start != "random":
-            return [tuple(self.start)]
+            row, col = self.start
+            return [(row, col)]
         return [cell for cell in self.cells if self.symbol(cell) not in self.terminal]
 
     def to_toml(self) -> str:

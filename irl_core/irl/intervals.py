@@ -31,7 +31,7 @@ import dataclasses
 
 import numpy as np
 
-from irl_core.irl.highs import INTERIOR, LinearProgram
+from irl_core.irl.highs import INTERIOR, LinearProgram, Options
 from irl_core.irl.lp import Progress, RowGeneration, margin_options
 from irl_core.irl.margin import LPConstraints, margin_lp
 
@@ -50,7 +50,7 @@ from irl_core.irl.margin import LPConstraints, margin_lp
 # (`highs.HighsModel.solve`). With a 30 s limit, 6 solves of the upper ends of the cliff cells
 # 23 to 32 steps from the goal ran past it in the primal simplex, where the dual simplex from
 # the same basis then answered in 1 to 22 s.
-INTERVAL_OPTIONS: dict[str, object] = {}
+INTERVAL_OPTIONS: Options = {}
 AFTER_NEW_COST = {"simplex_strategy": 4}
 AFTER_NEW_ROWS = {"simplex_strategy": 1}
 WARM_LIMIT = 10.0
@@ -86,7 +86,7 @@ def reward_intervals(constraints: LPConstraints, *, interior: bool = False,
         if interior:
             # The LP's optimum lies between its dual bound and the point's cost sign * theta_j.
             run.solve()
-            report = run.model.last
+            report = run.model.report
             outer = sign * (report.objective - report.gap * max(abs(report.objective), 1.0))
             intervals[j, end] = np.clip(outer, base.lower[j], base.upper[j])
         else:

@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from irl_core.irl.highs import INTERIOR, HighsModel
+from irl_core.irl.highs import INTERIOR, HighsModel, Options
 from irl_core.irl.margin import (
     LPConstraints,
     MarginLP,
@@ -220,11 +220,12 @@ def solve_margin_lp(
             return _solution(problem, z, run.model, rounds=run.rounds, first_rows=first_rows, interior=False,
                              limit=limit)
         except SolverError:
-            simplex_failure = f"{run.model.last.status.replace('_', ' ')} in round {run.rounds + 1}"
+            simplex_failure = f"{run.model.report.status.replace('_', ' ')} in round {run.rounds + 1}"
             rounds, iterations = run.rounds + 1, run.model.iterations
 
     def counted(stage: str, done: int, total: int | None) -> None:  # rounds go on from the simplex's
-        progress(stage, rounds + done, total)
+        if progress is not None:
+            progress(stage, rounds + done, total)
 
     run = RowGeneration(problem, options=INTERIOR)
     z = run.solve(progress=None if progress is None else counted)
@@ -236,10 +237,10 @@ def solve_margin_lp(
 # on its weights than it saves here (a 64x64 world's first round: 23 s against over 150 s;
 # devex: over 6 minutes). HiGHS's presolve stays on (`margin_options`): without it a 64x64
 # world's fit took over 4 minutes instead of 16 s.
-MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
+MARGIN_OPTIONS: Options = {"simplex_dual_edge_weight_strategy": 0}
 
 
-def margin_options(problem: MarginLP) -> dict[str, object]:
+def margin_options(problem: MarginLP) -> Options:
     """The HiGHS options of a margin LP solved by the simplex from no basis: `MARGIN_OPTIONS`,
     and presolve off when a reward unknown is shared by several terminal cells (`--tie`: one
     column in many of the rows V(s) = R_S(s)).
@@ -287,9 +288,9 @@ class RowGeneration:
         rounds: LPs solved.
     """
 
-    def __init__(self, problem: MarginLP, *, options: dict[str, object],
-                 after_rows: dict[str, object] | None = None, warm_limit: float | None = None,
-                 scratch: dict[str, object] | None = None, retry: bool = True):
+    def __init__(self, problem: MarginLP, *, options: Options,
+                 after_rows: Options | None = None, warm_limit: float | None = None,
+                 scratch: Options | None = None, retry: bool = True):
         self.problem = problem
         self.in_model = np.zeros_like(problem.rivals)
         self.pairs = np.zeros((0, 2), dtype=np.int64)
@@ -306,7 +307,7 @@ class RowGeneration:
         self.in_model |= pairs
         self.pairs = np.concatenate([self.pairs, np.column_stack([states, actions])])
 
-    def solve(self, *, progress: Progress | None = None, first: dict[str, object] | None = None) -> np.ndarray:
+    def solve(self, *, progress: Progress | None = None, first: Options | None = None) -> np.ndarray:
         """z at the full LP's optimum for the model's current cost, the first LP solved with the
         HiGHS options `first`, the later ones (after new rows) with `after_rows` (else the model's own).
 
@@ -338,5 +339,5 @@ def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: in
     return LPSolution(
         x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=iterations + model.iterations, rounds=rounds,
         rows=model.n_row, first_rows=first_rows, interior=interior, interior_rows=limit,
-        status=model.last.status, gap=model.last.gap, simplex_failure=simplex_failure,
+        status=model.report.status, gap=model.report.gap, simplex_failure=simplex_failure,
     )

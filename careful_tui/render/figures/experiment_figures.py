@@ -23,6 +23,7 @@ from careful_tui.render.figures.style import symbol_label
 from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
 from irl_core.mdp import DIRECTIONS
 
+
 def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: float) -> PlotFigure:
     """The paper figure for one of the experiment's figures (see the module docstring).
 

@@ -20,7 +20,7 @@ from matplotlib.image import AxesImage
 from matplotlib.patches import Rectangle
 
 from careful_tui.render.figures.board import GROUND, Board
-from careful_tui.render.figures.style import INK, QUIET, PANEL_WIDTH, figure_style, new_figure, plain
+from careful_tui.render.figures.style import INK, PANEL_WIDTH, QUIET, figure_style, new_figure, plain
 from careful_tui.render.grid import format_value
 
 REWARD_CMAP = "RdBu"

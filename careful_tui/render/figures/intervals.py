@@ -10,7 +10,6 @@ An end at ±rmax is not a bound from the data, only the fit's box: a triangle ma
 from __future__ import annotations
 
 import math
-
 from collections.abc import Sequence
 from dataclasses import dataclass
 

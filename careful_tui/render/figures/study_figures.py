@@ -11,7 +11,6 @@ the kind of interval (one file per kind when worlds differ: ``intervals-pooled-i
 
 from __future__ import annotations
 
-import numpy as np
 from matplotlib.figure import Figure
 
 from careful_tui.render.figures.board import Board
