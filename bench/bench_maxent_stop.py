@@ -24,6 +24,7 @@ import numpy as np
 
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
+from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import maxent
 from irl_core.irl.qmap import build_unknowns
@@ -73,7 +74,7 @@ def timed_in_pairs(run: Callable[[], object], pairs: int, worker: Worker) -> tup
 def main() -> None:
     mud = build_mdp(BUILTIN_WORLDS["mud"])
     cliff = build_mdp(cliff_world(16, 16))
-    cases = [
+    cases: list[tuple[str, Demonstrations, float | str]] = [
         ("mud, beta auto", demonstrations_of(mud, rollouts(mud, boltzmann_policy(mud, beta=0.5), episodes=40, seed=0)),
          "auto"),
         ("cliff 16x16, beta 1", demonstrations_for(cliff, episodes=20, seed=0), 1.0),

@@ -87,7 +87,8 @@ def symbol_label(symbol: str) -> str:
 @contextmanager
 def figure_style() -> Iterator[None]:
     """matplotlib's defaults, then `RC`: wrap both drawing and saving in it."""
-    with mpl.style.context("default"), mpl.rc_context(RC):
+    # RC's keys are rc names, which matplotlib checks when it applies them; its stubs want them as literals.
+    with mpl.style.context("default"), mpl.rc_context(RC):  # type: ignore[arg-type]
         yield
 
 
