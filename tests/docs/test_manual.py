@@ -34,3 +34,15 @@ def test_the_readme_is_a_start_and_links_only_to_what_exists():
     assert len(readme.splitlines()) <= 250
     for target in re.findall(r"\]\(((?!https?:)[^)#]+)(?:#[^)]*)?\)", readme):
         assert (ROOT / target).exists(), f"README links to {target}, which does not exist"
+
+
+# Measurements, each stated in the one page that measures it (others link there).
+MEASURED_ONCE = {"685 s": "benchmarks.md", "363 ms": "benchmarks.md", "20.8 s": "benchmarks.md",
+                 "147 MB": "benchmarks.md", "19/20": "fitting.md"}
+
+
+def test_a_measured_number_is_stated_in_one_page():
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    for number, home in MEASURED_ONCE.items():
+        found = [page.name for page in pages if number in page.read_text(encoding="utf-8")]
+        assert found == [home], f"{number!r} is stated in {found}, not only in {home}"
