@@ -207,13 +207,13 @@ def solve_margin_lp(
     simplex_failure = None
     rounds = iterations = 0
     if not interior:
-        # A failed round is not retried by the other solvers (`HighsModel`'s cascade): on an
-        # 84x84 world the dual simplex failed its first round in 70 s ("solve error"), and with
-        # the cascade the fit was not done in 8.5 CPU minutes; by the interior point method 93 s.
+        # A failed round is not retried by the other solvers (`HighsModel`'s cascade): on the
+        # 84x84 world the cascade took minutes longer than the interior point method's whole fit
+        # (docs/benchmarks.md, "Past 80x80").
         run = RowGeneration(problem, options=margin_options(problem), retry=False)
         if not shares_terminal_unknowns(problem):
-            # Measured on the 64x64 world: per cell 5.3 s from this start against 10.3 s; tied
-            # (theta's guess then far from the optimum's) 422 s against 8.8 s from HiGHS's own.
+            # Twice as fast per cell on the 64x64 world; a tied fit, whose guess of theta is far
+            # from its optimum, is far slower from it (docs/solving.md).
             start_from_policy(run)
         try:
             z = run.solve(progress=progress)
@@ -234,9 +234,8 @@ def solve_margin_lp(
 
 
 # Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
-# on its weights than it saves here (a 64x64 world's first round: 23 s against over 150 s;
-# devex: over 6 minutes). HiGHS's presolve stays on (`margin_options`): without it a 64x64
-# world's fit took over 4 minutes instead of 16 s.
+# on its weights than it saves here (docs/solving.md). HiGHS's presolve stays on for a fit per
+# cell (`margin_options`).
 MARGIN_OPTIONS: Options = {"simplex_dual_edge_weight_strategy": 0}
 
 
@@ -245,28 +244,20 @@ def margin_options(problem: MarginLP) -> Options:
     and presolve off when a reward unknown is shared by several terminal cells (`--tie`: one
     column in many of the rows V(s) = R_S(s)).
 
-    Measured on the 64x64 world's first round, one solve at a time (`bench.tied_first_round`):
-    with a shared unknown (2 columns, 62 and 1 cells) not solved in 60 s with presolve (over 12
-    minutes in an earlier session), 8.8 s without; with one unknown per cell (63 columns) 9.0 s
-    with presolve, not solved in 60 s without (over 4 minutes in the earlier session).
+    On the 64x64 world's first round each shape is solved in seconds one way and not in a minute
+    the other (`bench.tied_first_round`; docs/benchmarks.md, "The tied 64x64 fit").
     """
     return {**MARGIN_OPTIONS, "presolve": "off"} if shares_terminal_unknowns(problem) else MARGIN_OPTIONS
 
 
 # The first round's rows past which the margin LP is solved by the interior point method,
-# round after round from no basis (`highs.INTERIOR`). The generated cliff worlds' fits by the
-# dual simplex, one run each (docs/benchmarks.md, "How cost grows"): 64x64 (19,052 rows) 5 to 9 s; 76x76
-# (26,483) its first round in 19 s; 80x80 (29,268) 15 s against 61 s by the interior point
-# method; 84x84 (32,019) a solve error in its first round after 70 s, against 93 s for the whole
-# fit; 88x88 (35,281) not through its first round in 8.5 CPU minutes, against 103 s; 96x96
-# (41,232) not in 6.6 CPU minutes; 128x128 (71,201) a solve error after 20 minutes, against
-# 555 to 685 s.
+# round after round from no basis (`highs.INTERIOR`): between the largest generated cliff world
+# the dual simplex was seen to solve (80x80, 29,268 rows) and the smallest it failed on (84x84,
+# 32,019). The fits of each size by both routes: docs/benchmarks.md, "Past 80x80".
 INTERIOR_ROWS = 30_000
 # The same for a tied fit (one unknown for many terminal cells, solved by the simplex from HiGHS's
-# own start without presolve, `margin_options`), whose simplex gives out sooner. Tied fits of the
-# same worlds, one run each at load 2 to 3: 72x72 (23,934 rows) 21 s by the simplex; 76x76
-# (26,483) and 80x80 (29,268) the simplex failed its first round after about 4 minutes ("unknown",
-# "solve error"); 84x84 (32,019) 68 s by the interior point method.
+# own start without presolve, `margin_options`), whose simplex gives out sooner: it solved tied
+# 72x72 (23,934 rows) and failed on 76x76 (26,483) (docs/benchmarks.md, "Past 80x80").
 TIED_INTERIOR_ROWS = 25_000
 
 
