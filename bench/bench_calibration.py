@@ -35,25 +35,27 @@ def main() -> None:
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     policy = boltzmann_policy(mdp, beta=BETA)
     options = FitOptions(method="maxent", beta="auto", tie=True, rmax=RMAX)
-    covered = {variant: None for variant in VARIANTS}
+    covered = {variant: np.zeros(0, dtype=int) for variant in VARIANTS}
     widths = []
     started = time.perf_counter()
     for seed in range(seeds):
         demos = demonstrations_of(mdp, rollouts(mdp, policy, episodes=EPISODES, seed=1000 + seed))
         result = fit(demos, options)
+        beta = result.beta
+        assert beta is not None, "a maxent fit with beta auto reports its estimate"
         truth = np.append(result.unknowns.true_theta(mdp), BETA)
-        scale = curvature_scale(mdp, result.unknowns, demos.counts, theta=result.theta, beta=result.beta,
+        scale = curvature_scale(mdp, result.unknowns, demos.counts, theta=result.theta, beta=beta,
                                 estimate=True, rmax=RMAX)
         refit = Refit(mdp=mdp, unknowns=result.unknowns, method="maxent", rmax=RMAX, lam=0.0, beta="auto",
-                      start=(result.theta, result.beta), scale=scale, start_V=result.V)
-        full = np.append(result.theta, result.beta)
+                      start=(result.theta, beta), scale=scale, start_V=result.V)
+        full = np.append(result.theta, beta)
         boot = bootstrap(refit, demos.by_episode, full, confidence=CONFIDENCE, resamples=RESAMPLES, seed=seed)
         ok = ~np.isnan(boot.estimates).any(axis=1)
         for variant in VARIANTS:
             bounds = interval(boot.estimates[ok], full, confidence=CONFIDENCE, variant=variant)
             bounds[:-1] = np.clip(bounds[:-1], -RMAX, RMAX)
             hit = (bounds[:, 0] <= truth) & (truth <= bounds[:, 1])
-            covered[variant] = hit.astype(int) if covered[variant] is None else covered[variant] + hit
+            covered[variant] = hit.astype(int) if seed == 0 else covered[variant] + hit
         widths.append(boot.intervals[:, 1] - boot.intervals[:, 0])
         print(f"seed {seed:2d}: estimate {np.round(full, 3)}  percentile {np.round(boot.intervals, 1).tolist()}",
               flush=True)

@@ -26,8 +26,8 @@ from irl_core.world import BUILTIN_WORLDS
 def main(episodes: int = 2000, steps: int = 20_000) -> None:
     mdp = build_mdp(BUILTIN_WORLDS["paper"])
     result = rollouts(mdp, boltzmann_policy(mdp, beta=0.5), episodes=episodes, seed=0)
-    with tempfile.TemporaryDirectory() as folder:
-        folder = Path(folder)
+    with tempfile.TemporaryDirectory() as name:
+        folder = Path(name)
         path = folder / "b.jsonl"
         write_rollouts(path, mdp, result, player=expert_name("boltzmann", 0.5), seed=0)
         os.environ["MINARI_DATASETS_PATH"] = str(folder / "minari")

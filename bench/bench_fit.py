@@ -16,6 +16,7 @@ Run: .venv/bin/python bench/bench_fit.py
 from __future__ import annotations
 
 import warnings
+from functools import partial
 
 import cvxpy as cp
 import numpy as np
@@ -77,13 +78,13 @@ def bench_lp() -> None:
         problem = margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=1000.0)).full()
         A_ub, b_ub, A_eq, b_eq, bounds = linprog_form(problem)
 
-        def baseline():
-            return linprog(problem.cost, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds, method="highs")
+        baseline = partial(linprog, problem.cost, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
+                           method="highs")
 
         assert abs(baseline().fun - cvxpy_solve(problem)) < 1e-6
-        ours = best_of(20, lambda: fit(demos, method="lp"))
+        ours = best_of(20, partial(fit, demos, method="lp"))
         reference = best_of(20, baseline)
-        through_cvxpy = best_of(10, lambda: cvxpy_solve(problem))
+        through_cvxpy = best_of(10, partial(cvxpy_solve, problem))
         size = f"{problem.A.shape[0]}x{problem.A.shape[1]}"
         print(f"  {name:<13} {size:>16} {ours * 1e3:>11.1f} {reference * 1e3:>11.1f} {through_cvxpy * 1e3:>9.1f} "
               f"{ours / reference:>16.2f} {through_cvxpy / reference:>14.2f}")

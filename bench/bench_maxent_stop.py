@@ -18,11 +18,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
+from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import maxent
 from irl_core.irl.qmap import build_unknowns
@@ -72,7 +74,7 @@ def timed_in_pairs(run: Callable[[], object], pairs: int, worker: Worker) -> tup
 def main() -> None:
     mud = build_mdp(BUILTIN_WORLDS["mud"])
     cliff = build_mdp(cliff_world(16, 16))
-    cases = [
+    cases: list[tuple[str, Demonstrations, float | str]] = [
         ("mud, beta auto", demonstrations_of(mud, rollouts(mud, boltzmann_policy(mud, beta=0.5), episodes=40, seed=0)),
          "auto"),
         ("cliff 16x16, beta 1", demonstrations_for(cliff, episodes=20, seed=0), 1.0),
@@ -81,13 +83,12 @@ def main() -> None:
     for name, demos, beta in cases:
         unknowns = build_unknowns(demos.mdp, reward_cells="special", tie=False)
 
-        def one_fit() -> None:
-            maxent.fit_maxent(demos.mdp, unknowns, demos.counts, beta=beta, rmax=1000.0)
+        one_fit = partial(maxent.fit_maxent, demos.mdp, unknowns, demos.counts, beta=beta, rmax=1000.0)
 
         ratio, plain, checked = timed_in_pairs(one_fit, PAIRS[name], worker)
         asked = [0]
 
-        def counting() -> bool:
+        def counting(asked: list[int] = asked) -> bool:
             asked[0] += 1
             return worker.is_cancelled
 

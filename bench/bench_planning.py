@@ -6,6 +6,8 @@ textbook implementation would. Run: .venv/bin/python -m bench.bench_planning
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from bench.timing import best_of
@@ -34,8 +36,8 @@ def main() -> None:
         mdp = build_mdp(world)
         P = mdp.P.toarray().reshape(mdp.n_states, mdp.n_actions, mdp.n_states)
         R = mdp.reward_matrix()
-        sparse = best_of(3, lambda: value_iteration(mdp))
-        dense = best_of(1, lambda: dense_value_iteration(P, R, mdp.gamma))
+        sparse = best_of(3, partial(value_iteration, mdp))
+        dense = best_of(1, partial(dense_value_iteration, P, R, mdp.gamma))
         np.testing.assert_allclose(value_iteration(mdp).V, dense_value_iteration(P, R, mdp.gamma), atol=1e-6)
         print(f"  {name:<10} {mdp.n_states:>7} {sparse * 1e3:>10.1f} {dense * 1e3:>10.1f} {sparse / dense:>13.3f}")
 

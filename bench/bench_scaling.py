@@ -19,6 +19,7 @@ import resource
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -48,7 +49,7 @@ def run_stage(size: str, stage: str) -> dict:
 
         demos = demonstrations_for(mdp, episodes=100, seed=0)
         intervals = stage.removeprefix("intervals_") if stage.startswith("intervals") else None
-        work = lambda: effort.update(fit_stage(demos, intervals=intervals))  # noqa: E731
+        work: Callable[[], object] = lambda: effort.update(fit_stage(demos, intervals=intervals))  # noqa: E731
     elif stage == "rollouts_10k":
         policy = optimal_policy(mdp)
         work = lambda: rollouts(mdp, policy, episodes=10_000, seed=0)  # noqa: E731

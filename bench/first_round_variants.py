@@ -82,10 +82,10 @@ def main() -> None:
     args = parser.parse_args()
 
     import irl_core.irl.lp as lp
-    from irl_core.irl.margin import lp_constraints
     from bench.bench_scaling import _setup
     from bench.fit_stage import demonstrations_for
     from irl_core.irl.highs import HighsModel, LinearProgram
+    from irl_core.irl.margin import lp_constraints
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(args.size)
@@ -111,7 +111,7 @@ def main() -> None:
                      "seed-one": np.arange(mdp.n_actions) == 0}[args.variant]
         seed = lp.seed_pairs(problem)
         seed[~shown] = (elsewhere[None, :] & problem.rivals)[~shown]
-        lp.seed_pairs = lambda _problem: seed
+        lp.seed_pairs = lambda problem: seed
         run = lp.RowGeneration(problem, options=options)
         z = run.solve()
         status, iterations, what = "optimal", run.model.iterations, f"whole fit, {run.rounds} rounds"

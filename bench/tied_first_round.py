@@ -8,8 +8,12 @@ from __future__ import annotations
 
 import argparse
 import time
+from typing import TYPE_CHECKING
 
-SETTINGS = {
+if TYPE_CHECKING:
+    from irl_core.irl.highs import Options
+
+SETTINGS: dict[str, Options] = {
     "dual-dantzig": {"simplex_dual_edge_weight_strategy": 0},
     "dual-dantzig-nopresolve": {"simplex_dual_edge_weight_strategy": 0, "presolve": "off"},
     "dual-steepest": {"simplex_dual_edge_weight_strategy": 2},

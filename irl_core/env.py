@@ -1,4 +1,4 @@
-"""A Gymnasium environment over a careful world's MDP (README "Use careful worlds in your RL code").
+"""A Gymnasium environment over a careful world's MDP (docs/environment.md).
 
 ``import irl_core.env`` registers ``careful/Careful-v0``::
 
@@ -196,12 +196,17 @@ class CarefulEnv(gym.Env):
             raise ValueError(f"options['start'] {list(cell)} is not a non-terminal cell of world {self.world.name!r}")
         return state
 
+    def _cell(self) -> Cell:
+        # Only called after reset() has placed the agent.
+        assert self._state is not None
+        return self.mdp.cells[self._state]
+
     def _observation(self) -> int:
-        return cell_observation(self.mdp.cells[self._state], self.world.cols)
+        return cell_observation(self._cell(), self.world.cols)
 
     def _info(self, *, carefulness: int, slipped: bool) -> dict[str, Any]:
         return {
-            "cell": np.array(self.mdp.cells[self._state], dtype=np.int64),
+            "cell": np.array(self._cell(), dtype=np.int64),
             "carefulness": carefulness,
             "slipped": bool(slipped),
         }

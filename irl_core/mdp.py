@@ -1,4 +1,4 @@
-"""The tabular MDP of a world (README "Worlds"), with transitions stored sparsely.
+"""The tabular MDP of a world (docs/worlds.md), with transitions stored sparsely.
 
 =============  ==============================================================
 states         every non-wall cell in row-major order, then one absorbing

@@ -1,7 +1,7 @@
-"""Worlds: the cliff gridworlds of the paper as validated data (README "Worlds").
+"""Worlds: the cliff gridworlds of the paper as validated data (docs/worlds.md).
 
 A world is a layout string plus the numbers that turn it into an MDP. It is read from
-TOML with the standard library and validated with pydantic; five worlds are built in.
+TOML with the standard library and validated with pydantic; six worlds are built in.
 
 ====================  =====================================================
 field                 meaning
@@ -55,7 +55,7 @@ class WorldError(ValueError):
 
 
 class World(BaseModel):
-    """One gridworld, exactly as README "Worlds" and the recordings' headers describe it."""
+    """One gridworld, exactly as docs/worlds.md and the recordings' headers describe it."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -133,7 +133,8 @@ class World(BaseModel):
             )
         if not self.cost_per_level * self.levels <= MAX_MAGNITUDE:
             raise ValueError(
-                f"cost_per_level {self.cost_per_level:g} x {plural(self.levels, 'level')} is {self.cost_per_level * self.levels:g}; "
+                f"cost_per_level {self.cost_per_level:g} x {plural(self.levels, 'level')} is "
+                f"{self.cost_per_level * self.levels:g}; "
                 f"the most careful move may cost at most {MAX_MAGNITUDE:g}"
             )
         symbols = {ch for row in self.grid for ch in row}
@@ -186,7 +187,8 @@ class World(BaseModel):
     def start_cells(self) -> list[tuple[int, int]]:
         """Cells an episode may start from: a fixed start, or every non-terminal state."""
         if self.start != "random":
-            return [tuple(self.start)]
+            row, col = self.start
+            return [(row, col)]
         return [cell for cell in self.cells if self.symbol(cell) not in self.terminal]
 
     def to_toml(self) -> str:
@@ -236,6 +238,11 @@ _PAPER_LAYOUT = "......\n......\n......\n.CCCCG\n"
 _MUD_LAYOUT = "......\n.UU...\n......\n.CCCCG\n"
 _PAPER_REWARDS = {"C": -1000.0, "G": 100.0}
 _MUD_REWARDS = {"C": -1000.0, "G": 100.0, "U": -30.0}
+# Gymnasium's CliffWalking-v1 (gymnasium/envs/toy_text/cliffwalking.py): 4x12, start bottom-left, the
+# cliff along the bottom between it and the goal. Its -1 a step is carefulness 1's cost and its cliff's
+# -100 the cliff's reward; the differences (the cliff ends the episode, moves slip, levels) are in
+# docs/environment.md.
+_CLIFFWALKING_LAYOUT = "............\n............\n............\n.CCCCCCCCCCG\n"
 
 BUILTIN_WORLDS: dict[str, World] = {
     "paper": World(name="paper", layout=_PAPER_LAYOUT, levels=14, rewards=_PAPER_REWARDS),
@@ -245,6 +252,9 @@ BUILTIN_WORLDS: dict[str, World] = {
     ),
     "mud": World(name="mud", layout=_MUD_LAYOUT, levels=14, rewards=_MUD_REWARDS),
     "mud-simple": World(name="mud-simple", layout=_MUD_LAYOUT, levels=1, rewards=_MUD_REWARDS),
+    "cliffwalking": World(
+        name="cliffwalking", layout=_CLIFFWALKING_LAYOUT, levels=14, start=(3, 0), rewards={"C": -100.0, "G": 0.0}
+    ),
 }
 
 WORLD_PURPOSES: dict[str, str] = {
@@ -253,6 +263,7 @@ WORLD_PURPOSES: dict[str, str] = {
     "paper-maxent": "the MaxEnt baseline's deterministic world",
     "mud": "catastrophic vs merely undesirable",
     "mud-simple": "the same without carefulness",
+    "cliffwalking": "Gymnasium's CliffWalking layout, for code written for it",
 }
 
 

@@ -27,7 +27,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Literal
 
@@ -58,7 +58,7 @@ OUTCOMES: dict[highspy.HighsModelStatus, tuple[str, Kind]] = {
     _Status.kPostsolveError: ("postsolve_error", "failure"),
     _Status.kMemoryLimit: ("memory_limit", "failure"),
     _Status.kInterrupt: ("interrupted", "failure"),
-    _Status.kHighsInterrupt: ("interrupted", "failure"),
+    _Status.kHighsInterrupt: ("interrupted", "failure"),  # type: ignore[attr-defined]  # in highspy, not its stubs
     _Status.kNotset: ("not_solved", "failure"),
     _Status.kModelEmpty: ("optimal", "answer"),
     _Status.kObjectiveBound: ("objective_bound", "failure"),
@@ -78,8 +78,12 @@ DEFAULT_TOLERANCE = 1e-7
 # matters is the last round's. Going on to the simplex instead, as for other failures, took
 # 350 s where the next rounds took 8 s each on a 64x64 world.) Both points are feasible only
 # within HiGHS's tolerances, so on an ill-conditioned LP the optimum may lie a little outside
-# the gap, as any answer there is good only to the conditioning (README "How cost grows").
-INTERIOR: dict[str, object] = {"solver": "ipx", "run_crossover": "off"}
+# the gap, as any answer there is good only to the conditioning (docs/benchmarks.md, "How cost grows").
+# A HiGHS option's value, and a set of options by name (read-only: callers pass their constants).
+OptionValue = bool | int | float | str
+Options = Mapping[str, OptionValue]
+
+INTERIOR: dict[str, OptionValue] = {"solver": "ipx", "run_crossover": "off"}
 
 
 @dataclass(frozen=True)
@@ -170,7 +174,8 @@ def linear_program(
     for low, high in (arrays[:2], arrays[2:]):
         if np.isnan(low).any() or np.isnan(high).any() or np.isposinf(low).any() or np.isneginf(high).any():
             raise ValueError("the LP's bounds must be numbers, with only -inf below and inf above")
-    return LinearProgram(A, *arrays, cost)
+    row_lower, row_upper, lower, upper = arrays
+    return LinearProgram(A, row_lower, row_upper, lower, upper, cost)
 
 
 def _new_highs() -> highspy.Highs:
@@ -212,8 +217,8 @@ class HighsModel:
     """
 
     def __init__(self, problem: LinearProgram, *, tolerance: float = DEFAULT_TOLERANCE,
-                 options: dict[str, object] | None = None, warm_limit: float | None = None,
-                 scratch: dict[str, object] | None = None, retry: bool = True):
+                 options: Options | None = None, warm_limit: float | None = None,
+                 scratch: Options | None = None, retry: bool = True):
         A = sp.csc_matrix(problem.A)
         A.sort_indices()
         n_row, n_col = A.shape
@@ -264,11 +269,20 @@ class HighsModel:
         if self.highs.setBasis(basis) != highspy.HighsStatus.kOk:
             raise ValueError("HiGHS refused the basis")
 
+    @property
+    def report(self) -> SolveReport:
+        """The last solve's report; asking before any solve is a programming error."""
+        if self.last is None:
+            raise RuntimeError("the model has not been solved yet")
+        return self.last
+
     def set_row_bounds(self, rows: np.ndarray, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
         rows = np.asarray(rows, dtype=np.int32)
-        self.highs.changeRowsBounds(rows.size, rows, _highs_bound(row_lower), _highs_bound(row_upper))
+        # In highspy since 1.7; its stubs do not list it.
+        self.highs.changeRowsBounds(  # type: ignore[attr-defined]
+            rows.size, rows, _highs_bound(row_lower), _highs_bound(row_upper))
 
-    def solve(self, options: dict[str, object] | None = None) -> tuple[np.ndarray, SolveReport]:
+    def solve(self, options: Options | None = None) -> tuple[np.ndarray, SolveReport]:
         """Solve from the current basis, with `options` for this solve only (the first attempt);
         on a failure retry as the module says. Never raises."""
         highs = self.highs
@@ -279,7 +293,8 @@ class HighsModel:
         start = highs.getBasis()
         # A solve from a basis is given up after warm_limit seconds (numerical trouble), then retried.
         # (HiGHS's time limit is on its clock since the model was built.)
-        warm = {"time_limit": highs.getRunTime() + self.warm_limit} if self.warm_limit and start.valid else {}
+        warm_limit = self.warm_limit or 0.0
+        warm = {"time_limit": highs.getRunTime() + warm_limit} if warm_limit and start.valid else {}
         # The other simplex: primal after the dual (or HiGHS's choice), dual after the primal.
         other = 1 if first.get("simplex_strategy") == 4 else 4
         for solver, setup in _ATTEMPTS if self.retry else _ATTEMPTS[:1]:
@@ -289,7 +304,7 @@ class HighsModel:
                 if not start.valid or first.get("solver") != "simplex":
                     continue
                 if warm:
-                    warm["time_limit"] = highs.getRunTime() + self.warm_limit
+                    warm["time_limit"] = highs.getRunTime() + warm_limit
                 self._set({**self.options, **setup, **warm, "simplex_strategy": other})
                 highs.setBasis(start)
             else:
@@ -322,17 +337,17 @@ class HighsModel:
         self.solves += 1
         objective = float(highs.getInfo().objective_function_value) if kind == "answer" else float("nan")
         if solver in ("as set", "from scratch", "other simplex"):
-            solver = {"as set": first["solver"], "from scratch": f"{self.options['solver']} from scratch",
+            solver = {"as set": str(first["solver"]), "from scratch": f"{self.options['solver']} from scratch",
                       "other simplex": f"{'dual' if other == 1 else 'primal'} simplex from the same basis"}[solver]
         report = self.last = SolveReport(word, kind, objective, iterations, solver, gap)
         return np.array(highs.getSolution().col_value), report
 
-    def _set(self, options: dict[str, object]) -> None:
+    def _set(self, options: Options) -> None:
         for option, value in options.items():
             self.highs.setOptionValue(option, value)
 
     def minimise(self, cost: np.ndarray | None = None, *, infeasible_message: str,
-                 options: dict[str, object] | None = None) -> tuple[np.ndarray, float]:
+                 options: Options | None = None) -> tuple[np.ndarray, float]:
         """Solve (with a new cost if given, and `options` for this solve only) and return (z, cost @ z).
 
         Raises `InfeasibleError` with `infeasible_message`, or `SolverError` on anything but an answer.
@@ -350,7 +365,7 @@ class HighsModel:
 # loss, and IPX with crossover. Where a basis is nearly singular (a 64x64 world's interval LPs)
 # one simplex fails where the other answers from the same basis, so each is tried before a
 # restart (`bench.bench_scaling --stages intervals_cells`).
-_ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
+_ATTEMPTS: tuple[tuple[str, Options], ...] = (
     ("as set", {}),
     ("other simplex", {"simplex_dual_edge_weight_strategy": -1, "simplex_primal_edge_weight_strategy": -1}),
     ("from scratch", {}),
@@ -423,14 +438,14 @@ def _interior_gap(highs: highspy.Highs) -> float | None:
     """
     info = highs.getInfo()
     feasible = highspy.SolutionStatus.kSolutionStatusFeasible
-    e = float(info.primal_dual_objective_error)
+    e = float(info.primal_dual_objective_error)  # type: ignore[attr-defined]  # in highspy, not its stubs
     if info.primal_solution_status != feasible or info.dual_solution_status != feasible or not 0 <= e < 1:
         return None
     p = abs(float(info.objective_function_value))
     return e * (1 + 2 * p) / (1 - e) / max(p, 1.0)
 
 
-def _same_solve(a: dict[str, object], b: dict[str, object]) -> bool:
+def _same_solve(a: Options, b: Options) -> bool:
     """Whether two option sets describe the same solve (time limits aside)."""
     return {k: v for k, v in a.items() if k != "time_limit"} == {k: v for k, v in b.items() if k != "time_limit"}
 

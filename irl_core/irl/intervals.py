@@ -4,7 +4,7 @@ For each unknown theta_j, the smallest and the largest value it takes over all (
 that satisfy the simple IRL agent's constraints (`margin.lp_constraints`): 2 LPs per unknown.
 An end at +-rmax means the demonstrations do not bound it on that side.
 
-This is what carefulness buys (README "Fitting a reward"). Without a carefulness choice an expert who
+This is what carefulness buys (docs/fitting.md). Without a carefulness choice an expert who
 walks around the mud and an expert who walks around the cliff behave alike, and the two
 intervals overlap; with it, the expert's extra care beside the cliff bounds the cliff's
 reward far below the mud's.
@@ -30,7 +30,7 @@ import dataclasses
 
 import numpy as np
 
-from irl_core.irl.highs import INTERIOR, LinearProgram
+from irl_core.irl.highs import INTERIOR, LinearProgram, Options
 from irl_core.irl.lp import Progress, RowGeneration, margin_options
 from irl_core.irl.margin import LPConstraints, margin_lp
 
@@ -45,7 +45,7 @@ from irl_core.irl.margin import LPConstraints, margin_lp
 # a normal one on a 64x64 world) and retried by the other simplex from the same basis, then from
 # scratch (`highs.HighsModel.solve`), which answers where the stuck simplex would not
 # (`bench.bench_scaling --stages intervals_cells` measures the intervals on big worlds).
-INTERVAL_OPTIONS: dict[str, object] = {}
+INTERVAL_OPTIONS: Options = {}
 AFTER_NEW_COST = {"simplex_strategy": 4}
 AFTER_NEW_ROWS = {"simplex_strategy": 1}
 WARM_LIMIT = 10.0
@@ -81,7 +81,7 @@ def reward_intervals(constraints: LPConstraints, *, interior: bool = False,
         if interior:
             # The LP's optimum lies between its dual bound and the point's cost sign * theta_j.
             run.solve()
-            report = run.model.last
+            report = run.model.report
             outer = sign * (report.objective - report.gap * max(abs(report.objective), 1.0))
             intervals[j, end] = np.clip(outer, base.lower[j], base.upper[j])
         else:

@@ -177,7 +177,8 @@ class _OuterApproximation:
 
     def __init__(self, problem: _LossLP, *, lam: float):
         self.problem, self.lam, self.rounds = problem, lam, 0
-        self.shift, self.cap, self.log_level = 0.0, np.inf, None
+        self.shift, self.cap = 0.0, np.inf
+        self.log_level: float | None = None
         self.excess = 0.0  # the largest gap any stage had to accept when the LP stopped improving
         # HiGHS's tolerances are absolute: with huge bounds (values near vmax) ask for less.
         vmax = float(np.max(np.abs(problem.program.upper[problem.x]), initial=1.0))
@@ -195,7 +196,7 @@ class _OuterApproximation:
         self.solver = HighsModel(capped, tolerance=self.tolerance)
         self._add_tangents(*self.points)
         if self.log_level is not None:
-            self._add_level_row()
+            self._add_level_row(self.log_level)
 
     def _add_tangents(self, states: np.ndarray, rho: np.ndarray) -> None:
         """w'_s >= e^(rho - shift) (1 + r_s - rho), each row scaled so its largest coefficient is 1."""
@@ -222,9 +223,9 @@ class _OuterApproximation:
         cost[self.problem.u] = self.lam * np.exp(-self.shift) * self.problem.constraints.qmap.unknowns.weight
         return cost
 
-    def _add_level_row(self) -> None:
+    def _add_level_row(self, log_level: float) -> None:
         self.solver.add_rows(
-            sp.csr_matrix(self.loss_cost()), np.array([-np.inf]), np.array([np.exp(self.log_level - self.shift)])
+            sp.csr_matrix(self.loss_cost()), np.array([-np.inf]), np.array([np.exp(log_level - self.shift)])
         )
 
     def relu(self, v: np.ndarray) -> np.ndarray:
@@ -261,7 +262,7 @@ class _OuterApproximation:
     def restrict(self, log_level: float) -> None:
         """From now on keep the loss below e^log_level (the lexicographic stages)."""
         self.log_level = log_level
-        self._add_level_row()
+        self._add_level_row(log_level)
 
     def minimise(self, cost: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """Minimise cost @ v (the loss itself if None), adding tangents; (v, log of a lower bound).
@@ -274,12 +275,16 @@ class _OuterApproximation:
         r, w = self.problem.r, self.problem.w
         gap = max(GAP_TOLERANCE, 10 * self.tolerance)
         best, stale = -np.inf, 0
+        # Any cost but the loss's is minimised under a level (`restrict`), the stage's bound.
+        level = self.log_level if cost is not None else None
+        if cost is not None and level is None:
+            raise ValueError("minimise(cost) needs a level: call restrict() first")
         for _ in range(MAX_ROUNDS):
             v, value = self.solver.minimise(self.loss_cost() if cost is None else cost, infeasible_message=_INFEASIBLE)
             self.rounds += 1
             log_loss = self.log_loss(v)
             log_bound = np.log(value) + self.shift if value > 0 else -np.inf
-            excess = log_loss - (log_bound if cost is None else self.log_level)
+            excess = log_loss - (log_bound if level is None else level)
             relevant = v[r] >= self.shift - FAR
             loose = np.flatnonzero(relevant & (np.exp(v[r] - self.shift) > v[w] * (1 + CUT_TOLERANCE)))
             if excess <= gap or loose.size == 0:

@@ -7,7 +7,7 @@ pi(s, a), the demonstrated action frequencies, and minimises
     L(R_S) = sum over demonstrated s of exp(ReLU(z_s)) + lambda ||R_S||_1,
     z_s    = sum_a pi(s, a) [max_{a' != a} Q(s, a') - Q(s, a)],
 
-subject to |R_S| <= rmax and (README "Fitting a reward") V(s) = sum_a pi(s, a) Q(s, a) at demonstrated
+subject to |R_S| <= rmax and (docs/fitting.md) V(s) = sum_a pi(s, a) Q(s, a) at demonstrated
 s, V(s) >= Q(s, a) at every other non-terminal s, V(s) = R_S(s) at terminal cells and
 V(exit) = 0: the same affine Q (`qmap`) and value bound as the lp. z_s <= 0 when the most
 frequent action has the largest Q; each term is then 1, and it grows exponentially with

@@ -3,7 +3,7 @@
 Ng & Russell (2000), extended by Hanslope & Aitchison to rewards R(s, a) = R_S(s) + R_A(a)
 with a known action cost. The demonstrated policy pi(s) is the most frequent action at s
 (ties: lowest action index). The paper writes Q^pi through (I - gamma T^pi)^-1, which needs
-pi everywhere; we keep the values V as variables (README "Fitting a reward"), so that
+pi everywhere; we keep the values V as variables (docs/fitting.md), so that
 
     V(s) >= Q(s, a)             every non-terminal s, every a      (no action beats V)
     V(s)  = Q(s, pi(s))         every demonstrated s               (pi(s) attains it)
@@ -44,7 +44,7 @@ elsewhere. HiGHS's own start (all rows loose) took four times the simplex iterat
 64x64 world. Tied fits keep HiGHS's start, which is far better for them (`solve_margin_lp`).
 
 Big worlds. Past `INTERIOR_ROWS` rows in the first round the dual simplex meets nearly
-singular bases (README "How cost grows"), so every round is solved by the interior point
+singular bases (docs/benchmarks.md, "How cost grows"), so every round is solved by the interior point
 method without crossover instead; below it too, when a round of the dual simplex fails, the
 LP is solved again that way. It keeps no basis, so each round starts from nothing, and
 its answer is a point of (or near) the optimal face rather than a vertex: it comes with the
@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from irl_core.irl.highs import INTERIOR, HighsModel
+from irl_core.irl.highs import INTERIOR, HighsModel, Options
 from irl_core.irl.margin import (
     LPConstraints,
     MarginLP,
@@ -218,11 +218,12 @@ def solve_margin_lp(
             return _solution(problem, z, run.model, rounds=run.rounds, first_rows=first_rows, interior=False,
                              limit=limit)
         except SolverError:
-            simplex_failure = f"{run.model.last.status.replace('_', ' ')} in round {run.rounds + 1}"
+            simplex_failure = f"{run.model.report.status.replace('_', ' ')} in round {run.rounds + 1}"
             rounds, iterations = run.rounds + 1, run.model.iterations
 
     def counted(stage: str, done: int, total: int | None) -> None:  # rounds go on from the simplex's
-        progress(stage, rounds + done, total)
+        if progress is not None:
+            progress(stage, rounds + done, total)
 
     run = RowGeneration(problem, options=INTERIOR)
     z = run.solve(progress=None if progress is None else counted)
@@ -233,10 +234,10 @@ def solve_margin_lp(
 # Dantzig pricing for the dual simplex: HiGHS's default (dual steepest edge) and devex spend more
 # on their weights than they save on these rows; presolve stays on except for tied fits
 # (`margin_options`). `bench.tied_first_round` measures each setting on a big world's first round.
-MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
+MARGIN_OPTIONS: Options = {"simplex_dual_edge_weight_strategy": 0}
 
 
-def margin_options(problem: MarginLP) -> dict[str, object]:
+def margin_options(problem: MarginLP) -> Options:
     """The HiGHS options of a margin LP solved by the simplex from no basis: `MARGIN_OPTIONS`,
     and presolve off when a reward unknown is shared by several terminal cells (``tie=True``: one
     column in many of the rows V(s) = R_S(s)).
@@ -275,9 +276,9 @@ class RowGeneration:
         rounds: LPs solved.
     """
 
-    def __init__(self, problem: MarginLP, *, options: dict[str, object],
-                 after_rows: dict[str, object] | None = None, warm_limit: float | None = None,
-                 scratch: dict[str, object] | None = None, retry: bool = True):
+    def __init__(self, problem: MarginLP, *, options: Options,
+                 after_rows: Options | None = None, warm_limit: float | None = None,
+                 scratch: Options | None = None, retry: bool = True):
         self.problem = problem
         self.in_model = np.zeros_like(problem.rivals)
         self.pairs = np.zeros((0, 2), dtype=np.int64)
@@ -294,7 +295,7 @@ class RowGeneration:
         self.in_model |= pairs
         self.pairs = np.concatenate([self.pairs, np.column_stack([states, actions])])
 
-    def solve(self, *, progress: Progress | None = None, first: dict[str, object] | None = None) -> np.ndarray:
+    def solve(self, *, progress: Progress | None = None, first: Options | None = None) -> np.ndarray:
         """z at the full LP's optimum for the model's current cost, the first LP solved with the
         HiGHS options `first`, the later ones (after new rows) with `after_rows` (else the model's own).
 
@@ -326,5 +327,5 @@ def _solution(problem: MarginLP, z: np.ndarray, model: HighsModel, *, rounds: in
     return LPSolution(
         x=z[:n], margin=float(z[n : n + n_d].sum()), iterations=iterations + model.iterations, rounds=rounds,
         rows=model.n_row, first_rows=first_rows, interior=interior, interior_rows=limit,
-        status=model.last.status, gap=model.last.gap, simplex_failure=simplex_failure,
+        status=model.report.status, gap=model.report.gap, simplex_failure=simplex_failure,
     )

@@ -57,7 +57,7 @@ def _policy(qmap: QMap, policy: np.ndarray) -> np.ndarray:
 
 def _rivals(qmap: QMap, policy: np.ndarray) -> np.ndarray:
     """(S, A) True at the pairs (s, a) with a row V(s) >= Q(s, a): non-terminal s, a != pi(s)."""
-    S, A = qmap.mdp.n_states, qmap.mdp.n_actions
+    A = qmap.mdp.n_actions
     rivals = np.repeat(qmap.mdp.nonterminal[:, None], A, axis=1)
     shown = np.flatnonzero(policy >= 0)
     rivals[shown, policy[shown]] = False

@@ -14,7 +14,7 @@ With x = [theta; V], where theta (k,) are the unknown state rewards, this is
 
 and the terminal cells add the equalities V(s) = R_S(s), V(exit) = 0 (E x = e).
 
-Which state rewards are unknown (README "Fitting a reward"):
+Which state rewards are unknown (docs/fitting.md):
 
 ===================  ==========================================================
 ``special``          every non-ground cell is unknown; ground cells are 0

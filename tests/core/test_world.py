@@ -14,7 +14,8 @@ def test_builtin_worlds_match_the_spec_table():
     assert (BUILTIN_WORLDS["paper-maxent"].levels, BUILTIN_WORLDS["paper-maxent"].slip) == (1, "none")
     assert mud.rewards["U"] == -30.0 and BUILTIN_WORLDS["mud-simple"].levels == 1
     assert (paper.gamma, paper.initial_score, paper.max_steps, paper.start) == (0.95, 200.0, 200, "random")
-    assert set(BUILTIN_WORLDS) == {"paper", "paper-simple", "paper-maxent", "mud", "mud-simple"}
+    # The spec's five, and Gymnasium's CliffWalking layout (issue 24; tests/env/test_cliffwalking.py).
+    assert set(BUILTIN_WORLDS) == {"paper", "paper-simple", "paper-maxent", "mud", "mud-simple", "cliffwalking"}
 
 
 def test_start_cells_are_the_non_terminal_cells():

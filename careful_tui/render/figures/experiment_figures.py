@@ -23,6 +23,7 @@ from careful_tui.render.figures.style import symbol_label
 from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
 from irl_core.mdp import DIRECTIONS
 
+
 def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: float) -> PlotFigure:
     """The paper figure for one of the experiment's figures (see the module docstring).
 
@@ -69,6 +70,8 @@ def shared_scale(result: ExperimentResult) -> float:
 
 def separation_rows(separation: Separation, figure: Figure, board: Board) -> list[IntervalRow]:
     """Cliff and mud rows: the interval hull of their cells, the mean fitted value, the world's value."""
+    if figure.values is None:
+        raise ValueError(f"figure {figure.key} has no values to set its interval rows against")
     rows = []
     for symbol, (low, high) in (("C", separation.cliff), ("U", separation.mud)):
         cells = board.symbols == symbol

@@ -44,15 +44,18 @@ MAX_INTERVAL_ROWS = 24
 def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     """A row per unknown ("cliff (3, 1)", or "cliff" when tied), or per symbol when there are many.
 
-    Returns the rows and whether they are per-symbol hulls of several unknowns.
+    Returns the rows and whether they are per-symbol hulls of several unknowns (none without intervals).
     """
+    if result.intervals is None:
+        return [], False
+    intervals = result.intervals
     truth = result.unknowns.true_theta(result.mdp) if result.world.rewards else np.full(len(result.labels), np.nan)
     first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
     rows = []
     for j, symbol in enumerate(result.unknowns.symbols):
         name = symbol_label(symbol)
         label = name if result.options.tie else f"{name} {result.mdp.cells[first_state[j]]}"
-        low, high = (float(v) for v in result.intervals[j])
+        low, high = (float(v) for v in intervals[j])
         rows.append(IntervalRow(label, symbol, low, high, float(result.theta[j]), float(truth[j])))
     if len(rows) <= MAX_INTERVAL_ROWS:
         return rows, False
@@ -105,7 +108,8 @@ def fit_figure(result: FitResult) -> Figure:
     width = cell_width(grid_width, cols)
     with figure_style():
         figure = new_figure(PAGE_WIDTH, sum(heights))
-        reward_row, middle_row, *interval_row = figure.subfigures(len(heights), 1, height_ratios=heights)
+        reward_row, middle_row, *interval_row = figure.subfigures(len(heights), 1, height_ratios=heights,
+                                                                  squeeze=False)[:, 0]
         axes = reward_row.subplots(1, 2, squeeze=False)[0]
         norm = reward_norm(vmax)
         image = None
@@ -115,6 +119,7 @@ def fit_figure(result: FitResult) -> Figure:
         axes[0].set_xlabel(fitted_cells(result), labelpad=2)
         if len(rewards) == 1:
             axes[1].set_visible(False)  # keeps the fitted grid the same size as with a true one
+        assert image is not None, "the fitted reward is always drawn"
         add_colour_bar(reward_row, image, axes, vmax=vmax)
         careful = world.levels > 1
         ax_policy, *ax_careful = middle_row.subplots(1, 2 if careful else 1, squeeze=False)[0]

@@ -20,7 +20,7 @@ from matplotlib.image import AxesImage
 from matplotlib.patches import Rectangle
 
 from careful_tui.render.figures.board import GROUND, Board
-from careful_tui.render.figures.style import INK, QUIET, PANEL_WIDTH, figure_style, new_figure, plain
+from careful_tui.render.figures.style import INK, PANEL_WIDTH, QUIET, figure_style, new_figure, plain
 from careful_tui.render.grid import format_value
 
 REWARD_CMAP = "RdBu"
@@ -68,7 +68,7 @@ def value_label(value: float) -> str:
     return "0" if abs(value) < 0.05 else format_value(value).replace("-", "\N{MINUS SIGN}")
 
 
-def text_colour(rgba: Sequence[float]) -> str:
+def text_colour(rgba: Sequence[float] | np.ndarray) -> str:
     """Dark text on light colours, white on dark ones (by relative luminance)."""
     r, g, b = rgba[:3]
     return INK if 0.299 * r + 0.587 * g + 0.114 * b > 0.55 else "white"
@@ -141,7 +141,7 @@ def draw_reward(ax: Axes, values: np.ndarray, board: Board, *, norm: SymLogNorm,
             symbol = board.symbols[r, c]
             if symbol == GROUND and value == 0:
                 colour = QUIET  # the neutral ground: present, but not competing with the rewards
-            text = value_label(value) if symbol == GROUND else f"{plain(symbol)}\n{value_label(value)}"
+            text = value_label(value) if symbol == GROUND else f"{plain(str(symbol))}\n{value_label(value)}"
             ax.text(c, r, text, ha="center", va="center", color=colour, fontsize=text_size, linespacing=1.1, zorder=5)
     return image
 
@@ -177,5 +177,6 @@ def reward_figure(panels: Sequence[tuple[str, np.ndarray]], board: Board, *, vma
         for ax, (title, values) in zip(axes, panels):
             image = draw_reward(ax, values, board, norm=norm, title=title,
                                 width=cell_width(grid_width, cols))
+        assert image is not None, "a reward figure has at least one panel"
         add_colour_bar(figure, image, axes, vmax=vmax, linthresh=linthresh)
     return figure

@@ -10,7 +10,6 @@ An end at ±rmax is not a bound from the data, only the fit's box: a triangle ma
 from __future__ import annotations
 
 import math
-
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -142,7 +141,7 @@ def interval_legend(rows: Sequence[IntervalRow], *, kind: str, confidence: float
     if any(np.isfinite(row.truth) for row in rows):
         handles.append(Line2D([], [], linestyle="", marker="|", markersize=8, markeredgewidth=1.4,
                               color=INK, label="truth"))
-    if any(at_bound(row.low, rmax) or at_bound(row.high, rmax) for row in rows):
+    if rmax is not None and any(at_bound(row.low, rmax) or at_bound(row.high, rmax) for row in rows):
         # An identified set's end on the box is no bound at all; a confidence interval's is the box's.
         meaning = "no bound" if kind == "identified" else "the fit's bound"
         handles.append(Line2D([], [], linestyle="", marker=">", markersize=4, color="#777777",

@@ -72,7 +72,7 @@ def policy_panel(mdp: MDP, actions: np.ndarray, *, title: str, where: np.ndarray
         if where[s]:
             direction[r, c] = int(actions[s]) // mdp.levels
             carefulness[r, c] = int(actions[s]) % mdp.levels + 1
-            if count is not None:
+            if count is not None and counts is not None:
                 count[r, c] = counts[s]
     return PolicyPanel(title, direction, carefulness, count)
 
@@ -108,7 +108,7 @@ def draw_policy(ax: Axes, panel: PolicyPanel, board: Board, *, levels: int,
     for (r, c), d in np.ndenumerate(panel.direction):
         if d < 0:
             if text_size is not None and board.symbols[r, c] != GROUND and not board.wall[r, c]:
-                ax.text(c, r, plain(board.symbols[r, c]), ha="center", va="center", fontsize=text_size, color=INK,
+                ax.text(c, r, plain(str(board.symbols[r, c])), ha="center", va="center", fontsize=text_size, color=INK,
                         zorder=5)
             continue
         level = int(panel.carefulness[r, c])

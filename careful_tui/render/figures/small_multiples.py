@@ -78,6 +78,7 @@ def reward_multiples(panels: Sequence[tuple[str, np.ndarray]], board: Board, *, 
                                 width=cell_width(grid_width, cols))
         for ax in axes.ravel()[len(panels):]:
             ax.set_visible(False)
+        assert image is not None, "small multiples have at least one panel"
         add_colour_bar(figure, image, axes.ravel().tolist(), vmax=vmax)
         if title:
             figure.suptitle(title, fontsize=7, wrap=True)

@@ -11,7 +11,6 @@ the kind of interval (one file per kind when worlds differ: ``intervals-pooled-i
 
 from __future__ import annotations
 
-import numpy as np
 from matplotlib.figure import Figure
 
 from careful_tui.render.figures.board import Board
@@ -52,12 +51,12 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
             how = method_phrase([f for _, f in mine])
             title = f"{name}: fitted reward per participant, point estimates ({how}, one value per symbol)"
             figures.append((f"rewards-{key}", reward_multiples(panels, board, title=title)))
-        played = [cell for cell, _ in mine if cell.demos is not None]
+        played = [(cell, cell.demos) for cell, _ in mine if cell.demos is not None]
         if world.levels > 1 and played:
-            distances = state_distances(played[0].demos.mdp)
-            series = {cell.participant: carefulness_by_distance(cell.demos.counts, distances, levels=world.levels)
-                      for cell in played}
-            pool = next((cell for cell in played if cell.participant == POOLED), None)
+            distances = state_distances(played[0][1].mdp)
+            series = {cell.participant: carefulness_by_distance(demos.counts, distances, levels=world.levels)
+                      for cell, demos in played}
+            pool = next((cell for cell, _ in played if cell.participant == POOLED), None)
             reference = (f"everyone pooled ({pool.participants})", series.pop(POOLED)) if pool else None
             if series:
                 title = f"{name}: carefulness by distance to danger, per participant (main episodes)"
@@ -76,7 +75,7 @@ def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple
     by_kind: dict[str, list[tuple[str, list[IntervalRow]]]] = {}
     confidence = None
     for cell, fit in zip(data.cells, fits):
-        if cell.participant != POOLED or fit.intervals is None:
+        if cell.participant != POOLED or fit.intervals is None or fit.interval_kind is None:
             continue
         rows = [IntervalRow(symbol_label(symbol), symbol, float(low), float(high),
                             float(estimate), float(truth))

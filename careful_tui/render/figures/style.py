@@ -87,7 +87,8 @@ def symbol_label(symbol: str) -> str:
 @contextmanager
 def figure_style() -> Iterator[None]:
     """matplotlib's defaults, then `RC`: wrap both drawing and saving in it."""
-    with mpl.style.context("default"), mpl.rc_context(RC):
+    # RC's keys are rc names, which matplotlib checks when it applies them; its stubs want them as literals.
+    with mpl.style.context("default"), mpl.rc_context(RC):  # type: ignore[arg-type]
         yield
 
 
@@ -103,8 +104,9 @@ def save_figure(figure: Figure, path: Path, *, option: str = "--figure", inputs:
     replaces a recording or one of `inputs`, and a failed write leaves no half-written file.
 
     Text is plain (no mathtext): every PDF then embeds one font, DejaVu Sans, and embedding
-    (subsetting with fontTools) is most of the time a PDF takes. Raises ValueError for another suffix (`careful_tui.render.figures.figure_suffix_problem` says it
-    in a sentence first). No creation date is stored, so the same figure gives the same file.
+    (subsetting with fontTools) is most of the time a PDF takes. Raises ValueError for another suffix
+    (`careful_tui.render.figures.figure_suffix_problem` says it in a sentence first). No creation date
+    is stored, so the same figure gives the same file.
     """
     fmt = path.suffix.lower()
     if fmt not in FIGURE_SUFFIXES:
