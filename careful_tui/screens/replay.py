@@ -32,12 +32,12 @@ from careful_tui.render.grid import format_value
 from careful_tui.render.palette import NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_colour, outcome_text, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
-from irl_core.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording
-from irl_core.recording_lines import Step
 from irl_core.mdp import DIRECTIONS, OFFSETS
+from irl_core.recording_lines import Step
+from irl_core.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.summary import distance_to_terminal, outcome_code, summarise
 from irl_core.words import plural
