@@ -33,6 +33,7 @@ from careful_tui.version import app_version
 from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitResult
 from irl_core.play.hold import Clock, HoldProfile
+from irl_core.play.input_modes import DEFAULT_INPUT_MODE
 from irl_core.play.session import PlayOptions, new_session
 from irl_core.play.study_flow import StudyFlow
 from irl_core.recording_lines import StudyTag
@@ -101,7 +102,7 @@ def make_play_app(
     out: str | Path,
     player: str,
     seed: int,
-    input_mode: str = "hold",
+    input_mode: str = DEFAULT_INPUT_MODE,
     clock: Clock = time.monotonic,
     calibrate: bool = False,
     driver_class: type[Driver] | None = None,

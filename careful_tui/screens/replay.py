@@ -36,6 +36,7 @@ from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording
 from irl_core.mdp import DIRECTIONS, OFFSETS
+from irl_core.play.input_modes import INPUT_MODES
 from irl_core.recording_lines import Step
 from irl_core.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from irl_core.safe_text import VALUE_LIMIT, printable
@@ -340,7 +341,8 @@ class ReplayScreen(Screen[None]):
             ("  cost ", "dim"), (format_value(self.world.cost_per_level * level), "bold"),
         )
         mode = self.recording.header.input.get("mode")
-        if mode == "hold" and step.hold_ms is not None:
+        timed = mode in INPUT_MODES and INPUT_MODES[mode].times_holds  # a file may name a mode this version lacks
+        if timed and step.hold_ms is not None:
             text.append(f"\nheld {step.hold_ms:.0f} ms", style="dim")
             if step.hold_exact:
                 text.append(" exact", style=f"bold {NOTE}")

@@ -97,7 +97,7 @@ class Calibrating:
     with `release`, and call `tick` while `measuring`: the attempt ends at the key's release (a
     release event, or a silence of `SILENCE_S` once the autorepeat has started, `FIRST_REPEAT_S`
     before). Then `result` holds the calibrated profile, or `problem` says why there is none;
-    `restart` tries again from the same base profile.
+    `restart` tries again from the same base profile. `calibration` is the measurement so far.
     """
 
     def __init__(self, base: HoldProfile, *, clock: Clock = time.monotonic) -> None:

@@ -56,7 +56,7 @@ class PlayOptions:
         input_mode: a registered mode's name (`irl_core.play.input_modes`); another name raises
             `ValueError` here.
         profile: the timing profile (default: the uncalibrated one, on the world's levels).
-        calibrate: open the calibration before the first move (a front end asks `calibrating`).
+        calibrate: the front end opens calibration before the first move (`start_calibration`).
         player: the player's name, as recorded.
         heading: the session's title ("careful play", a study block's place).
         command: what a front end names when its window is too small to play in.
