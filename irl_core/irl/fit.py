@@ -238,7 +238,8 @@ def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitO
                   start_V=fitted.V if fitted.method == "maxent" else None)
     full = np.append(fitted.theta, fitted.beta) if fitted.beta_auto else fitted.theta
     result = bootstrap(refit, demos.by_episode, full, confidence=options.confidence, resamples=options.resamples,
-                       seed=options.seed, bounds=(-options.rmax, options.rmax), progress=progress, workers=workers)
+                       seed=options.seed, bounds=(-options.rmax, options.rmax), progress=progress, workers=workers,
+                       groups=demos.episode_groups)
     if result.failed:
         notes.append(f"{result.failed} of {options.resamples} resamples failed to fit and were left out")
     bounds = result.intervals[: qmap.k]
