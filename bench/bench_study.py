@@ -2,7 +2,9 @@
 
 What `careful study report` does, part by part, on the cores of this machine: reading every
 participant folder, the 42 fits (20 participants and the pool, per world; maxent with beta
-estimated and 200 bootstrap resamples each, in one process pool), and the figures (PNG and PDF).
+estimated and 200 bootstrap resamples each; a pool's resamples participants, then episodes) and
+the 40 point fits of each pool without each participant (their influence), in one process pool,
+and the figures (PNG and PDF).
 Target: the whole under 2 minutes on 2 cores, and under 60 s of CPU, so that it holds when
 the two cores are shared with other work (half of 2 cores for 2 minutes is 120 CPU seconds). The
 baseline in the same process is one fit of one participant with its 200 resamples, so the fits'
@@ -22,7 +24,7 @@ from pathlib import Path
 from careful_tui.study_report import write_report
 from irl_core.simulated_study import simulated_participants, write_simulated_participant
 from irl_core.study import load_study
-from irl_core.study_report import fit_cell, gather, report_options, run_fits
+from irl_core.study_report import fit_cell, fit_report, gather, influence_cells, report_options
 
 STUDY = """\
 name = "bench"
@@ -62,7 +64,7 @@ def main() -> None:
         data = gather(study)
         reading, cpu["reading"] = time.perf_counter() - start, cpu_seconds() - start_cpu
         start, start_cpu = time.perf_counter(), cpu_seconds()
-        fits = run_fits(list(data.cells), options)
+        fits = fit_report(data, options)
         fitting, cpu["fits"] = time.perf_counter() - start, cpu_seconds() - start_cpu
         start, start_cpu = time.perf_counter(), cpu_seconds()
         written = write_report(data, fits, study.report_folder)
@@ -74,6 +76,7 @@ def main() -> None:
         baseline = time.perf_counter() - start
         total = reading + fitting + figures
         print(f"{PARTICIPANTS} participants x 2 worlds x 10 main episodes; {len(fits)} fits with 200 resamples "
+              f"and {len(influence_cells(data))} without one participant "
               f"({cores} cores, load {load_before:.1f} before, {os.getloadavg()[0]:.1f} after)")
         print(f"  simulating the participants {simulate:7.1f} s  (not part of the report)")
         print(f"  reading                     {reading:7.1f} s wall  {cpu['reading']:7.1f} s CPU")

@@ -31,11 +31,12 @@ from irl_core.study_report import (
     CellFit,
     StudyData,
     csv_text,
+    fit_report,
     gather,
+    pooled_finding,
     report_options,
     report_rows,
     report_symbols,
-    run_fits,
 )
 from irl_core.words import plural
 
@@ -43,6 +44,7 @@ FIGURE_FORMATS = (".png", ".pdf")
 # How `irl_core.irl.fit` begins its notes of what the table shows already (the method, beta).
 TABLE_NOTES = ("method auto chose", "beta estimated by maximum likelihood", "beta's ")
 TABLE_WIDTH = 200
+INFLUENTIAL_MARK = "†"
 
 
 @dataclass
@@ -77,11 +79,11 @@ def run_study_report(args: argparse.Namespace) -> int:
                              "simulated participants, first)")
         for problem in data.problems:
             err.print(Text(f"warning: {printable(problem, limit=400)}", style="yellow"), soft_wrap=True)
-        progress.update(task, description="fitting (per participant and pooled, with intervals)", completed=0,
-                        total=len(data.cells))
+        progress.update(task, description="fitting (per participant, pooled with intervals, and each pool without "
+                        "each participant)", completed=0, total=None)
         start = time.perf_counter()
-        fits = run_fits(list(data.cells), options, workers=args.workers,
-                        progress=lambda done, total: progress.update(task, completed=done))
+        fits = fit_report(data, options, workers=args.workers,
+                          progress=lambda done, total: progress.update(task, completed=done, total=total))
         timings.fits = time.perf_counter() - start
         progress.update(task, description="drawing figures", completed=0, total=None)
         start = time.perf_counter()
@@ -96,6 +98,8 @@ def run_study_report(args: argparse.Namespace) -> int:
     if not out_console.is_terminal:
         out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
     out_console.print(report_table(data, fits))
+    for finding in findings(data, fits):
+        out_console.print(Text(finding), soft_wrap=True)
     for note in fit_notes(data, fits):
         out_console.print(Text(f"note: {note}"), soft_wrap=True)
     err.print(Text(
@@ -139,7 +143,8 @@ def interval_caption(fits: list[CellFit]) -> str:
     kinds = []
     if any(f.interval_kind == "confidence" for f in fits):
         confidence = next(f.confidence for f in fits if f.interval_kind == "confidence")
-        kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes) for maxent and loss fits")
+        kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes; a pool's resamples "
+                     "participants, then their episodes) for maxent and loss fits")
     if any(f.interval_kind == "identified" for f in fits):
         kinds.append("identified set for lp fits")
     return "[low, high]: " + "; ".join(kinds) if kinds else "No intervals could be computed"
@@ -154,6 +159,9 @@ def table_caption(data: StudyData, fits: list[CellFit]) -> str:
         parts.append(f"An end at ±{boxed[0].rmax:g} is the fit's bound (--rmax), not a bound from the data")
     if data.left_out:
         parts.append("*: a file of this participant was left out (named above the table)")
+    if any(f.influential for f in fits):
+        parts.append(f"{INFLUENTIAL_MARK}: influential: without this participant a pooled reward would leave its "
+                     "interval (the lines below the table say which)")
     return ". ".join(parts) + "."
 
 
@@ -179,6 +187,8 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
         who = f"pooled ({cell.participants})" if pooled else cell.participant
         if not pooled and data.left_out.get(cell.participant):
             who += " *"
+        if result.influential:
+            who += f" {INFLUENTIAL_MARK}"
         table.add_row(
             Text(who, style="bold" if pooled else ""), Text(printable(world.name, limit=40)),
             str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted_outcomes)),
@@ -188,6 +198,12 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
             style="bold" if pooled else None,
         )
     return table
+
+
+def findings(data: StudyData, fits: list[CellFit]) -> list[str]:
+    """What each world's pooled row shows, a sentence each (`pooled_finding`)."""
+    return [printable(pooled_finding(data, cell, result), limit=600)
+            for cell, result in zip(data.cells, fits) if cell.participant == POOLED]
 
 
 def fit_notes(data: StudyData, fits: list[CellFit]) -> list[str]:

@@ -29,6 +29,7 @@ RECOVERED = 0.25
 # A cliff within this factor of the truth (either way) is near it, though not recovered.
 NEAR_FACTOR = 2.0
 
+SYMBOL_WORDS = {"C": "cliff", "G": "goal", "U": "mud"}
 STATEMENTS = {
     "a": "the MaxEnt baseline underestimates the cliff",
     "b": "carefulness separates catastrophe (cliff) from nuisance (mud)",
@@ -71,8 +72,13 @@ def order_words(low: tuple[float, float], high: tuple[float, float]) -> str:
     return "overlaps"
 
 
+def number_text(value: float) -> str:
+    """A reward in a sentence: whole from 100 up, else three significant figures (-1069, -35.2, 12.8)."""
+    return f"{value:.0f}" if abs(value) >= 100 else f"{value:.3g}"
+
+
 def interval_text(interval: tuple[float, float]) -> str:
-    return f"[{interval[0]:.0f}, {interval[1]:.0f}]"
+    return f"[{number_text(interval[0])}, {number_text(interval[1])}]"
 
 
 def paper_claims(estimates: list[Estimate], separations: list[Separation], *, people: bool) -> list[Claim]:

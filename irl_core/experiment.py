@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.claims import RECOVERED, Claim, paper_claims
+from irl_core.claims import RECOVERED, SYMBOL_WORDS, Claim, paper_claims
 from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
 from irl_core.experts import (
     boltzmann_policy,
@@ -413,8 +413,6 @@ def _reward_caption(world: World) -> str:
     parts = [f"{SYMBOL_WORDS.get(symbol, symbol)} {value:+g}" for symbol, value in world.rewards.items()]
     return ", ".join(parts) + ", ground 0."
 
-
-SYMBOL_WORDS = {"C": "cliff", "G": "goal", "U": "mud"}
 
 
 def interval_caption(s: Separation) -> str:
