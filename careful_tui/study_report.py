@@ -33,6 +33,7 @@ from irl_core.study_report import (
     csv_text,
     fit_report,
     gather,
+    influence_cells,
     pooled_finding,
     report_options,
     report_rows,
@@ -104,7 +105,7 @@ def run_study_report(args: argparse.Namespace) -> int:
         out_console.print(Text(f"note: {note}"), soft_wrap=True)
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
-        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')}; reading {timings.reading:.1f} s, "
+        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')} (and {len(influence_cells(data))} of a pool without one of its participants); reading {timings.reading:.1f} s, "
         f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s" + left_out_text(data)),
         soft_wrap=True)
     return EXIT_OK
