@@ -224,12 +224,9 @@ class CellFit:
         interval_kind: ``confidence`` (maxent, loss) or ``identified`` (lp), None without intervals.
         reward_grid: (rows, cols) fitted R_S, NaN at walls.
         error: why there is no fit (then the other fields are empty), else None.
-        pooled_without: a participant's row: (k,) the pooled fit of this world without them, by
-            `symbols` of the pool; None where not measured (a pool of one, a failed fit).
         influential: a participant's row: whether without them a pooled reward would leave its
-            interval; None where not measured.
-        influential_participants: a pool's row: the participants marked influential, None where
-            influence was not measured.
+            interval; None where not measured (a pool of one, a pool or a fit without them that failed).
+        influence: a pool's row: each participant's influence on it, None where not measured.
     """
 
     method: str = ""
@@ -246,18 +243,31 @@ class CellFit:
     notes: tuple[str, ...] = ()
     elapsed_s: float = 0.0
     error: str | None = None
-    pooled_without: np.ndarray | None = None
     influential: bool | None = None
-    influential_participants: tuple[Influence, ...] | None = None
+    influence: tuple[Influence, ...] | None = None
+
+    @property
+    def influential_participants(self) -> tuple[str, ...]:
+        """A pool's row: the participants without whom one of its rewards would leave its interval."""
+        return tuple(i.participant for i in self.influence or () if i.outside)
 
 
 @dataclass(frozen=True)
 class Influence:
-    """A participant without whom a pooled reward leaves its interval: the pooled fit's value
-    without them for each such symbol, (symbol, value) pairs."""
+    """One participant's influence on a pool: the pooled fit without them.
+
+    Attributes:
+        without: (symbol, the pooled reward without them) per symbol of the pool.
+        outside: the symbols whose reward without them lies outside the pool's interval.
+        shift: the largest move of a reward without them, in widths of its pooled interval.
+        most: the symbol that moves by `shift`.
+    """
 
     participant: str
-    outside: tuple[tuple[str, float], ...]
+    without: tuple[tuple[str, float], ...]
+    outside: tuple[str, ...]
+    shift: float
+    most: str
 
 
 def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None = None) -> CellFit:
@@ -335,37 +345,39 @@ def with_influence(data: StudyData, fits: list[CellFit], without: dict[tuple[int
     """`fits` with each participant's influence on their world's pool: `without[(world_index, participant)]`
     is the pool's fit without them; they are influential when any of its rewards lies outside the
     pool's interval for that reward."""
-    pools = {cell.world_index: fit for cell, fit in zip(data.cells, fits) if cell.participant == POOLED}
-    influential: dict[int, list[Influence]] = {}
+    pools = {cell.world_index: i for i, cell in enumerate(data.cells) if cell.participant == POOLED}
+    measured: dict[int, list[Influence]] = {}
     out = list(fits)
     for i, cell in enumerate(data.cells):
-        pooled = pools[cell.world_index]
+        pooled = fits[pools[cell.world_index]]
         other = without.get((cell.world_index, cell.participant))
         if cell.participant == POOLED or other is None or other.error or pooled.error or pooled.intervals is None:
             continue
-        moved = leaves_interval(pooled, other)
-        out[i] = dataclasses.replace(fits[i], pooled_without=other.estimate, influential=bool(moved))
-        influential.setdefault(cell.world_index, [])
-        if moved:
-            influential[cell.world_index].append(Influence(cell.participant, moved))
-    for i, cell in enumerate(data.cells):
-        if cell.participant == POOLED and cell.world_index in influential:
-            out[i] = dataclasses.replace(fits[i], influential_participants=tuple(influential[cell.world_index]))
+        influence = influence_of(cell.participant, pooled, other)
+        out[i] = dataclasses.replace(fits[i], influential=bool(influence.outside))
+        measured.setdefault(cell.world_index, []).append(influence)
+    for world_index, influences in measured.items():
+        out[pools[world_index]] = dataclasses.replace(fits[pools[world_index]], influence=tuple(influences))
     return out
 
 
-def leaves_interval(pooled: CellFit, other: CellFit) -> tuple[tuple[str, float], ...]:
-    """(symbol, value) for each symbol whose reward in `other` lies outside `pooled`'s interval for it."""
+def influence_of(participant: str, pooled: CellFit, other: CellFit) -> Influence:
+    """How `other` (the pool's fit without `participant`) lies against `pooled`'s estimates and intervals."""
     assert pooled.intervals is not None
-    outside = []
+    values, outside, shift, most = [], [], -1.0, ""
     for j, symbol in enumerate(pooled.symbols):
-        if symbol in other.symbols:
-            value = other.estimate[other.symbols.index(symbol)]
-            low, high = pooled.intervals[j]
-            slack = 1e-9 * max(1.0, abs(low), abs(high))
-            if not low - slack <= value <= high + slack:
-                outside.append((symbol, float(value)))
-    return tuple(outside)
+        if symbol not in other.symbols:
+            continue
+        value = float(other.estimate[other.symbols.index(symbol)])
+        low, high = pooled.intervals[j]
+        slack = 1e-9 * max(1.0, abs(low), abs(high))
+        values.append((symbol, value))
+        if not low - slack <= value <= high + slack:
+            outside.append(symbol)
+        moved = abs(value - pooled.estimate[j]) / max(high - low, slack)
+        if moved > shift:
+            shift, most = float(moved), symbol
+    return Influence(participant, tuple(values), tuple(outside), max(shift, 0.0), most)
 
 
 # ---------------------------------------------------------------------------- the table
@@ -423,8 +435,8 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
 def _influence_cell(result: CellFit) -> str:
     if result.influential is not None:
         return "true" if result.influential else "false"
-    if result.influential_participants is not None:
-        return " ".join(i.participant for i in result.influential_participants) or "none"
+    if result.influence is not None:
+        return " ".join(result.influential_participants) or "none"
     return ""
 
 
@@ -463,7 +475,7 @@ def pooled_finding(data: StudyData, cell: Cell, result: CellFit) -> str:
     missed = [f"the {_word(s)}'s interval misses the world's {truth[s]:g}" for s in sorted(result.symbols, key=truth.get)
               if not interval[s][0] <= truth[s] <= interval[s][1]]
     parts.append("; ".join(missed) if missed else "every interval covers the world's reward")
-    if result.influential_participants is not None:
+    if result.influence:
         parts.append(_influence_words(result))
     return f"{world.name}: " + "; ".join(parts) + "."
 
@@ -473,13 +485,22 @@ def _word(symbol: str) -> str:
 
 
 def _influence_words(pooled: CellFit) -> str:
-    """"without p07 the pooled cliff would be -361, outside its interval", or that no one alone moves it."""
-    assert pooled.influential_participants is not None
-    if not pooled.influential_participants:
-        return "no participant alone moves a pooled reward out of its interval"
+    """"without p07 the cliff -361, outside the pooled interval: ...", or that no one alone moves the pool
+    and who moves it most."""
+    assert pooled.influence
+    moved = [i for i in pooled.influence if i.outside]
+    if not moved:
+        most = max(pooled.influence, key=lambda i: i.shift)
+        if not most.most:
+            return "no participant alone moves a pooled reward out of its interval"
+        value = dict(most.without)[most.most]
+        pooled_value = pooled.estimate[pooled.symbols.index(most.most)]
+        return (f"no participant alone moves a pooled reward out of its interval (the most: without "
+                f"{most.participant} the {_word(most.most)} {number_text(value)} against {number_text(pooled_value)})")
     said = []
-    for influence in pooled.influential_participants:
-        values = " and ".join(f"the {_word(symbol)} {number_text(value)}" for symbol, value in influence.outside)
+    for influence in moved:
+        values = " and ".join(f"the {_word(symbol)} {number_text(value)}" for symbol, value in influence.without
+                              if symbol in influence.outside)
         said.append(f"without {influence.participant} {values}")
     return (f"{'; '.join(said)}, outside the pooled interval{'s' if len(said) > 1 else ''}: "
             f"{'this participant moves' if len(said) == 1 else 'each of these participants moves'} the pool alone")

@@ -166,8 +166,9 @@ def test_the_influential_column_mark_and_sentence_follow_the_leave_one_out_fits(
                                                                       estimate=np.array([-1100.0, 80.0]))})
     _, rows = report_rows(data, calm)
     assert rows[data.cells.index(data.cell(POOLED, 0))][columns.index("influential")] == "none"
-    assert "no participant alone moves a pooled reward" in pooled_finding(data, data.cell(POOLED, 0),
-                                                                          calm[data.cells.index(data.cell(POOLED, 0))])
+    # ... and names who moves it most, in widths of the interval (p2's cliff by 100 of 400).
+    assert ("no participant alone moves a pooled reward out of its interval (the most: without p2 the cliff -1100 "
+            "against -1000)") in pooled_finding(data, data.cell(POOLED, 0), calm[data.cells.index(data.cell(POOLED, 0))])
     assert INFLUENTIAL_MARK not in table_caption(data, calm)
 
 
