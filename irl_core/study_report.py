@@ -472,12 +472,26 @@ def pooled_finding(data: StudyData, cell: Cell, result: CellFit) -> str:
                    "overlaps": "these participants' play does not separate catastrophe from nuisance"}[order]
         parts.append(f"the pooled {h} interval {interval_text(interval[hazard])} {said} the {n}'s "
                      f"{interval_text(interval[nuisance])}: {verdict}")
+    elif hazards:
+        parts.append(_signs(hazards[0][1], interval, [s for s in result.symbols if truth[s] > 0]))
     missed = [f"the {_word(s)}'s interval misses the world's {truth[s]:g}" for s in sorted(result.symbols, key=truth.get)
               if not interval[s][0] <= truth[s] <= interval[s][1]]
     parts.append("; ".join(missed) if missed else "every interval covers the world's reward")
     if result.influence:
         parts.append(_influence_words(result))
     return f"{world.name}: " + "; ".join(parts) + "."
+
+
+def _signs(hazard: str, interval: dict[str, tuple[float, float]], goals: list[str]) -> str:
+    """Whether the hazard's pooled interval lies below 0 and the goals' above, in a world without a nuisance."""
+    h = _word(hazard)
+    below = interval[hazard][1] < 0
+    text = f"the pooled {h} interval {interval_text(interval[hazard])} {'lies' if below else 'does not lie'} below 0"
+    for goal in goals:
+        above = interval[goal][0] > 0
+        text += (f"{' and' if above == below else ', but'} the {_word(goal)}'s {interval_text(interval[goal])} "
+                 f"{'lies' if above else 'does not lie'} above it")
+    return text
 
 
 def _word(symbol: str) -> str:

@@ -194,3 +194,17 @@ def test_the_pooled_sentence_says_whether_carefulness_separates_cliff_and_mud(tm
     assert "the cliff's interval misses the world's -1000" in missed
     simple = pooled([-1400.0, -800.0], [-50.0, -20.0], world_index=1)
     assert simple.startswith("mud-simple: ") and "not carefulness, that separate them" in simple
+
+
+def test_a_world_without_a_nuisance_gets_the_signs(study):
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=2)
+    data = gather(study)
+
+    def pooled(cliff, goal):
+        fit = CellFit(method="maxent", symbols=("C", "G"), estimate=np.array([-1000.0, 100.0]),
+                      intervals=np.array([cliff, goal]), truth=np.array([-1000.0, 100.0]), interval_kind="confidence")
+        return pooled_finding(data, data.cell(POOLED, 0), fit)
+
+    assert pooled([-1170.0, -769.0], [68.2, 120.0]).startswith(
+        "paper: the pooled cliff interval [-1170, -769] lies below 0 and the goal's [68.2, 120] lies above it; ")
+    assert "lies below 0, but the goal's [-20, 120] does not lie above it" in pooled([-1170.0, -769.0], [-20.0, 120.0])
