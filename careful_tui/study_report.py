@@ -99,6 +99,8 @@ def run_study_report(args: argparse.Namespace) -> int:
     if not out_console.is_terminal:
         out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
     out_console.print(report_table(data, fits))
+    if legend := influence_legend(fits):
+        out_console.print(Text(legend), soft_wrap=True)
     for finding in findings(data, fits):
         out_console.print(Text(finding), soft_wrap=True)
     for note in fit_notes(data, fits):
@@ -160,9 +162,6 @@ def table_caption(data: StudyData, fits: list[CellFit]) -> str:
         parts.append(f"An end at ±{boxed[0].rmax:g} is the fit's bound (--rmax), not a bound from the data")
     if data.left_out:
         parts.append("*: a file of this participant was left out (named above the table)")
-    if any(f.influential for f in fits):
-        parts.append(f"{INFLUENTIAL_MARK}: influential: without this participant a pooled reward would leave its "
-                     "interval (the lines below the table say which)")
     return ". ".join(parts) + "."
 
 
@@ -199,6 +198,14 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
             style="bold" if pooled else None,
         )
     return table
+
+
+def influence_legend(fits: list[CellFit]) -> str:
+    """The mark's legend line under the table, or "" when no participant is marked."""
+    if not any(f.influential for f in fits):
+        return ""
+    return (f"{INFLUENTIAL_MARK} influential: without this participant a pooled reward would leave its interval "
+            "(the pool's line below says which, and where it would go)")
 
 
 def findings(data: StudyData, fits: list[CellFit]) -> list[str]:

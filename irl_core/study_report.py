@@ -516,7 +516,8 @@ def _influence_words(pooled: CellFit) -> str:
         values = " and ".join(f"the {_word(symbol)} {number_text(value)}" for symbol, value in influence.without
                               if symbol in influence.outside)
         said.append(f"without {influence.participant} {values}")
-    return (f"{'; '.join(said)}, outside the pooled interval{'s' if len(said) > 1 else ''}: "
+    several = len(moved) > 1 or len(moved[0].outside) > 1
+    return (f"{'; '.join(said)}, outside the pooled interval{'s' if several else ''}: "
             f"{'this participant moves' if len(said) == 1 else 'each of these participants moves'} the pool alone")
 
 

@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from rich.console import Console
 
 from careful_tui.cli import main
-from careful_tui.study_report import INFLUENTIAL_MARK, report_table, table_caption
+from careful_tui.study_report import INFLUENTIAL_MARK, influence_legend, report_table
 from irl_core.experts import boltzmann_policy, optimal_policy, rollouts, session_header, write_rollouts
 from irl_core.irl.bootstrap import bootstrap, two_level_weights
 from irl_core.mdp import build_mdp
@@ -127,6 +127,7 @@ def test_a_reckless_participant_is_covered_or_marked_influential(tmp_path, capsy
     assert pooled["finding"] in out.splitlines()
     for who in marked:
         assert any(line.strip().startswith(f"{who} {INFLUENTIAL_MARK}") for line in out.splitlines())
+    assert any(line.startswith(f"{INFLUENTIAL_MARK} influential: ") for line in out.splitlines()) == bool(marked)
 
 
 def test_the_influential_column_mark_and_sentence_follow_the_leave_one_out_fits(study):
@@ -159,8 +160,8 @@ def test_the_influential_column_mark_and_sentence_follow_the_leave_one_out_fits(
     lines = [line.strip() for line in text.splitlines()]
     assert any(line.startswith(f"p2 {INFLUENTIAL_MARK}") for line in lines)
     assert not any(line.startswith(f"p1 {INFLUENTIAL_MARK}") for line in lines)
-    assert f"{INFLUENTIAL_MARK}: influential: without this participant a pooled reward would leave its interval" \
-        in table_caption(data, marked)
+    assert influence_legend(marked).startswith(
+        f"{INFLUENTIAL_MARK} influential: without this participant a pooled reward would leave its interval")
     # Nobody moves the pool: the column says so on the pooled row, and so does the sentence.
     calm = with_influence(data, fits, {**without, (0, "p2"): CellFit(symbols=("C", "G"),
                                                                       estimate=np.array([-1100.0, 80.0]))})
@@ -169,7 +170,7 @@ def test_the_influential_column_mark_and_sentence_follow_the_leave_one_out_fits(
     # ... and names who moves it most, in widths of the interval (p2's cliff by 100 of 400).
     assert ("no participant alone moves a pooled reward out of its interval (the most: without p2 the cliff -1100 "
             "against -1000)") in pooled_finding(data, data.cell(POOLED, 0), calm[data.cells.index(data.cell(POOLED, 0))])
-    assert INFLUENTIAL_MARK not in table_caption(data, calm)
+    assert influence_legend(calm) == ""
 
 
 def test_the_pooled_sentence_says_whether_carefulness_separates_cliff_and_mud(tmp_path):
