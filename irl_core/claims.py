@@ -130,9 +130,12 @@ def maxent_claim(baseline: Estimate, careful: Estimate | None) -> Claim:
             discussion.append("The careful lp does not recover the cliff either, so the contrast the paper draws "
                               "(carefulness recovers what the baseline misses) is not shown by this run.")
         elif careful.cliff_at_bound:
-            discussion.append(f"{careful.cliff_at_bound} of the careful lp's {careful.cliff_cells} cliff cells sit at "
-                              f"its bound ({'-rmax' if careful.rmax is None else f'{-careful.rmax:.0f}'}), which set them, not the data: the contrast holds "
-                              "for the cells the data set, and the bound's size decides the others.")
+            one = careful.cliff_at_bound == 1
+            bound = "-rmax" if careful.rmax is None else f"{-careful.rmax:.0f}"
+            discussion.append(f"{careful.cliff_at_bound} of the careful lp's {careful.cliff_cells} cliff cells "
+                              f"{'sits' if one else 'sit'} at its bound ({bound}), which set {'it' if one else 'them'}, "
+                              "not the data: the contrast holds for the cells the data set, and the bound decides "
+                              f"{'that one' if one else 'those'}.")
     return Claim("a", verdict, evidence, tuple(discussion))
 
 

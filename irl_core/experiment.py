@@ -418,8 +418,9 @@ def _reward_caption(world: World) -> str:
 def interval_caption(s: Separation) -> str:
     what = "95% confidence intervals" if s.kind == "confidence" else "identified by the demonstrations"
     if s.separated:
-        verdict = ("disjoint: the cliff is shown to be worse than the mud" if s.cliff[1] < s.mud[0]
-                   else "disjoint, but the mud comes out worse than the cliff")
+        worse = ("the maxent model puts the cliff below the mud" if s.kind == "confidence" and not s.careful
+                 else "the cliff is shown to be worse than the mud")
+        verdict = f"disjoint: {worse}" if s.cliff[1] < s.mud[0] else "disjoint, but the mud comes out worse than the cliff"
     else:
         verdict = "overlapping: these demonstrations cannot tell the cliff from the mud"
     caption = (f"{what}: cliff between {s.cliff[0]:.0f} and {s.cliff[1]:.0f}; mud between {s.mud[0]:.0f} "
