@@ -74,14 +74,21 @@ def main() -> None:
         start = time.perf_counter()
         fit_cell(one, options)
         baseline = time.perf_counter() - start
+        without = influence_cells(data)
+        start = time.process_time()
+        for cell in without:
+            fit_cell(cell, options)
+        influence = time.process_time() - start
         total = reading + fitting + figures
         print(f"{PARTICIPANTS} participants x 2 worlds x 10 main episodes; {len(fits)} fits with 200 resamples "
-              f"and {len(influence_cells(data))} without one participant "
+              f"and {len(without)} without one participant "
               f"({cores} cores, load {load_before:.1f} before, {os.getloadavg()[0]:.1f} after)")
         print(f"  simulating the participants {simulate:7.1f} s  (not part of the report)")
         print(f"  reading                     {reading:7.1f} s wall  {cpu['reading']:7.1f} s CPU")
         print(f"  fits                        {fitting:7.1f} s wall  {cpu['fits']:7.1f} s CPU  "
               f"{fitting / baseline:5.1f}x one participant's fit ({baseline:.2f} s)")
+        print(f"    of which the {len(without)} pools without one participant, one by one here: {influence:5.1f} s CPU  "
+              f"{influence / baseline:5.1f}x one participant's fit")
         print(f"  figures ({len(written) - 1} files)         {figures:7.1f} s wall  {cpu['figures']:7.1f} s CPU")
         used = sum(cpu.values())
         print(f"  report                      {total:7.1f} s wall  {used:7.1f} s CPU  (targets < {TARGET_S:.0f} s wall: "
