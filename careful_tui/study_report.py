@@ -107,7 +107,8 @@ def run_study_report(args: argparse.Namespace) -> int:
         out_console.print(Text(f"note: {note}"), soft_wrap=True)
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
-        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')} (and {len(influence_cells(data))} of a pool without one of its participants); reading {timings.reading:.1f} s, "
+        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')} (and "
+        f"{len(influence_cells(data))} of a pool without one of its participants); reading {timings.reading:.1f} s, "
         f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s" + left_out_text(data)),
         soft_wrap=True)
     return EXIT_OK

@@ -414,7 +414,6 @@ def _reward_caption(world: World) -> str:
     return ", ".join(parts) + ", ground 0."
 
 
-
 def interval_caption(s: Separation) -> str:
     what = "95% confidence intervals" if s.kind == "confidence" else "identified by the demonstrations"
     if s.separated:
