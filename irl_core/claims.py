@@ -16,12 +16,10 @@ undercuts it. `order_words` says how two intervals lie for the study report's po
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 from irl_core.irl.result import at_bound
-
-if TYPE_CHECKING:
-    from irl_core.experiment import Estimate, Separation
+from irl_core.stage_results import Estimate, Separation
 
 Verdict = Literal["supported", "not supported", "mixed"]
 # A severity within this fraction of the truth is "recovered" (the experiment's captions use it too).

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from irl_core.claims import RECOVERED, SYMBOL_WORDS, Claim, paper_claims
+from irl_core.stage_results import Estimate, Separation
 from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
 from irl_core.experts import (
     boltzmann_policy,
@@ -74,67 +75,6 @@ class Figure:
     values: np.ndarray | None = None
     policy: dict[Cell, tuple[str, int]] = field(default_factory=dict)  # (direction, carefulness level)
     caption: str = ""
-
-
-@dataclass(frozen=True)
-class Estimate:
-    """A fit's cliff and goal against the truth (means over the cells of each symbol).
-
-    `cliff_at_bound` of the `cliff_cells` sit at the fit's bound -`rmax`, which set them, not the
-    data; `cliff_inside` is the mean of the others (None when there are none).
-    """
-
-    stage: str
-    method: str
-    data: str
-    cliff: float
-    goal: float
-    true_cliff: float
-    true_goal: float
-    seconds: float
-    cliff_cells: int = 0
-    cliff_at_bound: int = 0
-    cliff_inside: float | None = None
-    rmax: float | None = None
-
-    @property
-    def cliff_error(self) -> float:
-        """Relative error of the cliff estimate, |est - true| / |true|."""
-        return abs(self.cliff - self.true_cliff) / abs(self.true_cliff)
-
-    @property
-    def goal_error(self) -> float:
-        return abs(self.goal - self.true_goal) / abs(self.true_goal)
-
-
-@dataclass(frozen=True)
-class Separation:
-    """Intervals of the cliff and mud cells in one world, and whether they are disjoint.
-
-    `kind` is ``identified`` (lp: every value the demonstrations allow) or ``confidence``
-    (a bootstrap confidence interval); `data` says what was fitted.
-    """
-
-    world: str
-    cliff: tuple[float, float]
-    mud: tuple[float, float]
-    seconds: float
-    kind: str = "identified"
-    data: str = ""
-    rmax: float | None = None  # the fit's bound |R_S| <= rmax: an end there is the bound's, not the data's
-    careful: bool = True  # the world has more than one level of carefulness
-
-    @property
-    def separated(self) -> bool:
-        return self.cliff[1] < self.mud[0] or self.mud[1] < self.cliff[0]
-
-    @property
-    def cliff_width(self) -> float:
-        return self.cliff[1] - self.cliff[0]
-
-    @property
-    def mud_width(self) -> float:
-        return self.mud[1] - self.mud[0]
 
 
 @dataclass
