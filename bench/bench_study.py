@@ -2,7 +2,9 @@
 
 What `careful study report` does, part by part, on the cores of this machine: reading every
 participant folder, the 42 fits (20 participants and the pool, per world; maxent with beta
-estimated and 200 bootstrap resamples each, in one process pool), and the figures (PNG and PDF).
+estimated and 200 bootstrap resamples each; a pool's resamples participants, then episodes) and
+the 40 point fits of each pool without each participant (their influence), in one process pool,
+and the figures (PNG and PDF).
 Target: the whole under 2 minutes on 2 cores, and under 60 s of CPU, so that it holds when
 the two cores are shared with other work (half of 2 cores for 2 minutes is 120 CPU seconds). The
 baseline in the same process is one fit of one participant with its 200 resamples, so the fits'
@@ -22,7 +24,7 @@ from pathlib import Path
 from careful_tui.study_report import write_report
 from irl_core.simulated_study import simulated_participants, write_simulated_participant
 from irl_core.study import load_study
-from irl_core.study_report import fit_cell, gather, report_options, run_fits
+from irl_core.study_report import fit_cell, fit_report, gather, influence_cells, report_options
 
 STUDY = """\
 name = "bench"
@@ -62,7 +64,7 @@ def main() -> None:
         data = gather(study)
         reading, cpu["reading"] = time.perf_counter() - start, cpu_seconds() - start_cpu
         start, start_cpu = time.perf_counter(), cpu_seconds()
-        fits = run_fits(list(data.cells), options)
+        fits = fit_report(data, options)
         fitting, cpu["fits"] = time.perf_counter() - start, cpu_seconds() - start_cpu
         start, start_cpu = time.perf_counter(), cpu_seconds()
         written = write_report(data, fits, study.report_folder)
@@ -72,13 +74,21 @@ def main() -> None:
         start = time.perf_counter()
         fit_cell(one, options)
         baseline = time.perf_counter() - start
+        without = influence_cells(data)
+        start = time.process_time()
+        for cell in without:
+            fit_cell(cell, options)
+        influence = time.process_time() - start
         total = reading + fitting + figures
         print(f"{PARTICIPANTS} participants x 2 worlds x 10 main episodes; {len(fits)} fits with 200 resamples "
+              f"and {len(without)} without one participant "
               f"({cores} cores, load {load_before:.1f} before, {os.getloadavg()[0]:.1f} after)")
         print(f"  simulating the participants {simulate:7.1f} s  (not part of the report)")
         print(f"  reading                     {reading:7.1f} s wall  {cpu['reading']:7.1f} s CPU")
         print(f"  fits                        {fitting:7.1f} s wall  {cpu['fits']:7.1f} s CPU  "
               f"{fitting / baseline:5.1f}x one participant's fit ({baseline:.2f} s)")
+        print(f"    of which the {len(without)} pools without one participant, one by one here: {influence:5.1f} s CPU  "
+              f"{influence / baseline:5.1f}x one participant's fit")
         print(f"  figures ({len(written) - 1} files)         {figures:7.1f} s wall  {cpu['figures']:7.1f} s CPU")
         used = sum(cpu.values())
         print(f"  report                      {total:7.1f} s wall  {used:7.1f} s CPU  (targets < {TARGET_S:.0f} s wall: "

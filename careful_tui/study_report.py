@@ -32,11 +32,13 @@ from irl_core.study_report import (
     CellFit,
     StudyData,
     csv_text,
+    fit_report,
     gather,
+    influence_cells,
+    pooled_finding,
     report_options,
     report_rows,
     report_symbols,
-    run_fits,
 )
 from irl_core.words import plural
 
@@ -44,6 +46,7 @@ FIGURE_FORMATS = (".png", ".pdf")
 # The codes of the fits' notes on what the table shows already (the method, beta).
 TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval"})
 TABLE_WIDTH = 200
+INFLUENTIAL_MARK = "†"
 
 
 @dataclass
@@ -78,11 +81,11 @@ def run_study_report(args: argparse.Namespace) -> int:
                              "simulated participants, first)")
         for problem in data.problems:
             err.print(Text(f"warning: {printable(problem, limit=400)}", style="yellow"), soft_wrap=True)
-        progress.update(task, description="fitting (per participant and pooled, with intervals)", completed=0,
-                        total=len(data.cells))
+        progress.update(task, description="fitting (per participant, pooled with intervals, and each pool without "
+                        "each participant)", completed=0, total=None)
         start = time.perf_counter()
-        fits = run_fits(list(data.cells), options, workers=args.workers,
-                        progress=lambda done, total: progress.update(task, completed=done))
+        fits = fit_report(data, options, workers=args.workers,
+                          progress=lambda done, total: progress.update(task, completed=done, total=total))
         timings.fits = time.perf_counter() - start
         progress.update(task, description="drawing figures", completed=0, total=None)
         start = time.perf_counter()
@@ -97,11 +100,16 @@ def run_study_report(args: argparse.Namespace) -> int:
     if not out_console.is_terminal:
         out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
     out_console.print(report_table(data, fits))
+    if legend := influence_legend(fits):
+        out_console.print(Text(legend), soft_wrap=True)
+    for finding in findings(data, fits):
+        out_console.print(Text(finding), soft_wrap=True)
     for note in fit_notes(data, fits):
         out_console.print(Text(f"note: {note}"), soft_wrap=True)
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
-        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')}; reading {timings.reading:.1f} s, "
+        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')} (and "
+        f"{len(influence_cells(data))} of a pool without one of its participants); reading {timings.reading:.1f} s, "
         f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s" + left_out_text(data)),
         soft_wrap=True)
     return EXIT_OK
@@ -140,7 +148,8 @@ def interval_caption(fits: list[CellFit]) -> str:
     kinds = []
     if any(f.interval_kind == "confidence" for f in fits):
         confidence = next(f.confidence for f in fits if f.interval_kind == "confidence")
-        kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes) for maxent and loss fits")
+        kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes; a pool's resamples "
+                     "participants, then their episodes) for maxent and loss fits")
     if any(f.interval_kind == "identified" for f in fits):
         kinds.append("identified set for lp fits")
     return "[low, high]: " + "; ".join(kinds) if kinds else "No intervals could be computed"
@@ -180,6 +189,8 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
         who = f"pooled ({cell.participants})" if pooled else cell.participant
         if not pooled and data.left_out.get(cell.participant):
             who += " *"
+        if result.influential:
+            who += f" {INFLUENTIAL_MARK}"
         table.add_row(
             Text(who, style="bold" if pooled else ""), Text(printable(world.name, limit=40)),
             str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted_outcomes)),
@@ -189,6 +200,20 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
             style="bold" if pooled else None,
         )
     return table
+
+
+def influence_legend(fits: list[CellFit]) -> str:
+    """The mark's legend line under the table, or "" when no participant is marked."""
+    if not any(f.influential for f in fits):
+        return ""
+    return (f"{INFLUENTIAL_MARK} influential: without this participant a pooled reward would leave its interval "
+            "(the pool's line below says which, and where it would go)")
+
+
+def findings(data: StudyData, fits: list[CellFit]) -> list[str]:
+    """What each world's pooled row shows, a sentence each (`pooled_finding`)."""
+    return [printable(pooled_finding(data, cell, result), limit=600)
+            for cell, result in zip(data.cells, fits) if cell.participant == POOLED]
 
 
 def fit_notes(data: StudyData, fits: list[CellFit]) -> list[str]:

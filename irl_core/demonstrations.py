@@ -261,6 +261,9 @@ class Demonstrations:
         files, episodes, steps: how much was read.
         by_episode: (E, S * A) sparse, row e the counts of the e-th episode with steps (so that
             resampling episodes is a weighted sum of rows); None when only the counts are known.
+        episode_groups: (E,) the group (a study's participant) of each row of `by_episode`: a
+            bootstrap then resamples groups, then episodes within them; None: episodes are
+            independent.
     """
 
     mdp: MDP
@@ -269,6 +272,7 @@ class Demonstrations:
     episodes: int
     steps: int
     by_episode: sp.csr_matrix | None = None
+    episode_groups: np.ndarray | None = None
 
     @classmethod
     def from_recordings(cls, recordings: list[Recording]) -> Demonstrations:

@@ -13,7 +13,9 @@
    bootstrap confidence intervals (`NOISY_RESAMPLES` resamples, to keep the run quick).
 
 Every caption and note is written from the run's own numbers (`severity`, `interval_caption`):
-a stage that does not recover the cliff says so.
+a stage that does not recover the cliff says so. The paper's three claims are judged from the
+same numbers (`irl_core.claims`): supported, not supported or mixed, with the stages that undercut
+them discussed.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from irl_core.claims import RECOVERED, SYMBOL_WORDS, Claim, paper_claims
+from irl_core.stage_results import Estimate, Separation
 from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
 from irl_core.experts import (
     boltzmann_policy,
@@ -73,66 +77,6 @@ class Figure:
     caption: str = ""
 
 
-@dataclass(frozen=True)
-class Estimate:
-    """A fit's cliff and goal against the truth (means over the cells of each symbol).
-
-    `cliff_at_bound` of the `cliff_cells` sit at the fit's bound -`rmax`, which set them, not the
-    data; `cliff_inside` is the mean of the others (None when there are none).
-    """
-
-    stage: str
-    method: str
-    data: str
-    cliff: float
-    goal: float
-    true_cliff: float
-    true_goal: float
-    seconds: float
-    cliff_cells: int = 0
-    cliff_at_bound: int = 0
-    cliff_inside: float | None = None
-    rmax: float | None = None
-
-    @property
-    def cliff_error(self) -> float:
-        """Relative error of the cliff estimate, |est - true| / |true|."""
-        return abs(self.cliff - self.true_cliff) / abs(self.true_cliff)
-
-    @property
-    def goal_error(self) -> float:
-        return abs(self.goal - self.true_goal) / abs(self.true_goal)
-
-
-@dataclass(frozen=True)
-class Separation:
-    """Intervals of the cliff and mud cells in one world, and whether they are disjoint.
-
-    `kind` is ``identified`` (lp: every value the demonstrations allow) or ``confidence``
-    (a bootstrap confidence interval); `data` says what was fitted.
-    """
-
-    world: str
-    cliff: tuple[float, float]
-    mud: tuple[float, float]
-    seconds: float
-    kind: str = "identified"
-    data: str = ""
-    rmax: float | None = None  # the fit's bound |R_S| <= rmax: an end there is the bound's, not the data's
-
-    @property
-    def separated(self) -> bool:
-        return self.cliff[1] < self.mud[0] or self.mud[1] < self.cliff[0]
-
-    @property
-    def cliff_width(self) -> float:
-        return self.cliff[1] - self.cliff[0]
-
-    @property
-    def mud_width(self) -> float:
-        return self.mud[1] - self.mud[0]
-
-
 @dataclass
 class ExperimentResult:
     figures: list[Figure] = field(default_factory=list)
@@ -140,6 +84,7 @@ class ExperimentResult:
     separations: list[Separation] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    claims: list[Claim] = field(default_factory=list)
 
     def summary(self) -> dict:
         """What `summary.json` holds."""
@@ -159,8 +104,14 @@ class ExperimentResult:
                     "world": s.world, "cliff": list(s.cliff), "mud": list(s.mud),
                     "cliff_width": s.cliff_width, "mud_width": s.mud_width,
                     "separated": s.separated, "seconds": s.seconds, "kind": s.kind, "data": s.data,
+                    "careful": s.careful,
                 }
                 for s in self.separations
+            ],
+            "claims": [
+                {"claim": c.key, "statement": c.statement, "verdict": c.verdict, "evidence": c.evidence,
+                 "discussion": list(c.discussion)}
+                for c in self.claims
             ],
             "notes": self.notes,
             "seconds": self.seconds,
@@ -310,7 +261,7 @@ def run_experiment(
         result = fit(demos, method="lp", intervals=True)
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
                                           time.perf_counter() - t, data=f"{sizes.interval_episodes} optimal episodes",
-                                          rmax=result.options.rmax))
+                                          rmax=result.options.rmax, careful=mdp.levels > 1))
         out.figures.append(_fitted(result, f"Identified sets on {name}: every value the lp allows",
                                    f"intervals-{name}", interval_caption(out.separations[-1])))
 
@@ -331,11 +282,12 @@ def run_experiment(
             data += "; beta is not identified here, so only the signs and ratios of the rewards mean anything"
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
                                           time.perf_counter() - t, kind="confidence", data=data,
-                                          rmax=options.rmax))
+                                          rmax=options.rmax, careful=mdp.levels > 1))
         out.figures.append(_fitted(result, f"Confidence intervals on {name}: maxent from noisy experts",
                                    f"intervals-noisy-{name}", interval_caption(out.separations[-1])))
         out.notes += [f"noisy {name}: {note}" for note in result.notes if note.code == "not_identified"]
 
+    out.claims = paper_claims(out.estimates, out.separations, people=bool(humans))
     out.seconds = time.perf_counter() - started
     return out
 
@@ -350,7 +302,7 @@ def severity(e: Estimate) -> str:
         cliff = _bound_set_cliff(e)
     elif e.cliff >= 0:
         cliff = f"The cliff is not recovered: fitted {e.cliff:.0f}, not even negative (truth {e.true_cliff:.0f})."
-    elif e.cliff_error <= 0.25:
+    elif e.cliff_error <= RECOVERED:
         cliff = (f"The cliff's severity is recovered: {e.cliff:.0f} against {e.true_cliff:.0f} "
                  f"({e.cliff_error:.0%} off).")
     elif abs(e.cliff) < abs(e.true_cliff):
@@ -402,18 +354,20 @@ def _reward_caption(world: World) -> str:
     return ", ".join(parts) + ", ground 0."
 
 
-SYMBOL_WORDS = {"C": "cliff", "G": "goal", "U": "mud"}
-
-
 def interval_caption(s: Separation) -> str:
     what = "95% confidence intervals" if s.kind == "confidence" else "identified by the demonstrations"
     if s.separated:
-        verdict = ("disjoint: the cliff is shown to be worse than the mud" if s.cliff[1] < s.mud[0]
-                   else "disjoint, but the mud comes out worse than the cliff")
+        worse = ("the maxent model puts the cliff below the mud" if s.kind == "confidence" and not s.careful
+                 else "the cliff is shown to be worse than the mud")
+        verdict = f"disjoint: {worse}" if s.cliff[1] < s.mud[0] else "disjoint, but the mud comes out worse than the cliff"
     else:
         verdict = "overlapping: these demonstrations cannot tell the cliff from the mud"
     caption = (f"{what}: cliff between {s.cliff[0]:.0f} and {s.cliff[1]:.0f}; mud between {s.mud[0]:.0f} "
                f"and {s.mud[1]:.0f}; {verdict}.")
+    if s.separated and not s.careful:
+        caption += (" This world has no carefulness, so the separation is not carefulness's doing"
+                    + (": a confidence interval is the sampling noise of the maxent model's estimate, not every "
+                       "reward the demonstrations allow." if s.kind == "confidence" else "."))
     if s.rmax is not None:
         bounded = [f"the {name}'s {end:.0f}" for name, interval in (("cliff", s.cliff), ("mud", s.mud))
                    for end in interval if at_bound(end, s.rmax)]

@@ -4,9 +4,13 @@
 finished main-phase episodes per world (practice never enters a fit; an interrupted episode
 is counted, not fitted; see `irl_core.study`). A file that cannot be used is named in
 `StudyData.problems` and left out; the participant's other files are still reported.
-`run_fits` fits every (participant, world) and every world's pool in one process pool across
-the cores; each fit's bootstrap runs inside its worker (``workers=1``), so the cores are not
-asked for twice. `report_rows` is the table the command prints and writes as CSV.
+`fit_report` fits every (participant, world), every world's pool, and every pool without each of
+its participants in turn (`run_fits`: one process pool across the cores; each fit's bootstrap
+runs inside its worker, ``workers=1``, so the cores are not asked for twice). A pool's interval
+resamples participants, then episodes within them (docs/studies-pooling.md), so it covers
+differences between people; a participant without whom a pooled reward would leave its interval
+is marked influential. `report_rows` is the table the command prints and writes as CSV, and
+`pooled_finding` says in a sentence what each world's pooled row shows.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irl_core.claims import SYMBOL_WORDS, interval_text, number_text, order_words
 from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitError, FitOptions, Note, fit
 from irl_core.irl.bootstrap import run_in_pool
@@ -52,6 +57,10 @@ class Cell:
         careful_next_to_terminal: mean carefulness of the steps taken next to a terminal cell
             (one grid step away), or None when there were none.
         participants: how many participants the cell holds (1, or how many have episodes in the pool).
+        members: in a pool, the participants whose episodes it holds, in the order of
+            ``demos.episode_groups`` (group g is members[g]).
+        without: in a pool without one participant (`leave_out`), that participant: its fit is a
+            point fit (no interval) that measures their influence on the pool.
     """
 
     participant: str
@@ -63,6 +72,8 @@ class Cell:
     interrupted_outcomes: dict[str, int]
     careful_next_to_terminal: float | None
     participants: int = 1
+    members: tuple[str, ...] = ()
+    without: str | None = None
 
     @property
     def interrupted(self) -> int:
@@ -129,11 +140,45 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
     for world_index, recordings in per_world.items():
         pooled = _cell(study, POOLED, world_index, recordings)
         contributing = sum(1 for cell in cells if cell.world_index == world_index and cell.episodes)
-        cells.append(dataclasses.replace(pooled, participants=contributing))
+        cells.append(_grouped(dataclasses.replace(pooled, participants=contributing),
+                              [cell for cell in cells if cell.world_index == world_index]))
     # World by world: its participants in name order, then its pool.
     cells.sort(key=lambda cell: (cell.world_index, cell.participant == POOLED))
     return StudyData(study=study, participants=tuple(ids), cells=tuple(cells), problems=tuple(problems),
                      left_out=left_out, folders_left_out=folders_left_out)
+
+
+def _grouped(pool: Cell, mine: list[Cell]) -> Cell:
+    """The pool with each of its episodes' participant (`mine`: the world's cells in the pool's order,
+    whose episodes the pool's rows hold one participant after another)."""
+    if pool.demos is None or pool.demos.by_episode is None:
+        return pool
+    members = [cell for cell in mine if cell.demos is not None and cell.demos.by_episode is not None]
+    rows = [cell.demos.by_episode.shape[0] for cell in members]
+    assert sum(rows) == pool.demos.by_episode.shape[0], "a pool's episodes are its participants' in order"
+    groups = np.repeat(np.arange(len(members)), rows)
+    return dataclasses.replace(pool, demos=dataclasses.replace(pool.demos, episode_groups=groups),
+                               members=tuple(cell.participant for cell in members))
+
+
+def leave_out(pool: Cell, participant: str) -> Cell:
+    """The pool without `participant`'s episodes (its outcome counts are the pool's: only the fit is used)."""
+    demos = pool.demos
+    assert demos is not None and demos.by_episode is not None and demos.episode_groups is not None
+    keep = demos.episode_groups != pool.members.index(participant)
+    by_episode = demos.by_episode[keep]
+    counts = np.asarray(by_episode.sum(axis=0)).reshape(demos.counts.shape)
+    # files stays the pool's: a leave-one-out fit is never written out.
+    demos = dataclasses.replace(demos, counts=counts, episodes=int(keep.sum()), steps=int(counts.sum()),
+                                by_episode=by_episode, episode_groups=None)
+    return dataclasses.replace(pool, demos=demos, episodes=demos.episodes, steps=demos.steps,
+                               members=tuple(m for m in pool.members if m != participant), without=participant)
+
+
+def influence_cells(data: StudyData) -> list[Cell]:
+    """Every pool of two or more participants without each of them in turn."""
+    return [leave_out(cell, member) for cell in data.cells if cell.participant == POOLED and len(cell.members) > 1
+            for member in cell.members]
 
 
 def _finished_only(recording: Recording) -> Recording:
@@ -179,6 +224,9 @@ class CellFit:
         interval_kind: ``confidence`` (maxent, loss) or ``identified`` (lp), None without intervals.
         reward_grid: (rows, cols) fitted R_S, NaN at walls.
         error: why there is no fit (then the other fields are empty), else None.
+        influential: a participant's row: whether without them a pooled reward would leave its
+            interval; None where not measured (a pool of one, a pool or a fit without them that failed).
+        influence: a pool's row: each participant's influence on it, None where not measured.
     """
 
     method: str = ""
@@ -195,16 +243,44 @@ class CellFit:
     notes: tuple[Note, ...] = ()
     elapsed_s: float = 0.0
     error: str | None = None
+    influential: bool | None = None
+    influence: tuple[Influence, ...] | None = None
+
+    @property
+    def influential_participants(self) -> tuple[str, ...]:
+        """A pool's row: the participants without whom one of its rewards would leave its interval."""
+        return tuple(i.participant for i in self.influence or () if i.outside)
+
+
+@dataclass(frozen=True)
+class Influence:
+    """One participant's influence on a pool: the pooled fit without them.
+
+    Attributes:
+        without: (symbol, the pooled reward without them) per symbol of the pool.
+        outside: the symbols whose reward without them lies outside the pool's interval.
+        shift: the largest move of a reward without them, in widths of its pooled interval.
+        most: the symbol that moves by `shift`.
+    """
+
+    participant: str
+    without: tuple[tuple[str, float], ...]
+    outside: tuple[str, ...]
+    shift: float
+    most: str
 
 
 def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None = None) -> CellFit:
-    """Fit one cell (its bootstrap in this process); a cell without steps or a failed fit gives an error.
+    """Fit one cell (its bootstrap in this process; a pool without a participant, `Cell.without`, is
+    fitted without intervals); a cell without steps or a failed fit gives an error.
 
     Raises:
         irl_core.stopping.Stopped: `stop()` became true during the fit.
     """
     if cell.demos is None:
         return CellFit(error="no finished main episodes")
+    if cell.without is not None:
+        options = dataclasses.replace(options, intervals=False)
     try:
         result = fit(cell.demos, options, workers=1, stop=stop)
     except FitError as exc:
@@ -249,6 +325,61 @@ def _fit_in_worker(cell: Cell, options: FitOptions) -> CellFit:
     return fit_cell(cell, options, stop=stop_check())
 
 
+def fit_report(data: StudyData, options: FitOptions, *, workers: int | None = None,
+               progress: Callable[[int, int], None] | None = None) -> list[CellFit]:
+    """Every cell's fit (in `data.cells`' order), with each pool's participants marked by their influence.
+
+    The pools without each participant (`influence_cells`) are point fits in the same process pool.
+
+    Args:
+        progress: called as progress(fits done, fits) as each comes back.
+    """
+    without = influence_cells(data)
+    fits = run_fits([*data.cells, *without], options, workers=workers, progress=progress)
+    return with_influence(data, fits[: len(data.cells)], dict(zip(((c.world_index, c.without) for c in without),
+                                                                  fits[len(data.cells):])))
+
+
+def with_influence(data: StudyData, fits: list[CellFit], without: dict[tuple[int, str | None], CellFit]
+                   ) -> list[CellFit]:
+    """`fits` with each participant's influence on their world's pool: `without[(world_index, participant)]`
+    is the pool's fit without them; they are influential when any of its rewards lies outside the
+    pool's interval for that reward."""
+    pools = {cell.world_index: i for i, cell in enumerate(data.cells) if cell.participant == POOLED}
+    measured: dict[int, list[Influence]] = {}
+    out = list(fits)
+    for i, cell in enumerate(data.cells):
+        pooled = fits[pools[cell.world_index]]
+        other = without.get((cell.world_index, cell.participant))
+        if cell.participant == POOLED or other is None or other.error or pooled.error or pooled.intervals is None:
+            continue
+        influence = influence_of(cell.participant, pooled, other)
+        out[i] = dataclasses.replace(fits[i], influential=bool(influence.outside))
+        measured.setdefault(cell.world_index, []).append(influence)
+    for world_index, influences in measured.items():
+        out[pools[world_index]] = dataclasses.replace(fits[pools[world_index]], influence=tuple(influences))
+    return out
+
+
+def influence_of(participant: str, pooled: CellFit, other: CellFit) -> Influence:
+    """How `other` (the pool's fit without `participant`) lies against `pooled`'s estimates and intervals."""
+    assert pooled.intervals is not None
+    values, outside, shift, most = [], [], -1.0, ""
+    for j, symbol in enumerate(pooled.symbols):
+        if symbol not in other.symbols:
+            continue
+        value = float(other.estimate[other.symbols.index(symbol)])
+        low, high = pooled.intervals[j]
+        slack = 1e-9 * max(1.0, abs(low), abs(high))
+        values.append((symbol, value))
+        if not low - slack <= value <= high + slack:
+            outside.append(symbol)
+        moved = abs(value - pooled.estimate[j]) / max(high - low, slack)
+        if moved > shift:
+            shift, most = float(moved), symbol
+    return Influence(participant, tuple(values), tuple(outside), max(shift, 0.0), most)
+
+
 # ---------------------------------------------------------------------------- the table
 
 
@@ -265,7 +396,9 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
     Columns: study, participant, world_index, world, episodes, steps, interrupted,
     ``ended_<T>`` per terminal symbol, step_limit, careful_next_to_terminal, method, beta,
     interval_kind, confidence, ``reward_<S>``, ``reward_<S>_low``, ``reward_<S>_high`` per
-    fitted symbol, files_left_out, note. Empty where a value does not apply.
+    fitted symbol, files_left_out, note, influential (a participant's row: ``true`` or ``false``;
+    a pool's: the influential participants, space-separated, or ``none``), finding (a pool's row:
+    `pooled_finding`). Empty where a value does not apply.
     """
     study = data.study
     terminals = sorted({t for w in study.worlds for t in w.terminal})
@@ -273,7 +406,8 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
     columns = ["study", "participant", "world_index", "world", "episodes", "steps", "interrupted",
                *(f"ended_{t}" for t in terminals), "step_limit", "careful_next_to_terminal", "method", "beta",
                "interval_kind", "confidence",
-               *(f"reward_{s}{end}" for s in symbols for end in ("", "_low", "_high")), "files_left_out", "note"]
+               *(f"reward_{s}{end}" for s in symbols for end in ("", "_low", "_high")), "files_left_out", "note",
+               "influential", "finding"]
     rows = []
     for cell, result in zip(data.cells, fits):
         world = study.worlds[cell.world_index]
@@ -293,8 +427,98 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",
             result.error or "; ".join(str(note) for note in result.notes),
+            _influence_cell(result), pooled_finding(data, cell, result) if cell.participant == POOLED else "",
         ])
     return columns, rows
+
+
+def _influence_cell(result: CellFit) -> str:
+    if result.influential is not None:
+        return "true" if result.influential else "false"
+    if result.influence is not None:
+        return " ".join(result.influential_participants) or "none"
+    return ""
+
+
+def pooled_finding(data: StudyData, cell: Cell, result: CellFit) -> str:
+    """What a world's pooled row shows, in a sentence from its numbers: whether the pooled interval of
+    the worst hazard (a terminal symbol with the most negative reward) lies below the nuisance's
+    (a non-terminal one with a negative reward), as carefulness should make it; which intervals miss
+    the world's rewards; who is influential.
+
+    "mud: the pooled cliff interval [-1420, -869] lies below the mud's [-52, -24]: carefulness
+    separates catastrophe from nuisance; every interval covers the world's reward; no participant
+    alone moves a pooled reward out of its interval."
+    """
+    world = data.study.worlds[cell.world_index]
+    if result.error:
+        return f"{world.name}: no pooled fit ({result.error})."
+    if result.intervals is None:
+        return f"{world.name}: no pooled interval (see the note), so nothing to compare."
+    truth = dict(zip(result.symbols, result.truth))
+    interval = {s: (float(low), float(high)) for s, (low, high) in zip(result.symbols, result.intervals)}
+    hazards = sorted((truth[s], s) for s in result.symbols if s in world.terminal and truth[s] < 0)
+    nuisances = sorted((truth[s], s) for s in result.symbols if s not in world.terminal and truth[s] < 0)
+    parts = []
+    if hazards and nuisances:
+        hazard, nuisance = hazards[0][1], nuisances[0][1]
+        h, n = _word(hazard), _word(nuisance)
+        order = order_words(interval[hazard], interval[nuisance])
+        said = {"below": "lies below", "above": "lies above", "overlaps": "overlaps"}[order]
+        verdict = {"below": "carefulness separates catastrophe from nuisance" if world.levels > 1 else
+                            "they lie apart, though with one level of carefulness it is the model's assumptions, "
+                            "not carefulness, that separate them",
+                   "above": f"the {n} comes out worse than the {h}",
+                   "overlaps": "these participants' play does not separate catastrophe from nuisance"}[order]
+        parts.append(f"the pooled {h} interval {interval_text(interval[hazard])} {said} the {n}'s "
+                     f"{interval_text(interval[nuisance])}: {verdict}")
+    elif hazards:
+        parts.append(_signs(hazards[0][1], interval, [s for s in result.symbols if truth[s] > 0]))
+    missed = [f"the {_word(s)}'s interval misses the world's {truth[s]:g}" for s in sorted(result.symbols, key=truth.get)
+              if not interval[s][0] <= truth[s] <= interval[s][1]]
+    parts.append("; ".join(missed) if missed else "every interval covers the world's reward")
+    if result.influence:
+        parts.append(_influence_words(result))
+    return f"{world.name}: " + "; ".join(parts) + "."
+
+
+def _signs(hazard: str, interval: dict[str, tuple[float, float]], goals: list[str]) -> str:
+    """Whether the hazard's pooled interval lies below 0 and the goals' above, in a world without a nuisance."""
+    h = _word(hazard)
+    below = interval[hazard][1] < 0
+    text = f"the pooled {h} interval {interval_text(interval[hazard])} {'lies' if below else 'does not lie'} below 0"
+    for goal in goals:
+        above = interval[goal][0] > 0
+        text += (f"{' and' if above == below else ', but'} the {_word(goal)}'s {interval_text(interval[goal])} "
+                 f"{'lies' if above else 'does not lie'} above it")
+    return text
+
+
+def _word(symbol: str) -> str:
+    return SYMBOL_WORDS.get(symbol, repr(symbol))
+
+
+def _influence_words(pooled: CellFit) -> str:
+    """"without p07 the cliff -361, outside the pooled interval: ...", or that no one alone moves the pool
+    and who moves it most."""
+    assert pooled.influence
+    moved = [i for i in pooled.influence if i.outside]
+    if not moved:
+        most = max(pooled.influence, key=lambda i: i.shift)
+        if not most.most:
+            return "no participant alone moves a pooled reward out of its interval"
+        value = dict(most.without)[most.most]
+        pooled_value = pooled.estimate[pooled.symbols.index(most.most)]
+        return (f"no participant alone moves a pooled reward out of its interval (the most: without "
+                f"{most.participant} the {_word(most.most)} {number_text(value)} against {number_text(pooled_value)})")
+    said = []
+    for influence in moved:
+        values = " and ".join(f"the {_word(symbol)} {number_text(value)}" for symbol, value in influence.without
+                              if symbol in influence.outside)
+        said.append(f"without {influence.participant} {values}")
+    several = len(moved) > 1 or len(moved[0].outside) > 1
+    return (f"{'; '.join(said)}, outside the pooled interval{'s' if several else ''}: "
+            f"{'this participant moves' if len(said) == 1 else 'each of these participants moves'} the pool alone")
 
 
 def _number(value: float | None) -> str:

@@ -62,6 +62,20 @@ def intervals_table(result: ExperimentResult) -> Table:
     return table
 
 
+VERDICT_STYLES = {"supported": "green", "not supported": "red", "mixed": "yellow"}
+
+
+def claims_lines(result: ExperimentResult) -> list[Text]:
+    """The paper's claims as this run judges them: "(a) ...: supported. <numbers> <discussion>"."""
+    lines = []
+    for claim in result.claims:
+        line = Text(f"({claim.key}) {claim.statement}: ")
+        line.append(claim.verdict, style=f"bold {VERDICT_STYLES[claim.verdict]}")
+        line.append(". " + " ".join([claim.evidence, *claim.discussion]))
+        lines.append(line)
+    return lines
+
+
 FIGURE_FORMATS = (".pdf", ".png")
 REPORT_FILES = ("summary.json", "report.md")
 
@@ -125,6 +139,10 @@ def report_markdown(result: ExperimentResult) -> str:
         lines.append(f"| {s.world} | {s.kind} | {s.data} | {s.cliff[0]:.0f} .. {s.cliff[1]:.0f} | "
                      f"{s.mud[0]:.0f} .. {s.mud[1]:.0f} | {'yes' if s.separated else 'no'} | {s.seconds:.2f} s |")
     lines += [""] + [f"- {s.world} ({s.kind}): {interval_caption(s)}" for s in result.separations]
+    if result.claims:
+        lines += ["", "## The paper's claims, against this run", "",
+                  "Each claim of the paper this run tests, and whether this run's numbers support it.", "",
+                  *(f"- {claim.text()}" for claim in result.claims)]
     lines += ["", "## Figures", "", *how_to_read(result), ""]
     for figure in result.figures:
         lines += [f"### {figure.title}", "", f"![{figure.title}]({figure.key}.png)", "",
@@ -158,6 +176,10 @@ def run_experiment(args: argparse.Namespace) -> int:
     write_figures(result, out)
     console.print(estimates_table(result))
     console.print(intervals_table(result))
+    if result.claims:
+        console.print(Text("The paper's claims, against this run:", style="bold"))
+        for line in claims_lines(result):
+            console.print(line)
     for note in result.notes:  # text, never markup: a note may name a file
         console.print(Text(f"note: {printable(note, limit=400)}", style="dim"))
     summary, report = REPORT_FILES

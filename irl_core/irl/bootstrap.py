@@ -24,6 +24,10 @@ threads, such as the fit view's, is unsafe). Either way a worker starts in milli
 `seed`, so the same seed gives the same interval whatever the number of workers. A fit told to
 stop tells its workers too (`stopping.stop_when` on their side): queued resamples are dropped
 and running maxent refits stop at their next soft Bellman solve.
+
+Episodes that come in groups (a study's pool: each participant's episodes) are resampled at two
+levels (`two_level_weights`): the groups with replacement, then within each group drawn its
+episodes with replacement, so the interval covers differences between the groups too.
 """
 
 from __future__ import annotations
@@ -137,6 +141,24 @@ def resample_weights(episodes: int, resamples: int, seed: int) -> np.ndarray:
     return rng.multinomial(episodes, np.full(episodes, 1.0 / episodes), size=resamples).astype(float)
 
 
+def two_level_weights(groups: np.ndarray, resamples: int, seed: int) -> np.ndarray:
+    """(resamples, E) multiplicities of each episode when its group (`groups`, (E,) ints) is resampled first.
+
+    Each resample draws G groups with replacement (G the groups present), then, for every time a group
+    was drawn, as many of its episodes as it has, with replacement. A group drawn m times holding n
+    episodes thus contributes m * n episodes, Multinomial(m * n, 1/n) over its own (the sum of m
+    independent draws); a group not drawn contributes none.
+    """
+    labels, members = np.unique(np.asarray(groups), return_inverse=True)
+    rng = np.random.default_rng(seed)
+    drawn = rng.multinomial(labels.size, np.full(labels.size, 1.0 / labels.size), size=resamples)
+    weights = np.zeros((resamples, members.size))
+    for g in range(labels.size):
+        mine = np.flatnonzero(members == g)
+        weights[:, mine] = rng.multinomial(drawn[:, g] * mine.size, np.full(mine.size, 1.0 / mine.size))
+    return weights
+
+
 def interval(estimates: np.ndarray, full: np.ndarray, *, confidence: float, variant: str) -> np.ndarray:
     """(p, 2) intervals from refits (R, p) and the full-data estimate (p,)."""
     alpha = (1.0 - confidence) / 2.0
@@ -160,6 +182,7 @@ def bootstrap(
     variant: str = INTERVAL_VARIANT,
     progress: Progress | None = None,
     workers: int | None = None,
+    groups: np.ndarray | None = None,
 ) -> BootstrapResult:
     """Refit `resamples` resamples of the episodes (rows of `by_episode`, (E, S * A)) and bound every parameter.
 
@@ -168,8 +191,11 @@ def bootstrap(
         bounds: clip the intervals to these (the fit's ±rmax: a reflected end may not pass them).
         progress: called as progress("resamples", done, resamples) while the refits come back.
         workers: processes (default: the cores; 1 runs in this process).
+        groups: (E,) the group of each episode (a participant): resample groups, then episodes
+            within them (`two_level_weights`); None resamples the episodes alone.
     """
-    weights = resample_weights(by_episode.shape[0], resamples, seed)
+    weights = (resample_weights(by_episode.shape[0], resamples, seed) if groups is None
+               else two_level_weights(groups, resamples, seed))
     workers = min(workers or os.cpu_count() or 1, resamples)
     estimates = np.full((resamples, full.size), np.nan)
     done = 0

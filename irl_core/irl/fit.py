@@ -273,7 +273,7 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
     full = np.append(fitted.theta, fitted.beta) if fitted.beta_auto else fitted.theta
     result = bootstrap(_refit(fitted, qmap, demos, options), demos.by_episode, full, confidence=options.confidence,
                        resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
-                       progress=progress, workers=workers)
+                       progress=progress, workers=workers, groups=demos.episode_groups)
     if result.failed:
         notes.append(Note("resamples_failed", f"{result.failed} of {options.resamples} resamples failed to fit and "
                                               "were left out"))

@@ -26,7 +26,13 @@ def test_quick_experiment_tells_the_papers_story(tmp_path, monkeypatch):
                  "fig7-demonstrated-policy", "fig8-loss", "intervals-mud", "intervals-mud-simple"):
         assert (out / f"{name}.pdf").read_bytes().startswith(b"%PDF")
         assert (out / f"{name}.png").read_bytes().startswith(b"\x89PNG")
+    # The paper's claims, judged from this run: (b) is mixed, since without carefulness maxent's confidence
+    # intervals separate the cliff from the mud as well (discussed, not left bare).
+    claims = {c["claim"]: c for c in summary["claims"]}
+    assert sorted(claims) == ["a", "b", "c"] and claims["a"]["verdict"] == "supported"
+    assert claims["b"]["verdict"] == "mixed" and "Without carefulness (mud-simple)" in claims["b"]["discussion"][0]
     report = (out / "report.md").read_text()
+    assert "## The paper's claims, against this run" in report
     assert "| careful lp |" in report and "![Figure 6" in report and "(fig6-lp.png)" in report
     assert "simulated noisy experts" in report
     assert "A fitted reward is a point estimate" in report
