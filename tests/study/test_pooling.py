@@ -52,6 +52,7 @@ class _Share:
     unknowns: object
     method: str = "loss"
     beta: float = 1.0
+    size: int = 1
 
     def __call__(self, counts):
         return np.array([counts[:3].sum() / counts.sum()])
