@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.demonstrations import Demonstrations, episode_matrix
+from irl_core.demonstrations import Demonstrations, EpisodeFacts, episode_matrix
 from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recording_writer import RecordingWriter
 from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
@@ -95,21 +95,25 @@ def rollouts(
     seed: int | None = None,
     rng: np.random.Generator | None = None,
     max_steps: int | None = None,
+    starts: np.ndarray | None = None,
 ) -> Rollouts:
-    """Roll out `policy` (S, A) from the world's start cells for `episodes` episodes.
+    """Roll out `policy` (S, A) from the world's start cells for `episodes` episodes, or from the
+    states `starts` (episodes,) when given.
 
     Randomness comes from `rng` when given (to continue a stream block by block), else from `seed`.
     """
     world = mdp.world
     max_steps = world.max_steps if max_steps is None else max_steps
     rng = np.random.default_rng(seed) if rng is None else rng
+    given_starts = starts
     starts = np.array([mdp.state_of[cell] for cell in world.start_cells])
     policy_cdf = np.cumsum(policy, axis=1)
     slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, slip=world.slip), axis=1)  # (A, 4)
     R = mdp.reward_matrix()
     last = mdp.n_actions - 1
 
-    state = starts[rng.integers(len(starts), size=episodes)]
+    state = (np.asarray(given_starts, dtype=np.int64).copy() if given_starts is not None
+             else starts[rng.integers(len(starts), size=episodes)])
     length = np.zeros(episodes, dtype=np.int64)
     live = np.arange(episodes)
     trace: list[tuple[np.ndarray, ...]] = []
@@ -141,8 +145,13 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
     np.add.at(counts, (result.state, result.action), 1.0)
     by_episode = episode_matrix(result.episode.tolist(), result.state * mdp.n_actions + result.action,
                                 mdp.n_states * mdp.n_actions)
+    first = np.unique(result.episode, return_index=True)[1]
+    symbols = mdp.symbols + ("",)
+    ends = tuple("step_limit" if cut else symbols[s] for s, cut in zip(result.final_state, result.truncated))
+    facts = EpisodeFacts(start=result.state[first], length=result.length[result.length > 0],
+                         end=tuple(end for end, n in zip(ends, result.length) if n > 0))
     return Demonstrations(mdp=mdp, counts=counts, files=0, episodes=int(result.length.size),
-                          steps=int(result.state.size), by_episode=by_episode)
+                          steps=int(result.state.size), by_episode=by_episode, episode_facts=facts)
 
 
 # The most steps one block of `simulate_to_file` may hold (about 60 bytes each while rolled out).

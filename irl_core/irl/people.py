@@ -1,0 +1,501 @@
+"""People as they play: a player model for human play, fitted with the rewards by maximum likelihood.
+
+A person chooses a *direction* sharply and a *level* loosely (a hold is timed by a hand, not picked
+from a menu) and now and then lapses. The paper's maxent expert (`maxent.py`) is soft-optimal over
+(direction, level) with one temperature for both, and its soft backup runs on after the episode has
+ended; on person-like play that puts the goal below zero (docs/people.md). This model adds three
+parts, each a parameter estimated with the rewards, nested so that maxent's expert is its special case:
+
+===========  ==========  ===================================================================
+part         parameter   what it says
+===========  ==========  ===================================================================
+end          ``ends``    the soft backup stops at the episode's end: a terminal cell is worth
+                         its R_S, the exit 0, with no entropy bonus after the end (a person
+                         gets nothing after the goal); without it every state gets the soft
+                         backup, as maxent's
+hand         sigma       the player intends level c* and the hand realises c with
+                         K(c | c*) ~ exp(-(c - c*)^2 / (2 sigma^2)) on 1..L; the move's slip
+                         and cost are the realised level's, and the player plans for the hand:
+                         Q_I(s, d, c*) = sum_c K(c | c*) Q(s, d, c)
+lapse        epsilon     with probability epsilon the direction is uniformly random, the level
+                         the player's own (lapses are not planned for)
+choice       beta        pi_I(d, c* | s) = exp(beta (Q_I(s, d, c*) - V(s)))
+===========  ==========  ===================================================================
+
+with V(s) = (1/beta) log sum_j exp(beta Q_I(s, j)) at acting states and
+Q(s, a) = R(s, a) + gamma sum_s' P(s' | s, a) V(s'). The recorded action's probability is
+
+    pi_O = (1 - epsilon) q + epsilon Lq,      q(s, d, c) = sum_c* pi_I(s, d, c*) K(c | c*),
+
+where (Lq)(s, d, c) = (1/4) sum_d' q(s, d', c), and the fit maximises LL = sum N(s, a) log pi_O(a | s).
+
+Gradient (exact). As in maxent, beta Q is the beta = 1 Q of the reward beta R, so everything is
+computed at beta 1 for R1 = beta R and LL(R, beta) = LL_1(beta R). With W = N / pi_O,
+U = (1 - eps) W + eps L W (= dLL/dq), Z = U K^T (= dLL/dpi_I), g = pi_I (Z - <pi_I, Z>) (= dLL/dQ_I)
+and D = g K (dLL/dQ with V held), the fixed point's derivative is dV = (I - gamma P^q)^-1 (q . dR + h),
+h the change of the soft backup with Q held, so with y = (I - gamma P^q)^-T gamma P^T D:
+
+    dLL/dR1(s, a) = D(s, a) + y(s) q(s, a),     dLL/dR_S = beta sum_a dLL/dR1,
+    dLL/dlog beta = sum dLL/dR1 * R1,           dLL/depsilon = sum W (Lq - q),
+    dLL/dK = pi_I^T U + g^T Q + (y pi_I)^T Q    (summed over acting states and directions).
+
+`tests/irl/test_people.py` checks every one against central differences, and the special case
+(no hand, no lapse, the backup running on) against `maxent.log_likelihood`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import minimize
+
+from irl_core.irl.maxent import LOG_BETA_BOUNDS, _expected_next, _solve, one_blas_thread, policy_system
+from irl_core.irl.qmap import Unknowns
+from irl_core.irl.result import SolverError
+from irl_core.mdp import MDP
+from irl_core.stopping import stop_if_asked
+
+
+@dataclass(frozen=True)
+class PlayerModel:
+    """One entry of the player-model registry: which parts of the model are on."""
+
+    name: str
+    ends: bool
+    hand: bool
+    lapses: bool
+    summary: str
+
+    @property
+    def extra_parameters(self) -> int:
+        """Parameters beyond the rewards and beta."""
+        return int(self.hand) + int(self.lapses)
+
+
+PLAYER_MODELS: dict[str, PlayerModel] = {
+    model.name: model
+    for model in (
+        PlayerModel("boltzmann", ends=False, hand=False, lapses=False,
+                    summary="the paper's maxent expert: soft-optimal over (direction, level), its soft backup "
+                            "running on after the episode's end"),
+        PlayerModel("ends", ends=True, hand=False, lapses=False,
+                    summary="soft-optimal over (direction, level), with nothing after the episode's end"),
+        PlayerModel("hand", ends=True, hand=True, lapses=False,
+                    summary="soft-optimal over direction and intended level, the hand adding noise to the level"),
+        PlayerModel("person", ends=True, hand=True, lapses=True,
+                    summary="as hand, and now and then a lapse: a random direction"),
+    )
+}
+AUTO = "auto"
+
+
+def player_model(name: str) -> PlayerModel:
+    """The registry entry called `name`; raises ValueError for any other name."""
+    try:
+        return PLAYER_MODELS[name]
+    except KeyError:
+        raise ValueError(f"player_model must be one of {(AUTO, *PLAYER_MODELS)}, not {name!r}") from None
+
+
+# The hand's noise, sigma in levels: at the lower end the kernel is the identity to double precision
+# (exp(-1 / (2 * 0.05^2)) = 1e-87), so "no hand noise" is inside the search range.
+SIGMA_BOUNDS = (0.05, 20.0)
+LAPSE_BOUNDS = (1e-4, 0.5)
+START_SIGMA = 1.0
+START_LAPSE = 0.02
+SOFT_TOLERANCE = 1e-12
+SOFT_MAX_ITER = 200
+# L-BFGS-B stops when an iteration improves the mean log likelihood by less than this, relative.
+# A reward the data do not pin (a cliff nobody steps into) only walks on along a flat direction past
+# this point, so its value is the optimiser's patience, not the data's: the fit reads such rewards as
+# one-sided ("at most X", `flat_toward_bound`), bench/bench_people.py measures both speed and answers.
+VALUE_TOLERANCE = 1e-10
+GRADIENT_TOLERANCE = 1e-7
+MAX_ITER = 1000
+# exp(-log pi_O) of a recorded action is capped here: only a line search's wildest trial point gets
+# near it, and there a finite gradient lets L-BFGS-B step back.
+MAX_LOG_RATIO = 600.0
+
+
+@dataclass(frozen=True)
+class Player:
+    """A player's parameters besides the rewards: beta, the hand's sigma (levels), the lapse probability."""
+
+    beta: float
+    sigma: float = 0.0
+    lapse: float = 0.0
+
+    def to_json(self) -> dict[str, float]:
+        return {"beta": self.beta, "sigma": self.sigma, "lapse": self.lapse}
+
+
+def level_kernel(levels: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """K (L, L), K[c* - 1, c - 1] = P(realised c | intended c*), and dK/dlog sigma (L, L).
+
+    sigma 0 is the identity (no hand noise)."""
+    if sigma <= 0:
+        return np.eye(levels), np.zeros((levels, levels))
+    offset = np.arange(levels)[None, :] - np.arange(levels)[:, None]
+    a = offset.astype(float) ** 2 / sigma**2  # -2 dlog w / dlog sigma ... see below
+    log_w = -0.5 * a
+    log_w -= log_w.max(axis=1, keepdims=True)
+    w = np.exp(log_w)
+    K = w / w.sum(axis=1, keepdims=True)
+    # dlog w / dlog sigma = a, so dK / dlog sigma = K (a - sum_c K a).
+    return K, K * (a - (K * a).sum(axis=1, keepdims=True))
+
+
+@dataclass(frozen=True)
+class PlayerPlan:
+    """The model's fixed point for one reward: V (S,) and, at acting states, the intended policy
+    pi_I (S, A), the realised policy q (S, A) and the recorded-action policy pi_O (S, A) with its log;
+    rows of states where nobody acts are uniform."""
+
+    V: np.ndarray
+    Q: np.ndarray
+    intended: np.ndarray
+    realised: np.ndarray
+    observed: np.ndarray
+    log_observed: np.ndarray
+    iterations: int
+
+
+@dataclass
+class _Work:
+    """What the gradient needs from the forward pass (all at beta 1, for R1 = beta R)."""
+
+    R1: np.ndarray
+    plan: PlayerPlan
+    K: np.ndarray
+    dK: np.ndarray
+    system: np.ndarray | sp.spmatrix
+
+
+def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: float,
+             V0: np.ndarray | None) -> tuple[PlayerPlan, np.ndarray | sp.spmatrix]:
+    """Soft policy iteration over intended actions (beta 1), then the recorded-action policy."""
+    S, A, L = mdp.n_states, mdp.n_actions, mdp.levels
+    acting = mdp.nonterminal
+    uniform = np.full(A, 1.0 / A)
+    end_entropy = 0.0 if ends else float(np.log(A))
+    V = np.zeros(S) if V0 is None else np.asarray(V0, dtype=float).copy()
+
+    def improve(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        Q = R1 + mdp.gamma * _expected_next(mdp, V)
+        QI = (Q.reshape(S, 4, L) @ K.T).reshape(S, A)
+        top = QI.max(axis=1, keepdims=True)
+        shifted = QI - top
+        log_totals = np.log(np.exp(shifted).sum(axis=1, keepdims=True))
+        log_pi = shifted - log_totals
+        pi = np.exp(log_pi)
+        q = (pi.reshape(S, 4, L) @ K).reshape(S, A)
+        q[~acting] = uniform
+        return Q, pi, log_pi, q, (top + log_totals)[:, 0]
+
+    Q, pi, log_pi, q, soft_max = improve(V)
+    for iteration in range(1, SOFT_MAX_ITER + 1):
+        stop_if_asked()
+        entropy = np.where(acting, -(pi * log_pi).sum(axis=1), end_entropy)
+        system = policy_system(mdp, q)
+        V = _solve(system, (q * R1).sum(axis=1) + entropy)
+        Q, pi, log_pi, q, soft_max = improve(V)
+        residual = float(np.abs(soft_max - V)[acting].max()) if acting.any() else 0.0
+        if residual <= SOFT_TOLERANCE * max(1.0, float(np.abs(V).max())):
+            break
+    else:
+        raise SolverError(
+            f"the player model's soft Bellman equations did not converge in {SOFT_MAX_ITER} solves; "
+            "the rewards may be too large for this beta: try a smaller rmax"
+        )
+    # The gradient's system is the final policy's: the last one solved differs from it at first order in
+    # the policy, though the residual, which is second order, is already negligible.
+    system = policy_system(mdp, q)
+    log_q = _log_realised(log_pi.reshape(S, 4, L), K)
+    if lapse > 0:
+        log_level = np.logaddexp.reduce(log_q, axis=1, keepdims=True) - np.log(4.0)  # log (Lq)
+        log_observed = np.logaddexp(np.log1p(-lapse) + log_q, np.log(lapse) + log_level)
+    else:
+        log_observed = log_q
+    log_observed = log_observed.reshape(S, A)
+    log_observed[~acting] = np.log(uniform)
+    plan = PlayerPlan(V=V, Q=Q, intended=pi, realised=q, observed=np.exp(log_observed),
+                      log_observed=log_observed, iterations=iteration)
+    return plan, system
+
+
+def _log_realised(log_pi3: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """(S, 4, L) log q = log sum_c* pi_I(d, c*) K(c | c*), in log space (q of an unlikely level underflows)."""
+    if np.array_equal(K, np.eye(K.shape[0])):
+        return log_pi3.copy()
+    with np.errstate(divide="ignore"):
+        log_K = np.log(K)
+    joint = log_pi3[..., :, None] + log_K[None, None, :, :]
+    top = joint.max(axis=2, keepdims=True)
+    return (top + np.log(np.exp(joint - top).sum(axis=2, keepdims=True)))[..., 0, :]
+
+
+@dataclass(frozen=True)
+class Likelihood:
+    """LL and its gradient: dLL/dR_S (S,), dLL/dlog beta, dLL/dlog sigma, dLL/dlapse, and the plan."""
+
+    value: float
+    R_S: np.ndarray
+    log_beta: float
+    log_sigma: float
+    lapse: float
+    plan: PlayerPlan
+
+
+def log_likelihood(
+    mdp: MDP,
+    counts: np.ndarray,
+    R_S: np.ndarray,
+    *,
+    model: PlayerModel,
+    player: Player,
+    V0: np.ndarray | None = None,
+    gradient: bool = True,
+) -> Likelihood:
+    """LL of recorded counts N (S, A) for state rewards R_S (S,) and the player, with its exact gradient
+    (zeros when `gradient` is False). V0 (S,): a start for the soft values at beta 1 (beta V)."""
+    beta = player.beta
+    K, dK = level_kernel(mdp.levels, player.sigma if model.hand else 0.0)
+    lapse = player.lapse if model.lapses else 0.0
+    R1 = beta * mdp.reward_matrix(R_S)
+    plan, system = _forward(mdp, R1, K, ends=model.ends, lapse=lapse, V0=V0)
+    acting = mdp.nonterminal
+    counts = np.asarray(counts, dtype=float)
+    value = float((counts[acting] * plan.log_observed[acting]).sum())
+    if not gradient:
+        return Likelihood(value, np.zeros(mdp.n_states), 0.0, 0.0, 0.0, plan)
+    S, A, L = mdp.n_states, mdp.n_actions, mdp.levels
+    W = np.zeros((S, A))
+    seen = acting[:, None] & (counts > 0)
+    W[seen] = counts[seen] * np.exp(np.minimum(-plan.log_observed[seen], MAX_LOG_RATIO))
+    W3 = W.reshape(S, 4, L)
+    U3 = (1 - lapse) * W3 + lapse * W3.mean(axis=1, keepdims=True)
+    pi3 = plan.intended.reshape(S, 4, L)
+    Z3 = U3 @ K.T
+    g3 = pi3 * (Z3 - (pi3 * Z3).sum(axis=(1, 2), keepdims=True))
+    g3[~acting] = 0.0
+    D = (g3 @ K).reshape(S, A)
+    m = mdp.gamma * (D.ravel() @ mdp.P)
+    y = _solve(system.T if isinstance(system, np.ndarray) else system.T.tocsc(), m)
+    G1 = D + y[:, None] * plan.realised
+    grad_R_S = beta * G1.sum(axis=1)
+    grad_R_S[mdp.exit_state] = 0.0
+    grad_log_beta = float((G1 * R1).sum())
+    grad_log_sigma = 0.0
+    if model.hand and player.sigma > 0:
+        Q3 = plan.Q.reshape(S, 4, L)[acting]
+        p3, u3, h3 = pi3[acting], U3[acting], g3[acting] + y[acting, None, None] * pi3[acting]
+        dLL_dK = np.einsum("sdi,sdj->ij", p3, u3) + np.einsum("sdi,sdc->ic", h3, Q3)
+        grad_log_sigma = float((dLL_dK * dK).sum())
+    grad_lapse = 0.0
+    if model.lapses:
+        q3 = plan.realised.reshape(S, 4, L)
+        grad_lapse = float((W3 * (q3.mean(axis=1, keepdims=True) - q3))[acting].sum())
+    return Likelihood(value, grad_R_S, grad_log_beta, grad_log_sigma, grad_lapse, plan)
+
+
+@dataclass(frozen=True)
+class PlayerFit:
+    """The rewards theta (k,) and the player that maximise the likelihood, V (S,) at beta 1 there,
+    the mean log likelihood per recorded step, and L-BFGS-B's report."""
+
+    model: PlayerModel
+    theta: np.ndarray
+    player: Player
+    V1: np.ndarray
+    mean_log_likelihood: float
+    converged: bool
+    iterations: int
+    message: str
+    plan: PlayerPlan = field(repr=False)
+
+    @property
+    def beta_at_bound(self) -> bool:
+        return min(abs(np.log(self.player.beta) - end) for end in LOG_BETA_BOUNDS) < 1e-6
+
+    def parameters(self) -> np.ndarray:
+        """(p,) theta, then beta, then sigma and the lapse where the model has them (the bootstrap's vector)."""
+        extra = [self.player.beta]
+        if self.model.hand:
+            extra.append(self.player.sigma)
+        if self.model.lapses:
+            extra.append(self.player.lapse)
+        return np.append(self.theta, extra)
+
+
+def _logit(p: float) -> float:
+    return float(np.log(p) - np.log1p(-p))
+
+
+def fit_player(
+    mdp: MDP,
+    unknowns: Unknowns,
+    counts: np.ndarray,
+    *,
+    model: PlayerModel,
+    rmax: float,
+    start: tuple[np.ndarray, Player] | None = None,
+    start_V: np.ndarray | None = None,
+    value_tolerance: float = VALUE_TOLERANCE,
+    gradient_tolerance: float = GRADIENT_TOLERANCE,
+) -> PlayerFit:
+    """Maximise the mean log likelihood of counts N (S, A) over the unknowns (|theta| <= rmax), log beta,
+    and, where `model` has them, log sigma and logit lapse, from `start` = (theta, player) (else theta 0,
+    beta 1, sigma 1, lapse 0.02) and the soft values from `start_V` (S,, at beta 1).
+
+    Raises ValueError without a recorded step, `Stopped` once the fit's stop check says so."""
+    counts = np.asarray(counts, dtype=float)
+    total = counts.sum()
+    if total <= 0:
+        raise ValueError("the player model needs at least one recorded step")
+    theta0, player0 = start if start is not None else (np.zeros(unknowns.k), Player(1.0, START_SIGMA, START_LAPSE))
+    basis_T = unknowns.basis.T.tocsr()
+    warm = {"V": start_V}
+    k = unknowns.k
+
+    def unpack(z: np.ndarray) -> tuple[np.ndarray, Player]:
+        i = k + 1
+        sigma = lapse = 0.0
+        if model.hand:
+            sigma, i = float(np.exp(z[i])), i + 1
+        if model.lapses:
+            lapse = float(1 / (1 + np.exp(-z[i])))
+        return z[:k], Player(float(np.exp(z[k])), sigma, lapse)
+
+    def negative(z: np.ndarray) -> tuple[float, np.ndarray]:
+        theta, player = unpack(z)
+        got = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player, V0=warm["V"])
+        warm["V"] = got.plan.V
+        grad = [basis_T @ got.R_S, [got.log_beta]]
+        if model.hand:
+            grad.append([got.log_sigma])
+        if model.lapses:
+            grad.append([got.lapse * player.lapse * (1 - player.lapse)])
+        return -got.value / total, -np.concatenate(grad) / total
+
+    z0 = list(np.asarray(theta0, dtype=float)) + [float(np.clip(np.log(player0.beta), *LOG_BETA_BOUNDS))]
+    bounds = [(-rmax, rmax)] * k + [LOG_BETA_BOUNDS]
+    if model.hand:
+        z0.append(float(np.log(np.clip(player0.sigma or START_SIGMA, *SIGMA_BOUNDS))))
+        bounds.append((float(np.log(SIGMA_BOUNDS[0])), float(np.log(SIGMA_BOUNDS[1]))))
+    if model.lapses:
+        z0.append(_logit(float(np.clip(player0.lapse or START_LAPSE, *LAPSE_BOUNDS))))
+        bounds.append((_logit(LAPSE_BOUNDS[0]), _logit(LAPSE_BOUNDS[1])))
+    # Rewards run in hundreds, the other variables near 1: search theta in units of rmax / 100 so that
+    # L-BFGS-B's first steps are of a sensible size in every direction.
+    unit = np.ones(len(z0))
+    unit[:k] = max(rmax / 100.0, 1.0)
+    z0_scaled = np.asarray(z0) / unit
+    scaled_bounds = [(low / u, high / u) for (low, high), u in zip(bounds, unit)]
+    with one_blas_thread():
+        result = minimize(lambda z: _scaled(negative, z, unit), z0_scaled, jac=True, method="L-BFGS-B",
+                          bounds=scaled_bounds,
+                          options={"maxiter": MAX_ITER, "ftol": value_tolerance, "gtol": gradient_tolerance})
+        theta, player = unpack(result.x * unit)
+        final = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player,
+                               V0=warm["V"], gradient=False)
+    return PlayerFit(model=model, theta=np.asarray(theta, dtype=float), player=player, V1=final.plan.V,
+                     mean_log_likelihood=final.value / total, converged=bool(result.success),
+                     iterations=int(result.nit), message=str(result.message), plan=final.plan)
+
+
+def _scaled(negative, z: np.ndarray, unit: np.ndarray) -> tuple[float, np.ndarray]:
+    value, gradient = negative(z * unit)
+    return value, gradient * unit
+
+
+# ---------------------------------------------------------------------------- choosing a model
+
+# Candidates for `player_model="auto"`, simplest first.
+CANDIDATES: tuple[str, ...] = ("boltzmann", "ends", "hand", "person")
+FOLDS = 5
+# A model with more parameters is chosen only if its held-out log likelihood beats every simpler
+# one's by at least this much (nats over all held-out steps): a smaller gain is noise.
+SIMPLER_MARGIN = 2.0
+# With fewer episodes than this there is no held-out choice.
+MIN_EPISODES_TO_CHOOSE = 3
+
+
+@dataclass(frozen=True)
+class ModelChoice:
+    """Which player model explains the recordings best on held-out episodes, and by how much.
+
+    Attributes:
+        name: the chosen model.
+        held_out: per candidate, the log likelihood of each episode under the model fitted without
+            its fold, summed over episodes (None where the choice was not made on held-out data).
+        folds: how many folds the episodes were split into (0: no held-out choice).
+        fits: per candidate, its fit to every episode.
+        reason: one sentence for the reader.
+    """
+
+    name: str
+    held_out: dict[str, float] | None
+    folds: int
+    fits: dict[str, PlayerFit]
+    reason: str
+
+
+def choose_player_model(
+    mdp: MDP,
+    unknowns: Unknowns,
+    by_episode: sp.csr_matrix,
+    *,
+    rmax: float,
+    candidates: tuple[str, ...] = CANDIDATES,
+    folds: int = FOLDS,
+    seed: int = 0,
+) -> ModelChoice:
+    """Fit each candidate model to the episodes (rows of `by_episode`, (E, S * A)) and choose by
+    `folds`-fold held-out log likelihood over whole episodes: the best, unless a model with fewer
+    parameters comes within `SIMPLER_MARGIN` of it. With fewer than `MIN_EPISODES_TO_CHOOSE` episodes
+    the choice is the ``ends`` model (the simplest with a person's episode end), said so."""
+    by_episode = sp.csr_matrix(by_episode)
+    counts = np.asarray(by_episode.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
+    E = by_episode.shape[0]
+    models = [player_model(name) for name in candidates]
+    if E < MIN_EPISODES_TO_CHOOSE:
+        fit = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=rmax)
+        return ModelChoice("ends", None, 0, {"ends": fit},
+                           f"player model ends, without a held-out choice: {E} episode{'s' if E != 1 else ''} "
+                           f"cannot be split into folds (a choice needs {MIN_EPISODES_TO_CHOOSE})")
+    fits: dict[str, PlayerFit] = {}
+    for model in models:
+        # Each richer model starts where the simpler one ended: its extra parameters start from nothing.
+        previous = fits.get(candidates[candidates.index(model.name) - 1]) if model.name != candidates[0] else None
+        start = None if previous is None else (previous.theta, Player(previous.player.beta,
+                                                                      previous.player.sigma or START_SIGMA,
+                                                                      previous.player.lapse or START_LAPSE))
+        fits[model.name] = fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start)
+    k = min(folds, E)
+    fold_of = np.random.default_rng(seed).permutation(np.arange(E) % k)
+    held_out = {model.name: 0.0 for model in models}
+    for f in range(k):
+        train = _counts_of(by_episode[fold_of != f], mdp)
+        test = _counts_of(by_episode[fold_of == f], mdp)
+        for model in models:
+            full = fits[model.name]
+            part = fit_player(mdp, unknowns, train, model=model, rmax=rmax, start=(full.theta, full.player),
+                              start_V=full.V1)
+            held_out[model.name] += log_likelihood(mdp, test, unknowns.state_rewards(part.theta), model=model,
+                                                   player=part.player, V0=part.V1, gradient=False).value
+    best = max(held_out, key=held_out.__getitem__)
+    chosen = next(model.name for model in models if held_out[model.name] >= held_out[best] - SIMPLER_MARGIN)
+    steps = int(counts.sum())
+    scores = ", ".join(f"{name} {held_out[name] / steps:.4f}" for name in candidates)
+    why = (f"player model {chosen} chosen by {k}-fold held-out log likelihood per step over whole episodes "
+           f"({scores})")
+    if chosen != best:
+        why += f"; {best} was no better by more than {SIMPLER_MARGIN:g} nats in all, so the simpler model stands"
+    return ModelChoice(chosen, held_out, k, fits, why)
+
+
+def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
+    """(S, A) counts summed over episode rows (n, S * A)."""
+    return np.asarray(rows.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
