@@ -344,6 +344,7 @@ def fit_player(
     start_V: np.ndarray | None = None,
     value_tolerance: float = VALUE_TOLERANCE,
     gradient_tolerance: float = GRADIENT_TOLERANCE,
+    max_iter: int = MAX_ITER,
 ) -> PlayerFit:
     """Maximise the mean log likelihood of counts N (S, A) over the unknowns (|theta| <= rmax), log beta,
     and, where `model` has them, log sigma and logit lapse, from `start` = (theta, player) (else theta 0,
@@ -396,7 +397,7 @@ def fit_player(
     with one_blas_thread():
         result = minimize(lambda z: _scaled(negative, z, unit), z0_scaled, jac=True, method="L-BFGS-B",
                           bounds=scaled_bounds,
-                          options={"maxiter": MAX_ITER, "ftol": value_tolerance, "gtol": gradient_tolerance})
+                          options={"maxiter": max_iter, "ftol": value_tolerance, "gtol": gradient_tolerance})
         theta, player = unpack(result.x * unit)
         final = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player,
                                V0=warm["V"], gradient=False)
@@ -418,6 +419,9 @@ FOLDS = 5
 # A model with more parameters is chosen only if its held-out log likelihood beats every simpler
 # one's by at least this much (nats over all held-out steps): a smaller gain is noise.
 SIMPLER_MARGIN = 2.0
+# A fold's refit starts at the full fit and stops sooner: its error is far below the held-out noise.
+REFIT_VALUE_TOLERANCE = 1e-8
+REFIT_MAX_ITER = 200
 # With fewer episodes than this there is no held-out choice.
 MIN_EPISODES_TO_CHOOSE = 3
 
@@ -482,7 +486,7 @@ def choose_player_model(
         for model in models:
             full = fits[model.name]
             part = fit_player(mdp, unknowns, train, model=model, rmax=rmax, start=(full.theta, full.player),
-                              start_V=full.V1)
+                              start_V=full.V1, value_tolerance=REFIT_VALUE_TOLERANCE, max_iter=REFIT_MAX_ITER)
             held_out[model.name] += log_likelihood(mdp, test, unknowns.state_rewards(part.theta), model=model,
                                                    player=part.player, V0=part.V1, gradient=False).value
     best = max(held_out, key=held_out.__getitem__)
@@ -499,3 +503,61 @@ def choose_player_model(
 def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
     """(S, A) counts summed over episode rows (n, S * A)."""
     return np.asarray(rows.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
+
+
+@dataclass(frozen=True, eq=False)
+class PlayerRefit:
+    """How the bootstrap refits one resample's counts (S, A) with a player model: from the full fit's
+    answer, stopping sooner (`REFIT_VALUE_TOLERANCE`). Returns `PlayerFit.parameters()` (p,)."""
+
+    mdp: MDP
+    unknowns: Unknowns
+    model: PlayerModel
+    rmax: float
+    start: tuple[np.ndarray, Player]
+    start_V: np.ndarray | None = None
+
+    def __call__(self, counts: np.ndarray) -> np.ndarray:
+        return fit_player(self.mdp, self.unknowns, counts, model=self.model, rmax=self.rmax, start=self.start,
+                          start_V=self.start_V, value_tolerance=REFIT_VALUE_TOLERANCE,
+                          max_iter=REFIT_MAX_ITER).parameters()
+
+
+# A reward moved to its bound whose log likelihood falls by less than this (chi-square(1) at 95%, halved)
+# is not bounded on that side by the data.
+FLAT_DROP = 1.92
+# Beyond this many unknowns on one side, only the joint move is tried (one soft Bellman fixed point each).
+MAX_ONE_BY_ONE = 40
+
+
+def flat_toward_bound(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, *, rmax: float) -> np.ndarray:
+    """(k,) -1 where moving an unknown from its estimate to -rmax, +1 where moving it to +rmax, costs the
+    likelihood less than `FLAT_DROP` (its value there is the optimiser's patience, not the data's), else 0.
+
+    Each unknown moves toward the bound on its own side; all of one side move together first, and one
+    by one only if that costs more (and there are at most `MAX_ONE_BY_ONE`)."""
+    counts = np.asarray(counts, dtype=float)
+
+    def ll(theta: np.ndarray) -> float:
+        return log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=fit.model, player=fit.player,
+                              V0=fit.V1, gradient=False).value
+
+    best = ll(fit.theta)
+    out = np.zeros(unknowns.k, dtype=np.int64)
+    for sign in (-1, 1):
+        side = np.flatnonzero((np.sign(fit.theta) == sign) & (np.abs(fit.theta) < rmax * (1 - 1e-9)))
+        if side.size == 0:
+            continue
+        moved = fit.theta.copy()
+        moved[side] = sign * rmax
+        if best - ll(moved) < FLAT_DROP:
+            out[side] = sign
+            continue
+        if side.size > MAX_ONE_BY_ONE:
+            continue
+        for j in side:
+            one = fit.theta.copy()
+            one[j] = sign * rmax
+            if best - ll(one) < FLAT_DROP:
+                out[j] = sign
+    return out
