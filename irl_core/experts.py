@@ -43,13 +43,24 @@ def _converged(plan: Plan, what: str, gamma: float) -> np.ndarray:
     return plan.policy
 
 
+def optimal_plan(mdp: MDP) -> Plan:
+    """The optimal plan (values, Q and the deterministic policy, ties to the lowest action index).
+
+    Raises:
+        NotConverged: value iteration stopped at its cap.
+    """
+    plan = value_iteration(mdp)
+    _converged(plan, "optimal", mdp.gamma)
+    return plan
+
+
 def optimal_policy(mdp: MDP) -> np.ndarray:
     """(S, A) the deterministic optimal policy (ties to the lowest action index).
 
     Raises:
         NotConverged: value iteration stopped at its cap.
     """
-    return _converged(value_iteration(mdp), "optimal", mdp.gamma)
+    return optimal_plan(mdp).policy
 
 
 def boltzmann_policy(mdp: MDP, *, beta: float) -> np.ndarray:
@@ -87,9 +98,25 @@ class Rollouts:
     truncated: np.ndarray
 
 
+Chooser = Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
+"""A player's choice for many episodes at once: ``choose(states, previous, rng)`` -> actions (n,), where
+`previous` (n,) is each episode's previous action (-1 at its first step)."""
+
+
+def policy_chooser(policy: np.ndarray) -> Chooser:
+    """The chooser that samples actions from a stationary policy (S, A)."""
+    policy_cdf = np.cumsum(policy, axis=1)
+    last = policy.shape[1] - 1
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        return np.minimum((policy_cdf[s] < rng.random((s.size, 1))).sum(axis=1), last)
+
+    return choose
+
+
 def rollouts(
     mdp: MDP,
-    policy: np.ndarray,
+    policy: np.ndarray | Chooser,
     *,
     episodes: int,
     seed: int | None = None,
@@ -97,8 +124,8 @@ def rollouts(
     max_steps: int | None = None,
     starts: np.ndarray | None = None,
 ) -> Rollouts:
-    """Roll out `policy` (S, A) from the world's start cells for `episodes` episodes, or from the
-    states `starts` (episodes,) when given.
+    """Roll out `policy` (S, A), or a `Chooser`, from the world's start cells for `episodes` episodes,
+    or from the states `starts` (episodes,) when given.
 
     Randomness comes from `rng` when given (to continue a stream block by block), else from `seed`.
     """
@@ -107,13 +134,13 @@ def rollouts(
     rng = np.random.default_rng(seed) if rng is None else rng
     given_starts = starts
     starts = np.array([mdp.state_of[cell] for cell in world.start_cells])
-    policy_cdf = np.cumsum(policy, axis=1)
+    choose = policy if callable(policy) else policy_chooser(policy)
     slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, slip=world.slip), axis=1)  # (A, 4)
     R = mdp.reward_matrix()
-    last = mdp.n_actions - 1
 
     state = (np.asarray(given_starts, dtype=np.int64).copy() if given_starts is not None
              else starts[rng.integers(len(starts), size=episodes)])
+    previous = np.full(episodes, -1, dtype=np.int64)
     length = np.zeros(episodes, dtype=np.int64)
     live = np.arange(episodes)
     trace: list[tuple[np.ndarray, ...]] = []
@@ -121,7 +148,8 @@ def rollouts(
         if live.size == 0:
             break
         s = state[live]
-        a = np.minimum((policy_cdf[s] < rng.random((live.size, 1))).sum(axis=1), last)
+        a = choose(s, previous[live], rng)
+        previous[live] = a
         k = np.minimum((slip_cdf[a] < rng.random((live.size, 1))).sum(axis=1), 3)
         d = (mdp.direction[a] + k) % 4
         s_next = mdp.neighbour[s, d]
@@ -196,7 +224,7 @@ def write_rollouts(
 def simulate_to_file(
     path: str | Path,
     mdp: MDP,
-    policy: np.ndarray,
+    policy: np.ndarray | Chooser,
     *,
     episodes: int,
     seed: int,

@@ -1,7 +1,8 @@
 """Worlds: the cliff gridworlds of the paper as validated data (README "Worlds").
 
 A world is a layout string plus the numbers that turn it into an MDP. It is read from
-TOML with the standard library and validated with pydantic; five worlds are built in.
+TOML with the standard library and validated with pydantic; six worlds are built in, five
+defined below and `walls` read from ``irl_core/worlds/walls.toml``.
 
 ====================  =====================================================
 field                 meaning
@@ -245,6 +246,7 @@ BUILTIN_WORLDS: dict[str, World] = {
     ),
     "mud": World(name="mud", layout=_MUD_LAYOUT, levels=14, rewards=_MUD_REWARDS),
     "mud-simple": World(name="mud-simple", layout=_MUD_LAYOUT, levels=1, rewards=_MUD_REWARDS),
+    "walls": World.model_validate(tomllib.loads((Path(__file__).parent / "worlds" / "walls.toml").read_text("utf-8"))),
 }
 
 WORLD_PURPOSES: dict[str, str] = {
@@ -253,6 +255,7 @@ WORLD_PURPOSES: dict[str, str] = {
     "paper-maxent": "the MaxEnt baseline's deterministic world",
     "mud": "catastrophic vs merely undesirable",
     "mud-simple": "the same without carefulness",
+    "walls": "walls, mud, a corridor beside the cliff",
 }
 
 

@@ -41,8 +41,9 @@ def checker_warnings(env):
 def test_the_checker_passes_without_warnings(name, space):
     env = gym.make(ENV_ID, world=name, action_space=space, render_mode="ansi")
     assert checker_warnings(env.unwrapped) == []
-    assert env.observation_space == gym.spaces.Discrete(24)
-    L = BUILTIN_WORLDS[name].levels
+    world = BUILTIN_WORLDS[name]
+    assert env.observation_space == gym.spaces.Discrete(world.rows * world.cols)  # 24 for the 4x6 worlds
+    L = world.levels
     expected = gym.spaces.Discrete(4 * L) if space == "discrete" else gym.spaces.MultiDiscrete([4, L])
     assert env.action_space == expected
 
