@@ -18,6 +18,7 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.version import app_version
+from irl_core import fit_methods
 from irl_core.demonstrations import RecordingError
 from irl_core.person_like import KINDS as PERSON_LIKE
 from irl_core.safe_files import OutputError
@@ -123,10 +124,9 @@ def build_parser() -> argparse.ArgumentParser:
         "the fit view; without one, or with --no-view, it prints the result and exits."))
     fit.add_argument("files", type=Path, nargs="+", metavar="FILE",
                      help="recordings (JSONL) of one world, fitted together")
-    fit.add_argument("--method", choices=["auto", "lp", "loss", "maxent"], default="auto",
-                     help="auto (default): lp for a deterministic expert whose lp is feasible, else maxent "
-                     "with --beta auto (a person's noisy play); lp: the paper's simple IRL agent; loss: its "
-                     "loss IRL agent; maxent: the maximum-entropy baseline")
+    fit.add_argument("--method", choices=fit_methods.NAMES, default=fit_methods.DEFAULT,
+                     help="; ".join(f"{m.name}{' (default)' if m.name == fit_methods.DEFAULT else ''}: {m.summary}"
+                                    for m in fit_methods.METHODS.values()))
     fit.add_argument("--rmax", type=positive_float, default=1000.0, help="bound |R_S| <= rmax (default 1000)")
     fit.add_argument("--lambda", dest="lam", type=non_negative_float, default=0.0, help="L1 penalty on R_S (default 0)")
     fit.add_argument("--beta", type=beta_value, default=None, metavar="X|auto",

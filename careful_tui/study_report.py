@@ -20,6 +20,7 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.errors import EXIT_OK, UsageError
+from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
 from irl_core.irl import at_bound
@@ -40,8 +41,8 @@ from irl_core.study_report import (
 from irl_core.words import plural
 
 FIGURE_FORMATS = (".png", ".pdf")
-# How `irl_core.irl.fit` begins its notes of what the table shows already (the method, beta).
-TABLE_NOTES = ("method auto chose", "beta estimated by maximum likelihood", "beta's ")
+# The codes of the fits' notes on what the table shows already (the method, beta).
+TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval"})
 TABLE_WIDTH = 200
 
 
@@ -59,7 +60,7 @@ def run_study_report(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     options = report_options(resamples=args.resamples, seed=args.seed, rmax=args.rmax)
     if problem := options.problem():
-        raise UsageError(problem)
+        raise UsageError(said(problem))
     try:
         study = load_study(args.study)
     except StudyError as exc:
@@ -199,8 +200,8 @@ def fit_notes(data: StudyData, fits: list[CellFit]) -> list[str]:
     for cell, result in zip(data.cells, fits):
         world = printable(data.study.worlds[cell.world_index].name, limit=40)
         for note in result.notes:
-            if not note.startswith(TABLE_NOTES):
-                where.setdefault(note, []).append(f"{cell.participant} · {world}")
+            if note.code not in TABLE_NOTES:
+                where.setdefault(str(note), []).append(f"{cell.participant} · {world}")
     return [f"{printable(note, limit=300)}: {_first_rows(rows)}" for note, rows in where.items()]
 
 

@@ -327,14 +327,14 @@ def run_experiment(
         result = fit(demos, options)
         data = (f"{sizes.boltzmann_episodes} Boltzmann episodes (beta {NOISY_BETA:g}), maxent with beta "
                 f"estimated ({result.beta:.2g}), {sizes.resamples} resamples")
-        if any("not identified" in note for note in result.notes):
+        if any(note.code == "not_identified" for note in result.notes):
             data += "; beta is not identified here, so only the signs and ratios of the rewards mean anything"
         out.separations.append(Separation(name, symbol_interval(result, "C"), symbol_interval(result, "U"),
                                           time.perf_counter() - t, kind="confidence", data=data,
                                           rmax=options.rmax))
         out.figures.append(_fitted(result, f"Confidence intervals on {name}: maxent from noisy experts",
                                    f"intervals-noisy-{name}", interval_caption(out.separations[-1])))
-        out.notes += [f"noisy {name}: {note}" for note in result.notes if "not identified" in note]
+        out.notes += [f"noisy {name}: {note}" for note in result.notes if note.code == "not_identified"]
 
     out.seconds = time.perf_counter() - started
     return out

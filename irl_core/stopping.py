@@ -4,11 +4,13 @@
 the inner loops ask it: HiGHS at every simplex or IPX iteration (`irl.highs`), maxent before
 every solve of its soft Bellman equations (`irl.maxent`), value iteration at every sweep and
 the fit's evaluation before and after each of its sparse solves (`planning`,
-`irl.evaluation`). Once the check says True they raise `Stopped`. The check lives on the
-thread, not in every function's arguments, because the loops that ask it sit several calls
-below `fit` (L-BFGS-B's objective, a bootstrap's refit, the evaluation's planning), and
-because two fits on two threads (the fit view's old one and its new one) must each hear only
-their own. It sits beside `planning`, below `irl`, so that both can import it.
+`irl.evaluation`). Once the check says True they raise `Stopped`. A process pool's workers
+(the bootstrap's refits, the study report's fits: `run_in_pool`) run under their parent's
+stop signal the same way, and the parent asks its own check while it waits for them.
+The check lives on the thread, not in every function's arguments, because the loops that ask
+it sit several calls below `fit` (L-BFGS-B's objective, a bootstrap's refit, the evaluation's
+planning), and because two fits on two threads (the fit view's old one and its new one) must
+each hear only their own. It sits beside `planning`, below `irl`, so that both can import it.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ _stop_check = threading.local()
 
 
 class Stopped(RuntimeError):
-    """The work (a fit) was stopped on request before it ended (`stop_when`)."""
+    """The work (a fit, a study report's fits) was stopped on request before it ended (`stop_when`)."""
 
     def __init__(self, message: str = "the fit was stopped before it ended"):
         super().__init__(message)
@@ -29,10 +31,9 @@ class Stopped(RuntimeError):
 
 @contextmanager
 def stop_when(check: Callable[[], bool]) -> Iterator[None]:
-    """Within the block, the fit on this thread stops at its solvers' next check once `check()`
-    is true, raising `Stopped`: how a thread that fits (the fit view's) is stopped when its
-    answer is no longer wanted. (HiGHS asks it only off the main thread: there Ctrl+C stops
-    a solve.)"""
+    """Within the block, the work on this thread stops at its solvers' next check once `check()`
+    is true, raising `Stopped`: how a thread that fits (the fit view's) or a pool's worker is
+    stopped when its answer is no longer wanted. (On the main thread HiGHS also stops for Ctrl+C.)"""
     previous = getattr(_stop_check, "check", None)
     _stop_check.check = check
     try:

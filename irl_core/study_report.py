@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from irl_core.demonstrations import Demonstrations, Recording
-from irl_core.irl import FitError, FitOptions, fit
+from irl_core.irl import FitError, FitOptions, Note, fit
 from irl_core.irl.bootstrap import run_in_pool
 from irl_core.step_table import StepTable
 from irl_core.stopping import stop_check
@@ -192,7 +192,7 @@ class CellFit:
     confidence: float = 0.95
     rmax: float = 0.0
     reward_grid: np.ndarray | None = None
-    notes: tuple[str, ...] = ()
+    notes: tuple[Note, ...] = ()
     elapsed_s: float = 0.0
     error: str | None = None
 
@@ -292,7 +292,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
             _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",
-            result.error or "; ".join(result.notes),
+            result.error or "; ".join(str(note) for note in result.notes),
         ])
     return columns, rows
 

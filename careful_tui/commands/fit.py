@@ -25,8 +25,10 @@ from careful_tui.arguments import options_from_args
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.commands.reading import read_with_progress
 from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import print_fit
+from irl_core import fit_methods
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.safe_files import check_output, write_output
@@ -55,14 +57,15 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
 
     A spinner runs on stderr while it fits, and a progress bar while bootstrap resamples come back.
     For the `printout` (no view) it warns of options the fit does not use: before fitting, or
-    for --method auto after it, once the method is known.
+    for a chooser (--method auto) after it, once the method is known.
     """
     err = err or Console(stderr=True, highlight=False)
     options = options_from_args(args)
     problem = options.problem()
     if problem:
-        raise UsageError(problem)
-    if printout and options.method != "auto":
+        raise UsageError(said(problem))
+    chooser = fit_methods.method(options.method).chooser
+    if printout and not chooser:
         for warning in ignored_options(options, options.method):
             warn(err, warning)
     demos = load_demonstrations(list(args.files), err)
@@ -78,12 +81,12 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
         try:
             result = fit(demos, options, progress=heard)
         except BadInputError as exc:
-            raise UsageError(str(exc)) from None
+            raise UsageError(said(exc)) from None
     if options.intervals and result.intervals is None:
         for note in result.notes:
-            if note.startswith("intervals not computed"):
-                warn(err, note)
-    if printout and options.method == "auto":
+            if note.code == "intervals_not_computed":
+                warn(err, said(note))
+    if printout and chooser:
         for warning in ignored_options(options, result.method):
             warn(err, warning)
     return demos, result
@@ -94,25 +97,37 @@ RESAMPLING = (("--confidence", "confidence"), ("--resamples", "resamples"), ("--
 
 
 def ignored_options(options: FitOptions, method: str) -> list[str]:
-    """A warning per group of options a fit by `method` (lp, loss or maxent) does not use.
+    """A warning per group of options a fit by `method` (a fitting method's name) does not use.
 
     An option left at its default is never named: ignoring it changes nothing. The fit view uses
     them all (its keys switch methods and turn intervals on), so only the printout asks.
     """
     default = FitOptions()
-    chosen = f" (method auto chose {method})" if options.method == "auto" else ""
+    used = fit_methods.method(method)
+    chosen = f" (method auto chose {method})" if fit_methods.method(options.method).chooser else ""
     resampling = [flag for flag, name in RESAMPLING if getattr(options, name) != getattr(default, name)]
     warnings = []
     if resampling and not options.intervals:
         warnings.append(ignored(resampling, "with --intervals"))
-    elif resampling and method == "lp":
-        warnings.append(ignored(resampling, "to loss's and maxent's intervals, which resample episodes "
-                                            f"(lp's is every value the demonstrations allow){chosen}"))
-    if options.beta is not None and method != "maxent":
-        warnings.append(ignored(["--beta"], f"to maxent{chosen}"))
-    if options.lam != default.lam and method == "maxent":
-        warnings.append(ignored(["--lambda"], f"to lp and loss{chosen}"))
+    elif resampling and used.interval_kind != "confidence":
+        warnings.append(ignored(resampling, f"to {_names(kind='confidence', owning=True)} intervals, which resample episodes "
+                                            f"({method}'s is every value the demonstrations allow){chosen}"))
+    if options.beta is not None and not used.uses_beta:
+        warnings.append(ignored(["--beta"], f"to {_names(uses_beta=True)}{chosen}"))
+    if options.lam != default.lam and not used.uses_lambda:
+        warnings.append(ignored(["--lambda"], f"to {_names(uses_lambda=True)}{chosen}"))
     return warnings
+
+
+def _names(*, kind: str | None = None, uses_beta: bool | None = None, uses_lambda: bool | None = None,
+           owning: bool = False) -> str:
+    """The fitting methods with an interval `kind`, or that use beta or lambda: "lp and loss", "loss's and maxent's"."""
+    ending = "'s" if owning else ""
+    names = [m.name + ending for m in fit_methods.METHODS.values() if not m.chooser
+             and (kind is None or m.interval_kind == kind)
+             and (uses_beta is None or m.uses_beta == uses_beta)
+             and (uses_lambda is None or m.uses_lambda == uses_lambda)]
+    return " and ".join([", ".join(names[:-1]), names[-1]]) if len(names) > 1 else names[0]
 
 
 def wants_view(args: argparse.Namespace) -> bool:
@@ -136,7 +151,7 @@ def run_fit(args: argparse.Namespace) -> int:
     try:
         demos, result = fit_from_args(args, err=err, printout=not view)
     except SolverError as exc:
-        err.print(Text(f"careful fit: {exc}", style="bold red"), soft_wrap=True)
+        err.print(Text(f"careful fit: {said(exc)}", style="bold red"), soft_wrap=True)
         return EXIT_FAILURE
     if args.json is not None:
         text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"

@@ -7,16 +7,16 @@ does (`evaluation_line`) and the status.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-
 import numpy as np
 from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
 
+from careful_tui.option_words import said
 from careful_tui.render.grid import ARROWS, SYMBOL_NAMES, WorldGrid, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table
 from irl_core.demonstrations import Demonstrations
+from irl_core.fit_methods import METHODS
 from irl_core.irl import FitResult
 from irl_core.safe_text import printable
 from irl_core.words import plural
@@ -107,24 +107,24 @@ def _count(count: int) -> str:
     return str(count) if count < 1000 else f"{count // 1000}k"
 
 
-def status_text(result: FitResult, *, times: bool = True, notes: Iterable[str] | None = None) -> Text:
-    """"status: optimal in 0.07 s" and a line per note (`notes`: the result's, unless given)."""
+def status_text(result: FitResult, *, times: bool = True, notes: bool = True) -> Text:
+    """"status: optimal in 0.07 s" and, with `notes`, a line per note (its options as flags)."""
     text = Text.assemble(
         "status: ",
         (result.status, "bold green" if result.status == "optimal" else "bold yellow"),
         f" in {result.elapsed_s:.2f} s" if times else "",
     )
-    for note in result.notes if notes is None else notes:
-        text.append(f"\nnote: {note}", style="yellow")
+    for note in result.notes if notes else ():
+        text.append(f"\nnote: {said(note)}", style="yellow")
     return text
 
 
 def method_phrase(result: FitResult) -> str:
     """The method used, and that auto chose it: "maxent (chosen by auto, beta 0.53 estimated)"."""
     details = []
-    if result.options.method == "auto":
-        details.append("chosen by auto")
-    if result.method == "maxent":
+    if METHODS[result.options.method].chooser:
+        details.append(f"chosen by {result.options.method}")
+    if result.beta is not None:
         details.append(f"beta {result.beta:.3g}{' estimated' if result.beta_auto else ''}")
     return f"{result.method} ({', '.join(details)})" if details else result.method
 

@@ -6,15 +6,16 @@ It shows the fitted R_S coloured on the diverging log scale of `careful_tui.rend
 world's own R_S beside it on the same scale, how far the demonstrations pin each reward
 (`IntervalChart` and a sentence per symbol), the demonstrated policy, the status and notes.
 
-Keys switch the method (a for auto, l, o, m; tab cycles), toggle the intervals (i), save an SVG of the
-view (s) and quit (q). A refit runs in a thread worker while the last result stays on screen,
-dimmed, under a "fitting…" status; the thread posts `FitScreen.Progress` while it works and
-hands back a `FitScreen.Fitted`, and only the answer to the latest request is shown. A refit that fails (an lp with no solution on noisy
-demonstrations, a solver that gives up) is reported in the status line and the view keeps
-the last result.
+Keys switch the method (one per entry of `irl_core.fit_methods`: a for auto, l, o, m; tab cycles),
+toggle the intervals (i), save an SVG of the view (s) and quit (q). A refit runs in a thread worker
+while the last result stays on screen, dimmed, under a "fitting…" status; the thread posts
+`FitScreen.Progress` while it works and hands back a `FitScreen.Fitted`. A newer request, or closing
+the view, stops the fit that is running (`fit(stop=...)`), so only the latest is shown. A refit that
+fails (an lp with no solution on noisy demonstrations, a solver that gives up) is reported in the
+status line, in the command line's words (`careful_tui.option_words`), and the view keeps the last result.
 
-Everything drawn comes from `careful_tui.commands.fit` and the shared `Board`; this module is layout
-and keys.
+The words and numbers drawn come from `careful_tui.render.fit_printout` and `careful_tui.render.intervals`
+(shared with the printout) and the boards are the shared `Board`; this module is layout and keys.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from textual.screen import Screen
 from textual.widgets import Static
 from textual.worker import get_current_worker
 
+from careful_tui.option_words import said
 from careful_tui.render.fit_printout import (
     evaluation_line,
     policy_labels,
@@ -53,12 +55,12 @@ from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Demonstrations
 from irl_core.recording_writer import slug
-from irl_core.irl import METHODS, FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
+from irl_core.fit_methods import METHODS
+from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable
 from irl_core.words import plural
 
-METHOD_NAMES = {"lp": "the simple IRL agent", "loss": "the loss IRL agent", "maxent": "the MaxEnt baseline"}
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.
 CELL_HEIGHT = MIN_CELL[1]
 MAX_CELL_WIDTH = 11
@@ -76,10 +78,15 @@ def error_message(error: Exception) -> str:
     """What a failed fit says in the view: the fit's own sentence (with the key to try next), or
     the unexpected exception."""
     if isinstance(error, InfeasibleError):
-        return f"{error}; press o to fit with loss"
+        return f"{said(error)}; press {METHODS['loss'].key} to fit with loss"
     if isinstance(error, FitError):
-        return str(error)
+        return said(error)
     return f"unexpected error: {type(error).__name__}: {error} (please report it)"
+
+
+def method_bindings(group: Binding.Group) -> list[Binding]:
+    """A key per method (`irl_core.fit_methods`), in its order."""
+    return [Binding(m.key, f"method('{m.name}')", m.name, priority=True, group=group) for m in METHODS.values()]
 
 
 def default_svg_name(world: str, method: str, folder: Path) -> Path:
@@ -140,12 +147,9 @@ class FitScreen(Screen[None]):
     fitting: reactive[FitOptions | None] = var(None, init=False)
 
     TITLE = "careful fit"
-    METHOD = Binding.Group("auto/lp/loss/maxent")
+    METHOD = Binding.Group("/".join(METHODS))
     BINDINGS = [
-        Binding("a", "method('auto')", "auto", priority=True, group=METHOD),
-        Binding("l", "method('lp')", "lp", priority=True, group=METHOD),
-        Binding("o", "method('loss')", "loss", priority=True, group=METHOD),
-        Binding("m", "method('maxent')", "maxent", priority=True, group=METHOD),
+        *method_bindings(METHOD),
         Binding("tab", "next_method", "next method", priority=True, show=False),
         Binding("i", "toggle_intervals", "intervals", priority=True),
         Binding("s", "save_svg", "save SVG", priority=True),
@@ -289,8 +293,8 @@ class FitScreen(Screen[None]):
         self._start(dataclasses.replace(self._wanted(), method=method))
 
     def action_next_method(self) -> None:
-        """The next of auto, lp, loss, maxent (the order of the keys a, l, o, m), after the one asked for."""
-        cycle = ("auto", *METHODS)
+        """The next method in the keys' order (`irl_core.fit_methods.METHODS`), after the one asked for."""
+        cycle = tuple(METHODS)
         self.action_method(cycle[(cycle.index(self._wanted().method) + 1) % len(cycle)])
 
     def action_toggle_intervals(self) -> None:
@@ -336,10 +340,11 @@ class FitScreen(Screen[None]):
         return self.result.method if self.result is not None else self.options.method
 
     def _asked_method(self) -> str:
-        """The method the shown fit was asked for (``auto`` while auto's choice is shown)."""
+        """The method the shown fit was asked for (the chooser while its choice is shown)."""
         if self.result is None:
             return self.options.method
-        return "auto" if self.result.options.method == "auto" else self.result.method
+        asked = self.result.options.method
+        return asked if METHODS[asked].chooser else self.result.method
 
     # ------------------------------------------------------------------ drawing
 
@@ -396,7 +401,7 @@ class FitScreen(Screen[None]):
         return Text.assemble(
             ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
             (f"  ·  {files}: {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}", "dim"),
-            (f"  ·  {METHOD_NAMES[method]}" if method in METHOD_NAMES else "", "dim"),
+            (f"  ·  {METHODS[method].label}" if METHODS[method].label else "", "dim"),
         )
 
     def _status(self) -> Text:
@@ -407,7 +412,7 @@ class FitScreen(Screen[None]):
             return Text.assemble((f"✗ {self._failed_method}: ", f"bold {BAD}"), self.error, (shown, "dim"))
         if self.result is None:
             return Text()
-        return Text.assemble(("✓ ", f"bold {GOOD}"), status_text(self.result, times=self.show_times, notes=()),
+        return Text.assemble(("✓ ", f"bold {GOOD}"), status_text(self.result, times=self.show_times, notes=False),
                              (f"   {self._settings(self.result)}", "dim"))
 
     @staticmethod
@@ -415,19 +420,20 @@ class FitScreen(Screen[None]):
         """The fit's settings in a few words: "rmax 1000 · λ 0 · β 1 · special cells"."""
         options = result.options
         parts = [f"rmax {format_value(options.rmax)}", f"λ {format_value(options.lam)}"]
-        if result.method == "maxent":
+        if result.beta is not None:
             parts.append(f"β {result.beta:.3g}{' (estimated)' if result.beta_auto else ''}")
         parts.append(f"{options.reward_cells} cells{', tied' if options.tie else ''}")
         return " · ".join(parts)
 
     def _notes(self, result: FitResult) -> Group:
         return Group(Text(evaluation_line(result), style="bold"),
-                     *(Text(f"• {note}", style=WARN) for note in result.notes),
+                     *(Text(f"• {said(note)}", style=WARN) for note in result.notes),
                      Text(unknown_phrase(result), style="dim"))
 
     def _intervals(self, result: FitResult) -> Group | Text:
         if not self.options.intervals:
-            what = ("every value the demonstrations allow (lp)" if result.method == "lp"
+            what = (f"every value the demonstrations allow ({result.method})"
+                    if METHODS[result.method].interval_kind == "identified"
                     else f"a {self.options.confidence:.0%} confidence interval (resampling episodes)")
             return Text.assemble(("press ", "dim"), ("i", "bold"), (f" to bound every fitted reward: {what}", "dim"))
         if result.intervals is None:

@@ -2,7 +2,7 @@
 "Game and Loss IRL agent" and MaxEnt baseline).
 
 Every method shares one affine Q map (`qmap`), returns one `FitResult` (`result`) and is
-reached through `fit`:
+reached through `fit` (`irl_core.fit_methods` holds one entry per method):
 
 ==========  ====================================================================
 ``lp``      the simple IRL agent: rewards under which the most frequent actions are
@@ -15,15 +15,16 @@ reached through `fit`:
             estimated (docs/answers.md; the default)
 ==========  ====================================================================
 
-`--intervals` bounds every unknown: over the lp constraints for lp (`intervals`, the
+``intervals=True`` bounds every unknown: over the lp constraints for lp (`intervals`, the
 identified set), by resampling episodes for maxent and loss (`bootstrap`, a confidence
 interval). `evaluation` says what an agent trained on the fitted reward would do.
 """
 
 from irl_core.irl.fit import METHODS, fit
+from irl_core.irl.notes import Note
 from irl_core.irl.options import FitOptions
 from irl_core.irl.result import BadInputError, FitError, FitResult, InfeasibleError, SolverError, at_bound
 from irl_core.stopping import Stopped
 
-__all__ = ["METHODS", "BadInputError", "FitError", "FitOptions", "FitResult", "InfeasibleError", "SolverError",
-           "Stopped", "at_bound", "fit"]
+__all__ = ["METHODS", "BadInputError", "FitError", "FitOptions", "FitResult", "InfeasibleError", "Note",
+           "SolverError", "Stopped", "at_bound", "fit"]

@@ -42,6 +42,7 @@ from typing import TypeVar
 import numpy as np
 import scipy.sparse as sp
 
+from irl_core.fit_methods import METHODS, check_covers
 from irl_core.irl.loss import fit_loss
 from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
@@ -63,8 +64,9 @@ T = TypeVar("T")
 
 @dataclass(frozen=True, eq=False)
 class Refit:
-    """How to refit one resample's counts (S, A): the method, its settings, the warm start
-    (theta, beta) and, for maxent, the variables' scale at the full-data fit."""
+    """How to refit one resample's counts (S, A): the method (one with a refit in `REFITS`; any
+    other raises ValueError here), its settings, the warm start (theta, beta) and, for maxent,
+    the variables' scale at the full-data fit."""
 
     mdp: MDP
     unknowns: Unknowns
@@ -76,18 +78,38 @@ class Refit:
     scale: np.ndarray | None = None
     start_V: np.ndarray | None = None
 
+    def __post_init__(self) -> None:
+        if self.method not in REFITS:
+            raise ValueError(f"no bootstrap refit for method {self.method!r}: one of {', '.join(REFITS)}")
+
+    @property
+    def size(self) -> int:
+        """p: the unknowns, and beta when it is estimated."""
+        return self.unknowns.k + int(self.beta == "auto")
+
     def __call__(self, counts: np.ndarray) -> np.ndarray:
         """(p,) the unknowns fitted to `counts` (S, A), with beta appended when it is estimated."""
-        if self.method == "maxent":
-            solution = fit_maxent(self.mdp, self.unknowns, counts, beta=self.beta, rmax=self.rmax, start=self.start,
-                                  start_V=self.start_V, scale=self.scale, gradient_tolerance=RESAMPLE_GRADIENT_TOLERANCE,
-                                  value_tolerance=RESAMPLE_VALUE_TOLERANCE)
-            theta = solution.theta
-            return np.append(theta, solution.beta) if self.beta == "auto" else theta
-        totals = counts.sum(axis=1, keepdims=True)
-        frequencies = np.divide(counts, totals, out=np.zeros_like(counts), where=totals > 0)
-        solution = fit_loss(build_qmap(self.mdp, self.unknowns), frequencies, rmax=self.rmax, lam=self.lam)
-        return np.asarray(solution.x[: self.unknowns.k], dtype=float)
+        return REFITS[self.method](self, counts)
+
+
+def _refit_maxent(refit: Refit, counts: np.ndarray) -> np.ndarray:
+    solution = fit_maxent(refit.mdp, refit.unknowns, counts, beta=refit.beta, rmax=refit.rmax, start=refit.start,
+                          start_V=refit.start_V, scale=refit.scale, gradient_tolerance=RESAMPLE_GRADIENT_TOLERANCE,
+                          value_tolerance=RESAMPLE_VALUE_TOLERANCE)
+    return np.append(solution.theta, solution.beta) if refit.beta == "auto" else solution.theta
+
+
+def _refit_loss(refit: Refit, counts: np.ndarray) -> np.ndarray:
+    totals = counts.sum(axis=1, keepdims=True)
+    frequencies = np.divide(counts, totals, out=np.zeros_like(counts), where=totals > 0)
+    solution = fit_loss(build_qmap(refit.mdp, refit.unknowns), frequencies, rmax=refit.rmax, lam=refit.lam)
+    return np.asarray(solution.x[: refit.unknowns.k], dtype=float)
+
+
+# The refit of every method whose intervals are a bootstrap's (`irl_core.fit_methods`), checked against the registry.
+REFITS: dict[str, Callable[[Refit, np.ndarray], np.ndarray]] = {"loss": _refit_loss, "maxent": _refit_maxent}
+check_covers(REFITS, (m.name for m in METHODS.values() if m.interval_kind == "confidence"),
+             "irl_core.irl.bootstrap.REFITS")
 
 
 @dataclass(frozen=True)
@@ -181,8 +203,7 @@ def _refit_rows(refit: Refit, by_episode: sp.csr_matrix, weights: np.ndarray) ->
     """(len(weights), p) the refits of resamples given as episode multiplicities (n, E); a row
     of NaN where the solver failed (counted, not fatal: the other refits still bound)."""
     shape = (refit.mdp.n_states, refit.mdp.n_actions)
-    size = refit.unknowns.k + int(refit.method == "maxent" and refit.beta == "auto")
-    out = np.full((len(weights), size), np.nan)
+    out = np.full((len(weights), refit.size), np.nan)
     for i, w in enumerate(weights):
         counts = np.asarray(by_episode.T @ w).reshape(shape)
         try:

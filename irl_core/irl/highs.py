@@ -347,9 +347,9 @@ class HighsModel:
 # The solver attempts, in order: the model's own simplex from the current basis, the other
 # simplex (primal or dual) from that basis, the model's simplex from scratch (after
 # clearSolver), the primal simplex, which copes with the nearly parallel tangent rows of the
-# loss, and IPX with crossover. On a 64x64 world's interval LPs, where a basis can be nearly
-# singular, the primal simplex failed after 49 s ("solve error") where the dual simplex from
-# the same basis answered in 18 s and the dual simplex from scratch failed after 83 s.
+# loss, and IPX with crossover. Where a basis is nearly singular (a 64x64 world's interval LPs)
+# one simplex fails where the other answers from the same basis, so each is tried before a
+# restart (`bench.bench_scaling --stages intervals_cells`).
 _ATTEMPTS: tuple[tuple[str, dict[str, object]], ...] = (
     ("as set", {}),
     ("other simplex", {"simplex_dual_edge_weight_strategy": -1, "simplex_primal_edge_weight_strategy": -1}),

@@ -13,10 +13,9 @@ The 2k LPs differ only in their cost (+-e_j) and are solved by the lp's row gene
 (`lp.RowGeneration`) in one live HiGHS model: the margin LP with every m_s fixed at 0, so that
 its family rows read V(s) >= Q(s, a). A new cost leaves the last basis primal feasible and the
 primal simplex starts from it (`AFTER_NEW_COST`); the rows any LP needed stay for the next
-ones, so after the first few LPs hardly any are added. Measured against the explicit dual of the whole LP (one
-row per primal variable, a new cost being a new right-hand side, solved from the last basis):
-2x faster on a 32x32 world's 62 LPs, and 37 s against over 4 minutes for a 64x64 world's 4
-tied LPs, where the dual has 230,000 columns.
+ones, so after the first few LPs hardly any are added. That is faster than the explicit dual of
+the whole LP (one row per primal variable, a new cost being a new right-hand side), whose columns
+grow with the whole LP's rows; `bench/bench_fit.py` times the intervals against one fit.
 
 Past `lp.INTERIOR_ROWS` (`interior=True`) each LP is solved as the big worlds' fit is, by the
 interior point method round after round from nothing, and its end is moved out by the LP's gap
@@ -40,16 +39,12 @@ from irl_core.irl.margin import LPConstraints, margin_lp
 # the last basis stays primal feasible: the primal simplex starts from it; after new rows it
 # stays dual feasible: the dual simplex. Both with HiGHS's own pricing (steepest edge or
 # devex), kept as the model's so that its edge weights carry over from one solve to the next
-# (switching pricing at every solve made a 32x32 world's 62 LPs 8 times slower). With
-# Dantzig's pricing 2 of a 64x64 world's 126 LPs failed after 120 s each ("unknown", "solve
-# error"), and HiGHS's own choice of simplex (the dual after a new cost too) ran one of them
-# past 60 s, where these settings answered both in 1 to 4 s from the same basis. Some bases
-# there are nearly singular (steepest-edge weights of 1e22): a solve from a basis is given up
-# after WARM_LIMIT seconds (a normal one takes 1 to 6 s on a 64x64 world, on a busy machine)
-# and retried by the other simplex from the same basis, then from scratch
-# (`highs.HighsModel.solve`). With a 30 s limit, 6 solves of the upper ends of the cliff cells
-# 23 to 32 steps from the goal ran past it in the primal simplex, where the dual simplex from
-# the same basis then answered in 1 to 22 s.
+# (switching pricing at every solve is several times slower; Dantzig's pricing, or HiGHS's own
+# choice of simplex, leaves some of a big world's LPs unsolved for minutes). Some bases there
+# are nearly singular: a solve from a basis is given up after WARM_LIMIT seconds (several times
+# a normal one on a 64x64 world) and retried by the other simplex from the same basis, then from
+# scratch (`highs.HighsModel.solve`), which answers where the stuck simplex would not
+# (`bench.bench_scaling --stages intervals_cells` measures the intervals on big worlds).
 INTERVAL_OPTIONS: dict[str, object] = {}
 AFTER_NEW_COST = {"simplex_strategy": 4}
 AFTER_NEW_ROWS = {"simplex_strategy": 1}

@@ -45,6 +45,7 @@ from scipy.special import logsumexp
 from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
 from irl_core.irl.loss_model import LossConstraints, loss_constraints, relu_terms
 from irl_core.irl.margin import check_bounds
+from irl_core.irl.notes import Note
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import InfeasibleError, SolverError
 
@@ -151,7 +152,7 @@ class LossSolution:
         unique: whether the minimiser is unique (up to UNIQUE_TOLERANCE); None if unchecked.
         gap: the relative gap HiGHS's tolerance left between the bounds (normally below 1e-8).
         rounds: LP solves used.
-        notes: sentences for the user.
+        notes: what the user should know (`Note`).
     """
 
     x: np.ndarray
@@ -160,7 +161,7 @@ class LossSolution:
     unique: bool | None
     gap: float
     rounds: int
-    notes: list[str] = field(default_factory=list)
+    notes: list[Note] = field(default_factory=list)
 
 
 class _OuterApproximation:
@@ -333,19 +334,22 @@ def _minimise_loss(qmap: QMap, constraints: LossConstraints, *, rmax: float, lam
     # Uniqueness: the range of a fixed generic linear function of theta over the optimal set.
     generic = np.zeros(problem.size)
     generic[:k] = 1.0 + (np.arange(k) * 0.6180339887498949) % 1.0
-    notes = []
+    notes: list[Note] = []
     try:
         low, _ = outer.minimise(generic)
         high, _ = outer.minimise(-generic)
     except SolverError:
         unique = None
-        notes.append("the minimiser shown has the smallest ||R_S||_1; whether others exist could not be checked")
+        notes.append(Note("uniqueness_unchecked", "the minimiser shown has the smallest ||R_S||_1; whether others "
+                                                  "exist could not be checked"))
     else:
         unique = float(np.max(np.abs(high[:k] - low[:k]), initial=0.0)) <= UNIQUE_TOLERANCE * max(rmax, 1.0)
     if unique is False:
-        notes.append("not unique: many rewards minimise the loss equally; shown is the one with the smallest ||R_S||_1")
+        notes.append(Note("not_unique", "not unique: many rewards minimise the loss equally; shown is the one with "
+                                        "the smallest ||R_S||_1"))
     if outer.excess > STALL_TOLERANCE:
-        notes.append(f"inaccurate: the loss is pinned down only to a relative {outer.excess:.0e} (a very large --rmax?)")
+        notes.append(Note("inaccurate", f"inaccurate: the loss is pinned down only to a relative {outer.excess:.0e} "
+                                        "(a very large {rmax}?)"))
     with np.errstate(over="ignore"):
         loss, lower_bound = np.exp(outer.log_loss(chosen)), np.exp(log_lower_bound)
     return LossSolution(

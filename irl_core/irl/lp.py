@@ -72,7 +72,7 @@ from irl_core.planning import policy_evaluation
 
 INFEASIBLE_MESSAGE = (
     "the demonstrations are not optimal for any reward within ±rmax; "
-    "they may be noisy: try --method loss, or raise --rmax"
+    "they may be noisy: try {method=loss}, or raise {rmax}"
 )
 # A row of the full LP violated by more than this (HiGHS's own feasibility tolerance) is added.
 CUT_TOLERANCE = 1e-7
@@ -122,11 +122,10 @@ def start_from_policy(run: RowGeneration) -> None:
     Basic: every V, every m_s (and u); theta nonbasic at its bound. Tight (nonbasic) rows: the
     equalities, at an undemonstrated state the row of the policy's action, at a demonstrated
     state the row of its best rival (whose slack m_s is), and u >= |theta| on theta's side.
-    Any start leads the simplex to the same optimum; this one is near it: on a 64x64 world the
-    fit's first round took 3,831 simplex iterations instead of 15,185 from HiGHS's own start.
-    (The interval LPs do not use it: from the like vertex of the lp set a 64x64 world's first
-    interval LP took 1.8 s instead of 15 to 21 s, but its 126 LPs took 491 s in all against
-    188 s; why was not found.)
+    Any start leads the simplex to the same optimum; this one is near it, so the first round
+    takes a fraction of the iterations from HiGHS's own start (`bench.first_round_variants`
+    policy-start against plain). The interval LPs do not use the like vertex of the lp set: it
+    speeds up their first LP but slows the whole series (why was not found).
     """
     problem = run.problem
     qmap = problem.qmap
@@ -207,13 +206,12 @@ def solve_margin_lp(
     simplex_failure = None
     rounds = iterations = 0
     if not interior:
-        # A failed round is not retried by the other solvers (`HighsModel`'s cascade): on an
-        # 84x84 world the dual simplex failed its first round in 70 s ("solve error"), and with
-        # the cascade the fit was not done in 8.5 CPU minutes; by the interior point method 93 s.
+        # A failed round goes straight to the interior point method, not through `HighsModel`'s
+        # cascade, which on the largest worlds costs more than the whole interior fit (`bench.bench_scaling`).
         run = RowGeneration(problem, options=margin_options(problem), retry=False)
         if not shares_terminal_unknowns(problem):
-            # Measured on the 64x64 world: per cell 5.3 s from this start against 10.3 s; tied
-            # (theta's guess then far from the optimum's) 422 s against 8.8 s from HiGHS's own.
+            # The policy's vertex halves a per-cell first round; a tied fit's guess of theta is far from
+            # the optimum's, so it starts from HiGHS's own (`bench.first_round_variants` policy-start).
             start_from_policy(run)
         try:
             z = run.solve(progress=progress)
@@ -232,40 +230,30 @@ def solve_margin_lp(
                      limit=limit, simplex_failure=simplex_failure, iterations=iterations)
 
 
-# Dantzig pricing for the dual simplex: HiGHS's default, dual steepest edge, spends more time
-# on its weights than it saves here (a 64x64 world's first round: 23 s against over 150 s;
-# devex: over 6 minutes). HiGHS's presolve stays on (`margin_options`): without it a 64x64
-# world's fit took over 4 minutes instead of 16 s.
+# Dantzig pricing for the dual simplex: HiGHS's default (dual steepest edge) and devex spend more
+# on their weights than they save on these rows; presolve stays on except for tied fits
+# (`margin_options`). `bench.tied_first_round` measures each setting on a big world's first round.
 MARGIN_OPTIONS = {"simplex_dual_edge_weight_strategy": 0}
 
 
 def margin_options(problem: MarginLP) -> dict[str, object]:
     """The HiGHS options of a margin LP solved by the simplex from no basis: `MARGIN_OPTIONS`,
-    and presolve off when a reward unknown is shared by several terminal cells (`--tie`: one
+    and presolve off when a reward unknown is shared by several terminal cells (``tie=True``: one
     column in many of the rows V(s) = R_S(s)).
 
-    Measured on the 64x64 world's first round, one solve at a time (`bench.tied_first_round`):
-    with a shared unknown (2 columns, 62 and 1 cells) not solved in 60 s with presolve (over 12
-    minutes in an earlier session), 8.8 s without; with one unknown per cell (63 columns) 9.0 s
-    with presolve, not solved in 60 s without (over 4 minutes in the earlier session).
+    Presolve stalls the first round of a tied fit and speeds up a per-cell one, by minutes on a
+    64x64 world either way (`bench.tied_first_round` SIZE dual-dantzig[-nopresolve] [--untied]).
     """
     return {**MARGIN_OPTIONS, "presolve": "off"} if shares_terminal_unknowns(problem) else MARGIN_OPTIONS
 
 
-# The first round's rows past which the margin LP is solved by the interior point method,
-# round after round from no basis (`highs.INTERIOR`). The generated cliff worlds' fits by the
-# dual simplex, one run each (README "How cost grows"): 64x64 (19,052 rows) 5 to 9 s; 76x76
-# (26,483) its first round in 19 s; 80x80 (29,268) 15 s against 61 s by the interior point
-# method; 84x84 (32,019) a solve error in its first round after 70 s, against 93 s for the whole
-# fit; 88x88 (35,281) not through its first round in 8.5 CPU minutes, against 103 s; 96x96
-# (41,232) not in 6.6 CPU minutes; 128x128 (71,201) a solve error after 20 minutes, against
-# 555 to 685 s.
+# The first round's rows past which the margin LP is solved by the interior point method, round
+# after round from no basis (`highs.INTERIOR`): beyond them the dual simplex is slower or fails its
+# first round (README "How cost grows"; `bench.bench_scaling --stages lp_fit` measures both sides).
 INTERIOR_ROWS = 30_000
 # The same for a tied fit (one unknown for many terminal cells, solved by the simplex from HiGHS's
-# own start without presolve, `margin_options`), whose simplex gives out sooner. Tied fits of the
-# same worlds, one run each at load 2 to 3: 72x72 (23,934 rows) 21 s by the simplex; 76x76
-# (26,483) and 80x80 (29,268) the simplex failed its first round after about 4 minutes ("unknown",
-# "solve error"); 84x84 (32,019) 68 s by the interior point method.
+# own start without presolve, `margin_options`), whose simplex gives out sooner (the same bench's
+# ``intervals_tied`` stage).
 TIED_INTERIOR_ROWS = 25_000
 
 

@@ -127,7 +127,8 @@ def _soft_bellman(mdp: MDP, R: np.ndarray, *, beta: float, V0: np.ndarray | None
             return SoftPlan(V=V, Q=Q, policy=pi, iterations=iteration, log_policy=log_pi)
     raise SolverError(
         f"maxent's soft Bellman equations did not converge in {max_iter} solves (beta {beta:.3g}); "
-        "the rewards may be too large for this beta: try a smaller --rmax or another --beta"
+        "the rewards may be too large for this beta: try a smaller {rmax} or another {beta}",
+        code="soft_bellman_diverged",
     )
 
 

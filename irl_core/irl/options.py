@@ -13,11 +13,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from irl_core import fit_methods
+from irl_core.irl.notes import Note
 from irl_core.irl.qmap import RewardCells
 
-Method = Literal["auto", "lp", "loss", "maxent"]
-METHODS: tuple[str, ...] = ("auto", "lp", "loss", "maxent")
-FITTERS: tuple[str, ...] = ("lp", "loss", "maxent")
 MIN_RESAMPLES = 20
 DEFAULT_BETA = 1.0
 
@@ -27,8 +26,8 @@ class FitOptions:
     """One fit's settings, as `careful fit` names them (`lam` is ``--lambda``).
 
     Attributes:
-        method: ``auto``, ``lp``, ``loss`` or ``maxent``. `careful fit`'s default is ``auto``;
-            the library's stays ``lp``, so that code written before ``auto`` keeps its answers.
+        method: a name in `irl_core.fit_methods` (``auto``, ``lp``, ``loss``, ``maxent``);
+            ``auto`` by default, as for `careful fit`.
         rmax: the bound |R_S| <= rmax.
         lam: the L1 penalty lambda on R_S (lp and loss).
         beta: maxent's inverse temperature, ``"auto"`` to estimate it, or None for the default.
@@ -40,7 +39,7 @@ class FitOptions:
         seed: the bootstrap's seed.
     """
 
-    method: Method = "lp"
+    method: str = fit_methods.DEFAULT
     rmax: float = 1000.0
     lam: float = 0.0
     beta: float | Literal["auto"] | None = None
@@ -52,8 +51,7 @@ class FitOptions:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            raise ValueError(f"method must be one of {METHODS}, not {self.method!r}")
+        fit_methods.method(self.method)
         if not self.rmax > 0:
             raise ValueError("rmax must be positive")
         if not self.lam >= 0:
@@ -61,17 +59,19 @@ class FitOptions:
         if self.beta is not None and self.beta != "auto" and not float(self.beta) > 0:
             raise ValueError(f"beta must be positive or 'auto', not {self.beta!r}")
 
-    def problem(self) -> str | None:
-        """Why these options are bad input (one sentence for the user), or None.
+    def problem(self) -> Note | None:
+        """Why these options are bad input (a `Note` whose sentence is for the user), or None.
 
         `fit` does not refuse them (the fit view switches methods freely); the command line does.
         """
-        if self.method in ("lp", "loss") and self.beta == "auto":
-            return f"--beta auto needs --method maxent or auto: {self.method} has no temperature to estimate"
+        if self.beta == "auto" and not fit_methods.method(self.method).uses_beta:
+            return Note("beta_needs_maxent", f"{{beta=auto}} needs {{method=maxent}} or auto: {self.method} has no "
+                                             "temperature to estimate")
         if not 0 < self.confidence < 1:
-            return f"--confidence must lie strictly between 0 and 1, not {self.confidence:g}"
+            return Note("bad_confidence", f"{{confidence}} must lie strictly between 0 and 1, not {self.confidence:g}")
         if self.resamples < MIN_RESAMPLES:
-            return f"--resamples must be at least {MIN_RESAMPLES} for a usable interval, not {self.resamples}"
+            return Note("too_few_resamples", f"{{resamples}} must be at least {MIN_RESAMPLES} for a usable interval, "
+                                             f"not {self.resamples}")
         return None
 
     def maxent_beta(self, *, chosen_by_auto: bool) -> float | Literal["auto"]:

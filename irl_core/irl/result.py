@@ -2,7 +2,7 @@
 
 A `FitResult` holds what `careful fit` shows and writes: the fitted reward on the grid,
 which cells were fitted, their intervals, the demonstrated policy, how much was read,
-the solver's status and time, and notes a researcher should read (e.g. "not unique").
+the solver's status and time, and notes a researcher should read (`Note`, e.g. ``not_unique``).
 `to_json()` is the fit JSON (docs/fit-json.md), key for key.
 """
 
@@ -15,6 +15,7 @@ import numpy as np
 
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl.evaluation import Evaluation
+from irl_core.irl.notes import Note, worded
 from irl_core.irl.options import DEFAULT_BETA, FitOptions
 from irl_core.irl.qmap import Unknowns
 from irl_core.mdp import MDP, action_parts
@@ -38,19 +39,45 @@ def at_bound(value: float | np.ndarray, rmax: float) -> bool | np.ndarray:
 
 
 class FitError(RuntimeError):
-    """A fit that produced no reward. `str()` is one sentence for the user."""
+    """A fit that produced no reward: a stable `code` and one sentence for the user, with the
+    options it names written as in `Note` (`str()` says them as `fit`'s parameters, `worded` as
+    a front end's). Each subclass has a default code; a raise may give a finer one."""
+
+    code = "fit_failed"
+
+    def __init__(self, sentence: str, *, code: str | None = None) -> None:
+        super().__init__(sentence)
+        self.sentence = sentence
+        if code is not None:
+            self.code = code
+
+    def __str__(self) -> str:
+        return worded(self.sentence)
+
+    def __reduce__(self):  # a study report's worker sends it back: keep the code
+        return _rebuilt, (type(self), self.sentence, self.code)
+
+
+def _rebuilt(kind: type[FitError], sentence: str, code: str) -> FitError:
+    return kind(sentence, code=code)
 
 
 class BadInputError(FitError):
     """Demonstrations that cannot be fitted as given: the user's to fix (exit 2)."""
 
+    code = "bad_input"
+
 
 class InfeasibleError(BadInputError):
     """No reward satisfies the constraints: the demonstrations or the bound are at fault."""
 
+    code = "infeasible"
+
 
 class SolverError(FitError):
     """The solver failed or gave up (exit 1)."""
+
+    code = "solver_failed"
 
 
 @dataclass(frozen=True)
@@ -67,7 +94,7 @@ class FitResult:
     """A fitted reward and everything needed to show or save it.
 
     Attributes:
-        method: the method used: ``lp``, ``loss`` or ``maxent`` (``auto`` chooses one of them).
+        method: the method used, a fitting entry of `irl_core.fit_methods` (``auto`` chooses one).
         options: the fit's settings as asked (`FitOptions`; ``options.method`` may be ``auto``).
         beta: maxent's beta (estimated with ``beta_auto``); None for lp and loss.
         beta_auto: whether beta was estimated.
@@ -82,7 +109,8 @@ class FitResult:
         evaluation: what an agent that plans for the fitted reward does in the true world.
         status: ``optimal`` or the solver's word for a usable but imperfect answer.
         elapsed_s: wall-clock seconds the fit took (intervals included).
-        notes: sentences for the reader: the method auto chose, non-uniqueness, rewards at the bound, ...
+        notes: what the reader should know (`Note`: a code and a sentence): the method auto chose,
+            non-uniqueness, rewards at the bound, ...
     """
 
     method: str
@@ -99,7 +127,7 @@ class FitResult:
     evaluation: Evaluation
     status: str
     elapsed_s: float
-    notes: list[str] = field(default_factory=list)
+    notes: list[Note] = field(default_factory=list)
 
     @property
     def mdp(self) -> MDP:
@@ -230,7 +258,8 @@ class FitResult:
             "evaluation": self.evaluation.to_json(),
             "status": self.status,
             "elapsed_s": round(float(self.elapsed_s), 4),
-            "notes": list(self.notes),
+            "notes": [str(note) for note in self.notes],
+            "note_codes": [note.code for note in self.notes],
         }
 
 

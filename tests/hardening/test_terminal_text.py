@@ -175,7 +175,7 @@ def test_the_fit_view_shows_a_hostile_world_name_as_text_and_saves_beside_it(tmp
 
     path = evil_recording(tmp_path)
     monkeypatch.chdir(tmp_path)
-    app = CarefulApp(FitScreen(Demonstrations.read([path]), FitOptions(), sources=[path]))
+    app = CarefulApp(FitScreen(Demonstrations.read([path]), FitOptions(method="lp"), sources=[path]))
 
     async def main() -> str:
         async with app.run_test(size=(140, 45)) as pilot:

@@ -45,13 +45,14 @@ def test_json_has_the_spec_structure(tmp_path, capsys, mud_file):
     assert code == 0, err
     data = json.loads(out_json.read_text())
     assert list(data) == ["method", "world", "options", "reward", "unknown", "interval", "interval_kind", "policy",
-                          "demonstrations", "evaluation", "status", "elapsed_s", "notes"]
+                          "demonstrations", "evaluation", "status", "elapsed_s", "notes", "note_codes"]
     assert data["method"] == "lp" and data["status"] == "optimal" and data["interval_kind"] == "identified"
     assert data["world"] == BUILTIN_WORLDS["mud"].model_dump(mode="json")
     assert data["options"] == {"rmax": 1000.0, "lambda": 0.0, "beta": 1.0, "reward_cells": "special",
                                "tie": False, "intervals": True, "confidence": 0.95, "resamples": 200, "seed": 0,
                                "beta_auto": False}
     assert any(note.startswith("method auto chose lp") for note in data["notes"])
+    assert len(data["note_codes"]) == len(data["notes"]) and data["note_codes"][0] == "auto_chose"
     assert set(data["evaluation"]) >= {"ends", "return", "optimal_return"}
     for key in ("reward", "unknown", "interval", "policy"):
         assert len(data[key]) == 4 and all(len(row) == 6 for row in data[key])

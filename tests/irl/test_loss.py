@@ -6,6 +6,7 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
+from careful_tui.option_words import said
 from irl_core.demonstrations import Demonstrations
 from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import fit
@@ -88,7 +89,7 @@ def test_the_model_constraints_hold_at_the_answer():
 def test_clean_demonstrations_reach_the_floor_and_are_reported_not_unique():
     demos = demonstrations("paper-simple", "optimal", 100, 0)
     result = fit(demos, method="loss")
-    assert any(note.startswith("not unique") for note in result.notes)
+    assert any(str(note).startswith("not unique") for note in result.notes)
     again = fit(demos, method="loss")
     np.testing.assert_array_equal(result.theta, again.theta)
     shown = demos.demonstrated.sum()
@@ -150,6 +151,8 @@ def test_a_loss_minimiser_that_is_not_unique_gets_no_confidence_interval():
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=40, seed=0))
     result = fit(demos, method="loss", intervals=True, resamples=20, workers=1)
-    assert any(note.startswith("not unique") for note in result.notes)
+    assert any(str(note).startswith("not unique") for note in result.notes)
     assert result.intervals is None and result.interval_kind is None
-    assert any(note.startswith("intervals not computed") and "--method lp --intervals" in note for note in result.notes)
+    # The command line says the option to try as its flags (the library as fit's parameters).
+    assert any(note.code == "intervals_not_computed" and "--method lp --intervals" in said(note)
+               for note in result.notes)

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from careful_tui.option_words import said
 from irl_core.demonstrations import Demonstrations
 from irl_core.experts import optimal_policy, rollouts
 from irl_core.irl import InfeasibleError, fit
@@ -50,7 +51,7 @@ def test_with_every_state_demonstrated_v_is_the_policys_value():
     counts = np.zeros((mdp.n_states, mdp.n_actions))
     acting = np.flatnonzero(mdp.nonterminal)
     counts[acting, pi[acting]] = 1.0
-    result = fit(demonstrations(mdp, counts))
+    result = fit(demonstrations(mdp, counts), method="lp")
 
     # P^pi row by row from pi(s), and R^pi, under the fitted reward.
     P = mdp.P.toarray()
@@ -67,25 +68,25 @@ def paper_100():
 
 
 def test_carefulness_pins_the_cliff_and_the_goal(paper_100):
-    result = fit(paper_100)
+    result = fit(paper_100, method="lp")
     labels = list(result.labels)
     cliff = result.theta[[i for i, label in enumerate(labels) if label.startswith("C")]]
     goal = result.theta[labels.index("G (3, 5)")]
     assert cliff.size == 4
     np.testing.assert_array_less(np.abs(cliff + 1000.0), 100.0)
     assert abs(goal - 100.0) < 20.0
-    doubled = fit(paper_100, rmax=2000.0)
+    doubled = fit(paper_100, method="lp", rmax=2000.0)
     assert np.max(np.abs(doubled.theta - result.theta) / np.abs(result.theta)) < 0.05
 
 
 def test_without_carefulness_the_answer_follows_rmax():
     demos = optimal_demonstrations("paper-simple", 100, seed=0)
-    base, doubled = fit(demos).theta, fit(demos, rmax=2000.0).theta
+    base, doubled = fit(demos, method="lp").theta, fit(demos, method="lp", rmax=2000.0).theta
     assert np.max(np.abs(doubled - base) / np.abs(base)) > 0.5
 
 
 def test_lambda_trades_margin_for_a_smaller_reward(paper_100):
-    plain, sparse = fit(paper_100), fit(paper_100, lam=1.0)
+    plain, sparse = fit(paper_100, method="lp"), fit(paper_100, method="lp", lam=1.0)
     assert np.abs(sparse.theta).sum() < np.abs(plain.theta).sum()
 
 
@@ -94,5 +95,6 @@ def test_demonstrations_optimal_for_no_reward_are_infeasible():
     counts = np.zeros((mdp.n_states, mdp.n_actions))
     # Walking into the top-left corner's wall at the highest level: costly and pointless.
     counts[mdp.state_of[(0, 0)], action_index("up", 14, mdp.levels)] = 5.0
-    with pytest.raises(InfeasibleError, match="--method loss"):
-        fit(demonstrations(mdp, counts), rmax=10_000.0)
+    with pytest.raises(InfeasibleError, match='method="loss"') as raised:
+        fit(demonstrations(mdp, counts), method="lp", rmax=10_000.0)
+    assert raised.value.code == "infeasible" and "try --method loss, or raise --rmax" in said(raised.value)

@@ -70,7 +70,7 @@ def test_a_tied_fit_switches_at_its_own_rows(cliff16, monkeypatch):
     solution = lp.solve_margin_lp(tied)
     assert solution.interior and solution.interior_rows == rows - 1
     assert not lp.solve_margin_lp(constraints).interior
-    notes = " ".join(fit(demos, method="lp", reward_cells="special", tie=True, rmax=RMAX).notes)
+    notes = " ".join(map(str, fit(demos, method="lp", reward_cells="special", tie=True, rmax=RMAX).notes))
     assert f"(the simplex is used up to {rows - 1:,})" in notes
 
 
@@ -79,7 +79,7 @@ def test_a_fit_past_the_switch_says_how_it_was_solved_and_its_intervals_hold_the
     simplex_intervals, _ = reward_intervals(constraints)
     monkeypatch.setattr(lp, "INTERIOR_ROWS", 1000)
     result = fit(demos, method="lp", reward_cells="special", intervals=True, rmax=RMAX)
-    notes = " ".join(result.notes)
+    notes = " ".join(map(str, result.notes))
     assert "lp solved by the interior point method, as this world's LP has 1,318 rows in its first round" in notes
     assert "(the simplex is used up to 1,000)" in notes
     assert "intervals by the interior point method, as the fit: each of the 30 interval LPs" in notes
@@ -109,6 +109,6 @@ def test_a_failed_round_of_the_simplex_is_solved_again_by_the_interior_point_met
     assert abs(solution.margin - simplex.margin) <= solution.gap * max(simplex.margin, 1.0) + 1e-7
     # The failed round is one of the rounds, and the progress counts on from it.
     assert seen == list(range(2, solution.rounds + 1)) and solution.rounds >= 2
-    notes = " ".join(fit(demos, method="lp", reward_cells="special", rmax=RMAX).notes)
+    notes = " ".join(map(str, fit(demos, method="lp", reward_cells="special", rmax=RMAX).notes))
     assert ("lp solved by the interior point method, as the dual simplex failed (iteration limit in round 1); "
             "the gap between its margin") in notes

@@ -204,7 +204,7 @@ def test_progress_hears_of_rounds_and_interval_lps():
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
     heard = []
-    result = fit(demos, intervals=True, progress=lambda stage, done, total: heard.append((stage, done, total)))
+    result = fit(demos, method="lp", intervals=True, progress=lambda stage, done, total: heard.append((stage, done, total)))
     rounds = [done for stage, done, _ in heard if stage == "rounds"]
     lps = [(done, total) for stage, done, total in heard if stage == "intervals"]
     assert rounds == list(range(1, len(rounds) + 1)) and rounds
@@ -215,7 +215,7 @@ def test_every_per_cell_interval_lp_of_a_32x32_world_is_answered():
     # Regression: on the landed main 4 of these 62 LPs ended "unknown"; they now take about 2 s.
     mdp = build_mdp(cliff_world(32, 32))
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=100, seed=0))
-    result = fit(demos, intervals=True)
+    result = fit(demos, method="lp", intervals=True)
     truth = result.unknowns.true_theta(mdp)
     low, high = result.intervals.T
     assert result.intervals.shape == (31, 2) and np.all(np.isfinite(result.intervals))
@@ -228,7 +228,7 @@ def test_every_tied_interval_lp_of_a_32x32_world_is_answered():
     # Regression: the interior point method gave an infeasible answer (by 39) to 1 of these 4 LPs.
     mdp = build_mdp(cliff_world(32, 32))
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=100, seed=0))
-    tied = fit(demos, tie=True, intervals=True)
+    tied = fit(demos, method="lp", tie=True, intervals=True)
     truth = tied.unknowns.true_theta(mdp)
     low, high = tied.intervals.T
     assert tied.labels == ("C", "G") and np.all(np.isfinite(tied.intervals))

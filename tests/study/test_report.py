@@ -12,6 +12,7 @@ from rich.console import Console
 from careful_tui.cli import main
 from careful_tui.render.session import outcome_words
 from careful_tui.study_report import outcomes_text, report_table
+from irl_core.irl import Note
 from irl_core.simulated_study import simulated_participants, write_simulated_participant
 from irl_core.study import load_study
 from irl_core.study_report import POOLED, CellFit, fit_cell, gather, report_options, run_fits
@@ -249,7 +250,8 @@ def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
     for cell in data.cells:
         if cell.world_index == 0 and cell.participant != POOLED:
             fits.append(CellFit(method="maxent", beta=0.5, beta_auto=True,
-                                notes=("beta estimated by maximum likelihood: 0.5", rough)))
+                                notes=(Note("beta_estimated", "beta estimated by maximum likelihood: 0.5"),
+                                       Note("few_episodes", rough))))
         else:
             fits.append(CellFit(error="no finished main episodes"))
     assert fit_notes(data, fits) == [f"{rough}: p1 · paper, p2 · paper"]
@@ -257,6 +259,20 @@ def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
     notes = [row[columns.index("note")] for row in rows]
     assert notes[:2] == [f"beta estimated by maximum likelihood: 0.5; {rough}"] * 2
     assert notes[2] == "no finished main episodes"
+
+
+def test_the_printed_caveats_are_chosen_by_code_not_by_wording(study):
+    """A reworded note on beta is still left out of the printed caveats, and a caveat that happens
+    to begin like one is still printed: the report reads the notes' codes."""
+    from careful_tui.study_report import fit_notes
+
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=2)
+    data = gather(study)
+    fits = [CellFit(method="maxent", beta=0.5, beta_auto=True,
+                    notes=(Note("beta_estimated", "the estimated beta: 0.5"),
+                           Note("few_episodes", "beta's interval is rough: only 2 episodes")))
+            if cell.participant != POOLED and cell.world_index == 0 else CellFit(error="none") for cell in data.cells]
+    assert fit_notes(data, fits) == ["beta's interval is rough: only 2 episodes: p1 · paper"]
 
 
 def test_outcomes_are_worded_as_replay_and_play_word_them(study, capsys):

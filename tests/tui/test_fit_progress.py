@@ -28,7 +28,7 @@ def test_progress_phrases():
 def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
-    first = fit(demos)
+    first = fit(demos, method="lp")
     release = threading.Event()
     real_refit = careful_tui.screens.fit.fit
 
@@ -39,7 +39,7 @@ def test_the_status_line_follows_a_refit_and_forgets_it_when_done(monkeypatch):
         return real_refit(demos, options, progress=progress, stop=stop)
 
     monkeypatch.setattr(careful_tui.screens.fit, "fit", slow_refit)
-    app = CarefulApp(FitScreen(demos, FitOptions(), result=first))
+    app = CarefulApp(FitScreen(demos, FitOptions(method="lp"), result=first))
     seen = []
 
     async def go():
@@ -65,7 +65,7 @@ def test_a_refit_no_longer_wanted_is_stopped(monkeypatch):
     used to wait minutes for unwanted intervals before the app could exit."""
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
-    first = fit(demos)
+    first = fit(demos, method="lp")
     stopped = []
 
     def fit_until_stopped(demos, options, *, progress=None, stop=None):
@@ -78,7 +78,7 @@ def test_a_refit_no_longer_wanted_is_stopped(monkeypatch):
         raise AssertionError("the fit was never told to stop")
 
     monkeypatch.setattr(careful_tui.screens.fit, "fit", fit_until_stopped)
-    app = CarefulApp(FitScreen(demos, FitOptions(), result=first))
+    app = CarefulApp(FitScreen(demos, FitOptions(method="lp"), result=first))
 
     async def go():
         async with app.run_test(size=(180, 50)) as pilot:

@@ -1,0 +1,77 @@
+"""A fit's notes and errors: a stable code for programs, a sentence for people.
+
+Readers filter notes by `Note.code`, never by their wording, so a sentence can be reworded
+without changing what a table or a caption keeps. A sentence names the options it talks about
+as ``{rmax}`` or ``{method=loss}``; `str()` says them as `fit`'s parameters (``rmax``,
+``method="loss"``) and a front end says them in its own words with `worded` (the command line:
+``--rmax``, ``--method loss``).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+
+# Every code a note can carry, and what it says (docs/fit-json.md lists them).
+CODES: dict[str, str] = {
+    "auto_chose": "the method auto chose, and why",
+    "nothing_to_fit": "every cell is held at a known value",
+    "at_bound": "unknowns at ±rmax: the bound, not the data, set them",
+    "lp_interior": "the lp was solved by the interior point method, and its gap",
+    "not_unique": "many rewards minimise the loss equally",
+    "uniqueness_unchecked": "whether the loss's minimiser is unique could not be checked",
+    "inaccurate": "the loss is pinned down only roughly",
+    "not_converged": "maxent stopped before converging",
+    "beta_fixed": "maxent's beta was given, not estimated",
+    "beta_estimated": "maxent's beta as estimated",
+    "not_identified": "beta (the reward's scale) is not identified",
+    "intervals_not_computed": "no intervals, and why",
+    "intervals_interior": "the intervals were solved by the interior point method",
+    "resamples_failed": "bootstrap resamples whose refit failed",
+    "refits_never_moved": "unknowns whose bootstrap intervals have no width",
+    "beta_interval": "beta's confidence interval",
+    "few_episodes": "too few episodes for a good bootstrap interval",
+    # `FitOptions.problem`: options a fit would not refuse, but the command line does.
+    "beta_needs_maxent": "beta estimated for a method without one",
+    "bad_confidence": "a confidence level outside (0, 1)",
+    "too_few_resamples": "too few bootstrap resamples",
+}
+
+# An option named in a sentence: {name} or {name=value}.
+OPTION = re.compile(r"\{(\w+)(?:=([^{}]*))?\}")
+
+
+def python_option(name: str, value: str | None) -> str:
+    """An option as `fit`'s keyword: rmax, method="loss", intervals=True, beta=2."""
+    if value is None:
+        return name
+    try:
+        float(value)
+        literal = True
+    except ValueError:
+        literal = value in ("True", "False", "None")
+    return f"{name}={value}" if literal else f'{name}="{value}"'
+
+
+def worded(sentence: str, option: Callable[[str, str | None], str] = python_option) -> str:
+    """`sentence` with every ``{name}`` and ``{name=value}`` said by `option(name, value)`."""
+    return OPTION.sub(lambda match: option(match[1], match[2]), sentence)
+
+
+@dataclass(frozen=True)
+class Note:
+    """A note on a fit: `code` (a key of `CODES`) and `sentence` (options as ``{name=value}``).
+
+    `str()` is the sentence in `fit`'s words.
+    """
+
+    code: str
+    sentence: str
+
+    def __post_init__(self) -> None:
+        if self.code not in CODES:
+            raise ValueError(f"unknown note code {self.code!r}: add it to CODES")
+
+    def __str__(self) -> str:
+        return worded(self.sentence)
