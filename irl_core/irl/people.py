@@ -54,49 +54,9 @@ from scipy.optimize import minimize
 from irl_core.irl.maxent import LOG_BETA_BOUNDS, _expected_next, _solve, one_blas_thread, policy_system
 from irl_core.irl.qmap import Unknowns
 from irl_core.irl.result import SolverError
+from irl_core.player_models import AUTO, CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
 from irl_core.mdp import MDP
 from irl_core.stopping import stop_if_asked
-
-
-@dataclass(frozen=True)
-class PlayerModel:
-    """One entry of the player-model registry: which parts of the model are on."""
-
-    name: str
-    ends: bool
-    hand: bool
-    lapses: bool
-    summary: str
-
-    @property
-    def extra_parameters(self) -> int:
-        """Parameters beyond the rewards and beta."""
-        return int(self.hand) + int(self.lapses)
-
-
-PLAYER_MODELS: dict[str, PlayerModel] = {
-    model.name: model
-    for model in (
-        PlayerModel("boltzmann", ends=False, hand=False, lapses=False,
-                    summary="the paper's maxent expert: soft-optimal over (direction, level), its soft backup "
-                            "running on after the episode's end"),
-        PlayerModel("ends", ends=True, hand=False, lapses=False,
-                    summary="soft-optimal over (direction, level), with nothing after the episode's end"),
-        PlayerModel("hand", ends=True, hand=True, lapses=False,
-                    summary="soft-optimal over direction and intended level, the hand adding noise to the level"),
-        PlayerModel("person", ends=True, hand=True, lapses=True,
-                    summary="as hand, and now and then a lapse: a random direction"),
-    )
-}
-AUTO = "auto"
-
-
-def player_model(name: str) -> PlayerModel:
-    """The registry entry called `name`; raises ValueError for any other name."""
-    try:
-        return PLAYER_MODELS[name]
-    except KeyError:
-        raise ValueError(f"player_model must be one of {(AUTO, *PLAYER_MODELS)}, not {name!r}") from None
 
 
 # The hand's noise, sigma in levels: at the lower end the kernel is the identity to double precision
@@ -119,16 +79,19 @@ MAX_ITER = 1000
 MAX_LOG_RATIO = 600.0
 
 
-@dataclass(frozen=True)
-class Player:
-    """A player's parameters besides the rewards: beta, the hand's sigma (levels), the lapse probability."""
+# A model of people keeps the intended choice soft: beta at most this (per unit of reward; a level costs 1).
+# Data from a player whose intended choice is deterministic (the hand and the lapses making all the noise)
+# would drive beta up without end, where the likelihood goes flat in the rewards and the optimiser's start
+# decides them; at this cap an intended action worth a third of a level's cost less is still 30 times less
+# likely (bench/bench_people.py measures the answers).
+MAX_PERSON_BETA = 10.0
 
-    beta: float
-    sigma: float = 0.0
-    lapse: float = 0.0
 
-    def to_json(self) -> dict[str, float]:
-        return {"beta": self.beta, "sigma": self.sigma, "lapse": self.lapse}
+def beta_bounds(model: PlayerModel) -> tuple[float, float]:
+    """log beta's search range: maxent's, or for a model of people one that keeps the intended choice soft."""
+    if not model.hand:
+        return LOG_BETA_BOUNDS
+    return (LOG_BETA_BOUNDS[0], float(np.log(MAX_PERSON_BETA)))
 
 
 def level_kernel(levels: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
@@ -150,12 +113,13 @@ def level_kernel(levels: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True)
 class PlayerPlan:
     """The model's fixed point for one reward: V (S,) and, at acting states, the intended policy
-    pi_I (S, A), the realised policy q (S, A) and the recorded-action policy pi_O (S, A) with its log;
-    rows of states where nobody acts are uniform."""
+    pi_I (S, A), the policy the values follow (`backup`: q or pi_I), the realised policy q (S, A) and the
+    recorded-action policy pi_O (S, A) with its log; rows of states where nobody acts are uniform."""
 
     V: np.ndarray
     Q: np.ndarray
     intended: np.ndarray
+    backup: np.ndarray
     realised: np.ndarray
     observed: np.ndarray
     log_observed: np.ndarray
@@ -173,9 +137,11 @@ class _Work:
     system: np.ndarray | sp.spmatrix
 
 
-def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: float,
+def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: float, plans: bool,
              V0: np.ndarray | None) -> tuple[PlayerPlan, np.ndarray | sp.spmatrix]:
-    """Soft policy iteration over intended actions (beta 1), then the recorded-action policy."""
+    """Soft policy iteration over intended actions (beta 1), then the recorded-action policy. A player who
+    `plans` for the hand values an intended action by the realised ones (Q_I = K Q, the values following
+    q); one who does not values it as if it were realised (Q_I = Q, the values following pi_I)."""
     S, A, L = mdp.n_states, mdp.n_actions, mdp.levels
     acting = mdp.nonterminal
     uniform = np.full(A, 1.0 / A)
@@ -184,13 +150,13 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
 
     def improve(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         Q = R1 + mdp.gamma * _expected_next(mdp, V)
-        QI = (Q.reshape(S, 4, L) @ K.T).reshape(S, A)
+        QI = (Q.reshape(S, 4, L) @ K.T).reshape(S, A) if plans else Q
         top = QI.max(axis=1, keepdims=True)
         shifted = QI - top
         log_totals = np.log(np.exp(shifted).sum(axis=1, keepdims=True))
         log_pi = shifted - log_totals
         pi = np.exp(log_pi)
-        q = (pi.reshape(S, 4, L) @ K).reshape(S, A)
+        q = (pi.reshape(S, 4, L) @ K).reshape(S, A) if plans else pi.copy()
         q[~acting] = uniform
         return Q, pi, log_pi, q, (top + log_totals)[:, 0]
 
@@ -220,7 +186,9 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
         log_observed = log_q
     log_observed = log_observed.reshape(S, A)
     log_observed[~acting] = np.log(uniform)
-    plan = PlayerPlan(V=V, Q=Q, intended=pi, realised=q, observed=np.exp(log_observed),
+    realised = q if plans else (pi.reshape(S, 4, L) @ K).reshape(S, A)
+    realised[~acting] = uniform
+    plan = PlayerPlan(V=V, Q=Q, intended=pi, backup=q, realised=realised, observed=np.exp(log_observed),
                       log_observed=log_observed, iterations=iteration)
     return plan, system
 
@@ -264,7 +232,7 @@ def log_likelihood(
     K, dK = level_kernel(mdp.levels, player.sigma if model.hand else 0.0)
     lapse = player.lapse if model.lapses else 0.0
     R1 = beta * mdp.reward_matrix(R_S)
-    plan, system = _forward(mdp, R1, K, ends=model.ends, lapse=lapse, V0=V0)
+    plan, system = _forward(mdp, R1, K, ends=model.ends, lapse=lapse, plans=model.plans, V0=V0)
     acting = mdp.nonterminal
     counts = np.asarray(counts, dtype=float)
     value = float((counts[acting] * plan.log_observed[acting]).sum())
@@ -280,10 +248,10 @@ def log_likelihood(
     Z3 = U3 @ K.T
     g3 = pi3 * (Z3 - (pi3 * Z3).sum(axis=(1, 2), keepdims=True))
     g3[~acting] = 0.0
-    D = (g3 @ K).reshape(S, A)
+    D = (g3 @ K).reshape(S, A) if model.plans else g3.reshape(S, A)
     m = mdp.gamma * (D.ravel() @ mdp.P)
     y = _solve(system.T if isinstance(system, np.ndarray) else system.T.tocsc(), m)
-    G1 = D + y[:, None] * plan.realised
+    G1 = D + y[:, None] * plan.backup
     grad_R_S = beta * G1.sum(axis=1)
     grad_R_S[mdp.exit_state] = 0.0
     grad_log_beta = float((G1 * R1).sum())
@@ -291,7 +259,9 @@ def log_likelihood(
     if model.hand and player.sigma > 0:
         Q3 = plan.Q.reshape(S, 4, L)[acting]
         p3, u3, h3 = pi3[acting], U3[acting], g3[acting] + y[acting, None, None] * pi3[acting]
-        dLL_dK = np.einsum("sdi,sdj->ij", p3, u3) + np.einsum("sdi,sdc->ic", h3, Q3)
+        dLL_dK = np.einsum("sdi,sdj->ij", p3, u3)
+        if model.plans:
+            dLL_dK += np.einsum("sdi,sdc->ic", h3, Q3)
         grad_log_sigma = float((dLL_dK * dK).sum())
     grad_lapse = 0.0
     if model.lapses:
@@ -317,7 +287,7 @@ class PlayerFit:
 
     @property
     def beta_at_bound(self) -> bool:
-        return min(abs(np.log(self.player.beta) - end) for end in LOG_BETA_BOUNDS) < 1e-6
+        return min(abs(np.log(self.player.beta) - end) for end in beta_bounds(self.model)) < 1e-6
 
     def parameters(self) -> np.ndarray:
         """(p,) theta, then beta, then sigma and the lapse where the model has them (the bootstrap's vector)."""
@@ -380,8 +350,8 @@ def fit_player(
             grad.append([got.lapse * player.lapse * (1 - player.lapse)])
         return -got.value / total, -np.concatenate(grad) / total
 
-    z0 = list(np.asarray(theta0, dtype=float)) + [float(np.clip(np.log(player0.beta), *LOG_BETA_BOUNDS))]
-    bounds = [(-rmax, rmax)] * k + [LOG_BETA_BOUNDS]
+    z0 = list(np.asarray(theta0, dtype=float)) + [float(np.clip(np.log(player0.beta), *beta_bounds(model)))]
+    bounds = [(-rmax, rmax)] * k + [beta_bounds(model)]
     if model.hand:
         z0.append(float(np.log(np.clip(player0.sigma or START_SIGMA, *SIGMA_BOUNDS))))
         bounds.append((float(np.log(SIGMA_BOUNDS[0])), float(np.log(SIGMA_BOUNDS[1]))))
@@ -413,14 +383,10 @@ def _scaled(negative, z: np.ndarray, unit: np.ndarray) -> tuple[float, np.ndarra
 
 # ---------------------------------------------------------------------------- choosing a model
 
-# Candidates for `player_model="auto"`, simplest first.
-CANDIDATES: tuple[str, ...] = ("boltzmann", "ends", "hand", "person")
 FOLDS = 5
-# A model with more parameters is chosen only if its held-out log likelihood beats every simpler
-# one's by at least this much (nats over all held-out steps): a smaller gain is noise.
-SIMPLER_MARGIN = 2.0
 # A fold's refit starts at the full fit and stops sooner: its error is far below the held-out noise.
 REFIT_VALUE_TOLERANCE = 1e-8
+FOLD_VALUE_TOLERANCE = 1e-6
 REFIT_MAX_ITER = 200
 # With fewer episodes than this there is no held-out choice.
 MIN_EPISODES_TO_CHOOSE = 3
@@ -437,6 +403,7 @@ class ModelChoice:
         folds: how many folds the episodes were split into (0: no held-out choice).
         fits: per candidate, its fit to every episode.
         reason: one sentence for the reader.
+        per_episode: per candidate, each episode's held-out log likelihood (E,) (None as held_out).
     """
 
     name: str
@@ -444,6 +411,7 @@ class ModelChoice:
     folds: int
     fits: dict[str, PlayerFit]
     reason: str
+    per_episode: dict[str, np.ndarray] | None = None
 
 
 def choose_player_model(
@@ -457,11 +425,11 @@ def choose_player_model(
     seed: int = 0,
 ) -> ModelChoice:
     """Fit each candidate model to the episodes (rows of `by_episode`, (E, S * A)) and choose by
-    `folds`-fold held-out log likelihood over whole episodes: the best, unless a model with fewer
-    parameters comes within `SIMPLER_MARGIN` of it. With fewer than `MIN_EPISODES_TO_CHOOSE` episodes
-    the choice is the ``ends`` model (the simplest with a person's episode end), said so."""
+    `folds`-fold held-out log likelihood of whole episodes: of the models within `SIMPLER_MARGIN` of
+    the best, the one with the fewest parameters, the likeliest among those. With fewer than `MIN_EPISODES_TO_CHOOSE` episodes the choice is the ``ends`` model (the
+    simplest with a person's episode end), said so."""
     by_episode = sp.csr_matrix(by_episode)
-    counts = np.asarray(by_episode.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
+    counts = _counts_of(by_episode, mdp)
     E = by_episode.shape[0]
     models = [player_model(name) for name in candidates]
     if E < MIN_EPISODES_TO_CHOOSE:
@@ -471,33 +439,52 @@ def choose_player_model(
                            f"cannot be split into folds (a choice needs {MIN_EPISODES_TO_CHOOSE})")
     fits: dict[str, PlayerFit] = {}
     for model in models:
-        # Each richer model starts where the simpler one ended: its extra parameters start from nothing.
-        previous = fits.get(candidates[candidates.index(model.name) - 1]) if model.name != candidates[0] else None
+        # A richer model starts where the one before it ended, its extra parameters from their defaults.
+        previous = fits[models[models.index(model) - 1].name] if fits else None
         start = None if previous is None else (previous.theta, Player(previous.player.beta,
                                                                       previous.player.sigma or START_SIGMA,
                                                                       previous.player.lapse or START_LAPSE))
         fits[model.name] = fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start)
     k = min(folds, E)
     fold_of = np.random.default_rng(seed).permutation(np.arange(E) % k)
-    held_out = {model.name: 0.0 for model in models}
+    per_episode = {model.name: np.zeros(E) for model in models}
     for f in range(k):
+        test = np.flatnonzero(fold_of == f)
         train = _counts_of(by_episode[fold_of != f], mdp)
-        test = _counts_of(by_episode[fold_of == f], mdp)
         for model in models:
             full = fits[model.name]
             part = fit_player(mdp, unknowns, train, model=model, rmax=rmax, start=(full.theta, full.player),
-                              start_V=full.V1, value_tolerance=REFIT_VALUE_TOLERANCE, max_iter=REFIT_MAX_ITER)
-            held_out[model.name] += log_likelihood(mdp, test, unknowns.state_rewards(part.theta), model=model,
-                                                   player=part.player, V0=part.V1, gradient=False).value
+                              start_V=full.V1, value_tolerance=FOLD_VALUE_TOLERANCE, max_iter=REFIT_MAX_ITER)
+            per_episode[model.name][test] = by_episode[test] @ part.plan.log_observed.ravel()
+    held_out = {name: float(values.sum()) for name, values in per_episode.items()}
     best = max(held_out, key=held_out.__getitem__)
-    chosen = next(model.name for model in models if held_out[model.name] >= held_out[best] - SIMPLER_MARGIN)
+    standing = [m for m in models if held_out[best] - held_out[m.name] <= SIMPLER_MARGIN]
+    fewest = min(m.extra_parameters for m in standing)
+    chosen = max((m.name for m in standing if m.extra_parameters == fewest), key=held_out.__getitem__)
     steps = int(counts.sum())
     scores = ", ".join(f"{name} {held_out[name] / steps:.4f}" for name in candidates)
-    why = (f"player model {chosen} chosen by {k}-fold held-out log likelihood per step over whole episodes "
-           f"({scores})")
+    why = (f"player model {chosen} chosen by {k}-fold held-out log likelihood of whole episodes, per step: "
+           f"{scores}")
     if chosen != best:
-        why += f"; {best} was no better by more than {SIMPLER_MARGIN:g} nats in all, so the simpler model stands"
-    return ModelChoice(chosen, held_out, k, fits, why)
+        why += f" ({best} is no better by more than {SIMPLER_MARGIN:g} nats in all, so the simpler model stands)"
+    return ModelChoice(chosen, held_out, k, fits, why, per_episode)
+
+
+# A model with more parameters is chosen only if its held-out log likelihood beats the simpler one's by
+# more than this (nats over all held-out episodes; cross-validation already charges for overfitting).
+SIMPLER_MARGIN = 2.0
+# Two models of equal size are told apart on held-out episodes when the mean of their paired per-episode log likelihood
+# differences is this many standard errors above zero.
+SIGNIFICANT_Z = 2.0
+
+
+def significantly_better(first: np.ndarray, second: np.ndarray) -> bool:
+    """Whether per-episode held-out log likelihoods `first` (E,) beat `second` (E,) beyond their noise."""
+    difference = np.asarray(first) - np.asarray(second)
+    spread = difference.std(ddof=1) if difference.size > 1 else 0.0
+    if spread == 0:
+        return bool(difference.sum() > 0)
+    return bool(difference.mean() / (spread / np.sqrt(difference.size)) > SIGNIFICANT_Z)
 
 
 def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
@@ -516,6 +503,11 @@ class PlayerRefit:
     rmax: float
     start: tuple[np.ndarray, Player]
     start_V: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        """p: the unknowns, beta, and sigma and the lapse where the model has them."""
+        return self.unknowns.k + 1 + self.model.extra_parameters
 
     def __call__(self, counts: np.ndarray) -> np.ndarray:
         return fit_player(self.mdp, self.unknowns, counts, model=self.model, rmax=self.rmax, start=self.start,
