@@ -29,6 +29,7 @@ from irl_core.irl.margin import lp_constraints
 from irl_core.irl.maxent import MaxEntSolution, curvature_scale, fit_maxent, identification, soft_bellman
 from irl_core.irl.people import (FLAT_DROP, ModelChoice, PlayerFit, PlayerRefit, choose_player_model,
                                  fit_player, flat_toward_bound, significantly_better)
+from irl_core.irl.people import curvature_scale as people_curvature_scale
 from irl_core.irl.notes import Note
 from irl_core.irl.options import FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -378,13 +379,12 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
                                               "were left out"))
     bounds = result.intervals[: qmap.k]
     if fitted.rival is not None:
-        rival = fitted.rival
-        other = bootstrap(PlayerRefit(qmap.mdp, qmap.unknowns, rival.model, options.rmax, (rival.theta, rival.player),
-                                      rival.V1), demos.by_episode, rival.parameters(), confidence=options.confidence,
-                          resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
-                          workers=workers)
-        bounds = np.stack([np.minimum(bounds[:, 0], other.intervals[: qmap.k, 0]),
-                           np.maximum(bounds[:, 1], other.intervals[: qmap.k, 1])], axis=1)
+        # The other planning assumption's interval is taken to have the same sampling spread about its own
+        # estimate (a second bootstrap would double the time): the union covers both.
+        shift = fitted.rival.theta - fitted.theta
+        bounds = np.clip(np.stack([np.minimum(bounds[:, 0], bounds[:, 0] + shift),
+                                   np.maximum(bounds[:, 1], bounds[:, 1] + shift)], axis=1),
+                         -options.rmax, options.rmax)
     if not _moved(bounds, fitted, qmap, options, notes):
         return None
     if fitted.beta_auto and fitted.people is None:
@@ -401,8 +401,7 @@ def _refit(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptio
     """How the bootstrap refits `fitted`'s method, warm-started from it (a temperature model also from
     its beta, its soft V and its variables' curvature there)."""
     if fitted.people is not None:
-        return PlayerRefit(qmap.mdp, qmap.unknowns, fitted.people.model, options.rmax,
-                           (fitted.people.theta, fitted.people.player), fitted.people.V1)
+        return _player_refit(fitted.people, qmap, demos, options)
     if fitted.beta is None:
         return Refit(mdp=qmap.mdp, unknowns=qmap.unknowns, method=fitted.method, rmax=options.rmax, lam=options.lam,
                      beta=1.0, start=(fitted.theta, 1.0))
@@ -411,6 +410,13 @@ def _refit(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptio
     return Refit(mdp=qmap.mdp, unknowns=qmap.unknowns, method=fitted.method, rmax=options.rmax, lam=options.lam,
                  beta="auto" if fitted.beta_auto else fitted.beta, start=(fitted.theta, fitted.beta), scale=scale,
                  start_V=fitted.V)
+
+
+def _player_refit(solution: PlayerFit, qmap: QMap, demos: Demonstrations, options: FitOptions) -> PlayerRefit:
+    """How the bootstrap refits a model of people: from its fit, over its variables' curvature there."""
+    scale = people_curvature_scale(qmap.mdp, qmap.unknowns, demos.counts, solution, rmax=options.rmax)
+    return PlayerRefit(qmap.mdp, qmap.unknowns, solution.model, options.rmax, (solution.theta, solution.player),
+                       solution.V1, scale)
 
 
 def _moved(bounds: np.ndarray, fitted: _Fitted, qmap: QMap, options: FitOptions, notes: list[Note]) -> bool:

@@ -94,12 +94,16 @@ def beta_bounds(model: PlayerModel) -> tuple[float, float]:
     return (LOG_BETA_BOUNDS[0], float(np.log(MAX_PERSON_BETA)))
 
 
+IDENTITY: dict[int, np.ndarray] = {}  # the kernel without noise, one per level count (compared by identity)
+
+
 def level_kernel(levels: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
     """K (L, L), K[c* - 1, c - 1] = P(realised c | intended c*), and dK/dlog sigma (L, L).
 
     sigma 0 is the identity (no hand noise)."""
     if sigma <= 0:
-        return np.eye(levels), np.zeros((levels, levels))
+        identity = IDENTITY.setdefault(levels, np.eye(levels))
+        return identity, np.zeros((levels, levels))
     offset = np.arange(levels)[None, :] - np.arange(levels)[:, None]
     a = offset.astype(float) ** 2 / sigma**2  # -2 dlog w / dlog sigma ... see below
     log_w = -0.5 * a
@@ -178,7 +182,7 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
     # The gradient's system is the final policy's: the last one solved differs from it at first order in
     # the policy, though the residual, which is second order, is already negligible.
     system = policy_system(mdp, q)
-    log_q = _log_realised(log_pi.reshape(S, 4, L), K)
+    log_q = _log_realised(pi.reshape(S, 4, L), log_pi.reshape(S, 4, L), K)
     if lapse > 0:
         log_level = np.logaddexp.reduce(log_q, axis=1, keepdims=True) - np.log(4.0)  # log (Lq)
         log_observed = np.logaddexp(np.log1p(-lapse) + log_q, np.log(lapse) + log_level)
@@ -193,15 +197,22 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
     return plan, system
 
 
-def _log_realised(log_pi3: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """(S, 4, L) log q = log sum_c* pi_I(d, c*) K(c | c*), in log space (q of an unlikely level underflows)."""
-    if np.array_equal(K, np.eye(K.shape[0])):
+def _log_realised(pi3: np.ndarray, log_pi3: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """(S, 4, L) log q = log sum_c* pi_I(d, c*) K(c | c*). Where q underflows (an unlikely level of an
+    unlikely direction) those rows are done again in log space."""
+    if K is IDENTITY.get(K.shape[0]):
         return log_pi3.copy()
+    q = pi3 @ K
     with np.errstate(divide="ignore"):
-        log_K = np.log(K)
-    joint = log_pi3[..., :, None] + log_K[None, None, :, :]
-    top = joint.max(axis=2, keepdims=True)
-    return (top + np.log(np.exp(joint - top).sum(axis=2, keepdims=True)))[..., 0, :]
+        log_q = np.log(q)
+    low = (q < 1e-250).any(axis=2)
+    if low.any():
+        with np.errstate(divide="ignore"):
+            log_K = np.log(K)
+        joint = log_pi3[low][:, :, None] + log_K[None, :, :]
+        top = joint.max(axis=1, keepdims=True)
+        log_q[low] = (top + np.log(np.exp(joint - top).sum(axis=1, keepdims=True)))[:, 0, :]
+    return log_q
 
 
 @dataclass(frozen=True)
@@ -243,7 +254,7 @@ def log_likelihood(
     seen = acting[:, None] & (counts > 0)
     W[seen] = counts[seen] * np.exp(np.minimum(-plan.log_observed[seen], MAX_LOG_RATIO))
     W3 = W.reshape(S, 4, L)
-    U3 = (1 - lapse) * W3 + lapse * W3.mean(axis=1, keepdims=True)
+    U3 = (1 - lapse) * W3 + (lapse / 4) * W3.sum(axis=1, keepdims=True) if lapse > 0 else W3
     pi3 = plan.intended.reshape(S, 4, L)
     Z3 = U3 @ K.T
     g3 = pi3 * (Z3 - (pi3 * Z3).sum(axis=(1, 2), keepdims=True))
@@ -266,7 +277,7 @@ def log_likelihood(
     grad_lapse = 0.0
     if model.lapses:
         q3 = plan.realised.reshape(S, 4, L)
-        grad_lapse = float((W3 * (q3.mean(axis=1, keepdims=True) - q3))[acting].sum())
+        grad_lapse = float((W3 * (q3.sum(axis=1, keepdims=True) / 4 - q3))[acting].sum())
     return Likelihood(value, grad_R_S, grad_log_beta, grad_log_sigma, grad_lapse, plan)
 
 
@@ -312,6 +323,7 @@ def fit_player(
     rmax: float,
     start: tuple[np.ndarray, Player] | None = None,
     start_V: np.ndarray | None = None,
+    scale: np.ndarray | None = None,
     value_tolerance: float = VALUE_TOLERANCE,
     gradient_tolerance: float = GRADIENT_TOLERANCE,
     max_iter: int = MAX_ITER,
@@ -320,60 +332,81 @@ def fit_player(
     and, where `model` has them, log sigma and logit lapse, from `start` = (theta, player) (else theta 0,
     beta 1, sigma 1, lapse 0.02) and the soft values from `start_V` (S,, at beta 1).
 
+    `scale` (p,): the variables' natural sizes (`curvature_scale`), over which the search runs (a warm
+    start then converges in a few steps); without it the rewards move in units of rmax / 100.
+
     Raises ValueError without a recorded step, `Stopped` once the fit's stop check says so."""
     counts = np.asarray(counts, dtype=float)
-    total = counts.sum()
-    if total <= 0:
+    if counts.sum() <= 0:
         raise ValueError("the player model needs at least one recorded step")
     theta0, player0 = start if start is not None else (np.zeros(unknowns.k), Player(1.0, START_SIGMA, START_LAPSE))
-    basis_T = unknowns.basis.T.tocsr()
-    warm = {"V": start_V}
-    k = unknowns.k
-
-    def unpack(z: np.ndarray) -> tuple[np.ndarray, Player]:
-        i = k + 1
-        sigma = lapse = 0.0
-        if model.hand:
-            sigma, i = float(np.exp(z[i])), i + 1
-        if model.lapses:
-            lapse = float(1 / (1 + np.exp(-z[i])))
-        return z[:k], Player(float(np.exp(z[k])), sigma, lapse)
-
-    def negative(z: np.ndarray) -> tuple[float, np.ndarray]:
-        theta, player = unpack(z)
-        got = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player, V0=warm["V"])
-        warm["V"] = got.plan.V
-        grad = [basis_T @ got.R_S, [got.log_beta]]
-        if model.hand:
-            grad.append([got.log_sigma])
-        if model.lapses:
-            grad.append([got.lapse * player.lapse * (1 - player.lapse)])
-        return -got.value / total, -np.concatenate(grad) / total
-
-    z0 = list(np.asarray(theta0, dtype=float)) + [float(np.clip(np.log(player0.beta), *beta_bounds(model)))]
-    bounds = [(-rmax, rmax)] * k + [beta_bounds(model)]
-    if model.hand:
-        z0.append(float(np.log(np.clip(player0.sigma or START_SIGMA, *SIGMA_BOUNDS))))
-        bounds.append((float(np.log(SIGMA_BOUNDS[0])), float(np.log(SIGMA_BOUNDS[1]))))
-    if model.lapses:
-        z0.append(_logit(float(np.clip(player0.lapse or START_LAPSE, *LAPSE_BOUNDS))))
-        bounds.append((_logit(LAPSE_BOUNDS[0]), _logit(LAPSE_BOUNDS[1])))
-    # Rewards run in hundreds, the other variables near 1: search theta in units of rmax / 100 so that
-    # L-BFGS-B's first steps are of a sensible size in every direction.
-    unit = np.ones(len(z0))
-    unit[:k] = max(rmax / 100.0, 1.0)
-    z0_scaled = np.asarray(z0) / unit
-    scaled_bounds = [(low / u, high / u) for (low, high), u in zip(bounds, unit)]
+    z0, bounds = _variables(model, theta0, player0, rmax=rmax)
+    negative = _Objective(mdp, unknowns, counts, model, start_V)
+    if scale is None:
+        # Rewards run in hundreds, the other variables near 1: rewards in units of rmax / 100, so that
+        # L-BFGS-B's first steps are of a sensible size in every direction.
+        scale = np.ones(z0.size)
+        scale[: unknowns.k] = max(rmax / 100.0, 1.0)
+    scaled_bounds = [(low / u, high / u) for (low, high), u in zip(bounds, scale)]
     with one_blas_thread():
-        result = minimize(lambda z: _scaled(negative, z, unit), z0_scaled, jac=True, method="L-BFGS-B",
+        result = minimize(lambda z: _scaled(negative, z, scale), z0 / scale, jac=True, method="L-BFGS-B",
                           bounds=scaled_bounds,
                           options={"maxiter": max_iter, "ftol": value_tolerance, "gtol": gradient_tolerance})
-        theta, player = unpack(result.x * unit)
+        theta, player = _unpack(model, unknowns.k, result.x * scale)
         final = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player,
-                               V0=warm["V"], gradient=False)
+                               V0=negative.V, gradient=False)
     return PlayerFit(model=model, theta=np.asarray(theta, dtype=float), player=player, V1=final.plan.V,
-                     mean_log_likelihood=final.value / total, converged=bool(result.success),
+                     mean_log_likelihood=final.value / counts.sum(), converged=bool(result.success),
                      iterations=int(result.nit), message=str(result.message), plan=final.plan)
+
+
+def _variables(model: PlayerModel, theta: np.ndarray, player: Player, *,
+               rmax: float) -> tuple[np.ndarray, list[tuple[float, float]]]:
+    """The search's variables z (p,) = theta, log beta, then log sigma and logit lapse where the model has
+    them, and their bounds."""
+    z = list(np.asarray(theta, dtype=float)) + [float(np.clip(np.log(player.beta), *beta_bounds(model)))]
+    bounds = [(-rmax, rmax)] * len(theta) + [beta_bounds(model)]
+    if model.hand:
+        z.append(float(np.log(np.clip(player.sigma or START_SIGMA, *SIGMA_BOUNDS))))
+        bounds.append((float(np.log(SIGMA_BOUNDS[0])), float(np.log(SIGMA_BOUNDS[1]))))
+    if model.lapses:
+        z.append(_logit(float(np.clip(player.lapse or START_LAPSE, *LAPSE_BOUNDS))))
+        bounds.append((_logit(LAPSE_BOUNDS[0]), _logit(LAPSE_BOUNDS[1])))
+    return np.asarray(z), bounds
+
+
+def _unpack(model: PlayerModel, k: int, z: np.ndarray) -> tuple[np.ndarray, Player]:
+    """(theta, player) from the search's variables (`_variables`)."""
+    i = k + 1
+    sigma = lapse = 0.0
+    if model.hand:
+        sigma, i = float(np.exp(z[i])), i + 1
+    if model.lapses:
+        lapse = float(1 / (1 + np.exp(-z[i])))
+    return z[:k], Player(float(np.exp(z[k])), sigma, lapse)
+
+
+class _Objective:
+    """The mean negative log likelihood and its gradient over the search's variables, warm-starting each
+    soft Bellman fixed point from the last (`V`)."""
+
+    def __init__(self, mdp: MDP, unknowns: Unknowns, counts: np.ndarray, model: PlayerModel,
+                 V: np.ndarray | None) -> None:
+        self.mdp, self.unknowns, self.counts, self.model, self.V = mdp, unknowns, counts, model, V
+        self.total = counts.sum()
+        self.basis_T = unknowns.basis.T.tocsr()
+
+    def __call__(self, z: np.ndarray) -> tuple[float, np.ndarray]:
+        theta, player = _unpack(self.model, self.unknowns.k, z)
+        got = log_likelihood(self.mdp, self.counts, self.unknowns.state_rewards(theta), model=self.model,
+                             player=player, V0=self.V)
+        self.V = got.plan.V
+        grad = [self.basis_T @ got.R_S, [got.log_beta]]
+        if self.model.hand:
+            grad.append([got.log_sigma])
+        if self.model.lapses:
+            grad.append([got.lapse * player.lapse * (1 - player.lapse)])
+        return -got.value / self.total, -np.concatenate(grad) / self.total
 
 
 def _scaled(negative, z: np.ndarray, unit: np.ndarray) -> tuple[float, np.ndarray]:
@@ -381,12 +414,31 @@ def _scaled(negative, z: np.ndarray, unit: np.ndarray) -> tuple[float, np.ndarra
     return value, gradient * unit
 
 
+def curvature_scale(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, *, rmax: float) -> np.ndarray:
+    """(p,) 1 / sqrt of the mean negative log likelihood's curvature along each search variable at `fit`,
+    from central differences of the exact gradient; capped at rmax where it is (nearly) flat (a cliff
+    nobody steps into), as `maxent.curvature_scale`."""
+    z, bounds = _variables(fit.model, fit.theta, fit.player, rmax=rmax)
+    negative = _Objective(mdp, unknowns, np.asarray(counts, dtype=float), fit.model, fit.V1)
+    curvature = np.empty(z.size)
+    with one_blas_thread():
+        for j in range(z.size):
+            h = 1e-4 * max(1.0, abs(z[j]))
+            up, down = z.copy(), z.copy()
+            up[j], down[j] = min(z[j] + h, bounds[j][1]), max(z[j] - h, bounds[j][0])
+            curvature[j] = (negative(up)[1][j] - negative(down)[1][j]) / (up[j] - down[j])
+    return np.minimum(1.0 / np.sqrt(np.maximum(curvature, 1.0 / rmax**2)), rmax)
+
+
 # ---------------------------------------------------------------------------- choosing a model
 
 FOLDS = 5
 # A fold's refit starts at the full fit and stops sooner: its error is far below the held-out noise.
-REFIT_VALUE_TOLERANCE = 1e-8
 FOLD_VALUE_TOLERANCE = 1e-6
+# A resample's refit runs over variables scaled to unit curvature (`curvature_scale`) and stops at this
+# projected gradient, as maxent's does (`bootstrap.RESAMPLE_GRADIENT_TOLERANCE`).
+RESAMPLE_GRADIENT_TOLERANCE = 1e-5
+RESAMPLE_VALUE_TOLERANCE = 1e-12
 REFIT_MAX_ITER = 200
 # With fewer episodes than this there is no held-out choice.
 MIN_EPISODES_TO_CHOOSE = 3
@@ -494,8 +546,8 @@ def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class PlayerRefit:
-    """How the bootstrap refits one resample's counts (S, A) with a player model: from the full fit's
-    answer, stopping sooner (`REFIT_VALUE_TOLERANCE`). Returns `PlayerFit.parameters()` (p,)."""
+    """How the bootstrap refits one resample's counts (S, A) with a player model: from the full fit's answer,
+    over the variables' `scale` there (`curvature_scale`). Returns `PlayerFit.parameters()` (p,)."""
 
     mdp: MDP
     unknowns: Unknowns
@@ -503,6 +555,7 @@ class PlayerRefit:
     rmax: float
     start: tuple[np.ndarray, Player]
     start_V: np.ndarray | None = None
+    scale: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -511,8 +564,8 @@ class PlayerRefit:
 
     def __call__(self, counts: np.ndarray) -> np.ndarray:
         return fit_player(self.mdp, self.unknowns, counts, model=self.model, rmax=self.rmax, start=self.start,
-                          start_V=self.start_V, value_tolerance=REFIT_VALUE_TOLERANCE,
-                          max_iter=REFIT_MAX_ITER).parameters()
+                          start_V=self.start_V, scale=self.scale, value_tolerance=RESAMPLE_VALUE_TOLERANCE,
+                          gradient_tolerance=RESAMPLE_GRADIENT_TOLERANCE, max_iter=REFIT_MAX_ITER).parameters()
 
 
 # A reward moved to its bound whose log likelihood falls by less than this (chi-square(1) at 95%, halved)
