@@ -150,3 +150,23 @@ def test_a_player_names_itself_with_its_parameters():
 def test_a_player_that_cannot_be_made_is_refused_with_a_reason(kind, parameters, says):
     with pytest.raises(ValueError, match=says):
         person_like(build_mdp(BUILTIN_WORLDS["mud"]), kind, **parameters)
+
+
+def test_a_person_like_study_has_its_participants_and_one_reckless_one_last(tmp_path):
+    from irl_core.simulated_study import write_person_like_study
+    from irl_core.study import load_study, read_participant
+
+    study = load_study(write_person_like_study(tmp_path / "s", participants=4, episodes=6))
+    assert [world.name for world in study.worlds] == ["mud", "walls"]
+    players = {}
+    for participant in ("p01", "p02", "p03", "p04", "p05"):
+        read = read_participant(study, participant)
+        assert not read.problems and [tag.phase for tag, _ in read.recordings] == ["main", "main"]
+        assert all(len(recording.episode_ends) == 6 for _, recording in read.recordings)
+        players[participant] = {recording.header.input["expert"].split("(")[0] for _, recording in read.recordings}
+        levels = {step.carefulness for _, recording in read.recordings for step in recording.steps}
+        assert (levels == {1}) == (participant == "p05")
+    assert players == {"p01": {"person:loose"}, "p02": {"person:timed"}, "p03": {"person:hasty"},
+                       "p04": {"person:loose"}, "p05": {"person:reckless"}}
+    with pytest.raises(FileExistsError):
+        write_person_like_study(tmp_path / "s")
