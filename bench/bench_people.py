@@ -12,7 +12,8 @@ people's data are usually fitted). Per (player, world) it reports, as a Markdown
 * cliff <= 1%: the share of runs in which an agent trained on the fit falls off the cliff in at
   most 1% of episodes (`evaluation`, exact, from the world's start distribution);
 * fit check: the share of runs whose fit check passed, once fits have one;
-* the median of each symbol's value over runs, and the median seconds per fit.
+* the median of each symbol's value over runs, the methods (and player models) the fits used,
+  and the median seconds per fit.
 
 The fits run in a process pool over runs (each fit's bootstrap on one process). Targets for a
 fit meant for people (docs/people.md): order and cliff in at least 90% of runs, every symbol
@@ -27,6 +28,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections import Counter
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -55,7 +57,8 @@ def default_options(seed: int, *, tie: bool = False) -> FitOptions:
 @dataclass(frozen=True)
 class Run:
     """One fit's outcome: each symbol's value (tied, or the median of its cells) and the share of its
-    cells whose interval holds the truth, the agent's cliff rate, the fit check (None without one)."""
+    cells whose interval holds the truth, the agent's cliff rate, the fit check (None without one),
+    the method (and player model, once fits name one) that was used."""
 
     player: str
     world: str
@@ -65,6 +68,7 @@ class Run:
     cliff: float
     fit_check: bool | None
     seconds: float
+    model: str = ""
     error: str | None = None
 
     @property
@@ -99,8 +103,9 @@ def one_run(player: str, world: str, seed: int, options: FitOptions, episodes: i
             covered[symbol] = float(np.mean((low <= truth[mine]) & (truth[mine] <= high)))
     check = getattr(result, "fit_check", None)
     passed = None if check is None else bool(check["passed"] if isinstance(check, dict) else check.passed)
+    model = getattr(result, "player_model", None) or getattr(result.options, "player_model", None)
     return Run(player, world, seed, value, covered, float(result.evaluation.agent.ends.get("C", 0.0)), passed,
-               time.perf_counter() - started)
+               time.perf_counter() - started, model=result.method + (f" {model}" if model else ""))
 
 
 def runs(players: Iterable[str], worlds: Iterable[str], seeds: Iterable[int], *,
@@ -122,7 +127,7 @@ def runs(players: Iterable[str], worlds: Iterable[str], seeds: Iterable[int], *,
 def table(done: list[Run]) -> str:
     """The Markdown table of `done`, a row per (player, world) in the order they first appear."""
     head = ("| player | world | runs | order | covered C | covered U | covered G | cliff <= 1% | fit check "
-            "| median C | median U | median G | s per fit |")
+            "| median C | median U | median G | fitted by | s per fit |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     groups: dict[tuple[str, str], list[Run]] = {}
     for run in done:
@@ -138,6 +143,7 @@ def table(done: list[Run]) -> str:
             f"{sum(run.cliff <= CLIFF_RATE for run in ok)}/{n}",
             f"{sum(checks)}/{len(checks)}" if checks else "n/a",
             *(f"{np.median([run.value[s] for run in ok]):.4g}" if ok else "n/a" for s in SYMBOLS),
+            ", ".join(f"{model} {count}" for model, count in Counter(run.model for run in ok).most_common()) or "n/a",
             f"{np.median([run.seconds for run in group]):.1f}",
         ]
         lines.append("| " + " | ".join(cells) + " |")
