@@ -21,11 +21,13 @@ covered in at least 75%, for `loose`, `timed` and `hasty`; the fit check fails o
 `table(...)` takes any options, so another player model can be measured the same way.
 
 Run: .venv/bin/python -m bench bench_people [--seeds N] [--quick] [--tie] [--players ...] [--worlds ...]
+     [--option NAME=VALUE ...]
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import time
 from collections import Counter
@@ -150,6 +152,21 @@ def table(done: list[Run]) -> str:
     return "\n".join(lines)
 
 
+def _option(text: str) -> tuple[str, object]:
+    """``NAME=VALUE`` as a FitOptions field and its value: a number, true/false, or text."""
+    name, _, value = text.partition("=")
+    if name not in {f.name for f in dataclasses.fields(FitOptions)}:
+        raise argparse.ArgumentTypeError(f"FitOptions has no field {name!r}")
+    if value.lower() in ("true", "false"):
+        return name, value.lower() == "true"
+    for kind in (int, float):
+        try:
+            return name, kind(value)
+        except ValueError:
+            pass
+    return name, value
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(prog="bench_people", description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeds per player and world (default 10)")
@@ -158,7 +175,10 @@ def main() -> None:
     parser.add_argument("--players", nargs="+", choices=PLAYERS, default=list(PLAYERS))
     parser.add_argument("--worlds", nargs="+", choices=list(BUILTIN_WORLDS), default=list(WORLDS))
     parser.add_argument("--workers", type=int, default=None, help="fits at a time (default: the cores)")
+    parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE", type=_option,
+                        help="a FitOptions field to set in every fit, e.g. --option rmax=5000 (repeatable)")
     args = parser.parse_args()
+    changes = dict(args.option)
     seeds = range(2 if args.quick else args.seeds)
     started = time.perf_counter()
 
@@ -167,10 +187,12 @@ def main() -> None:
         print(f"[{done:3d}/{total}] {run.player:<9} {run.world:<6} seed {run.seed:2d}: {what}  ({run.seconds:.1f} s)",
               flush=True)
 
-    done = runs(args.players, args.worlds, seeds, options=lambda seed: default_options(seed, tie=args.tie),
+    done = runs(args.players, args.worlds, seeds,
+                options=lambda seed: dataclasses.replace(default_options(seed, tie=args.tie), **changes),
                 workers=args.workers, progress=report)
     unknowns = "one per symbol (--tie)" if args.tie else "one per cell, each symbol read as its cells' median"
-    print(f"\n{EPISODES} episodes per run, {len(seeds)} seeds, the default fit with 200 resamples; unknowns "
+    changed = "".join(f", {name} {value}" for name, value in changes.items())
+    print(f"\n{EPISODES} episodes per run, {len(seeds)} seeds, the default fit with 200 resamples{changed}; unknowns "
           f"{unknowns}; {time.perf_counter() - started:.0f} s on {args.workers or os.cpu_count()} workers\n")
     print(table(done))
 
