@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.recording_lines import StudyTag
 from irl_core.experts import Chooser, boltzmann_policy, expert_name, rollouts, session_header, write_rollouts
 from irl_core.mdp import MDP, build_mdp
 from irl_core.person_like import person_like
+from irl_core.recording_lines import StudyTag
 from irl_core.study import LoadedStudy, Phase, load_study, world_order
 
 
@@ -38,6 +38,8 @@ class SimulatedParticipant:
     def player(self, mdp: MDP) -> tuple[np.ndarray | Chooser, str]:
         """The policy or chooser that plays for this participant in `mdp`'s world, and its name."""
         if self.kind == "boltzmann":
+            if self.beta is None:
+                raise ValueError(f"{self.participant} is a Boltzmann participant without a beta")
             return boltzmann_policy(mdp, beta=self.beta), expert_name("boltzmann", self.beta)
         player = person_like(mdp, self.kind)
         return player.choose, player.player
@@ -74,7 +76,7 @@ def write_simulated_participant(study: LoadedStudy, who: SimulatedParticipant, *
     folder = study.participant_folder(who.participant)
     folder.mkdir(parents=True, exist_ok=True)
     targets = {"practice": study.study.practice_episodes, "main": study.study.episodes}
-    written = []
+    written: list[Path] = []
     for world_index in world_order(study.study, who.participant):
         mdp = build_mdp(study.worlds[world_index])
         policy, player = who.player(mdp)

@@ -38,6 +38,7 @@ def test_every_person_like_player_writes_a_recording_the_reader_takes_with_possi
 def test_a_person_like_recording_is_a_persons_and_fits_like_one(capsys, tmp_path):
     code, out, _ = careful_simulate(capsys, tmp_path, "loose.jsonl", "--world", "mud", "--policy", "loose",
                                     "--episodes", "20", "--seed", "1")
+    assert code == 0
     recording = read_recording(out)
     # the experiment's human stage takes every recording not played by an `expert:`
     assert human_sessions(tmp_path, recording.world)[0] == [out]
@@ -93,6 +94,7 @@ def test_a_lapse_of_zero_follows_the_optimal_directions(capsys, tmp_path):
 
     code, out, _ = careful_simulate(capsys, tmp_path, "l.jsonl", "--world", "walls", "--policy", "loose",
                                     "--lapse", "0", "--episodes", "30", "--seed", "2")
+    assert code == 0
     recording = read_recording(out)
     mdp = build_mdp(recording.world)
     best = optimal_plan(mdp).greedy
