@@ -12,7 +12,8 @@ people's data are usually fitted). Per (player, world) it reports, as a Markdown
 * cliff <= 1%: the share of runs in which an agent trained on the fit falls off the cliff in at
   most 1% of episodes (`evaluation`, exact, from the world's start distribution);
 * fit check: the share of runs whose fit check passed, once fits have one;
-* the median of each symbol's value over runs, and the median seconds per fit.
+* the median of each symbol's value over runs, the methods (and player models) the fits used,
+  and the median seconds per fit.
 
 The fits run in a process pool over runs (each fit's bootstrap on one process). Targets for a
 fit meant for people (docs/people.md): order and cliff in at least 90% of runs, every symbol
@@ -20,13 +21,16 @@ covered in at least 75%, for `loose`, `timed` and `hasty`; the fit check fails o
 `table(...)` takes any options, so another player model can be measured the same way.
 
 Run: .venv/bin/python -m bench bench_people [--seeds N] [--quick] [--tie] [--players ...] [--worlds ...]
+     [--option NAME=VALUE ...]
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import time
+from collections import Counter
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -55,7 +59,8 @@ def default_options(seed: int, *, tie: bool = False) -> FitOptions:
 @dataclass(frozen=True)
 class Run:
     """One fit's outcome: each symbol's value (tied, or the median of its cells) and the share of its
-    cells whose interval holds the truth, the agent's cliff rate, the fit check (None without one)."""
+    cells whose interval holds the truth, the agent's cliff rate, the fit check (None without one),
+    the method (and player model, once fits name one) that was used."""
 
     player: str
     world: str
@@ -65,6 +70,7 @@ class Run:
     cliff: float
     fit_check: bool | None
     seconds: float
+    model: str = ""
     error: str | None = None
 
     @property
@@ -99,8 +105,9 @@ def one_run(player: str, world: str, seed: int, options: FitOptions, episodes: i
             covered[symbol] = float(np.mean((low <= truth[mine]) & (truth[mine] <= high)))
     check = getattr(result, "fit_check", None)
     passed = None if check is None else bool(check["passed"] if isinstance(check, dict) else check.passed)
+    model = getattr(result, "player_model", None) or getattr(result.options, "player_model", None)
     return Run(player, world, seed, value, covered, float(result.evaluation.agent.ends.get("C", 0.0)), passed,
-               time.perf_counter() - started)
+               time.perf_counter() - started, model=result.method + (f" {model}" if model else ""))
 
 
 def runs(players: Iterable[str], worlds: Iterable[str], seeds: Iterable[int], *,
@@ -122,7 +129,7 @@ def runs(players: Iterable[str], worlds: Iterable[str], seeds: Iterable[int], *,
 def table(done: list[Run]) -> str:
     """The Markdown table of `done`, a row per (player, world) in the order they first appear."""
     head = ("| player | world | runs | order | covered C | covered U | covered G | cliff <= 1% | fit check "
-            "| median C | median U | median G | s per fit |")
+            "| median C | median U | median G | fitted by | s per fit |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     groups: dict[tuple[str, str], list[Run]] = {}
     for run in done:
@@ -138,10 +145,26 @@ def table(done: list[Run]) -> str:
             f"{sum(run.cliff <= CLIFF_RATE for run in ok)}/{n}",
             f"{sum(checks)}/{len(checks)}" if checks else "n/a",
             *(f"{np.median([run.value[s] for run in ok]):.4g}" if ok else "n/a" for s in SYMBOLS),
+            ", ".join(f"{model} {count}" for model, count in Counter(run.model for run in ok).most_common()) or "n/a",
             f"{np.median([run.seconds for run in group]):.1f}",
         ]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _option(text: str) -> tuple[str, object]:
+    """``NAME=VALUE`` as a FitOptions field and its value: a number, true/false, or text."""
+    name, _, value = text.partition("=")
+    if name not in {f.name for f in dataclasses.fields(FitOptions)}:
+        raise argparse.ArgumentTypeError(f"FitOptions has no field {name!r}")
+    if value.lower() in ("true", "false"):
+        return name, value.lower() == "true"
+    for kind in (int, float):
+        try:
+            return name, kind(value)
+        except ValueError:
+            pass
+    return name, value
 
 
 def main() -> None:
@@ -152,7 +175,10 @@ def main() -> None:
     parser.add_argument("--players", nargs="+", choices=PLAYERS, default=list(PLAYERS))
     parser.add_argument("--worlds", nargs="+", choices=list(BUILTIN_WORLDS), default=list(WORLDS))
     parser.add_argument("--workers", type=int, default=None, help="fits at a time (default: the cores)")
+    parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE", type=_option,
+                        help="a FitOptions field to set in every fit, e.g. --option rmax=5000 (repeatable)")
     args = parser.parse_args()
+    changes = dict(args.option)
     seeds = range(2 if args.quick else args.seeds)
     started = time.perf_counter()
 
@@ -161,10 +187,12 @@ def main() -> None:
         print(f"[{done:3d}/{total}] {run.player:<9} {run.world:<6} seed {run.seed:2d}: {what}  ({run.seconds:.1f} s)",
               flush=True)
 
-    done = runs(args.players, args.worlds, seeds, options=lambda seed: default_options(seed, tie=args.tie),
+    done = runs(args.players, args.worlds, seeds,
+                options=lambda seed: dataclasses.replace(default_options(seed, tie=args.tie), **changes),
                 workers=args.workers, progress=report)
     unknowns = "one per symbol (--tie)" if args.tie else "one per cell, each symbol read as its cells' median"
-    print(f"\n{EPISODES} episodes per run, {len(seeds)} seeds, the default fit with 200 resamples; unknowns "
+    changed = "".join(f", {name} {value}" for name, value in changes.items())
+    print(f"\n{EPISODES} episodes per run, {len(seeds)} seeds, the default fit with 200 resamples{changed}; unknowns "
           f"{unknowns}; {time.perf_counter() - started:.0f} s on {args.workers or os.cpu_count()} workers\n")
     print(table(done))
 

@@ -1,7 +1,9 @@
 """Computer experts: optimal and Boltzmann policies, rolled out for many episodes at once.
 
 Rollouts are vectorised across episodes: every live episode takes its step together,
-so 10,000 episodes cost a few hundred array operations instead of 10,000 Python loops.
+so 10,000 episodes cost a few hundred array operations instead of 10,000 Python loops. A player
+that is not a stationary policy (a person-like player, `irl_core.person_like`) is a `Chooser`,
+which sees each episode's previous action, and rolls out and writes the same way.
 The same seed gives the same episodes and, written out, the same bytes. `simulate_to_file`
 rolls out and writes a block of episodes at a time, so memory stays flat however many
 episodes are asked for. A plan that stopped at its iteration cap is not an expert:

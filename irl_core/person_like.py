@@ -137,7 +137,9 @@ def intended_hold_ms(level: np.ndarray) -> np.ndarray:
 
 def level_of_hold(hold_ms: np.ndarray, levels: int) -> np.ndarray:
     """(n,) the level each hold (n,) gives: 1 below the delay, then one more per MS_PER_LEVEL, up to `levels`."""
-    steps = np.floor((np.asarray(hold_ms, dtype=float) - DELAY_MS) / MS_PER_LEVEL + 1e-9)
+    hold_ms = np.asarray(hold_ms, dtype=float)
+    # The epsilon keeps a hold of exactly a level's start at that level, as HoldProfile.level_for does.
+    steps = np.floor((hold_ms - DELAY_MS) / MS_PER_LEVEL + 1e-9)
     return np.where(hold_ms < DELAY_MS, 1, np.minimum(levels, 2 + steps)).astype(np.int64)
 
 

@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-
 from rich.console import Console
 from rich.progress import Progress
 from rich.text import Text
@@ -22,8 +21,8 @@ from irl_core.words import plural
 from irl_core.world import load_world
 
 DEFAULT_BETA = 1.0  # --beta's default (cli.py's help says so)
-# The person-like players' options, by the parameter each sets (irl_core.person_like.KINDS).
-PLAYER_OPTIONS = ("lapse", "spread", "weber", "temperature", "bias")
+# The person-like players' options: one per parameter of irl_core.person_like.KINDS, named as it is.
+PLAYER_OPTIONS = tuple(dict.fromkeys(name for parameters in KINDS.values() for name in parameters))
 
 
 def run_simulate(args: argparse.Namespace) -> int:
@@ -55,9 +54,8 @@ def _player(mdp: MDP, args: argparse.Namespace) -> tuple[np.ndarray | Chooser, s
                                          for name in PLAYER_OPTIONS}}
     for name, policies in takers.items():
         if getattr(args, name) is not None and args.policy not in policies:
-            warn(Console(stderr=True, highlight=False),
-                 ignored([f"--{name}"], "to --policy " + " and ".join([", ".join(policies[:-1]), policies[-1]]
-                                                                     if len(policies) > 1 else policies)))
+            listed = policies[0] if len(policies) == 1 else f"{', '.join(policies[:-1])} and {policies[-1]}"
+            warn(Console(stderr=True, highlight=False), ignored([f"--{name}"], f"to --policy {listed}"))
     try:
         if args.policy == "optimal":
             return optimal_policy(mdp), expert_name("optimal")
