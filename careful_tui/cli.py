@@ -18,7 +18,7 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.version import app_version
-from irl_core import fit_methods
+from irl_core import fit_methods, player_models
 from irl_core.demonstrations import RecordingError
 from irl_core.person_like import KINDS as PERSON_LIKE
 from irl_core.safe_files import OutputError
@@ -132,6 +132,11 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--beta", type=beta_value, default=None, metavar="X|auto",
                      help="maxent inverse temperature, or auto to estimate it with the rewards "
                      "(default: 1.0 with --method maxent, auto when --method auto picks maxent)")
+    fit.add_argument("--player-model", dest="player_model", choices=(player_models.AUTO, *player_models.PLAYER_MODELS),
+                     default=None,
+                     help="maxent's model of the player: auto chooses by held-out episodes (the default when --method "
+                     "auto picks maxent); " + "; ".join(f"{m.name}: {m.summary}" for m in player_models.PLAYER_MODELS.values())
+                     + " (boltzmann is the default with --method maxent)")
     fit.add_argument("--reward-cells", choices=["special", "all"], default="special",
                      help="special: fit non-ground cells, ground is 0 (default); all: fit every cell")
     fit.add_argument("--tie", action="store_true", help="one unknown per symbol instead of per cell")
