@@ -100,7 +100,10 @@ def fit(
     if unknowns.k == 0:
         notes.append(Note("nothing_to_fit", "nothing to fit: every cell is ground, which {reward_cells=special} "
                                             "keeps at 0; try {reward_cells=all}"))
-    fitted = _run(options.method, qmap, demos, options, progress=progress)
+    try:
+        fitted = _run(options.method, qmap, demos, options, progress=progress)
+    except InfeasibleError as exc:
+        raise _infeasible(exc, qmap, demos, options) from exc
     notes += fitted.notes
 
     bounds, kind = None, None
@@ -149,6 +152,24 @@ def _fit_check(fitted: _Fitted, demos: Demonstrations, options: FitOptions, note
         sentence += "; read the rewards with care: the model does not explain how these recordings were played"
     notes.append(Note(code, sentence))
     return check
+
+
+# A bound this many times rmax stands for "any bound": if the lp is infeasible there too, raising rmax cannot help.
+LARGER_BOUND = 1000.0
+
+
+def _infeasible(exc: InfeasibleError, qmap: QMap, demos: Demonstrations, options: FitOptions) -> InfeasibleError:
+    """The lp's infeasibility, advising a larger rmax only where one would make the lp feasible."""
+    try:
+        solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=LARGER_BOUND * options.rmax), lam=0.0)
+    except InfeasibleError:
+        mixed = int(((demos.counts[demos.demonstrated] > 0).sum(axis=1) > 1).sum())
+        why = (f"{mixed} demonstrated cells show more than one action (noisy play)" if mixed else
+               "the most frequent actions contradict each other")
+        return InfeasibleError(f"the demonstrations are not optimal for any reward, however large (none within "
+                               f"±{LARGER_BOUND * options.rmax:g} either): {why}; fit noisy play with "
+                               "{method=maxent} or {method=loss}", code="infeasible")
+    return exc
 
 
 def _stopping(progress: Progress | None, stop: Callable[[], bool]) -> Progress:
