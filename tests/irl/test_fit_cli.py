@@ -50,7 +50,7 @@ def test_json_has_the_spec_structure(tmp_path, capsys, mud_file):
     assert data["world"] == BUILTIN_WORLDS["mud"].model_dump(mode="json")
     assert data["options"] == {"rmax": 1000.0, "lambda": 0.0, "beta": 1.0, "reward_cells": "special",
                                "tie": False, "intervals": True, "confidence": 0.95, "resamples": 200, "seed": 0,
-                               "beta_auto": False}
+                               "beta_auto": False, "player_model": None}
     assert any(note.startswith("method auto chose lp") for note in data["notes"])
     assert len(data["note_codes"]) == len(data["notes"]) and data["note_codes"][0] == "auto_chose"
     assert set(data["evaluation"]) >= {"ends", "return", "optimal_return"}
