@@ -18,9 +18,10 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.version import app_version
-from irl_core import fit_methods
+from irl_core import fit_methods, player_models
 from irl_core.demonstrations import RecordingError
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
+from irl_core.person_like import KINDS as PERSON_LIKE
 from irl_core.safe_files import OutputError
 from irl_core.safe_text import one_line
 from irl_core.world import WorldError
@@ -44,6 +45,13 @@ def non_negative_float(text: str) -> float:
     value = finite_float(text)
     if not value >= 0:
         raise argparse.ArgumentTypeError(f"must be zero or more, got {text}")
+    return value
+
+
+def probability(text: str) -> float:
+    value = finite_float(text)
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"must be a probability from 0 to 1, got {text}")
     return value
 
 
@@ -125,6 +133,11 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--beta", type=beta_value, default=None, metavar="X|auto",
                      help="maxent inverse temperature, or auto to estimate it with the rewards "
                      "(default: 1.0 with --method maxent, auto when --method auto picks maxent)")
+    fit.add_argument("--player-model", dest="player_model", choices=(player_models.AUTO, *player_models.PLAYER_MODELS),
+                     default=None,
+                     help="maxent's model of the player: auto chooses by held-out episodes (the default when --method "
+                     "auto picks maxent); " + "; ".join(f"{m.name}: {m.summary}" for m in player_models.PLAYER_MODELS.values())
+                     + " (boltzmann is the default with --method maxent)")
     fit.add_argument("--reward-cells", choices=["special", "all"], default="special",
                      help="special: fit non-ground cells, ground is 0 (default); all: fit every cell")
     fit.add_argument("--tie", action="store_true", help="one unknown per symbol instead of per cell")
@@ -142,14 +155,26 @@ def build_parser() -> argparse.ArgumentParser:
                      "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
 
-    simulate = commands.add_parser("simulate", help="record a computer expert", description=(
-        "Roll out a computer expert and write its episodes as a recording."))
+    simulate = commands.add_parser("simulate", help="record a computer expert or a person-like player", description=(
+        "Roll out a computer expert or a person-like player and write its episodes as a recording."))
     simulate.add_argument("--world", required=True, metavar="NAME|FILE", help="built-in world or TOML file")
-    simulate.add_argument("--policy", choices=["optimal", "boltzmann"], required=True,
+    simulate.add_argument("--policy", choices=["optimal", "boltzmann", *PERSON_LIKE], required=True,
                           help="optimal: the best action in every state; boltzmann: actions with probability "
-                               "proportional to exp(beta Q)")
+                               "proportional to exp(beta Q); loose, timed, hasty, inverted, reckless: person-like "
+                               "players over the optimal plan (docs/people.md)")
     simulate.add_argument("--beta", type=positive_float, default=None,
                           help="Boltzmann inverse temperature, for --policy boltzmann (default 1.0)")
+    simulate.add_argument("--lapse", type=probability, default=None, metavar="P",
+                          help="share of lapsed directions: loose, inverted 0.1 (random), timed 0.1 (the previous "
+                               "one), reckless 0.25 (random)")
+    simulate.add_argument("--spread", type=non_negative_float, default=None, metavar="LEVELS",
+                          help="sd of the level's noise: loose, inverted 1.75, hasty 1")
+    simulate.add_argument("--weber", type=non_negative_float, default=None, metavar="SD",
+                          help="timed: sd of the log hold time (default 0.25, about 25%%)")
+    simulate.add_argument("--temperature", type=positive_float, default=None,
+                          help="hasty: temperature of the direction's choice, in reward units (default 1.25)")
+    simulate.add_argument("--bias", type=finite_float, default=None, metavar="LEVELS",
+                          help="hasty: levels held short of the best one (default 2)")
     simulate.add_argument("--episodes", type=positive_int, required=True, help="episodes to roll out")
     simulate.add_argument("--seed", type=seed_int, required=True,
                           help="seed of the rollouts (the same seed writes the same file)")

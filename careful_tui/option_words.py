@@ -17,6 +17,7 @@ FLAGS: dict[str, str] = {
     "rmax": "--rmax",
     "lam": "--lambda",
     "beta": "--beta",
+    "player_model": "--player-model",
     "reward_cells": "--reward-cells",
     "tie": "--tie",
     "intervals": "--intervals",

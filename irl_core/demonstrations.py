@@ -264,6 +264,8 @@ class Demonstrations:
         episode_groups: (E,) the group (a study's participant) of each row of `by_episode`: a
             bootstrap then resamples groups, then episodes within them; None: episodes are
             independent.
+        episode_facts: how each of those episodes began, how long it was and how it ended (the fit
+            check compares them with the fitted player's); None when not known.
     """
 
     mdp: MDP
@@ -273,6 +275,7 @@ class Demonstrations:
     steps: int
     by_episode: sp.csr_matrix | None = None
     episode_groups: np.ndarray | None = None
+    episode_facts: EpisodeFacts | None = None
 
     @classmethod
     def from_recordings(cls, recordings: list[Recording]) -> Demonstrations:
@@ -303,6 +306,7 @@ class Demonstrations:
             np.add.at(counts, (states, actions), 1.0)
         files = np.concatenate([np.empty(0, np.int64)] + [np.full(len(r.steps), i) for i, r in enumerate(recordings)])
         episode_keys = list(zip(files.tolist(), column("episode").tolist()))
+        endings = {(i, end.episode): end for i, r in enumerate(recordings) for end in r.episode_ends}
         return cls(
             mdp=mdp,
             counts=counts,
@@ -310,6 +314,7 @@ class Demonstrations:
             episodes=sum(len(r.episodes) for r in recordings),
             steps=sum(len(r.steps) for r in recordings),
             by_episode=episode_matrix(episode_keys, states * mdp.n_actions + actions, mdp.n_states * mdp.n_actions),
+            episode_facts=EpisodeFacts.of_steps(episode_keys, states, endings),
         )
 
     @classmethod
@@ -331,6 +336,42 @@ class Demonstrations:
     def most_frequent(self) -> np.ndarray:
         """(S,) the most frequent demonstrated action (lowest index among ties); -1 if none."""
         return np.where(self.demonstrated, self.counts.argmax(axis=1), -1)
+
+
+UNFINISHED = "unfinished"
+
+
+@dataclass(frozen=True)
+class EpisodeFacts:
+    """Per episode with steps (the rows of `Demonstrations.by_episode`, in order): start (E,) its first
+    state, length (E,) its steps, end (E,) how it ended: a terminal symbol, ``step_limit``, ``quit``, or
+    ``unfinished`` (no ``episode_end`` line)."""
+
+    start: np.ndarray
+    length: np.ndarray
+    end: tuple[str, ...]
+
+    @classmethod
+    def of_steps(cls, episode_of_step: list, state_of_step: np.ndarray, endings: dict) -> EpisodeFacts:
+        """From each step's episode key and state (in order) and the `EpisodeEnd` lines by key."""
+        keys = list(dict.fromkeys(episode_of_step))
+        first = {}
+        length: dict = {}
+        for key, state in zip(episode_of_step, np.asarray(state_of_step).tolist()):
+            first.setdefault(key, state)
+            length[key] = length.get(key, 0) + 1
+        ends = []
+        for key in keys:
+            end = endings.get(key)
+            ends.append(UNFINISHED if end is None else
+                        (end.terminal_symbol or "terminal") if end.outcome == "terminal" else end.outcome)
+        return cls(start=np.array([first[k] for k in keys], dtype=np.int64),
+                   length=np.array([length[k] for k in keys], dtype=np.int64), end=tuple(ends))
+
+    @property
+    def finished(self) -> np.ndarray:
+        """(E,) True where the episode ran to a terminal cell or the step limit (not quit, not cut short)."""
+        return np.array([end not in ("quit", UNFINISHED) for end in self.end], dtype=bool)
 
 
 def episode_matrix(episode_of_step: list, pair_of_step: np.ndarray, n_pairs: int) -> sp.csr_matrix:

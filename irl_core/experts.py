@@ -1,7 +1,9 @@
 """Computer experts: optimal and Boltzmann policies, rolled out for many episodes at once.
 
 Rollouts are vectorised across episodes: every live episode takes its step together,
-so 10,000 episodes cost a few hundred array operations instead of 10,000 Python loops.
+so 10,000 episodes cost a few hundred array operations instead of 10,000 Python loops. A player
+that is not a stationary policy (a person-like player, `irl_core.person_like`) is a `Chooser`,
+which sees each episode's previous action, and rolls out and writes the same way.
 The same seed gives the same episodes and, written out, the same bytes. `simulate_to_file`
 rolls out and writes a block of episodes at a time, so memory stays flat however many
 episodes are asked for. A plan that stopped at its iteration cap is not an expert:
@@ -18,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.demonstrations import Demonstrations, episode_matrix
+from irl_core.demonstrations import Demonstrations, EpisodeFacts, episode_matrix
 from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recording_writer import RecordingWriter
 from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
@@ -43,13 +45,24 @@ def _converged(plan: Plan, what: str, gamma: float) -> np.ndarray:
     return plan.policy
 
 
+def optimal_plan(mdp: MDP) -> Plan:
+    """The optimal plan (values, Q and the deterministic policy, ties to the lowest action index).
+
+    Raises:
+        NotConverged: value iteration stopped at its cap.
+    """
+    plan = value_iteration(mdp)
+    _converged(plan, "optimal", mdp.gamma)
+    return plan
+
+
 def optimal_policy(mdp: MDP) -> np.ndarray:
     """(S, A) the deterministic optimal policy (ties to the lowest action index).
 
     Raises:
         NotConverged: value iteration stopped at its cap.
     """
-    return _converged(value_iteration(mdp), "optimal", mdp.gamma)
+    return optimal_plan(mdp).policy
 
 
 def boltzmann_policy(mdp: MDP, *, beta: float) -> np.ndarray:
@@ -87,29 +100,49 @@ class Rollouts:
     truncated: np.ndarray
 
 
+Chooser = Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
+"""A player's choice for many episodes at once: ``choose(states, previous, rng)`` -> actions (n,), where
+`previous` (n,) is each episode's previous action (-1 at its first step)."""
+
+
+def policy_chooser(policy: np.ndarray) -> Chooser:
+    """The chooser that samples actions from a stationary policy (S, A)."""
+    policy_cdf = np.cumsum(policy, axis=1)
+    last = policy.shape[1] - 1
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        return np.minimum((policy_cdf[s] < rng.random((s.size, 1))).sum(axis=1), last)
+
+    return choose
+
+
 def rollouts(
     mdp: MDP,
-    policy: np.ndarray,
+    policy: np.ndarray | Chooser,
     *,
     episodes: int,
     seed: int | None = None,
     rng: np.random.Generator | None = None,
     max_steps: int | None = None,
+    starts: np.ndarray | None = None,
 ) -> Rollouts:
-    """Roll out `policy` (S, A) from the world's start cells for `episodes` episodes.
+    """Roll out `policy` (S, A), or a `Chooser`, from the world's start cells for `episodes` episodes,
+    or from the states `starts` (episodes,) when given.
 
     Randomness comes from `rng` when given (to continue a stream block by block), else from `seed`.
     """
     world = mdp.world
     max_steps = world.max_steps if max_steps is None else max_steps
     rng = np.random.default_rng(seed) if rng is None else rng
+    given_starts = starts
     starts = np.array([mdp.state_of[cell] for cell in world.start_cells])
-    policy_cdf = np.cumsum(policy, axis=1)
+    choose = policy if callable(policy) else policy_chooser(policy)
     slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, slip=world.slip), axis=1)  # (A, 4)
     R = mdp.reward_matrix()
-    last = mdp.n_actions - 1
 
-    state = starts[rng.integers(len(starts), size=episodes)]
+    state = (np.asarray(given_starts, dtype=np.int64).copy() if given_starts is not None
+             else starts[rng.integers(len(starts), size=episodes)])
+    previous = np.full(episodes, -1, dtype=np.int64)
     length = np.zeros(episodes, dtype=np.int64)
     live = np.arange(episodes)
     trace: list[tuple[np.ndarray, ...]] = []
@@ -117,7 +150,8 @@ def rollouts(
         if live.size == 0:
             break
         s = state[live]
-        a = np.minimum((policy_cdf[s] < rng.random((live.size, 1))).sum(axis=1), last)
+        a = choose(s, previous[live], rng)
+        previous[live] = a
         k = np.minimum((slip_cdf[a] < rng.random((live.size, 1))).sum(axis=1), 3)
         d = (mdp.direction[a] + k) % 4
         s_next = mdp.neighbour[s, d]
@@ -141,8 +175,13 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
     np.add.at(counts, (result.state, result.action), 1.0)
     by_episode = episode_matrix(result.episode.tolist(), result.state * mdp.n_actions + result.action,
                                 mdp.n_states * mdp.n_actions)
+    first = np.unique(result.episode, return_index=True)[1]
+    symbols = mdp.symbols + ("",)
+    ends = tuple("step_limit" if cut else symbols[s] for s, cut in zip(result.final_state, result.truncated))
+    facts = EpisodeFacts(start=result.state[first], length=result.length[result.length > 0],
+                         end=tuple(end for end, n in zip(ends, result.length) if n > 0))
     return Demonstrations(mdp=mdp, counts=counts, files=0, episodes=int(result.length.size),
-                          steps=int(result.state.size), by_episode=by_episode)
+                          steps=int(result.state.size), by_episode=by_episode, episode_facts=facts)
 
 
 # The most steps one block of `simulate_to_file` may hold (about 60 bytes each while rolled out).
@@ -187,7 +226,7 @@ def write_rollouts(
 def simulate_to_file(
     path: str | Path,
     mdp: MDP,
-    policy: np.ndarray,
+    policy: np.ndarray | Chooser,
     *,
     episodes: int,
     seed: int,

@@ -1,7 +1,8 @@
 """Worlds: the cliff gridworlds of the paper as validated data (docs/worlds.md).
 
 A world is a layout string plus the numbers that turn it into an MDP. It is read from
-TOML with the standard library and validated with pydantic; six worlds are built in.
+TOML with the standard library and validated with pydantic; seven worlds are built in, six
+defined below and `walls` read from ``irl_core/worlds/walls.toml``.
 
 ====================  =====================================================
 field                 meaning
@@ -255,6 +256,7 @@ BUILTIN_WORLDS: dict[str, World] = {
     "cliffwalking": World(
         name="cliffwalking", layout=_CLIFFWALKING_LAYOUT, levels=14, start=(3, 0), rewards={"C": -100.0, "G": 0.0}
     ),
+    "walls": World.model_validate(tomllib.loads((Path(__file__).parent / "worlds" / "walls.toml").read_text("utf-8"))),
 }
 
 WORLD_PURPOSES: dict[str, str] = {
@@ -264,6 +266,7 @@ WORLD_PURPOSES: dict[str, str] = {
     "mud": "catastrophic vs merely undesirable",
     "mud-simple": "the same without carefulness",
     "cliffwalking": "Gymnasium's CliffWalking layout, for code written for it",
+    "walls": "walls, mud, a corridor beside the cliff",
 }
 
 

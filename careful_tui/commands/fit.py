@@ -114,6 +114,8 @@ def ignored_options(options: FitOptions, method: str) -> list[str]:
                                             f"({method}'s is every value the demonstrations allow){chosen}"))
     if options.beta is not None and not used.uses_beta:
         warnings.append(ignored(["--beta"], f"to {_names(uses_beta=True)}{chosen}"))
+    if options.player_model is not None and not used.uses_beta:
+        warnings.append(ignored(["--player-model"], f"to {_names(uses_beta=True)}, whose model of the player it is{chosen}"))
     if options.lam != default.lam and not used.uses_lambda:
         warnings.append(ignored(["--lambda"], f"to {_names(uses_lambda=True)}{chosen}"))
     return warnings

@@ -1,24 +1,28 @@
-"""`careful simulate`: roll out a computer expert and write its episodes as a new recording."""
+"""`careful simulate`: roll out a computer expert or a person-like player and write its episodes as a new recording."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
+import numpy as np
 from rich.console import Console
 from rich.progress import Progress
 from rich.text import Text
 
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import EXIT_OK, UsageError
-from irl_core.experts import NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
-from irl_core.mdp import build_mdp
+from irl_core.experts import Chooser, NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
+from irl_core.mdp import MDP, build_mdp
+from irl_core.person_like import KINDS, person_like
 from irl_core.safe_files import check_output
 from irl_core.safe_text import one_line
 from irl_core.words import plural
 from irl_core.world import load_world
 
 DEFAULT_BETA = 1.0  # --beta's default (cli.py's help says so)
+# The person-like players' options: one per parameter of irl_core.person_like.KINDS, named as it is.
+PLAYER_OPTIONS = tuple(dict.fromkeys(name for parameters in KINDS.values() for name in parameters))
 
 
 def run_simulate(args: argparse.Namespace) -> int:
@@ -27,16 +31,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     if args.out.exists():
         raise UsageError(f"{args.out} already exists; recordings are never overwritten, choose another --out")
     mdp = build_mdp(load_world(args.world))
-    if args.policy == "optimal" and args.beta is not None:
-        warn(Console(stderr=True, highlight=False), ignored(["--beta"], "to --policy boltzmann"))
-    beta = DEFAULT_BETA if args.beta is None else args.beta
-    try:
-        if args.policy == "optimal":
-            policy, player = optimal_policy(mdp), expert_name("optimal")
-        else:
-            policy, player = boltzmann_policy(mdp, beta=beta), expert_name("boltzmann", beta)
-    except NotConverged as exc:
-        raise UsageError(str(exc)) from None
+    policy, player = _player(mdp, args)
     with Progress(console=Console(stderr=True), transient=True, disable=args.episodes < 2000) as progress:
         task = progress.add_task("simulating and writing episodes", total=args.episodes)
         try:
@@ -50,3 +45,25 @@ def run_simulate(args: argparse.Namespace) -> int:
         Text(one_line(f"wrote {plural(args.episodes, 'episode')} (ended: {summary}) to {args.out}")), soft_wrap=True
     )
     return EXIT_OK
+
+
+def _player(mdp: MDP, args: argparse.Namespace) -> tuple[np.ndarray | Chooser, str]:
+    """The policy (or chooser) `--policy` and its options ask for, and its player name; an option the
+    policy does not take is named in a warning and ignored."""
+    takers = {"beta": ["boltzmann"], **{name: [kind for kind, names in KINDS.items() if name in names]
+                                         for name in PLAYER_OPTIONS}}
+    for name, policies in takers.items():
+        if getattr(args, name) is not None and args.policy not in policies:
+            listed = policies[0] if len(policies) == 1 else f"{', '.join(policies[:-1])} and {policies[-1]}"
+            warn(Console(stderr=True, highlight=False), ignored([f"--{name}"], f"to --policy {listed}"))
+    try:
+        if args.policy == "optimal":
+            return optimal_policy(mdp), expert_name("optimal")
+        if args.policy == "boltzmann":
+            beta = DEFAULT_BETA if args.beta is None else args.beta
+            return boltzmann_policy(mdp, beta=beta), expert_name("boltzmann", beta)
+        player = person_like(mdp, args.policy, **{name: getattr(args, name) for name in KINDS[args.policy]
+                                                  if getattr(args, name) is not None})
+    except NotConverged as exc:
+        raise UsageError(str(exc)) from None
+    return player.choose, player.player

@@ -2,7 +2,8 @@
 
 `print_fit` prints the reward grid beside the world's own, the intervals
 (`careful_tui.render.intervals`), the demonstrated policy, what an agent trained on the reward
-does (`evaluation_line`) and the status.
+does (`evaluation_line`), whether the fitted player reproduces the recordings (`fit_check_text`) and
+the status.
 """
 
 from __future__ import annotations
@@ -46,6 +47,8 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult, *, sof
             console.print(Text(line), soft_wrap=soft_wrap)
     console.print(policy_grid(result))
     console.print(Text(evaluation_line(result)), soft_wrap=soft_wrap)
+    if result.fit_check is not None:
+        console.print(fit_check_text(result), soft_wrap=soft_wrap)
     console.print(status_text(result), soft_wrap=soft_wrap)
 
 
@@ -115,6 +118,8 @@ def status_text(result: FitResult, *, times: bool = True, notes: bool = True) ->
         f" in {result.elapsed_s:.2f} s" if times else "",
     )
     for note in result.notes if notes else ():
+        if note.code in FIT_CHECK_CODES:
+            continue
         text.append(f"\nnote: {said(note)}", style="yellow")
     return text
 
@@ -124,9 +129,23 @@ def method_phrase(result: FitResult) -> str:
     details = []
     if METHODS[result.options.method].chooser:
         details.append(f"chosen by {result.options.method}")
+    if result.player_model is not None and result.player_model != "boltzmann":
+        details.append(f"player model {result.player_model}")
     if result.beta is not None:
         details.append(f"beta {result.beta:.3g}{' estimated' if result.beta_auto else ''}")
     return f"{result.method} ({', '.join(details)})" if details else result.method
+
+
+# The fit check's notes, shown as their own line (`fit_check_text`) rather than among the notes.
+FIT_CHECK_CODES = frozenset({"fit_check_passed", "fit_check_failed", "fit_check_not_run"})
+
+
+def fit_check_text(result: FitResult) -> Text:
+    """The fit check's verdict: green when the fitted player reproduces the recordings, else what it does not."""
+    check = result.fit_check
+    assert check is not None
+    style = {True: "green", False: "bold yellow", None: "yellow"}[check.passed]
+    return Text(check.summary(), style=style)
 
 
 # How an episode that ends in a terminal symbol reads: "falls off the cliff".

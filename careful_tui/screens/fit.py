@@ -39,7 +39,9 @@ from textual.worker import get_current_worker
 
 from careful_tui.option_words import said
 from careful_tui.render.fit_printout import (
+    FIT_CHECK_CODES,
     evaluation_line,
+    fit_check_text,
     policy_labels,
     progress_phrase,
     reward_scale,
@@ -426,8 +428,9 @@ class FitScreen(Screen[None]):
         return " · ".join(parts)
 
     def _notes(self, result: FitResult) -> Group:
-        return Group(Text(evaluation_line(result), style="bold"),
-                     *(Text(f"• {said(note)}", style=WARN) for note in result.notes),
+        check = [fit_check_text(result)] if result.fit_check is not None else []
+        return Group(Text(evaluation_line(result), style="bold"), *check,
+                     *(Text(f"• {said(note)}", style=WARN) for note in result.notes if note.code not in FIT_CHECK_CODES),
                      Text(unknown_phrase(result), style="dim"))
 
     def _intervals(self, result: FitResult) -> Group | Text:

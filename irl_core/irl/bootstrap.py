@@ -41,7 +41,7 @@ import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Protocol, TypeVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -64,6 +64,19 @@ RESAMPLE_VALUE_TOLERANCE = 1e-12
 STOP_POLL_S = 0.1
 
 T = TypeVar("T")
+
+
+class Refitter(Protocol):
+    """What the bootstrap refits with: a picklable callable from a resample's counts (S, A) to its p parameters
+    (`Refit` for maxent and loss, `people.PlayerRefit` for a model of people)."""
+
+    mdp: MDP
+    unknowns: Unknowns
+
+    @property
+    def size(self) -> int: ...
+
+    def __call__(self, counts: np.ndarray) -> np.ndarray: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,7 +184,7 @@ def interval(estimates: np.ndarray, full: np.ndarray, *, confidence: float, vari
 
 
 def bootstrap(
-    refit: Refit,
+    refit: Refitter,
     by_episode: sp.csr_matrix,
     full: np.ndarray,
     *,
@@ -225,7 +238,7 @@ def bootstrap(
                            failed=int((~ok).sum()))
 
 
-def _refit_rows(refit: Refit, by_episode: sp.csr_matrix, weights: np.ndarray) -> np.ndarray:
+def _refit_rows(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray) -> np.ndarray:
     """(len(weights), p) the refits of resamples given as episode multiplicities (n, E); a row
     of NaN where the solver failed (counted, not fatal: the other refits still bound)."""
     shape = (refit.mdp.n_states, refit.mdp.n_actions)
@@ -293,7 +306,7 @@ def _heeding_the_stop(function: Callable[..., T], call: tuple) -> T:
 _WORKER: tuple[Refit, sp.csr_matrix] | None = None
 
 
-def _install(refit: Refit, by_episode: sp.csr_matrix) -> None:
+def _install(refit: Refitter, by_episode: sp.csr_matrix) -> None:
     """Worker initialiser: keep the refit (world, warm start) and the episodes, sent once per worker."""
     global _WORKER
     _WORKER = (refit, by_episode)

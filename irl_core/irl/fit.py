@@ -20,18 +20,23 @@ import numpy as np
 
 from irl_core import fit_methods
 from irl_core.demonstrations import Demonstrations
-from irl_core.irl.bootstrap import Refit, bootstrap
+from irl_core.irl.bootstrap import Refit, Refitter, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp import Progress, solve_margin_lp
 from irl_core.irl.margin import lp_constraints
-from irl_core.irl.maxent import MaxEntSolution, curvature_scale, fit_maxent, identification
+from irl_core.irl.maxent import MaxEntSolution, curvature_scale, fit_maxent, identification, soft_bellman
+from irl_core.irl.people import (FLAT_DROP, ModelChoice, PlayerFit, PlayerRefit, choose_player_model,
+                                 fit_player, flat_toward_bound, significantly_better)
+from irl_core.irl.people import curvature_scale as people_curvature_scale
 from irl_core.irl.notes import Note
 from irl_core.irl.options import FitOptions
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bound
+from irl_core.irl.fit_check import FitCheck, fit_check
 from irl_core.mdp import MDP
+from irl_core.player_models import AUTO as PLAYER_AUTO, Player, player_model
 from irl_core.stopping import Stopped, stop_when
 
 METHODS = fit_methods.FITTED
@@ -51,6 +56,11 @@ class _Fitted:
     notes: list[Note] = dataclasses.field(default_factory=list)
     interior: bool = False
     unique: bool | None = None
+    player_model: str | None = None
+    player: Player | None = None
+    observed_policy: np.ndarray | None = None
+    people: PlayerFit | None = None
+    rival: PlayerFit | None = None
 
 
 def fit(
@@ -90,13 +100,17 @@ def fit(
     if unknowns.k == 0:
         notes.append(Note("nothing_to_fit", "nothing to fit: every cell is ground, which {reward_cells=special} "
                                             "keeps at 0; try {reward_cells=all}"))
-    fitted = _run(options.method, qmap, demos, options, progress=progress)
+    try:
+        fitted = _run(options.method, qmap, demos, options, progress=progress)
+    except InfeasibleError as exc:
+        raise _infeasible(exc, qmap, demos, options) from exc
     notes += fitted.notes
 
     bounds, kind = None, None
     if options.intervals and unknowns.k:
         bounds, kind = _intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers)
 
+    check = _fit_check(fitted, demos, options, notes)
     bounded = [label for label, value in zip(unknowns.labels, fitted.theta) if at_bound(value, options.rmax)]
     if bounded:
         notes.append(Note("at_bound", f"at ±rmax: {', '.join(bounded)}; there the bound, not the demonstrations, "
@@ -118,7 +132,44 @@ def fit(
         status=fitted.status,
         elapsed_s=time.perf_counter() - start,
         notes=notes,
+        player_model=fitted.player_model,
+        player=fitted.player,
+        fit_check=check,
     )
+
+
+def _fit_check(fitted: _Fitted, demos: Demonstrations, options: FitOptions, notes: list[Note]) -> FitCheck | None:
+    """A model of play's check against the recordings (`fit_check`), with a note; None for lp and loss."""
+    if fitted.observed_policy is None:
+        return None
+    if demos.by_episode is None or demos.episode_facts is None:
+        notes.append(Note("fit_check_not_run", "fit check not run: these demonstrations do not keep their episodes"))
+        return None
+    check = fit_check(demos.mdp, fitted.observed_policy, demos.by_episode, demos.episode_facts, seed=options.seed)
+    code = {True: "fit_check_passed", False: "fit_check_failed", None: "fit_check_not_run"}[check.passed]
+    sentence = check.summary()
+    if check.passed is False:
+        sentence += "; read the rewards with care: the model does not explain how these recordings were played"
+    notes.append(Note(code, sentence))
+    return check
+
+
+# A bound this many times rmax stands for "any bound": if the lp is infeasible there too, raising rmax cannot help.
+LARGER_BOUND = 1000.0
+
+
+def _infeasible(exc: InfeasibleError, qmap: QMap, demos: Demonstrations, options: FitOptions) -> InfeasibleError:
+    """The lp's infeasibility, advising a larger rmax only where one would make the lp feasible."""
+    try:
+        solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=LARGER_BOUND * options.rmax), lam=0.0)
+    except InfeasibleError:
+        mixed = int(((demos.counts[demos.demonstrated] > 0).sum(axis=1) > 1).sum())
+        why = (f"{mixed} demonstrated cells show more than one action (noisy play)" if mixed else
+               "the most frequent actions contradict each other")
+        return InfeasibleError(f"the demonstrations are not optimal for any reward, however large (none within "
+                               f"±{LARGER_BOUND * options.rmax:g} either): {why}; fit noisy play with "
+                               "{method=maxent} or {method=loss}", code="infeasible")
+    return exc
 
 
 def _stopping(progress: Progress | None, stop: Callable[[], bool]) -> Progress:
@@ -189,12 +240,79 @@ def _fit_loss(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progres
 
 
 def _fit_maxent(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
-    """Maximum-entropy IRL with beta given or estimated (`FitOptions.maxent_beta`)."""
-    beta = options.maxent_beta(chosen_by_auto=False)
+    """Maximum-entropy IRL: the paper's Boltzmann expert with beta given or estimated (`FitOptions.maxent_beta`),
+    or a model of people (`FitOptions.player_model`, `irl_core.irl.people`)."""
+    chosen_by_auto = options.method == "auto"
+    model = options.maxent_player_model(chosen_by_auto=chosen_by_auto)
+    if model != "boltzmann":
+        return _fit_people(qmap, demos, options, model=model)
+    beta = options.maxent_beta(chosen_by_auto=chosen_by_auto)
     solution = fit_maxent(qmap.mdp, qmap.unknowns, demos.counts, beta=beta, rmax=options.rmax)
+    plan = soft_bellman(qmap.mdp, qmap.unknowns.state_rewards(solution.theta), beta=solution.beta, V0=solution.V)
     return _Fitted("maxent", solution.theta, solution.V, beta=solution.beta, beta_auto=beta == "auto",
                    status="optimal" if solution.converged else "not_converged",
-                   notes=_maxent_notes(solution, qmap.mdp, estimated=beta == "auto"))
+                   notes=_maxent_notes(solution, qmap.mdp, estimated=beta == "auto"), player_model="boltzmann",
+                   player=Player(solution.beta), observed_policy=plan.policy)
+
+
+def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model: str) -> _Fitted:
+    """maxent with a model of people: the one given, or the one held-out episodes choose (``auto``), with a
+    note saying which and why, and the other planning assumption kept as a rival where the data cannot tell
+    whether the player plans for the hand (its intervals join the chosen model's)."""
+    mdp, unknowns = qmap.mdp, qmap.unknowns
+    notes: list[Note] = []
+    rival = None
+    if model == PLAYER_AUTO:
+        if demos.by_episode is None:
+            raise BadInputError("player_model auto needs the demonstrations' episodes (held-out episodes choose it); "
+                                "give {player_model=person} instead", code="no_episodes")
+        choice = choose_player_model(mdp, unknowns, demos.by_episode, rmax=options.rmax, seed=options.seed)
+        solution = choice.fits[choice.name]
+        notes.append(Note("player_model", choice.reason))
+        rival = _planning_rival(choice)
+        if rival is not None:
+            notes.append(Note("planning_not_identified",
+                              f"whether the player plans for the hand's noise is not told apart by the held-out "
+                              f"episodes ({solution.model.name} and {rival.model.name} agree within their "
+                              "noise): the reward's size depends on it, so the intervals cover both"))
+    else:
+        solution = fit_player(mdp, unknowns, demos.counts, model=player_model(model), rmax=options.rmax)
+        notes.append(Note("player_model", f"player model {model}, as asked: {solution.model.summary}"))
+    player = solution.player
+    words = [f"beta {player.beta:.3g}"] + ([f"the hand's sigma {player.sigma:.2g} levels"] if solution.model.hand else []) \
+        + ([f"lapses {player.lapse:.2g}"] if solution.model.lapses else [])
+    notes.append(Note("player_estimated", "player estimated by maximum likelihood with the rewards: " + ", ".join(words)))
+    if not solution.converged:
+        notes.append(Note("not_converged", f"the player model's fit stopped before converging: "
+                                           f"{solution.message.lower()}"))
+    if solution.beta_at_bound:
+        notes.append(Note("not_identified", f"beta ran to the end of its range ({player.beta:.3g}): the intended "
+                                            "choices look deterministic, so the data bound the rewards rather than "
+                                            "pin them; read the intervals, not the points"))
+    flat = flat_toward_bound(mdp, unknowns, demos.counts, solution, rmax=options.rmax)
+    if flat.any():
+        sides = [f"{label} {'at most' if side < 0 else 'at least'} {value:.3g}"
+                 for label, value, side in zip(unknowns.labels, solution.theta, flat) if side]
+        notes.append(Note("one_sided", "bounded on one side only (moving them to ±{rmax} costs the likelihood "
+                                       f"less than {FLAT_DROP:g}): " + "; ".join(sides)))
+    V = solution.V1 / player.beta
+    return _Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
+                   status="optimal" if solution.converged else "not_converged", notes=notes,
+                   player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
+                   people=solution, rival=rival)
+
+
+def _planning_rival(choice: ModelChoice) -> PlayerFit | None:
+    """The fit of the other planning assumption (``person`` or ``naive``) when held-out episodes cannot tell it
+    from the chosen model, else None."""
+    pair = {"person": "naive", "naive": "person"}
+    other = pair.get(choice.name)
+    if other is None or choice.held_out is None or other not in choice.held_out:
+        return None
+    assert choice.per_episode is not None
+    if significantly_better(choice.per_episode[choice.name], choice.per_episode[other]):
+        return None
+    return choice.fits[other]
 
 
 def _maxent_notes(solution: MaxEntSolution, mdp: MDP, *, estimated: bool) -> list[Note]:
@@ -270,7 +388,10 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
                                                        "about the next" if episodes == 1 else
                                                        "these demonstrations do not keep their episodes")))
         return None
-    full = np.append(fitted.theta, fitted.beta) if fitted.beta_auto else fitted.theta
+    if fitted.people is not None:
+        full = fitted.people.parameters()
+    else:
+        full = np.append(fitted.theta, fitted.beta) if fitted.beta_auto else fitted.theta
     result = bootstrap(_refit(fitted, qmap, demos, options), demos.by_episode, full, confidence=options.confidence,
                        resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
                        progress=progress, workers=workers, groups=demos.episode_groups)
@@ -278,9 +399,16 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
         notes.append(Note("resamples_failed", f"{result.failed} of {options.resamples} resamples failed to fit and "
                                               "were left out"))
     bounds = result.intervals[: qmap.k]
+    if fitted.rival is not None:
+        # The other planning assumption's interval is taken to have the same sampling spread about its own
+        # estimate (a second bootstrap would double the time): the union covers both.
+        shift = fitted.rival.theta - fitted.theta
+        bounds = np.clip(np.stack([np.minimum(bounds[:, 0], bounds[:, 0] + shift),
+                                   np.maximum(bounds[:, 1], bounds[:, 1] + shift)], axis=1),
+                         -options.rmax, options.rmax)
     if not _moved(bounds, fitted, qmap, options, notes):
         return None
-    if fitted.beta_auto:
+    if fitted.beta_auto and fitted.people is None:
         low, high = result.intervals[-1]
         notes.append(Note("beta_interval", f"beta's {options.confidence:.0%} confidence interval: {low:.3g} to "
                                            f"{high:.3g}"))
@@ -290,9 +418,11 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
     return bounds
 
 
-def _refit(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptions) -> Refit:
+def _refit(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptions) -> Refitter:
     """How the bootstrap refits `fitted`'s method, warm-started from it (a temperature model also from
     its beta, its soft V and its variables' curvature there)."""
+    if fitted.people is not None:
+        return _player_refit(fitted.people, qmap, demos, options)
     if fitted.beta is None:
         return Refit(mdp=qmap.mdp, unknowns=qmap.unknowns, method=fitted.method, rmax=options.rmax, lam=options.lam,
                      beta=1.0, start=(fitted.theta, 1.0))
@@ -301,6 +431,13 @@ def _refit(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptio
     return Refit(mdp=qmap.mdp, unknowns=qmap.unknowns, method=fitted.method, rmax=options.rmax, lam=options.lam,
                  beta="auto" if fitted.beta_auto else fitted.beta, start=(fitted.theta, fitted.beta), scale=scale,
                  start_V=fitted.V)
+
+
+def _player_refit(solution: PlayerFit, qmap: QMap, demos: Demonstrations, options: FitOptions) -> PlayerRefit:
+    """How the bootstrap refits a model of people: from its fit, over its variables' curvature there."""
+    scale = people_curvature_scale(qmap.mdp, qmap.unknowns, demos.counts, solution, rmax=options.rmax)
+    return PlayerRefit(qmap.mdp, qmap.unknowns, solution.model, options.rmax, (solution.theta, solution.player),
+                       solution.V1, scale)
 
 
 def _moved(bounds: np.ndarray, fitted: _Fitted, qmap: QMap, options: FitOptions, notes: list[Note]) -> bool:

@@ -32,10 +32,18 @@ CODES: dict[str, str] = {
     "refits_never_moved": "unknowns whose bootstrap intervals have no width",
     "beta_interval": "beta's confidence interval",
     "few_episodes": "too few episodes for a good bootstrap interval",
+    "player_model": "maxent's model of the player, and why it was chosen",
+    "player_estimated": "the player model's parameters as estimated",
+    "planning_not_identified": "whether the player plans for the hand's noise is not identified",
+    "one_sided": "rewards the data bound on one side only",
+    "fit_check_failed": "the fitted player does not reproduce the recordings",
+    "fit_check_passed": "the fitted player reproduces the recordings",
+    "fit_check_not_run": "the fit check could not run",
     # `FitOptions.problem`: options a fit would not refuse, but the command line does.
     "beta_needs_maxent": "beta estimated for a method without one",
     "bad_confidence": "a confidence level outside (0, 1)",
     "too_few_resamples": "too few bootstrap resamples",
+    "beta_needs_boltzmann": "a fixed beta for a player model that estimates it",
 }
 
 # An option named in a sentence: {name} or {name=value}.

@@ -16,6 +16,7 @@ from typing import Any, Literal
 from irl_core import fit_methods
 from irl_core.irl.notes import Note
 from irl_core.irl.qmap import RewardCells
+from irl_core.player_models import AUTO as PLAYER_AUTO, player_model
 
 MIN_RESAMPLES = 20
 DEFAULT_BETA = 1.0
@@ -31,6 +32,9 @@ class FitOptions:
         rmax: the bound |R_S| <= rmax.
         lam: the L1 penalty lambda on R_S (lp and loss).
         beta: maxent's inverse temperature, ``"auto"`` to estimate it, or None for the default.
+        player_model: maxent's model of the player (`irl_core.player_models`: ``boltzmann``, the paper's
+            expert; ``ends``, ``hand``, ``person``, ``naive``, models of people), ``"auto"`` to choose one by
+            held-out episodes, or None for the default: ``auto`` after method auto, ``boltzmann`` for maxent.
         reward_cells: ``special`` or ``all``.
         tie: one unknown per symbol.
         intervals: compute an interval per unknown.
@@ -43,6 +47,7 @@ class FitOptions:
     rmax: float = 1000.0
     lam: float = 0.0
     beta: float | Literal["auto"] | None = None
+    player_model: str | None = None
     reward_cells: RewardCells = "special"
     tie: bool = False
     intervals: bool = False
@@ -58,6 +63,8 @@ class FitOptions:
             raise ValueError("lambda must be zero or more")
         if self.beta is not None and self.beta != "auto" and not float(self.beta) > 0:
             raise ValueError(f"beta must be positive or 'auto', not {self.beta!r}")
+        if self.player_model is not None and self.player_model != PLAYER_AUTO:
+            player_model(self.player_model)
 
     def problem(self) -> Note | None:
         """Why these options are bad input (a `Note` whose sentence is for the user), or None.
@@ -67,12 +74,22 @@ class FitOptions:
         if self.beta == "auto" and not fit_methods.method(self.method).uses_beta:
             return Note("beta_needs_maxent", f"{{beta=auto}} needs {{method=maxent}} or auto: {self.method} has no "
                                              "temperature to estimate")
+        if isinstance(self.beta, (int, float)) and self.player_model not in (None, "boltzmann"):
+            return Note("beta_needs_boltzmann", f"a fixed {{beta}} needs {{player_model=boltzmann}}: the player model "
+                                                f"{self.player_model} estimates beta with the rewards")
         if not 0 < self.confidence < 1:
             return Note("bad_confidence", f"{{confidence}} must lie strictly between 0 and 1, not {self.confidence:g}")
         if self.resamples < MIN_RESAMPLES:
             return Note("too_few_resamples", f"{{resamples}} must be at least {MIN_RESAMPLES} for a usable interval, "
                                              f"not {self.resamples}")
         return None
+
+    def maxent_player_model(self, *, chosen_by_auto: bool) -> str:
+        """The player model maxent fits: the given one, else auto's choice by held-out episodes after `auto`,
+        else the paper's Boltzmann expert (so that ``method="maxent"`` is the paper's baseline)."""
+        if self.player_model is not None:
+            return self.player_model
+        return PLAYER_AUTO if chosen_by_auto and not isinstance(self.beta, (int, float)) else "boltzmann"
 
     def maxent_beta(self, *, chosen_by_auto: bool) -> float | Literal["auto"]:
         """The beta maxent runs with: the given one, else auto after `auto`, else 1.0."""
@@ -90,6 +107,7 @@ class FitOptions:
             "rmax": self.rmax,
             "lambda": self.lam,
             "beta": self.beta,
+            "player_model": self.player_model,
             "reward_cells": self.reward_cells,
             "tie": self.tie,
             "intervals": self.intervals,

@@ -15,10 +15,12 @@ import numpy as np
 
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl.evaluation import Evaluation
+from irl_core.irl.fit_check import FitCheck
 from irl_core.irl.notes import Note, worded
 from irl_core.irl.options import DEFAULT_BETA, FitOptions
 from irl_core.irl.qmap import Unknowns
 from irl_core.mdp import MDP, action_parts
+from irl_core.player_models import Player
 from irl_core.world import WALL, World
 
 
@@ -111,6 +113,10 @@ class FitResult:
         elapsed_s: wall-clock seconds the fit took (intervals included).
         notes: what the reader should know (`Note`: a code and a sentence): the method auto chose,
             non-uniqueness, rewards at the bound, ...
+        player_model: maxent's model of the player (`irl_core.player_models`), None for lp and loss.
+        player: that model's parameters besides the rewards (beta, the hand's sigma, the lapse rate).
+        fit_check: whether the fitted player reproduces the recordings (`irl_core.irl.fit_check`),
+            None where no check was made (lp and loss, whose answers are not a model of play).
     """
 
     method: str
@@ -128,6 +134,9 @@ class FitResult:
     status: str
     elapsed_s: float
     notes: list[Note] = field(default_factory=list)
+    player_model: str | None = None
+    player: Player | None = None
+    fit_check: FitCheck | None = None
 
     @property
     def mdp(self) -> MDP:
@@ -153,6 +162,10 @@ class FitResult:
         given = self.options.beta
         out["beta"] = self.beta if self.beta is not None else (given if isinstance(given, (int, float)) else DEFAULT_BETA)
         out["beta_auto"] = self.beta_auto
+        out["player_model"] = self.player_model
+        if self.player is not None and self.player_model is not None and self.player_model != "boltzmann":
+            out["sigma"] = self.player.sigma
+            out["lapse"] = self.player.lapse
         return out
 
     @property
@@ -258,6 +271,7 @@ class FitResult:
             "evaluation": self.evaluation.to_json(),
             "status": self.status,
             "elapsed_s": round(float(self.elapsed_s), 4),
+            "fit_check": None if self.fit_check is None else self.fit_check.to_json(),
             "notes": [str(note) for note in self.notes],
             "note_codes": [note.code for note in self.notes],
         }

@@ -1,7 +1,10 @@
 """Worlds: the built-ins match README "Worlds", and bad worlds get one clear sentence."""
 
+from pathlib import Path
+
 import pytest
 
+import irl_core.world
 from irl_core.world import BUILTIN_WORLDS, World, WorldError, load_world
 
 
@@ -14,8 +17,17 @@ def test_builtin_worlds_match_the_spec_table():
     assert (BUILTIN_WORLDS["paper-maxent"].levels, BUILTIN_WORLDS["paper-maxent"].slip) == (1, "none")
     assert mud.rewards["U"] == -30.0 and BUILTIN_WORLDS["mud-simple"].levels == 1
     assert (paper.gamma, paper.initial_score, paper.max_steps, paper.start) == (0.95, 200.0, 200, "random")
-    # The spec's five, and Gymnasium's CliffWalking layout (issue 24; tests/env/test_cliffwalking.py).
-    assert set(BUILTIN_WORLDS) == {"paper", "paper-simple", "paper-maxent", "mud", "mud-simple", "cliffwalking"}
+    # The spec's five, Gymnasium's CliffWalking layout (tests/env/test_cliffwalking.py) and a walled world.
+    assert set(BUILTIN_WORLDS) == {"paper", "paper-simple", "paper-maxent", "mud", "mud-simple", "cliffwalking",
+                                   "walls"}
+
+
+def test_walls_is_a_walled_world_with_a_hazard_a_nuisance_and_a_goal_read_from_its_file():
+    walls = BUILTIN_WORLDS["walls"]
+    assert load_world("walls") == walls == load_world(Path(irl_core.world.__file__).parent / "worlds" / "walls.toml")
+    symbols = {ch for row in walls.grid for ch in row}
+    assert symbols == {".", "#", "C", "U", "G"} and (walls.rows, walls.cols, walls.levels) == (6, 7, 14)
+    assert walls.rewards == {"C": -1000.0, "G": 100.0, "U": -30.0}
 
 
 def test_start_cells_are_the_non_terminal_cells():

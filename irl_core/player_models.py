@@ -1,0 +1,68 @@
+"""The player models a maxent fit knows (`irl_core.irl.people`), one entry each.
+
+`FitOptions` checks a name here and ``careful fit --player-model`` offers these choices; the
+model itself is `irl_core.irl.people`. This module imports nothing heavy, so the command line
+can read it before it needs numpy's solvers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class PlayerModel:
+    """One entry of the player-model registry: which parts of the model are on."""
+
+    name: str
+    ends: bool
+    hand: bool
+    lapses: bool
+    summary: str
+    plans: bool = True
+
+    @property
+    def extra_parameters(self) -> int:
+        """Parameters beyond the rewards and beta."""
+        return int(self.hand) + int(self.lapses)
+
+
+PLAYER_MODELS: dict[str, PlayerModel] = {
+    model.name: model
+    for model in (
+        PlayerModel("boltzmann", ends=False, hand=False, lapses=False,
+                    summary="the paper's maxent expert: soft-optimal over (direction, level), its soft backup "
+                            "running on after the episode's end"),
+        PlayerModel("ends", ends=True, hand=False, lapses=False,
+                    summary="soft-optimal over (direction, level), with nothing after the episode's end"),
+        PlayerModel("hand", ends=True, hand=True, lapses=False,
+                    summary="soft-optimal over direction and intended level, the hand adding noise to the level"),
+        PlayerModel("person", ends=True, hand=True, lapses=True,
+                    summary="as hand, and now and then a lapse: a random direction"),
+        PlayerModel("naive", ends=True, hand=True, lapses=True, plans=False,
+                    summary="as person, but planning as if the intended level were the realised one"),
+    )
+}
+@dataclass(frozen=True)
+class Player:
+    """A player's parameters besides the rewards: beta, the hand's sigma (levels), the lapse probability."""
+
+    beta: float
+    sigma: float = 0.0
+    lapse: float = 0.0
+
+    def to_json(self) -> dict[str, float]:
+        return {"beta": self.beta, "sigma": self.sigma, "lapse": self.lapse}
+
+
+AUTO = "auto"
+# Candidates for `player_model="auto"`, simplest first (equally simple ones in order of preference).
+CANDIDATES: tuple[str, ...] = ("boltzmann", "ends", "hand", "person", "naive")
+
+
+def player_model(name: str) -> PlayerModel:
+    """The registry entry called `name`; raises ValueError for any other name."""
+    try:
+        return PLAYER_MODELS[name]
+    except KeyError:
+        raise ValueError(f"player_model must be one of {(AUTO, *PLAYER_MODELS)}, not {name!r}") from None

@@ -1,0 +1,87 @@
+"""The people player model: exact gradients against central differences, and maxent as its special case."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from irl_core.irl import maxent
+from irl_core.irl.people import PLAYER_MODELS, Player, level_kernel, log_likelihood, player_model
+from irl_core.mdp import build_mdp
+from irl_core.world import World
+
+SMALL = World(name="small", layout="...\n.U.\nCUG\n", levels=4, rewards={"C": -50.0, "G": 10.0, "U": -3.0})
+
+
+def _counts(mdp, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    counts = np.zeros((mdp.n_states, mdp.n_actions))
+    counts[mdp.nonterminal] = rng.integers(0, 4, size=(int(mdp.nonterminal.sum()), mdp.n_actions))
+    return counts
+
+
+@pytest.mark.parametrize("name", list(PLAYER_MODELS))
+def test_every_gradient_agrees_with_central_differences(name):
+    mdp = build_mdp(SMALL)
+    model = player_model(name)
+    counts = _counts(mdp, 1)
+    R_S = mdp.R_S + np.random.default_rng(2).normal(0, 2, mdp.n_states)
+    R_S[mdp.exit_state] = 0.0
+    player = Player(beta=0.7, sigma=0.8, lapse=0.1)
+    got = log_likelihood(mdp, counts, R_S, model=model, player=player)
+
+    def ll(R=R_S, p=player) -> float:
+        return log_likelihood(mdp, counts, R, model=model, player=p, gradient=False).value
+
+    h = 1e-5
+    for s in range(mdp.n_states - 1):
+        step = np.zeros(mdp.n_states)
+        step[s] = h
+        assert got.R_S[s] == pytest.approx((ll(R_S + step) - ll(R_S - step)) / (2 * h), rel=1e-5, abs=1e-6)
+    scaled = [Player(0.7 * np.exp(e), 0.8, 0.1) for e in (h, -h)]
+    assert got.log_beta == pytest.approx((ll(p=scaled[0]) - ll(p=scaled[1])) / (2 * h), rel=1e-5, abs=1e-6)
+    if model.hand:
+        wider = [Player(0.7, 0.8 * np.exp(e), 0.1) for e in (h, -h)]
+        assert got.log_sigma == pytest.approx((ll(p=wider[0]) - ll(p=wider[1])) / (2 * h), rel=1e-5, abs=1e-6)
+        assert got.log_sigma != 0.0
+    if model.lapses:
+        more = [Player(0.7, 0.8, 0.1 + e) for e in (h, -h)]
+        assert got.lapse == pytest.approx((ll(p=more[0]) - ll(p=more[1])) / (2 * h), rel=1e-5, abs=1e-6)
+
+
+def test_the_boltzmann_player_is_maxent_exactly():
+    mdp = build_mdp(SMALL)
+    counts = _counts(mdp, 3)
+    R_S = mdp.R_S.copy()
+    ours = log_likelihood(mdp, counts, R_S, model=player_model("boltzmann"), player=Player(0.4, 2.0, 0.2))
+    theirs, grad, _ = maxent.log_likelihood(mdp, counts, R_S, beta=0.4)
+    assert ours.value == pytest.approx(theirs, rel=1e-10)
+    np.testing.assert_allclose(ours.R_S, grad, rtol=1e-8, atol=1e-10)
+
+
+def test_a_hand_of_no_noise_and_no_lapses_is_the_ends_model():
+    mdp = build_mdp(SMALL)
+    counts = _counts(mdp, 4)
+    ends = log_likelihood(mdp, counts, mdp.R_S, model=player_model("ends"), player=Player(0.5))
+    person = log_likelihood(mdp, counts, mdp.R_S, model=player_model("person"), player=Player(0.5, 0.05, 0.0))
+    assert person.value == pytest.approx(ends.value, rel=1e-9)
+
+
+def test_with_ends_a_terminal_cell_is_worth_its_reward_and_nothing_after():
+    mdp = build_mdp(SMALL)
+    got = log_likelihood(mdp, _counts(mdp, 5), mdp.R_S, model=player_model("ends"), player=Player(1.0))
+    terminal = np.flatnonzero(mdp.terminal)
+    np.testing.assert_allclose(got.plan.V[terminal], mdp.R_S[terminal], atol=1e-9)
+    assert got.plan.V[mdp.exit_state] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_level_kernel_is_a_distribution_centred_on_the_intended_level():
+    K, _ = level_kernel(14, 1.5)
+    np.testing.assert_allclose(K.sum(axis=1), 1.0)
+    assert (K.argmax(axis=1) == np.arange(14)).all()
+    np.testing.assert_allclose(level_kernel(14, 0.05)[0], np.eye(14), atol=1e-80)
+
+
+def test_an_unknown_player_model_is_refused_by_name():
+    with pytest.raises(ValueError, match="player_model must be one of"):
+        player_model("robot")
