@@ -1,0 +1,358 @@
+"""One participant's way through a study in a browser: the play session the web server drives.
+
+The server owns one `WebSession` per participant page. It runs the same rules and recordings as
+`careful study run` (`irl_core.game.Game` into an `irl_core.recording_writer.SessionRecorder`
+in ``<out>/<ID>/``, the blocks from `irl_core.study.read_protocol`) and answers every call with
+`view()`, what the page draws. The page sends only key presses and releases with their times
+(`performance.now()`, milliseconds); every outcome (start cells, slips) is drawn here.
+
+==============  ===============================================================
+stage           what the page shows; the keys that act
+==============  ===============================================================
+instructions    the study's instructions and plan; space begins the next block
+play            the board, the gauge and the score; arrows move (hold longer: more
+                careful), space starts the next episode once one has ended
+between         practice over, or a world done; space goes on
+end             the end of the study (and, for a Prolific participant with a
+                completion code, the address to go back to)
+left            the participant left with q, or the page closed: what was played
+                is kept, and opening the link again resumes where the files say
+==============  ===============================================================
+
+A hold is timed on the page from keydown to keyup, so every step is ``hold_exact``; its level is
+`BROWSER_TIMING`'s `HoldProfile.level_for`, the game's own timing function. A browser has no
+autorepeat delay to wait for, so level 1 is a hold shorter than 150 ms (a tap), and each further
+150 ms adds a level. A press of another arrow while one is held is ignored, and `cancel` (the
+window lost focus) drops the hold: no move.
+
+This module is the one place the web server meets the game's flow, so that moving it onto a
+front-end-neutral play session changes this module only.
+"""
+
+from __future__ import annotations
+
+import math
+import secrets
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from datetime import datetime
+from typing import Any
+
+from rich.console import Group
+from rich.text import Text
+
+from careful_tui.keys.hold import HoldProfile
+from careful_tui.render.grid import SYMBOL_NAMES, format_value
+from careful_tui.render.palette import GOOD, NOTE, WARN
+from careful_tui.render.session import outcome_text
+from careful_tui.screens.study import between_text, block_heading, plan_text, where_next
+from careful_tui.version import app_version
+from careful_tui.widgets.gauge import format_chance
+from careful_tui.widgets.play_status import EpisodeNames
+from irl_core.game import Game, GameOver, level_costs, level_slip_chances
+from irl_core.mdp import DIRECTIONS
+from irl_core.recording_lines import ProlificTag, SessionHeader
+from irl_core.recording_writer import SessionRecorder
+from irl_core.safe_text import printable
+from irl_core.study import Block, LoadedStudy, Protocol, read_protocol
+from irl_core.summary import outcome_code
+from irl_core.words import plural
+
+# Level 1 below 150 ms (a tap), then a level per 150 ms: level 14 from 1.95 s.
+BROWSER_TAP_MS = 150.0
+BROWSER_MS_PER_LEVEL = 150.0
+# A hold longer than this is a key left down, not a choice; it is refused (no move).
+LONGEST_HOLD_MS = 600_000.0
+USER_AGENT_LIMIT = 400
+
+
+def browser_profile(levels: int) -> HoldProfile:
+    """The timing of a browser hold for a world of `levels` levels (the header records it)."""
+    return HoldProfile(initial_delay_ms=BROWSER_TAP_MS, ms_per_level=BROWSER_MS_PER_LEVEL, levels=levels)
+
+
+def input_header(profile: HoldProfile, user_agent: str) -> dict[str, object]:
+    """The session header's ``input``: hold mode, timed exactly in a browser, and its level scale."""
+    return {"mode": "hold", "front_end": "browser", "user_agent": user_agent[:USER_AGENT_LIMIT],
+            "initial_delay_ms": profile.initial_delay_ms, "ms_per_level": profile.ms_per_level,
+            "timing": "keydown to keyup, performance.now()"}
+
+
+@dataclass
+class _Held:
+    key: str
+    at_ms: float
+
+
+class KeyRefused(ValueError):
+    """A key event the session cannot take (an unknown key, a time that is not a number)."""
+
+
+class WebSession:
+    """A participant from where their folder stands to the end of the study (see the module table).
+
+    Args:
+        study: the study.
+        participant: a checked participant id (`irl_core.study.check_participant`).
+        user_agent: the browser's, for the header.
+        prolific: Prolific's study and session ids, for the header, when the participant came that way.
+        completion_url: where the end screen sends the participant, once every episode is on disk.
+        say: receives a line for the experimenter's console when the participant starts, finishes a
+            block and leaves.
+        seed: fixes every block's seed (a test's); without it each block draws one.
+    """
+
+    def __init__(self, study: LoadedStudy, participant: str, *, user_agent: str = "",
+                 prolific: ProlificTag | None = None, completion_url: str | None = None,
+                 say: Callable[[str], None] = lambda line: None, seed: int | None = None) -> None:
+        self.study = study
+        self.participant = participant
+        self.user_agent = user_agent
+        self.prolific = prolific
+        self.completion_url = completion_url
+        self.say = say
+        self.seed = seed
+        self.protocol = read_protocol(study, participant)
+        self.stage = "end" if self.protocol.finished else "instructions"
+        self.block: Block | None = None
+        self.finished_block: Block | None = None
+        self.game: Game | None = None
+        self.recorder: SessionRecorder | None = None
+        self.profile: HoldProfile | None = None
+        self.names: EpisodeNames | None = None
+        self.held: _Held | None = None
+        self.last_step: dict[str, Any] | None = None
+        self.message = ""
+        self.left = False
+        for problem in self.protocol.problems:
+            say(f"warning: {printable(problem, limit=300)}")
+
+    # ------------------------------------------------------------------ the page's keys
+
+    def press(self, key: str, at_ms: float) -> None:
+        """An arrow went down at `at_ms` (the page's clock): a hold starts, unless one is held."""
+        self._check(key, at_ms)
+        if self._live() and self.held is None:
+            self.held = _Held(key, at_ms)
+            self.message = ""
+
+    def release(self, key: str, at_ms: float) -> None:
+        """An arrow came up at `at_ms`: the hold on it ends and its move is played."""
+        self._check(key, at_ms)
+        held = self.held
+        if held is None or held.key != key:
+            return
+        self.held = None
+        hold_ms = at_ms - held.at_ms
+        if not 0 <= hold_ms <= LONGEST_HOLD_MS or not self._live():
+            self.message = "That key was held too long to be a move; nothing was played." if self._live() else ""
+            return
+        self._move(key, hold_ms)
+
+    def cancel(self) -> None:
+        """The window lost focus (or the page could not send the release): the hold is dropped."""
+        if self.held is not None:
+            self.held = None
+            self.message = "Move cancelled: the window lost focus."
+
+    def space(self) -> None:
+        """Space: begin, go on, or start the next episode."""
+        if self.stage in ("instructions", "between"):
+            self._start_block()
+        elif self.stage == "play" and self.game is not None and not self.game.live and self.held is None:
+            assert self.names is not None
+            if self.names.all_played(self.game.episode, self.game.live):
+                self._end_block()
+            else:
+                self.game.begin_episode()
+                self.last_step, self.message = None, ""
+
+    def leave(self, why: str = "left") -> None:
+        """q, or the page closed: a running episode with steps is recorded as quit, the file closed."""
+        if self.left:
+            return
+        self.left = True
+        self.held = None
+        self._close_block()
+        if self.stage != "end":
+            self.stage = "left"
+        done, total = read_protocol(self.study, self.participant).progress
+        self.say(f"{self.participant}: {why} ({done} of {plural(total, 'episode')} done)")
+
+    # ------------------------------------------------------------------ the flow
+
+    def _live(self) -> bool:
+        return self.stage == "play" and self.game is not None and self.game.live
+
+    def _check(self, key: str, at_ms: float) -> None:
+        if key not in DIRECTIONS:
+            raise KeyRefused(f"not an arrow: {printable(str(key), limit=20)!r}")
+        if not (isinstance(at_ms, (int, float)) and math.isfinite(at_ms) and 0 <= at_ms < 1e12):
+            raise KeyRefused("a key's time must be a number of milliseconds")
+
+    def _start_block(self) -> None:
+        block = self.protocol.next
+        if block is None:
+            self.stage = "end"
+            return
+        world = self.protocol.world(block)
+        self.profile = browser_profile(world.levels)
+        header = SessionHeader(world=world, player=self.participant, created=datetime.now().astimezone(),
+                               seed=secrets.randbelow(2**32) if self.seed is None else self.seed,
+                               input=input_header(self.profile, self.user_agent), app_version=app_version(),
+                               study=self.protocol.tag(block), prolific=self.prolific)
+        self.recorder = SessionRecorder(self.protocol.folder, header)
+        self.game = Game(world, seed=header.seed, sink=self.recorder, first_episode=block.next_episode)
+        self.names = EpisodeNames("Practice episode" if block.phase == "practice" else "Episode",
+                                  block.next_episode, block.remaining, block.done)
+        self.block, self.stage = block, "play"
+        self.game.begin_episode()
+        self.last_step, self.message = None, ""
+        self.say(f"{self.participant}: started world {block.position + 1} of {len(self.protocol.order)} "
+                 f"({printable(world.name, limit=40)}), {block.phase}, episode {block.done + 1} of {block.target}")
+
+    def _move(self, key: str, hold_ms: float) -> None:
+        assert self.game is not None and self.profile is not None
+        try:
+            result = self.game.move(key, self.profile.level_for(hold_ms), hold_ms=hold_ms, exact=True)
+        except GameOver:
+            return
+        step = result.step
+        self.last_step = {"direction": step.direction, "level": step.carefulness, "hold_ms": step.hold_ms,
+                          "slipped": step.slipped, "realised": result.realised,
+                          "from": list(step.state), "to": list(step.next_state)}
+        self.message = f"Slipped: the move went {result.realised}." if step.slipped else ""
+        if self.recorder is not None and self.recorder.notices:
+            self.message = printable(self.recorder.notices.pop(0), limit=300)
+        if result.end is not None:
+            assert self.names is not None
+            if self.names.all_played(self.game.episode, self.game.live):
+                # The block's last episode is on disk (fsynced at its end): close its file now.
+                self._close_block(keep_game=True)
+
+    def _end_block(self) -> None:
+        finished = self.block
+        self._close_block()
+        self.protocol = read_protocol(self.study, self.participant)
+        assert finished is not None
+        self.finished_block = finished
+        self.say(f"{self.participant}: finished world {finished.position + 1} of {len(self.protocol.order)}, "
+                 f"{finished.phase}")
+        self.stage = "end" if self.protocol.finished else "between"
+        if self.stage == "end":
+            self.say(f"{self.participant}: finished the study")
+
+    def _close_block(self, *, keep_game: bool = False) -> None:
+        if self.game is not None and self.game.live:
+            self.game.quit()
+        if self.recorder is not None:
+            self.recorder.close()
+            self.recorder = None
+        if not keep_game:
+            self.game = None
+
+    # ------------------------------------------------------------------ what the page draws
+
+    def view(self) -> dict[str, Any]:
+        """Everything the page draws now, as JSON-ready data; every text is plain text."""
+        view: dict[str, Any] = {"stage": self.stage, "title": printable(self.study.study.name, limit=80),
+                                "participant": self.participant}
+        if self.stage == "play":
+            view["play"] = self._play_view()
+            if self._live():
+                keys = [["←↑→↓", "hold: move, longer is more careful"]]
+            else:
+                keys = [["space", "go on" if view["play"]["all_played"] else "next episode"]]
+            view["keys"] = keys + [["q", "leave"]]
+        else:
+            view["paragraphs"] = _paragraphs(self._screen_text())
+            view["keys"] = [] if self.stage in ("end", "left") else [["space", "begin" if self.stage == "instructions"
+                                                                       else "go on"], ["q", "leave"]]
+        if self.stage == "end" and self.completion_url is not None:
+            view["complete_url"] = self.completion_url
+        return view
+
+    def _screen_text(self) -> Group:
+        if self.stage == "instructions":
+            return _instructions(self.protocol)
+        if self.stage == "between":
+            assert self.finished_block is not None
+            return between_text(self.protocol, self.finished_block)
+        done, total = read_protocol(self.study, self.participant).progress
+        if self.stage == "end":
+            lines = [Text("That is the end of the study. Thank you!", style=f"bold {GOOD}"),
+                     Text(f"{'The episode is' if total == 1 else f'All {total} episodes are'} recorded.")]
+            if self.completion_url is not None:
+                lines.append(Text("You are being sent back to Prolific to complete your submission.", style="dim"))
+            return _spaced(lines)
+        return _spaced([Text("You have left the study.", style=f"bold {NOTE}"),
+                        Text(f"What you played is kept: {done} of {plural(total, 'episode')} done."),
+                        Text("Open your link again to go on where you stopped.", style="dim")])
+
+    def _play_view(self) -> dict[str, Any]:
+        game, block, names, profile = self.game, self.block, self.names, self.profile
+        assert game is not None and block is not None and names is not None and profile is not None
+        world = game.world
+        end = game.last_end if not game.live else None
+        shown = game.episode
+        view: dict[str, Any] = {
+            "heading": block_heading(self.protocol, block),
+            "rows": [printable(row) for row in world.layout.splitlines()],
+            "legend": [[symbol, SYMBOL_NAMES.get(symbol, printable(symbol))] for symbol in _symbols(world.layout)],
+            "levels": [{"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
+                       for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],
+            "timing": {"tap_ms": profile.initial_delay_ms, "ms_per_level": profile.ms_per_level,
+                       "levels": profile.levels},
+            "player": list(game.cell) if game.cell is not None else None,
+            "live": game.live,
+            "episode": f"{names.word} {names.number(shown)}",
+            "step": game.t, "max_steps": world.max_steps,
+            "score": format_value(game.score), "score_low": game.score < world.initial_score,
+            "last_move": self.last_step, "message": self.message,
+            "all_played": names.all_played(game.episode, game.live),
+        }
+        if end is not None:
+            view["end"] = {"text": outcome_text(end), "code": outcome_code(end), "score": format_value(end.score)}
+        return view
+
+
+def _instructions(protocol: Protocol) -> Group:
+    """The first screen: the study's instructions and plan, with the browser's way to choose a level."""
+    study = protocol.study.study
+    parts: list[Text] = [Text(printable(study.name, limit=80), style=f"bold {NOTE}")]
+    if protocol.started:
+        done, total = protocol.progress
+        back = Text(f"Welcome back: {done} of {plural(total, 'episode')} {'is' if total == 1 else 'are'} done. "
+                    "You go on with: ", style=f"bold {GOOD}")
+        back.append_text(where_next(protocol))
+        parts.append(back)
+    if study.instructions.strip():
+        parts.append(Text(printable(study.instructions.strip(), keep_newlines=True)))
+    # A browser always times holds (the study's terminal input mode does not apply).
+    held = replace(protocol, study=replace(protocol.study, study=study.model_copy(update={"input": "hold"})))
+    parts.append(plan_text(held))
+    parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
+    return _spaced(parts)
+
+
+def _spaced(parts: list[Text]) -> Group:
+    return Group(*parts)
+
+
+def _paragraphs(group: Group) -> list[dict[str, str]]:
+    """A screen's Rich text as paragraphs of plain text, each with its tone (title, good, warn, dim)."""
+    paragraphs = []
+    for part in group.renderables:
+        assert isinstance(part, Text)
+        if not part.plain.strip():
+            continue
+        style = str(part.style)
+        tone = next((name for name, colour in (("title", NOTE), ("good", GOOD), ("warn", WARN)) if colour in style),
+                    "dim" if "dim" in style else "")
+        paragraphs.append({"text": part.plain, "tone": tone})
+    return paragraphs
+
+
+def _symbols(layout: str) -> list[str]:
+    """The layout's symbols in the order they first appear (the legend's order)."""
+    return list(dict.fromkeys(ch for ch in layout if not ch.isspace()))
