@@ -118,3 +118,45 @@ def page(browser):
     page = context.new_page()
     yield page
     context.close()
+
+
+class Api:
+    """The page's requests, made by a test through Starlette's TestClient."""
+
+    def __init__(self, client, *, token: str | None = None, prolific: dict | None = None,
+                 user_agent: str = "test-agent/1.0") -> None:
+        self.client = client
+        self.user_agent = user_agent
+        self.t = 1000.0
+        body = {"token": token} if token is not None else {"prolific": prolific}
+        self.answer = client.post("/api/start", json=body, headers={"user-agent": user_agent})
+        self.page = self.answer.json().get("page") if self.answer.status_code == 200 else None
+        self.view = self.answer.json().get("view") if self.page else None
+
+    def key(self, kind: str, **fields):
+        answer = self.client.post("/api/key", json={"page": self.page, "type": kind, **fields})
+        if answer.status_code == 200:
+            self.view = answer.json()["view"]
+        return answer
+
+    def hold(self, key: str, ms: float):
+        """A press and, `ms` later on the page's clock, its release; returns the release's answer."""
+        self.key("press", key=key, t=self.t)
+        self.t += ms
+        answer = self.key("release", key=key, t=self.t)
+        self.t += 100
+        return answer
+
+    def walk_to_goal(self, ms: float = 60):
+        """The hall: four moves right from the start reach the goal."""
+        for _ in range(4):
+            assert self.hold("right", ms).status_code == 200
+        assert self.view["play"]["end"]["code"] == "G"
+
+
+def web_app(study: LoadedStudy, *, links: int = 2, completion_code: str | None = None, **options):
+    """The server's app for `study` with `links` links; returns (app, participant -> token)."""
+    add_links(study, links)
+    tokens = read_links(study)
+    app = make_app(study, links=tokens, completion_code=completion_code, say=lambda line: None, seed=0, **options)
+    return app, {p: t for t, p in tokens.items()}

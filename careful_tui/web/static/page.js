@@ -9,6 +9,7 @@
   const LEVEL_STOPS = [[0x4f, 0xc3, 0xf7], [0xff, 0xd5, 0x4f], [0xff, 0x5a, 0x36]];
   const HEARTBEAT_MS = 5000;
   const REDIRECT_MS = 1500;
+  const RETRY_MS = 2000;
   const PROLIFIC = "https://app.prolific.com/";
   const state = { page: null, view: null, held: null, queue: Promise.resolve(), frame: 0, beat: 0, over: false, drawnRows: null };
   const $ = (id) => document.getElementById(id);
@@ -80,6 +81,7 @@
   }
 
   async function start() {
+    clearTimeout(state.retry);
     if (touchOnly()) {
       notice("This study needs a keyboard", "It is played by holding the arrow keys of a physical keyboard. " +
         "Please open your link again on a computer with a keyboard.");
@@ -97,7 +99,11 @@
       clearInterval(state.beat);
       state.beat = setInterval(heartbeat, HEARTBEAT_MS);
     } else if (status === 409) {
+      // The other page may be this one before a reload, whose goodbye is still on its way: try again
+      // now and then, so this page takes over as soon as the other one has closed.
       notice("The study is open somewhere else", data.error, { label: "Try again", act: start });
+      clearTimeout(state.retry);
+      state.retry = setTimeout(start, RETRY_MS);
     } else {
       notice("This page cannot start the study", (data && data.error) || "The server answered " + status + ".");
     }
