@@ -56,7 +56,10 @@ def run_serve(args: argparse.Namespace) -> int:
         + (f" (completion code {args.completion_code})" if args.completion_code else " (no --completion-code: no redirect)"))
     say(f"recordings: {study.out}/<participant>/")
     app = make_app(study, links=links, completion_code=args.completion_code, say=say)
-    make_server(app).run(sockets=[sock])
+    try:
+        make_server(app).run(sockets=[sock])
+    except KeyboardInterrupt:
+        pass  # uvicorn raises Ctrl+C again once it has shut down, every participant's file closed
     say("careful serve: stopped; every recording is closed")
     return 0
 
