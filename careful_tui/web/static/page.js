@@ -172,8 +172,8 @@
 
   function drawPlay(play) {
     $("heading").textContent = play.heading;
-    const rowsKey = JSON.stringify(play.rows);
-    if (state.drawnRows !== rowsKey) buildBoard(play);
+    show("play");  // first, so the board is sized to the room it has
+    if (state.drawnRows !== JSON.stringify(play.rows)) buildBoard(play);
     const board = $("board");
     for (const cell of board.querySelectorAll(".player, .arrow")) cell.remove();
     for (const cell of board.querySelectorAll(".slipped-to")) cell.classList.remove("slipped-to");
@@ -182,7 +182,6 @@
     drawStatus(play);
     if (!play.live) state.held = null;
     drawHold();
-    show("play");
   }
 
   function cellAt([r, c]) { return $("board").children[r * state.cols + c]; }
@@ -191,8 +190,9 @@
     const rows = play.rows.map((row) => Array.from(row));
     state.cols = rows[0].length;
     const board = $("board");
-    const room = Math.max(160, ($("right").clientWidth || window.innerWidth - 40));
-    const cell = Math.max(22, Math.min(56, Math.floor((room - 2 * state.cols) / state.cols)));
+    const largest = parseFloat(getComputedStyle(document.documentElement).getPropertyValue("--cell-max")) || 64;
+    const room = Math.max(160, $("right").clientWidth || window.innerWidth - 40);
+    const cell = Math.max(18, Math.min(largest, Math.floor((room - 2 * state.cols) / state.cols)));
     board.style.setProperty("--cell", cell + "px");
     board.style.gridTemplateColumns = "repeat(" + state.cols + ", var(--cell))";
     board.replaceChildren(...rows.flat().map((symbol) => {
