@@ -21,7 +21,8 @@ from dataclasses import dataclass, field
 
 from careful_tui.web.session_adapter import WebSession
 
-SILENT_S = 20.0
+# A hidden tab's timers may run once a minute (Chrome's intensive throttling): its heartbeat still arrives.
+SILENT_S = 90.0
 KEY_BURST = 24
 KEY_RATE = 12.0
 

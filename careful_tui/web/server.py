@@ -135,7 +135,7 @@ def refuse(status: int, why: str) -> JSONResponse:
 def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str | None = None,
              say: Callable[[str], None] = print, seed: int | None = None, seats: Seats | None = None) -> Starlette:
     """The server's ASGI app for `study`, its participants from `links` (token -> id) and Prolific links."""
-    seats = seats or Seats()
+    seats = Seats() if seats is None else seats
     page_html = resources.files("careful_tui.web").joinpath("static/page.html").read_text(encoding="utf-8")
     unknown = ("This link is not valid", "Check that you copied the whole link you were given; if it still "
                "does not open, write to the experimenter.")

@@ -196,5 +196,6 @@ def test_a_phone_is_told_the_study_needs_a_keyboard(browser, live_server):
     phone = context.new_page()
     phone.goto(live_server.link("p001"))
     phone.wait_for_selector("text=This study needs a keyboard")
-    assert live_server.seats.claim is not None and len(live_server.seats) == 0
+    phone.wait_for_timeout(300)
+    assert len(live_server.seats) == 0  # it never claimed the participant
     context.close()

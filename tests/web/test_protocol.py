@@ -10,6 +10,7 @@ import pytest
 from starlette.testclient import TestClient
 
 from careful_tui.web.links import LINKS_FILE, add_links, read_links
+from careful_tui.web.seats import SILENT_S, Seats
 from careful_tui.web.server import MAX_BODY
 from careful_tui.web.session_adapter import browser_profile
 from irl_core.demonstrations import read_recording
@@ -129,15 +130,20 @@ def test_after_the_first_page_leaves_a_new_page_resumes_where_the_files_say(serv
     assert read_protocol(web_study, "p001").finished
 
 
-def test_a_flood_of_keys_is_rate_limited_and_not_recorded(served, web_study):
-    client, tokens = served
-    api = Api(client, token=tokens["p001"])
-    api.key("space")
-    answers = [api.hold("up", 60).status_code for _ in range(150)]
-    assert 429 in answers
-    steps = [line for line in recorded_lines(web_study.participant_folder("p001")) if line["kind"] == "step"]
-    assert 0 < len(steps) < answers.count(200) + 1 < 150
-    assert "Too many keys" in client.post("/api/key", json={"page": api.page, "type": "space"}).json()["error"]
+def test_a_flood_of_keys_is_rate_limited_and_not_recorded(web_study):
+    now = [0.0]  # the budget refills by this clock: none during the flood, a second's worth after it
+    app, tokens = web_app(web_study, seats=Seats(clock=lambda: now[0]))
+    with TestClient(app) as client:
+        api = Api(client, token=tokens["p001"])
+        api.key("space")
+        answers = [api.hold("up", 60).status_code for _ in range(100)]
+        assert answers[:11] == [200] * 11 and set(answers[12:]) == {429}
+        steps = [line for line in recorded_lines(web_study.participant_folder("p001")) if line["kind"] == "step"]
+        assert len(steps) == 11
+        assert "Too many keys" in client.post("/api/key", json={"page": api.page, "type": "space"}).json()["error"]
+        now[0] += 1.0
+        assert api.hold("up", 60).status_code == 200
+    assert len([line for line in recorded_lines(web_study.participant_folder("p001")) if line["kind"] == "step"]) == 12
 
 
 def test_holds_are_recorded_exact_at_the_levels_the_browser_timing_gives(served, web_study):
@@ -247,3 +253,23 @@ def test_a_browser_recording_reads_like_a_terminal_one(served, web_study):
     assert recording.header.input["front_end"] == "browser"
     assert recording.steps.column("hold_exact").all()
     assert recording.header.study.participant == "p001"
+
+
+def test_a_page_silent_for_too_long_gives_its_place_to_the_next_one(web_study):
+    now = [0.0]
+    app, tokens = web_app(web_study, seats=Seats(clock=lambda: now[0]))
+    with TestClient(app) as client:
+        first = Api(client, token=tokens["p001"])
+        first.key("space")
+        first.hold("right", 100)
+        now[0] += SILENT_S - 1
+        assert Api(client, token=tokens["p001"]).answer.status_code == 409
+        assert client.post("/api/alive", json={"page": first.page}).status_code == 204  # heard from: it stays
+        now[0] += SILENT_S - 1
+        assert Api(client, token=tokens["p001"]).answer.status_code == 409
+        now[0] += SILENT_S
+        second = Api(client, token=tokens["p001"])
+        assert second.answer.status_code == 200
+        assert first.key("press", key="right", t=1.0).status_code == 410
+    ends = [line["outcome"] for line in recorded_lines(web_study.participant_folder("p001")) if line["kind"] == "episode_end"]
+    assert ends == ["quit"]

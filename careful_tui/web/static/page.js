@@ -339,7 +339,7 @@
     drawHold();
   }
   addEventListener("blur", focusLost);
-  document.addEventListener("visibilitychange", () => { if (document.hidden) focusLost(); });
+  document.addEventListener("visibilitychange", () => { if (document.hidden) focusLost(); else heartbeat(); });
 
   addEventListener("pagehide", () => {
     if (state.page) navigator.sendBeacon("/api/leave", JSON.stringify({ page: state.page }));
