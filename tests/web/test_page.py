@@ -4,6 +4,7 @@ a reload mid-episode, a second page, focus lost mid-hold, a phone, texts shown a
 
 from __future__ import annotations
 
+import re
 import time
 
 import pytest
@@ -13,6 +14,8 @@ from irl_core.study import read_protocol
 from web.conftest import recorded_lines
 
 TIMEOUT_S = 10
+# Case-sensitive and from the start: "Practice episode 1 of 1" must not match.
+MAIN_EPISODE = re.compile(r"^Episode 1 of 1")
 
 
 def steps_of(live, participant: str) -> list[dict]:
@@ -106,7 +109,7 @@ def test_a_link_participant_goes_through_instructions_practice_main_and_the_end(
     page.keyboard.press(" ")
     page.wait_for_selector("text=Practice is over.")
     page.keyboard.press(" ")
-    page.locator("#status", has_text="Episode 1 of 1").wait_for()
+    page.locator("#status strong", has_text=MAIN_EPISODE).wait_for()
     tap_to_goal(page, live_server, "p002")
     page.keyboard.press(" ")
     page.wait_for_selector("text=That is the end of the study. Thank you!")
@@ -129,7 +132,7 @@ def test_a_prolific_participant_reaches_the_completion_address_only_after_the_la
     page.wait_for_selector("text=Practice is over.")
     assert reached == []
     page.keyboard.press(" ")
-    page.locator("#status", has_text="Episode 1 of 1").wait_for()
+    page.locator("#status strong", has_text=MAIN_EPISODE).wait_for()
     tap_to_goal(page, live_server, "PPX1")
     assert reached == []
     page.keyboard.press(" ")
@@ -144,8 +147,9 @@ def test_a_reload_mid_episode_resumes_where_the_files_say(page, live_server):
     open_and_begin(page, live_server.link("p001"))
     tap_to_goal(page, live_server, "p001")
     page.keyboard.press(" ")
+    page.wait_for_selector("text=Practice is over.")
     page.keyboard.press(" ")
-    page.locator("#status", has_text="Episode 1 of 1").wait_for()
+    page.locator("#status strong", has_text=MAIN_EPISODE).wait_for()
     hold(page, "ArrowRight", 30)
     wait_for(lambda: len(steps_of(live_server, "p001")) == 5, "the main episode's first move")
     page.reload()
