@@ -31,7 +31,7 @@ import contextlib
 import html
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from importlib import resources
 from typing import Any
 from urllib.parse import quote
@@ -132,6 +132,21 @@ def refuse(status: int, why: str) -> JSONResponse:
     return JSONResponse({"error": why}, status_code=status)
 
 
+def json_endpoint(handle: Callable[[Request, dict[str, Any]], Awaitable[Response]]):
+    """An endpoint that takes `read_json`'s object: 413 for a body over the limit, 400 for one not JSON."""
+
+    async def endpoint(request: Request) -> Response:
+        try:
+            data = await read_json(request)
+        except BodyTooLarge:
+            return refuse(413, "The request is too large.")
+        except ValueError:
+            return refuse(400, "The request is not JSON.")
+        return await handle(request, data)
+
+    return endpoint
+
+
 def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str | None = None,
              say: Callable[[str], None] = print, seed: int | None = None, seats: Seats | None = None) -> Starlette:
     """The server's ASGI app for `study`, its participants from `links` (token -> id) and Prolific links."""
@@ -190,13 +205,8 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
         with seat.lock:
             return JSONResponse({"page": seat.page, "view": seat.session.view()})
 
-    async def start(request: Request) -> Response:
-        try:
-            data = await read_json(request)
-        except BodyTooLarge:
-            return refuse(413, "The request is too large.")
-        except ValueError:
-            return refuse(400, "The request is not JSON.")
+    @json_endpoint
+    async def start(request: Request, data: dict[str, Any]) -> Response:
         user_agent = printable(request.headers.get("user-agent", ""), limit=400)
         return await run_in_threadpool(arrive, data, user_agent)
 
@@ -236,34 +246,19 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
             seats.release(seat)
         return JSONResponse({"view": view})
 
-    async def key(request: Request) -> Response:
-        try:
-            data = await read_json(request)
-        except BodyTooLarge:
-            return refuse(413, "The request is too large.")
-        except ValueError:
-            return refuse(400, "The request is not JSON.")
+    @json_endpoint
+    async def key(request: Request, data: dict[str, Any]) -> Response:
         seat = seats.page(data.get("page"))
         if seat is None:
             return refuse(410, "This page no longer plays: reload it to go on.")
         return await run_in_threadpool(play_key, seat, data)
 
-    async def alive(request: Request) -> Response:
-        try:
-            data = await read_json(request)
-        except BodyTooLarge:
-            return refuse(413, "The request is too large.")
-        except ValueError:
-            return refuse(400, "The request is not JSON.")
+    @json_endpoint
+    async def alive(request: Request, data: dict[str, Any]) -> Response:
         return Response(status_code=204 if seats.page(data.get("page")) is not None else 410)
 
-    async def leave(request: Request) -> Response:
-        try:
-            data = await read_json(request)
-        except BodyTooLarge:
-            return refuse(413, "The request is too large.")
-        except ValueError:
-            return refuse(400, "The request is not JSON.")
+    @json_endpoint
+    async def leave(request: Request, data: dict[str, Any]) -> Response:
         seat = seats.page(data.get("page"))
         if seat is not None:
             await run_in_threadpool(seats.release, seat, "left (closed the page)")

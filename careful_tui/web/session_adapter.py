@@ -243,11 +243,16 @@ class WebSession:
             self.say(f"{self.participant}: finished the study")
 
     def _close_block(self, *, keep_game: bool = False) -> None:
-        if self.game is not None and self.game.live:
-            self.game.quit()
-        if self.recorder is not None:
-            self.recorder.close()
-            self.recorder = None
+        """Record a running episode as quit and close the block's file. A file that cannot be
+        written any more (a full disk) is let go: what it held before stays on disk."""
+        recorder, self.recorder = self.recorder, None
+        try:
+            if self.game is not None and self.game.live:
+                self.game.quit()
+            if recorder is not None:
+                recorder.close()
+        except (OSError, ValueError) as exc:
+            self.say(f"{self.participant}: cannot close the recording ({printable(str(exc), limit=200)})")
         if not keep_game:
             self.game = None
 
@@ -284,10 +289,10 @@ class WebSession:
                      Text(f"{'The episode is' if total == 1 else f'All {total} episodes are'} recorded.")]
             if self.completion_url is not None:
                 lines.append(Text("You are being sent back to Prolific to complete your submission.", style="dim"))
-            return _spaced(lines)
-        return _spaced([Text("You have left the study.", style=f"bold {NOTE}"),
-                        Text(f"What you played is kept: {done} of {plural(total, 'episode')} done."),
-                        Text("Open your link again to go on where you stopped.", style="dim")])
+            return Group(*lines)
+        return Group(Text("You have left the study.", style=f"bold {NOTE}"),
+                     Text(f"What you played is kept: {done} of {plural(total, 'episode')} done."),
+                     Text("Open your link again to go on where you stopped.", style="dim"))
 
     def _play_view(self) -> dict[str, Any]:
         game, block, names, profile = self.game, self.block, self.names, self.profile
@@ -332,10 +337,6 @@ def _instructions(protocol: Protocol) -> Group:
     held = replace(protocol, study=replace(protocol.study, study=study.model_copy(update={"input": "hold"})))
     parts.append(plan_text(held))
     parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
-    return _spaced(parts)
-
-
-def _spaced(parts: list[Text]) -> Group:
     return Group(*parts)
 
 

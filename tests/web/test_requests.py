@@ -273,3 +273,21 @@ def test_a_page_silent_for_too_long_gives_its_place_to_the_next_one(web_study):
         assert first.key("press", key="right", t=1.0).status_code == 410
     ends = [line["outcome"] for line in recorded_lines(web_study.participant_folder("p001")) if line["kind"] == "episode_end"]
     assert ends == ["quit"]
+
+
+def test_a_recording_that_cannot_be_written_stops_the_participant_with_a_sentence(served, web_study, monkeypatch):
+    client, tokens = served
+    api = Api(client, token=tokens["p001"])
+    api.key("space")
+    api.hold("right", 100)
+
+    def full(self, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr("irl_core.recording_writer.RecordingWriter._write_bytes", full)
+    answer = api.hold("right", 100)
+    assert answer.status_code == 503 and "cannot save your moves" in answer.json()["error"]
+    assert api.key("press", key="right", t=1.0).status_code == 410
+    monkeypatch.undo()
+    steps = [line for line in recorded_lines(web_study.participant_folder("p001")) if line["kind"] == "step"]
+    assert len(steps) == 1
