@@ -24,8 +24,7 @@ import time
 
 from textual import events
 
-from careful_tui.app import make_play_app
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp, make_play_app
 from irl_core.world import load_world
 
 PERIOD_MS = 33.0

@@ -1,35 +1,99 @@
-"""The app's factories: the command line and the tests build the careful app here, the same way,
-each opening it on its first screen (play, replay, the fit view or a study's flow)."""
+"""The careful app and its factories: the command line and the tests build it here, the same
+way, each opening it on its first screen (play, replay, the fit view or a study's flow).
+
+The app: `CAREFUL_THEME` registers `careful_tui.render.palette`'s colours as Textual theme
+variables, so `screens/careful.tcss` says `$good`, `$bad`, `$note`, `$warn`, `$busy`, `$slip`,
+`$ink`, `$frame` and never a hex code. Play, replay and the fit view are `Screen`s of one
+`CarefulApp`, which opens on the screen it is given and can push more; the stylesheet scopes
+their differences by the screen's type (`ReplayScreen #gauge { ... }`). Each screen lists its
+keys in `BINDINGS` and hides those that do nothing now with `check_action`; the app adds the
+quit keys; the key bar (`careful_tui.widgets.keybar`) shows them.
+"""
 
 from __future__ import annotations
 
 import argparse
-import secrets
 import time
 from collections.abc import Sequence
-from dataclasses import replace
-from datetime import datetime
 from pathlib import Path
 
+from textual.app import App
+from textual.binding import Binding
 from textual.driver import Driver
+from textual.screen import Screen
+from textual.theme import Theme
 
 from careful_tui.arguments import options_from_args
-
-from careful_tui.keys.hold import Clock, HoldProfile
-from careful_tui.keys.modes import make_input
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.render.palette import BACKGROUND, BAD, FRAME, GOOD, INK, NOTE, PANEL, SLIP, SURFACE, WARN
 from careful_tui.screens.fit import FitScreen
 from careful_tui.screens.play import PlayScreen
 from careful_tui.screens.replay import FRAME_S, ReplayScreen
-from careful_tui.screens.study import StudyScreen, block_play_options
+from careful_tui.screens.study import StudyScreen
 from careful_tui.version import app_version
 from irl_core.demonstrations import Demonstrations, Recording
-from irl_core.recording_lines import SessionHeader, StudyTag
-from irl_core.recording_writer import SessionRecorder
-from irl_core.game import Game
 from irl_core.irl import FitResult
-from irl_core.study import Block, LoadedStudy, Protocol
+from irl_core.play.hold import Clock, HoldProfile
+from irl_core.play.input_modes import DEFAULT_INPUT_MODE
+from irl_core.play.session import PlayOptions, new_session
+from irl_core.play.study_flow import StudyFlow
+from irl_core.recording_lines import StudyTag
+from irl_core.study import LoadedStudy
 from irl_core.world import World
+
+CAREFUL_THEME = Theme(
+    name="careful",
+    primary=NOTE,
+    foreground=INK,
+    background=BACKGROUND,
+    surface=SURFACE,
+    panel=PANEL,
+    success=GOOD,
+    warning=WARN,
+    error=BAD,
+    dark=True,
+    variables={
+        "good": GOOD,
+        "bad": BAD,
+        "note": NOTE,
+        "warn": WARN,
+        "busy": WARN,
+        "slip": SLIP,
+        "ink": INK,
+        "frame": FRAME,
+    },
+)
+
+
+# The app quits with q, Ctrl+C or Ctrl+Q, whatever screen is on top (a screen that must save
+# something as it goes, as play records the running episode, does it when it is unmounted).
+QUIT_BINDINGS = [
+    Binding("q", "quit", "quit", priority=True),
+    Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
+]
+
+
+class CarefulApp(App[None]):
+    """The careful app: the careful theme, `careful.tcss`, no command palette, opening on `first_screen`.
+
+    Args:
+        first_screen: the screen it opens on (play, replay or the fit view); it stays reachable
+            as `first_screen` while other screens are pushed over it.
+        driver_class: the terminal driver (the CLI passes the kitty driver).
+    """
+
+    CSS_PATH = "screens/careful.tcss"
+    ENABLE_COMMAND_PALETTE = False
+    BINDINGS = QUIT_BINDINGS
+
+    def __init__(self, first_screen: Screen, *, driver_class=None) -> None:
+        super().__init__(driver_class=driver_class)
+        self.register_theme(CAREFUL_THEME)
+        self.theme = CAREFUL_THEME.name
+        self.first_screen = first_screen
+        self.title = first_screen.TITLE or self.title
+
+    def get_default_screen(self) -> Screen:
+        return self.first_screen
 
 
 def make_play_app(
@@ -38,7 +102,7 @@ def make_play_app(
     out: str | Path,
     player: str,
     seed: int,
-    input_mode: str = "hold",
+    input_mode: str = DEFAULT_INPUT_MODE,
     clock: Clock = time.monotonic,
     calibrate: bool = False,
     driver_class: type[Driver] | None = None,
@@ -51,22 +115,13 @@ def make_play_app(
 
 def new_play_screen(world: World, *, out: str | Path, player: str, seed: int, input_mode: str, clock: Clock,
                     profile: HoldProfile | None = None, study: StudyTag | None = None, first_episode: int = 0,
-                    **options) -> PlayScreen:
-    """A play screen recording to a new file in `out` (its header tagged with `study`, if given),
-    its episodes numbered from `first_episode`; `options` go to `PlayScreen`."""
-    profile = profile or HoldProfile(levels=world.levels)
-    header = SessionHeader(
-        world=world,
-        player=player,
-        created=datetime.now().astimezone(),
-        seed=seed,
-        input=make_input(input_mode, profile, clock=clock).header(),
-        app_version=app_version(),
-        study=study,
-    )
-    recorder = SessionRecorder(out, header)
-    game = Game(world, seed=seed, sink=recorder, first_episode=first_episode)
-    return PlayScreen(game, recorder, input_mode=input_mode, profile=profile, clock=clock, player=player, **options)
+                    calibrate: bool = False, event_times: bool | None = None) -> PlayScreen:
+    """A play screen on a new session recording to a new file in `out` (its header tagged with
+    `study`, if given), its episodes numbered from `first_episode`; `event_times` goes to the screen."""
+    options = PlayOptions(input_mode=input_mode, profile=profile, calibrate=calibrate, player=player)
+    session = new_session(world, out=out, seed=seed, options=options, clock=clock, app_version=app_version(),
+                          study=study, first_episode=first_episode)
+    return PlayScreen(session, event_times=event_times)
 
 
 def make_study_app(study: LoadedStudy, participant: str, *, clock: Clock = time.monotonic,
@@ -74,18 +129,8 @@ def make_study_app(study: LoadedStudy, participant: str, *, clock: Clock = time.
     """The app on the study screen: `participant` through `study`'s protocol from where their folder
     stands (`careful study run` and the tests build it here). `seed` fixes every block's seed (a
     test's); without it each block draws one."""
-
-    def play_block(protocol: Protocol, block: Block, profile: HoldProfile | None) -> PlayScreen:
-        world = protocol.world(block)
-        block_seed = secrets.randbelow(2**32) if seed is None else seed
-        # A calibration carries over; the level scale is the block's world's.
-        profile = None if profile is None else replace(profile, levels=world.levels)
-        return new_play_screen(world, out=protocol.folder, player=participant, seed=block_seed,
-                               input_mode=study.study.input, clock=clock, profile=profile,
-                               study=protocol.tag(block), first_episode=block.next_episode,
-                               **block_play_options(protocol, block))
-
-    return CarefulApp(StudyScreen(study, participant, play_block=play_block), driver_class=driver_class)
+    flow = StudyFlow(study, participant, clock=clock, seed=seed, app_version=app_version())
+    return CarefulApp(StudyScreen(flow), driver_class=driver_class)
 
 
 def make_replay_app(*recordings: Recording, skipped: Sequence[str] = (), playing: bool = False,

@@ -19,6 +19,7 @@ from rich.text import Text
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.version import app_version
 from irl_core.demonstrations import RecordingError
+from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.safe_files import OutputError
 from irl_core.safe_text import one_line
 from irl_core.world import WorldError
@@ -95,9 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--world", default="paper", metavar="NAME|FILE", help="built-in world or TOML file (default: paper)")
     play.add_argument("--player", type=text_argument, default=None, help="name recorded in the session (default: your user name)")
     play.add_argument("--out", type=Path, default=Path("recordings"), metavar="DIR", help="folder for recordings (default: recordings/)")
-    play.add_argument("--input", choices=["hold", "tap", "digits"], default="hold",
-                      help="hold: hold an arrow longer to be more careful (default); "
-                      "tap: tap an arrow k times for level k; digits: type the level, then the arrow")
+    play.add_argument("--input", choices=INPUT_MODE_NAMES, default=DEFAULT_INPUT_MODE, help="; ".join(
+        f"{mode.name}: {mode.cli_help}" + (" (default)" if mode.name == DEFAULT_INPUT_MODE else "")
+        for mode in INPUT_MODES.values()))
     play.add_argument("--seed", type=seed_int, default=None, help="seed for the world's randomness (default: random)")
     play.add_argument("--calibrate", action="store_true", help="measure your keyboard's autorepeat before playing")
 

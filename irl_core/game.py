@@ -181,6 +181,11 @@ class Game:
             return None
         return self._end("quit", None)
 
+    def stop(self) -> None:
+        """Play no further, recording nothing more (the recording cannot be written): the running
+        episode, if any, stays as far as it was written."""
+        self.live = False
+
     def _end(self, outcome: str, symbol: str | None) -> EpisodeEnd:
         end = EpisodeEnd(
             episode=self.episode,

@@ -12,6 +12,7 @@ from careful_tui.app import make_play_app
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
+from irl_core.play.input_modes import INPUT_MODES, input_mode
 from irl_core.recording_writer import SessionRecorder, check_writable
 from irl_core.safe_text import printable
 from irl_core.world import load_world
@@ -38,24 +39,26 @@ def run_play(args: argparse.Namespace) -> int:
                          "choose a writable folder with --out") from None
     require_terminal("play")
     # Calibration times how long a held key takes per level: other inputs and one level time nothing.
-    calibrate = args.calibrate and args.input == "hold" and world.levels > 1
+    times_holds = input_mode(args.input).times_holds
+    calibrate = args.calibrate and times_holds and world.levels > 1
     if args.calibrate and not calibrate:
-        applies = "to --input hold" if args.input != "hold" else f"to a world of several levels ({world.name!r} has one)"
+        timed = " or ".join(f"--input {mode.name}" for mode in INPUT_MODES.values() if mode.times_holds)
+        applies = f"to {timed}" if not times_holds else f"to a world of several levels ({world.name!r} has one)"
         warn(Console(stderr=True, highlight=False), ignored(["--calibrate"], applies))
     seed = args.seed if args.seed is not None else secrets.randbelow(2**32)
     player = args.player or default_player()
     app = make_play_app(world, out=args.out, player=player, seed=seed, input_mode=args.input,
                         calibrate=calibrate, driver_class=KittyDriver)
-    play = app.first_screen
+    session = app.first_screen.session
     try:
         app.run()
     finally:
-        play.record_quit()
-    recorder = play.recorder
+        session.quit()
+    recorder = session.recorder
     say_recorded(recorder)
-    if play.write_error is not None:
+    if session.write_error is not None:
         kept = "the steps before it are kept" if recorder.paths else "nothing was recorded"
-        raise UsageError(f"cannot write the recording in {args.out} ({write_problem(play.write_error)}); "
+        raise UsageError(f"cannot write the recording in {args.out} ({write_problem(session.write_error)}); "
                          f"the game stopped and {kept}")
     if not recorder.paths:
         print("nothing was played, so nothing was recorded")

@@ -42,16 +42,15 @@ def run_study_run(args: argparse.Namespace) -> int:
                          f"({exc.strerror or exc}); check the study's out folder") from None
     require_terminal("study run")
     app = make_study_app(study, args.participant, driver_class=KittyDriver)
-    flow = app.first_screen
+    flow = app.first_screen.flow
     try:
         app.run()
     finally:
-        flow.record_quit()
-    for play in flow.plays:
-        say_recorded(play.recorder)
-    errors = [play.write_error for play in flow.plays if play.write_error is not None]
-    if errors:
-        raise UsageError(f"cannot write the recording in {printable(str(protocol.folder))} ({write_problem(errors[0])}); "
+        flow.quit()
+    for session in flow.sessions:
+        say_recorded(session.recorder)
+    if flow.write_error is not None:
+        raise UsageError(f"cannot write the recording in {printable(str(protocol.folder))} ({write_problem(flow.write_error)}); "
                          "the study stopped; run the same command to go on from the last finished episode")
     print(standing(study, args.participant))
     return 0

@@ -14,7 +14,7 @@ import time
 
 from textual import events
 
-from careful_tui.keys.hold import Clock
+from irl_core.play.hold import Clock
 
 
 class KeyArrival:

@@ -1,15 +1,15 @@
 """The calibration screen: "hold an arrow for 2 seconds" measures the keyboard's autorepeat.
 
-It feeds every arrow press and autorepeat to `careful_tui.keys.calibration.Calibration` and
-ends the attempt at the key's release: a kitty release event, or a silence of `SILENCE_S` once
-the autorepeat has started (`FIRST_REPEAT_S` before, longer than any initial delay it accepts).
-It returns the calibrated `HoldProfile`, or None when cancelled.
+It draws one `irl_core.play.calibration.Calibrating` attempt (the session's `start_calibration`)
+and feeds it every arrow press, autorepeat and release; the attempt ends at the key's release
+(a kitty release event, or the silence after the last key). Escape cancels, `r` tries again,
+Enter takes the result. It returns the calibrated `HoldProfile`, or None when cancelled.
 
 Time: as in play, every key is timed by when it reached the app (`careful_tui.keys.arrival`),
 so keys a stall of the event loop held back still measure the delay and period they showed;
-the silence is the injectable `clock`'s time since the last key's arrival, on that clock. As in
-play, the timer judges a silence only once the keys that came are handled
-(`careful_tui.screens.behind_input`): after a stall, repeats still queued are no release.
+the silence is judged on the session's clock. As in play, the timer judges a silence only once
+the keys that came are handled (`careful_tui.screens.behind_input`): after a stall, repeats
+still queued are no release.
 """
 
 from __future__ import annotations
@@ -22,16 +22,13 @@ from textual.screen import ModalScreen
 from textual.widgets import Static
 
 from careful_tui.keys.arrival import KeyArrival
-from careful_tui.keys.calibration import Calibration
-from careful_tui.keys.hold import DIRECTIONS, Clock, HoldProfile
 from careful_tui.keys.kitty import KeyRelease
 from careful_tui.render.palette import BAR, EMPTY, GOOD, NOTE, ON_NOTE, SLIP
 from careful_tui.screens.behind_input import TickBehindInput
+from irl_core.play.calibration import HOLD_S, Calibrating
+from irl_core.play.hold import HoldProfile
 from irl_core.words import plural
 
-HOLD_S = 2.0
-SILENCE_S = 0.3
-FIRST_REPEAT_S = Calibration.DELAY_RANGE_MS[1] / 1000 + 0.2
 BAR_WIDTH = 30
 KEY_CHIP = f"bold {ON_NOTE} on {NOTE}"
 
@@ -39,19 +36,14 @@ KEY_CHIP = f"bold {ON_NOTE} on {NOTE}"
 class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
     """Measure the autorepeat initial delay and period from one long hold of an arrow.
 
-    `clock` and `event_times` are play's (`careful_tui.keys.arrival`).
+    `event_times` is play's (`careful_tui.keys.arrival`).
     """
 
-    def __init__(self, base: HoldProfile, *, clock: Clock, event_times: bool | None = None) -> None:
+    def __init__(self, calibrating: Calibrating, *, event_times: bool | None = None) -> None:
         super().__init__()
-        self.base = base
-        self.clock = clock
-        self.arrival = KeyArrival(clock, event_times=event_times)
-        self._calibration = Calibration(base)
-        self._first: float | None = None
-        self._last: float | None = None
-        self._result: HoldProfile | None = None
-        self._problem: str | None = None
+        self.calibrating = calibrating
+        self.clock = calibrating.clock
+        self.arrival = KeyArrival(calibrating.clock, event_times=event_times)
         self._shown: tuple | None = None
 
     def compose(self) -> ComposeResult:
@@ -66,58 +58,40 @@ class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
     def on_key(self, event: events.Key) -> None:
         event.stop()
         event.prevent_default()
-        key = event.key
+        key, calibrating = event.key, self.calibrating
         if key == "escape":
             self.dismiss(None)
-        elif key == "enter" and self._result is not None:
-            self.dismiss(self._result)
+        elif key == "enter" and calibrating.result is not None:
+            self.dismiss(calibrating.result)
         elif key == "r":
-            self._restart()
-        elif key in DIRECTIONS and self._result is None and self._problem is None:
-            came = self.arrival(event)
-            if self._first is None:
-                self._first = came
-            self._last = came
-            self._calibration.feed(key, came)
+            calibrating.restart()
+            self._show()
+        else:
+            calibrating.press(key, at=self.arrival(event))
             self._show()
 
     def on_key_release(self, event: KeyRelease) -> None:
         event.stop()
-        if event.key in DIRECTIONS and self._first is not None and self._result is None:
-            self._finish()
+        self.calibrating.release(event.key)
+        self._show()
 
     def tick(self, *, input_until: float | None = None) -> None:
         """End the attempt once the key has been released (silent by `input_until`, default now,
         with no key waiting to be handled); redraw the progress."""
-        if self._last is not None and self._result is None and self._problem is None:
-            silence = SILENCE_S if self._calibration.repeats else FIRST_REPEAT_S
-            until = self.clock() if input_until is None else input_until
-            if until - self._last >= silence and not self.input_waiting():
-                self._finish()
-            else:
-                self._show()
-
-    def _finish(self) -> None:
-        try:
-            self._result = self._calibration.result()
-        except ValueError as exc:
-            self._problem = str(exc)
-        self._show()
-
-    def _restart(self) -> None:
-        self._calibration = Calibration(self.base)
-        self._first = self._last = self._result = self._problem = None
-        self._show()
+        if self.calibrating.measuring:
+            self.calibrating.tick(until=input_until, keys_waiting=self.input_waiting())
+            self._show()
 
     def _show(self) -> None:
-        held = 0.0 if self._first is None else self.clock() - self._first
-        state = (round(held, 1), self._calibration.repeats, self._result, self._problem)
+        calibrating = self.calibrating
+        held = calibrating.held_s
+        state = (round(held, 1), calibrating.repeats, calibrating.result, calibrating.problem)
         if state == self._shown:
             return
         self._shown = state
         text = Text()
-        if self._result is not None:
-            p = self._result
+        if calibrating.result is not None:
+            p = calibrating.result
             text.append("Measured.\n\n", style=f"bold {GOOD}")
             text.append(f"Autorepeat starts after {p.initial_delay_ms:.0f} ms and repeats every "
                         f"{p.repeat_period_ms:.0f} ms.\nHolds under {p.initial_delay_ms:.0f} ms are level 1; "
@@ -129,8 +103,8 @@ class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
             text.append(" again   ")
             text.append(" esc ", style=KEY_CHIP)
             text.append(" keep the current timing")
-        elif self._problem is not None:
-            text.append(f"{self._problem[0].upper()}{self._problem[1:]}.\n\n", style=f"bold {SLIP}")
+        elif calibrating.problem is not None:
+            text.append(f"{calibrating.problem[0].upper()}{calibrating.problem[1:]}.\n\n", style=f"bold {SLIP}")
             text.append(" r ", style=KEY_CHIP)
             text.append(" try again   ")
             text.append(" esc ", style=KEY_CHIP)
@@ -140,7 +114,7 @@ class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
             filled = round(BAR_WIDTH * min(1.0, held / HOLD_S))
             text.append(" " * filled, style=f"on {BAR}")
             text.append(" " * (BAR_WIDTH - filled), style=f"on {EMPTY}")
-            text.append(f"  {held:.1f} s   {plural(self._calibration.repeats, 'repeat')}\n\n")
+            text.append(f"  {held:.1f} s   {plural(calibrating.repeats, 'repeat')}\n\n")
             text.append("This measures your key repeat; levels count from it.\n\n", style="dim")
             text.append(" esc ", style=KEY_CHIP)
             text.append(" cancel")

@@ -1,30 +1,23 @@
-"""`careful play`: the paper's cliff game, recorded step by step (recordings/README.md, README "What it does" and "Playing").
+"""`careful play`'s screen: the play session (`irl_core.play.session`) in a terminal (README "Playing").
 
 The player moves with the arrow keys and holds a key longer to be more careful. While a key is
 held the gauge fills and the arrow on the player grows; the move is made when the hold ends
-(`careful_tui.keys.hold` infers the end from the autorepeat rhythm, or a kitty release event ends it
-exactly). The rules and the recording live in `irl_core.game`; this module is the screen, which
-mirrors what it shows in reactives whose changes redraw it (the status and the hold's numbers
-are drawn by `careful_tui.widgets.play_status`).
+(the session infers the end from the autorepeat rhythm, or a kitty release event ends it
+exactly). The session keeps every rule: the game, its recording, the input mode, calibration,
+the episode count, write failures and quitting. This screen is its terminal front end: it turns
+Textual's key events into the session's calls and mirrors the session's `view()` in reactives,
+whose changes redraw it (the status and the hold's numbers are drawn by
+`careful_tui.widgets.play_status`).
 
 Time: every timing decision reads one injectable `clock` (seconds, `time.monotonic` by
-default), shared by the input detector, the live gauge and the calibration screen. A key event
-is timed by when it reached the app, not when it was handled (`careful_tui.keys.arrival`). A 30 Hz
-timer runs only while a move is being entered; it calls `PlayScreen.tick`, which tests call
-directly after advancing a fake clock.
+default), the session's, shared by the calibration screen. A key event is timed by when it
+reached the app, not when it was handled (`careful_tui.keys.arrival`). A 30 Hz timer runs only
+while a move is being entered; it calls `PlayScreen.tick`, which tests call directly after
+advancing a fake clock.
 
-Recording: the session file (`recordings/<time>-<player>.jsonl`) is created at the first
-move, so a calibration made before anything was played goes into its header. Calibration is
-offered whenever no episode is half played (before an episode's first move or after its end);
-if the file already holds steps, the calibrated profile starts a new session file, whose
-episodes continue the numbering. Quitting (`q`, Ctrl+C, Ctrl+Q, closing the terminal) records
-a running episode that has steps as `quit`; a hold still being entered is not a move and is
-dropped.
-
-Failures: a recordings folder deleted mid-session is recreated and the session goes on in a
-new file holding every step so far (`SessionRecorder`), and the player is told. A file that
-cannot be written (a full disk, a folder made read-only) ends the game at once: nothing more
-can be recorded, so nothing more is played; `careful play` then exits 2 with one line.
+Quitting (`q`, Ctrl+C, Ctrl+Q, closing the terminal) quits the session, which records a running
+episode that has steps as `quit`. A file that cannot be written ends the game at once; the app
+exits and `careful play` then exits 2 with one line.
 """
 
 from __future__ import annotations
@@ -32,7 +25,6 @@ from __future__ import annotations
 import asyncio
 import os
 import signal
-import time
 
 from rich.text import Text
 from textual import events
@@ -44,19 +36,20 @@ from textual.timer import Timer
 from textual.widgets import Static
 
 from careful_tui.keys.arrival import KeyArrival
-from careful_tui.keys.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput
-from careful_tui.keys.modes import make_input
 from careful_tui.keys.kitty import KeyRelease, key_repeat
 from careful_tui.render.palette import NOTE, SLIP, WARN
 from careful_tui.screens.behind_input import TickBehindInput
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
-from careful_tui.widgets.play_status import EpisodeNames, GameStatus, HoldInfo, HoldView
+from careful_tui.widgets.play_status import GameStatus, HoldInfo
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.recording_writer import SessionRecorder
 from irl_core.game import Cell, Game, MoveResult
+from irl_core.play.hold import Clock, HoldProfile, MoveInput
+from irl_core.play.input_modes import ARROWS, INPUT_MODES
+from irl_core.play.session import HoldView, Message, Played, PlaySession
 from irl_core.recording_lines import EpisodeEnd
+from irl_core.recording_writer import SessionRecorder
 from irl_core.safe_text import printable
 from irl_core.world import World
 
@@ -71,37 +64,31 @@ def minimum_size(world: World) -> tuple[int, int]:
 
 
 class PlayScreen(TickBehindInput, Screen[None]):
-    """The play screen. Build its app with `careful_tui.app.make_play_app`, which the CLI and the tests share.
+    """The play screen of one `PlaySession`. Build its app with `careful_tui.app.make_play_app`,
+    which the CLI and the tests share.
 
     Keys are read in `on_key`, which sees every press and autorepeat a hold needs (and is what
     the tests call); the bindings below name the keys in the footer, and `check_action` shows
-    those that do something now.
-
-    A study plays a set number of episodes on it: `episodes` (then space dismisses the screen),
-    `episodes_done` of the `episodes_done + episodes` already played before, each called an
-    `episode_word` ("Practice episode 1 of 2"), under the title `heading`; `command` names what a
-    too-small terminal is told needs more room. `event_times` says whether key events' own
-    times are on `clock` (`careful_tui.keys.arrival`; None: when `clock` is `time.monotonic`).
+    those that do something now. A session that plays a set number of episodes (a study's
+    block) dismisses the screen when the last has ended and space is pressed. `event_times` says
+    whether key events' own times are on the session's clock (`careful_tui.keys.arrival`; None:
+    when it is `time.monotonic`).
     """
 
     TITLE = "careful play"
     BINDINGS = [
-        Binding("up,right,down,left", "move('hold')", "move · hold longer: more careful", key_display="←↑→↓"),
-        Binding("up,right,down,left", "move('tap')", "move · tap ×k: level k", key_display="←↑→↓"),
-        Binding("1,2,3,4,5,6,7,8,9", "move('digits')", "level", key_display="1-9"),
-        Binding("up,right,down,left", "move('digits')", "move", key_display="←↑→↓"),
-        Binding("backspace", "move('digits')", "fix", key_display="⌫"),
-        Binding("up,right,down,left", "move('one level')", "move", key_display="←↑→↓"),
+        *(Binding(hint.keys, f"move({name!r})", hint.words, key_display=hint.display)
+          for name, mode in INPUT_MODES.items() for hint in mode.key_hints),
+        Binding(ARROWS.keys, "move('one level')", ARROWS.words, key_display=ARROWS.display),
         Binding("space,enter", "next_episode", "next episode", key_display="space"),
         Binding("space,enter", "next_episode('last')", "go on", key_display="space"),
         Binding("c", "calibrate", "calibrate"),
     ]
 
-    # What the screen shows, mirrored from `game`, `recorder` and `input` (which keep the rules,
-    # the recording and the move being entered) by `_mirror` and `_mirror_hold` after each change
-    # of them. A change is what redraws: the watchers below move the board's player, arrow and
-    # flash and fill the gauge; the status and the hold's numbers are bound to these (`compose`)
-    # and repaint once in the next frame however many changed; `live`, `too_small` and `step`
+    # What the screen shows, mirrored from the session's `view()` by `_mirror` after each call.
+    # A change is what redraws: the watchers below move the board's player, arrow and flash and
+    # fill the gauge; the status and the hold's numbers are bound to these (`compose`) and
+    # repaint once in the next frame however many changed; `live`, `too_small` and `step`
     # leaving or reaching 0 refresh the key bar (what `check_action` answers).
     cell: var[Cell | None] = var(None, init=False)
     episode: var[int] = var(0, init=False)
@@ -109,7 +96,7 @@ class PlayScreen(TickBehindInput, Screen[None]):
     score: var[float] = var(0.0, init=False)
     live: var[bool] = var(False, init=False, bindings=True)
     last_end: var[EpisodeEnd | None] = var(None, init=False)
-    all_played: var[bool] = var(False, init=False)  # the episodes this screen was given (if any) have ended
+    all_played: var[bool] = var(False, init=False)  # the session's set episodes (if any) have ended
     last_move: var[MoveResult | None] = var(None, init=False)
     message: var[Text] = var(Text, init=False)
     hold: var[HoldView | None] = var(None, init=False)
@@ -117,66 +104,63 @@ class PlayScreen(TickBehindInput, Screen[None]):
     too_small: var[bool] = var(False, init=False, bindings=True)
     recording: var[str] = var("", init=False)
 
-    def __init__(
-        self,
-        game: Game,
-        recorder: SessionRecorder,
-        *,
-        input_mode: str = "hold",
-        profile: HoldProfile | None = None,
-        clock: Clock = time.monotonic,
-        calibrate: bool = False,
-        player: str = "player",
-        heading: str = "careful play",
-        episodes: int | None = None,
-        episodes_done: int = 0,
-        episode_word: str = "Episode",
-        command: str = "careful play",
-        event_times: bool | None = None,
-    ) -> None:
+    def __init__(self, session: PlaySession, *, event_times: bool | None = None) -> None:
         super().__init__()
-        self.heading = heading
-        self.command = command
-        self.names = EpisodeNames(episode_word, game.first_episode, episodes, episodes_done)
-        self.game = game
-        self.recorder = recorder
-        self.world = game.world
-        self.clock = clock
-        self.arrival = KeyArrival(clock, event_times=event_times)
-        self.player = player
-        self.input_mode = input_mode
-        self.profile = profile or HoldProfile(levels=self.world.levels)
-        self.input: MoveInput = make_input(input_mode, self.profile, clock=clock)
-        self.releases_seen = False
-        self._calibrate_at_start = calibrate
-        self._last_key_at: float | None = None
+        self.session = session
+        self.heading = session.options.heading
+        self.command = session.options.command
+        self.player = session.options.player
+        self.input_mode = session.mode.name
+        self.world = session.world
+        self.clock: Clock = session.clock
+        self.arrival = KeyArrival(session.clock, event_times=event_times)
         self._flash: Timer | None = None
-        self.write_error: OSError | ValueError | None = None
+
+    # The session's parts, as the command and the tests read them.
+    @property
+    def game(self) -> Game:
+        return self.session.game
+
+    @property
+    def recorder(self) -> SessionRecorder:
+        return self.session.recorder
+
+    @property
+    def input(self) -> MoveInput:
+        return self.session.input
+
+    @property
+    def profile(self) -> HoldProfile:
+        return self.session.profile
+
+    @property
+    def write_error(self) -> OSError | ValueError | None:
+        return self.session.write_error
 
     # ------------------------------------------------------------------ layout
 
     def compose(self) -> ComposeResult:
-        status = GameStatus(self.world, self.names, id="status").data_bind(
+        status = GameStatus(self.world, self.session.names, id="status").data_bind(
             PlayScreen.episode, PlayScreen.step, PlayScreen.score, PlayScreen.live, PlayScreen.last_end,
             PlayScreen.message, PlayScreen.all_played)
-        hold_info = HoldInfo(self.world, self.input_mode, id="hold-info").data_bind(PlayScreen.hold,
-                                                                                   PlayScreen.last_move)
+        hold_info = HoldInfo(self.world, self.session.mode, id="hold-info").data_bind(PlayScreen.hold,
+                                                                                     PlayScreen.last_move)
         yield from compose_game(self.world, slips=True, status=status, hold_info=hold_info)
 
     def on_mount(self) -> None:
         self._ticker = self.set_interval(TICK_S, self._tick_behind_input, pause=True)
-        self.game.begin_episode()
+        self.session.start()
         self._mirror()
         self._check_size(*self.app.size)
         if not self.app.is_headless:
             loop = asyncio.get_running_loop()
             loop.add_signal_handler(signal.SIGHUP, self.hang_up)
             loop.add_signal_handler(signal.SIGTERM, self.action_quit_game)
-        if self._calibrate_at_start:
+        if self.session.options.calibrate:
             self.action_calibrate()
 
     def on_unmount(self) -> None:
-        self.record_quit()
+        self.session.quit()
 
     def on_resize(self, event: events.Resize) -> None:
         self._check_size(event.size.width, event.size.height)
@@ -185,36 +169,24 @@ class PlayScreen(TickBehindInput, Screen[None]):
         self.too_small = self.query_one(TooSmall).check(width, height, minimum_size(self.world), command=self.command)
 
     def watch_too_small(self, too_small: bool) -> None:
-        """The window shrank while a move was being entered: drop it, and say so.
-
-        The player cannot see the gauge any more, so the level they were aiming for is not one
-        they chose: no move is better than a move at a level nobody saw.
-        """
-        if too_small and self.input.current() is not None:
-            self.input.cancel()
-            self._mirror_hold()
+        """The window shrank while a move was being entered: the session drops it, and says so
+        (the player cannot see the gauge any more, so the level they were aiming for is not one
+        they chose)."""
+        if self.session.set_board_visible(not too_small, why="window too small"):
             self.query_one(TooSmall).tell("The move being entered was cancelled.")
-            self.message = Text("Move cancelled (window too small).", style=WARN)
+            self._mirror()
 
     # ------------------------------------------------------------------ input
 
     def on_key(self, event: events.Key) -> None:
         key = event.key
-        if key in self.input.keys:
+        if key in self.session.keys:
             event.stop()
             event.prevent_default()
-            if self.game.live and self.too_small:
-                # No move while the board cannot be seen, nor later from this key's autorepeats
-                # (nothing is being entered while the window is too small, so nothing ends here).
-                self.input.press(key, repeat=key_repeat(event), at=self.arrival(event))
-                self.input.cancel()
-            elif self.game.live:
-                self._last_key_at = self.arrival(event)
-                self._commit(self.input.press(key, repeat=key_repeat(event), at=self._last_key_at))
-                self._mirror_hold()
-                if self.input.deadline() is not None or self.input.current() is not None:
-                    self._ticker.resume()
-        elif key in ("space", "enter") and not self.game.live:
+            self._show(self.session.press(key, repeat=key_repeat(event), at=self.arrival(event)))
+            if self.session.entering():
+                self._ticker.resume()
+        elif key in ("space", "enter") and not self.session.game.live:
             event.stop()
             event.prevent_default()
             self.action_next_episode()
@@ -224,10 +196,8 @@ class PlayScreen(TickBehindInput, Screen[None]):
             self.action_calibrate()
 
     def on_key_release(self, event: KeyRelease) -> None:
-        if event.key in self.input.keys:
-            self.releases_seen = True
-            self._commit(self.input.release(event.key, at=self.arrival(event)))
-            self._mirror_hold()
+        if event.key in self.session.keys:
+            self._show(self.session.release(event.key, at=self.arrival(event)))
 
     def tick(self, *, input_until: float | None = None) -> None:
         """Commit a hold whose release timeout passed by `input_until` (default: now), the time up
@@ -238,42 +208,20 @@ class PlayScreen(TickBehindInput, Screen[None]):
         split one held key into two moves. So the hold ends only when neither queue holds a
         message (`careful_tui.screens.behind_input`, whose `_tick_behind_input` the timer runs).
         """
-        if not self.input_waiting():
-            self._commit(self.input.poll(at=input_until))
-        self._mirror_hold()
-        if self.input.current() is None and self.input.deadline() is None:
+        self._show(self.session.tick(until=input_until, keys_waiting=self.input_waiting()))
+        if not self.session.entering():
             self._ticker.pause()
 
-    def _commit(self, holds: list[Hold]) -> None:
-        for hold in holds:
-            if not self.game.live:
-                break
-            try:
-                result = self.game.move(hold.key, hold.level, hold_ms=hold.hold_ms, exact=hold.exact)
-            except (OSError, ValueError) as exc:
-                self.stop_on_write_error(exc)
-                return
-            self.last_move = result
-            self._show_move(result)
-            if result.end is not None:
-                self.input.reset()
-        if holds:
-            self._show_notices()
-            self._mirror()
-
-    def stop_on_write_error(self, error: OSError | ValueError) -> None:
-        """The recording cannot be written: play no further (`run_play` reports it)."""
-        self.write_error = error
-        self.input.reset()
-        self.game.live = False
-        self.app.exit()
-
-    def _show_notices(self) -> None:
-        """Tell the player what the recorder did on its own (a deleted folder recreated)."""
-        while self.recorder.notices:
-            notice = printable(self.recorder.notices.pop(0), limit=300)
-            self.message = Text(notice, style=NOTE)
+    def _show(self, played: Played) -> None:
+        """Draw what a session call did: a write failure leaves, a slip flashes, a notice pops up."""
+        if played.stopped:
+            self.app.exit()
+            return
+        if played.moves:
+            self._flash_slip(played.moves[-1])
+        for notice in played.notices:
             self.notify(notice, title="recording", severity="warning", timeout=15, markup=False)
+        self._mirror()
 
     # ------------------------------------------------------------------ actions
 
@@ -284,22 +232,20 @@ class PlayScreen(TickBehindInput, Screen[None]):
         if action == "next_episode":
             return not self.live and self.all_played == (parameters == ("last",))
         if action == "calibrate":
-            return self.input_mode == "hold" and self.world.levels > 1 and (not self.live or self.step == 0)
+            return self.session.calibration_offered
         return super().check_action(action, parameters)
 
     def action_move(self, mode: str) -> None:
         """Nothing: `on_key` reads the move keys (these bindings only name them in the footer)."""
 
     def action_next_episode(self, last: str = "") -> None:
-        if self.all_played:
+        if self.session.next_episode():
             self.dismiss(None)
             return
-        self.game.begin_episode()
-        self.message = Text()
         self._mirror()
 
     def action_quit_game(self) -> None:
-        self.record_quit()
+        self.session.quit()
         self.app.exit()
 
     def hang_up(self) -> None:
@@ -309,96 +255,46 @@ class PlayScreen(TickBehindInput, Screen[None]):
         that write blocks forever, so after the recording is safely on disk the process ends
         without it (exit status 129, as for a hang-up).
         """
-        self.record_quit()
+        self.session.quit()
         os._exit(128 + signal.SIGHUP)
 
-    def record_quit(self) -> None:
-        """End a running episode as `quit` and close the file (safe to call more than once)."""
-        self.input.reset()
-        try:
-            self.game.quit()
-            self.recorder.close()
-        except (OSError, ValueError) as exc:
-            self.write_error = self.write_error or exc
-
     def action_calibrate(self) -> None:
-        if self.input_mode != "hold":
-            self.notify(f"Calibration measures how your keyboard repeats a held key; {self.input_mode} input "
-                        "does not time holds.", title="calibrate")
+        refused = self.session.calibration_refused()
+        if refused is not None:
+            self.notify(refused, title="calibrate")
             return
-        if self.game.live and self.game.t > 0:
-            self.notify("Calibrate before an episode's first move or after it ends.", title="calibrate")
-            return
-        self.input.reset()
-        self._mirror_hold()
-        calibration = CalibrationScreen(self.profile, clock=self.clock, event_times=self.arrival.event_times)
-        self.app.push_screen(calibration, self.use_profile)
+        calibrating = self.session.start_calibration()
+        self._mirror()
+        self.app.push_screen(CalibrationScreen(calibrating, event_times=self.arrival.event_times), self.use_profile)
 
     def use_profile(self, profile: HoldProfile | None) -> None:
         """Play on with `profile` (a calibration's result); None keeps the current one."""
-        if profile is None:
-            return
-        self.profile = profile
-        self.input = make_input(self.input_mode, profile, clock=self.clock)
-        self.recorder.set_header(self.recorder.header.model_copy(update={"input": self.input.header()}))
-        # One line of at most 42 characters: the status at the smallest terminal.
-        self.message = Text(f"Calibrated: a tap is a move after {profile.first_repeat_timeout_ms:.0f} ms.", style=NOTE)
+        self.session.use_profile(profile)
         self._mirror()  # a file that has steps is closed: the next move starts a new one
 
     # ------------------------------------------------------------------ what is shown
 
     def _mirror(self) -> None:
-        """Show the game and its recording as they are now (the watchers redraw what changed)."""
-        game, path = self.game, self.recorder.path
-        self.cell, self.episode, self.step, self.score = game.cell, game.episode, game.t, game.score
-        self.live, self.last_end = game.live, game.last_end
-        self.all_played = self.names.all_played(game.episode, game.live)
-        self.recording = str(path) if path is not None else f"{self.recorder.folder}{os.sep}"
+        """Show the session as it is now (the watchers redraw what changed)."""
+        view = self.session.view()
+        self.last_move = view.last_move
+        self.message = message_text(view.message)
+        self.cell, self.episode, self.step, self.score = view.cell, view.episode, view.step, view.score
+        self.live, self.last_end, self.all_played = view.live, view.last_end, view.all_played
+        self.recording = view.recording
+        self.hold = view.hold
 
-    def _mirror_hold(self) -> None:
-        """Show the move being entered, if any."""
-        current = self.input.current()
-        self.hold = None if current is None else self._hold_view(current)
-
-    def _show_move(self, result: MoveResult) -> None:
-        step = result.step
+    def _flash_slip(self, result: MoveResult) -> None:
         if result.slipped:
-            self.message = Text.assemble(("slipped! ", f"bold {SLIP}"),
-                                         f"you went {result.realised} instead of {step.direction}")
-            self.slipped_to = step.next_state
+            self.slipped_to = result.step.next_state
             if self._flash is not None:
                 self._flash.stop()
             self._flash = self.set_timer(FLASH_S, self._end_flash)
         else:
-            self.message = Text()
             self.slipped_to = None
 
     def _end_flash(self) -> None:
         self.slipped_to = None
-
-    def _hold_view(self, current: ActiveHold) -> HoldView:
-        """The move being entered as shown: its level, gauge fill and hold ms.
-
-        In hold mode without release events a hold with no autorepeat yet is a tap (level 1)
-        and a hold shows no more than one repeat period past its last key event, so the
-        gauge never shows a level the move will not get.
-        """
-        if self.input_mode != "hold":
-            return HoldView(current.key, current.level, float(current.level), current.elapsed_ms)
-        p = self.profile
-        shown_ms = current.elapsed_ms
-        if not self.releases_seen:
-            if current.repeats == 0:
-                return HoldView(current.key, 1, 1 + 0.9 * min(1.0, shown_ms / p.initial_delay_ms), shown_ms)
-            if self._last_key_at is not None:
-                started = self.clock() - current.elapsed_ms / 1000
-                shown_ms = min(shown_ms, (self._last_key_at - started) * 1000 + p.repeat_period_ms)
-        level = p.level_for(shown_ms)
-        if shown_ms < p.initial_delay_ms:
-            fill = 1 + shown_ms / p.initial_delay_ms
-        else:
-            fill = 2 + (shown_ms - p.initial_delay_ms) / p.ms_per_level
-        return HoldView(current.key, level, min(fill, level + 0.999, float(p.levels)), shown_ms)
 
     # ------------------------------------------------------------------ drawing
 
@@ -422,3 +318,14 @@ class PlayScreen(TickBehindInput, Screen[None]):
             (printable(self.heading, limit=60), f"bold {NOTE}"), " · player ", (printable(self.player, limit=40), "bold"),
             f" · {self.input_mode} input", (f" · recording → {printable(where, limit=200)}", "dim"),
         ), layout=False)
+
+
+MESSAGE_STYLES = {"": "", "slip": SLIP, "note": NOTE, "warn": WARN}
+
+
+def message_text(message: Message) -> Text:
+    """A session's message as the status line draws it: its lead strong in its kind's colour."""
+    style = MESSAGE_STYLES[message.kind]
+    if message.lead:
+        return Text.assemble((message.lead, f"bold {style}"), message.text)
+    return Text(message.text, style=style)

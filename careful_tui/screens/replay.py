@@ -4,7 +4,7 @@ The screen is the play screen's, reused: the board shows the player where the st
 with the arrow of the recorded direction and carefulness, then where the move went (a slip
 framed in the slip colour); the gauge shows the step's recorded level and hold time. A side
 panel summarises the session (`irl_core.summary`), with mean carefulness by distance from
-the nearest terminal cell. Where the replay is lives in `careful_tui.screens.replay_cursor`.
+the nearest terminal cell. Where the replay is lives in `irl_core.replay_cursor`.
 
 Several files are watched one after another, each in its own world: the title and the panel
 say which file (n of m) is on screen, and coming to a file recorded in another world than the
@@ -32,12 +32,13 @@ from careful_tui.render.grid import format_value
 from careful_tui.render.palette import NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_colour, outcome_text, summary_panel
 from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
-from careful_tui.screens.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording
-from irl_core.recording_lines import Step
 from irl_core.mdp import DIRECTIONS, OFFSETS
+from irl_core.play.input_modes import INPUT_MODES
+from irl_core.recording_lines import Step
+from irl_core.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.summary import distance_to_terminal, outcome_code, summarise
 from irl_core.words import plural
@@ -340,7 +341,8 @@ class ReplayScreen(Screen[None]):
             ("  cost ", "dim"), (format_value(self.world.cost_per_level * level), "bold"),
         )
         mode = self.recording.header.input.get("mode")
-        if mode == "hold" and step.hold_ms is not None:
+        timed = mode in INPUT_MODES and INPUT_MODES[mode].times_holds  # a file may name a mode this version lacks
+        if timed and step.hold_ms is not None:
             text.append(f"\nheld {step.hold_ms:.0f} ms", style="dim")
             if step.hold_exact:
                 text.append(" exact", style=f"bold {NOTE}")

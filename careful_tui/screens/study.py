@@ -1,13 +1,9 @@
-"""`careful study run`: one participant through a study's protocol (README "Studies"), on the one app.
+"""`careful study run`'s screen: the study's flow (`irl_core.play.study_flow`) in a terminal (README "Studies").
 
-The study screen is the flow around the play screen. It shows the study's instructions (space to
-begin); then, for the next block of the participant's protocol (a world's practice or main
-episodes, `irl_core.study.read_protocol`), it pushes a `PlayScreen` that plays the block's
-remaining episodes into a new file of the participant's folder, the file's header carrying the
-block's `study` tag and its episode numbers continuing the block's. When the play screen hands
-back, the protocol is read again from the folder, so what comes next is always what the files
-say: a note when practice ends and the main episodes begin, a short screen between worlds, and
-the end screen when nothing is left.
+The flow keeps the stages (instructions, each block, between blocks, the end) and where the
+participant stands; this screen draws the stage's text and, when space asks for the next block,
+pushes a `PlayScreen` on the block's session. When the play screen hands back, the flow reads
+the participant's folder again and says which stage comes next.
 
 `q` (or SIGTERM) leaves from any screen, keeping what was recorded (the play screen records a running
 episode as ``quit``); running the same participant again resumes where the files say, and an
@@ -23,8 +19,6 @@ from __future__ import annotations
 import asyncio
 import os
 import signal
-from collections.abc import Callable
-from typing import Literal
 
 from rich.console import Group
 from rich.text import Text
@@ -35,50 +29,16 @@ from textual.reactive import reactive
 from textual.screen import Screen
 from textual.widgets import Static
 
-from careful_tui.keys.hold import HoldProfile
 from careful_tui.render.palette import GOOD, NOTE, WARN
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
-from irl_core.safe_text import cut, printable
-from irl_core.study import Block, LoadedStudy, Protocol, read_protocol
+from irl_core.play.input_modes import input_mode
+from irl_core.play.study_flow import Stage, StudyFlow
+from irl_core.safe_text import printable
+from irl_core.study import Block, Protocol
 from irl_core.words import plural
 
-Stage = Literal["instructions", "practice_over", "next_world", "end"]
-# How to choose a carefulness level, per input mode (the instructions' words; play says it shorter).
-MODE_WORDS = {
-    "hold": "Hold an arrow key down: the longer you hold it, the more careful the move. The move is "
-            "made when you let go.",
-    "tap": "Tap an arrow key k times quickly for a move at level k (one tap: level 1).",
-    "digits": "Type the level (a number), then press the arrow key. An arrow alone is a level 1 move; "
-              "backspace takes back a digit.",
-}
 PROBLEMS_SHOWN = 3
-# The play screen shows this much of its heading; the study's name takes at most STUDY_NAME_LIMIT of it.
-HEADING_LIMIT, STUDY_NAME_LIMIT = 60, 20
-
-PlayBlock = Callable[[Protocol, Block, HoldProfile | None], PlayScreen]
-
-
-def block_heading(protocol: Protocol, block: Block) -> str:
-    """ "pilot · world 1 of 2 (paper) · practice", at most `HEADING_LIMIT` characters: a long
-    study or world name is cut, never the place and the phase."""
-    name = cut(printable(protocol.study.study.name), STUDY_NAME_LIMIT, say_length=False)
-    place = f" · world {block.position + 1} of {len(protocol.order)} ("
-    phase = f") · {block.phase}"
-    room = max(8, HEADING_LIMIT - len(name) - len(place) - len(phase))
-    world = cut(printable(protocol.world(block).name), room, say_length=False)
-    return f"{name}{place}{world}{phase}"
-
-
-def block_play_options(protocol: Protocol, block: Block) -> dict[str, object]:
-    """The `PlayScreen` options of a block: its title, its remaining episodes and how they are counted."""
-    return {
-        "heading": block_heading(protocol, block),
-        "episodes": block.remaining,
-        "episodes_done": block.done,
-        "episode_word": "Practice episode" if block.phase == "practice" else "Episode",
-        "command": "careful study run",
-    }
 
 
 def where_next(protocol: Protocol) -> Text:
@@ -108,7 +68,7 @@ def plan_text(protocol: Protocol) -> Text:
     text.append("A careful move costs more points and slips less: a slip sends you another way than "
                 "you chose. Beside the gauge on the left, every level shows its cost and its chance "
                 "of slipping.\n\n")
-    text.append(MODE_WORDS[study.input])
+    text.append(input_mode(study.input).study_words)
     return text
 
 
@@ -188,15 +148,14 @@ def _spaced(parts: list[Text]) -> Group:
 
 
 class StudyScreen(Screen[None]):
-    """A participant's way through a study: instructions, each block played on a `PlayScreen`
-    (built by `play_block`), the screens between blocks, the end.
+    """A participant's way through a study (`flow`): the stage's text, and each block played on
+    a `PlayScreen` of the block's session.
 
-    Build its app with `careful_tui.app.make_study_app`. `plays` holds every play screen pushed,
-    so the command can say what was recorded.
+    Build its app with `careful_tui.app.make_study_app`. `event_times` goes to the play screens.
 
     Reactives:
-        stage: which text shows (``instructions``, ``practice_over``, ``next_world``, ``end``);
-            it is set again (and redrawn) after every block.
+        stage: which text shows (``instructions``, ``practice_over``, ``next_world``, ``end``),
+            the flow's; it is set again (and redrawn) after every block.
     """
 
     TITLE = "careful study"
@@ -208,15 +167,10 @@ class StudyScreen(Screen[None]):
 
     stage: reactive[Stage] = reactive("instructions", always_update=True, init=False)
 
-    def __init__(self, study: LoadedStudy, participant: str, *, play_block: PlayBlock) -> None:
+    def __init__(self, flow: StudyFlow, *, event_times: bool | None = None) -> None:
         super().__init__()
-        self.study = study
-        self.participant = participant
-        self.play_block = play_block
-        self.protocol = read_protocol(study, participant)
-        self.plays: list[PlayScreen] = []
-        self.profile: HoldProfile | None = None
-        self._finished: Block | None = None
+        self.flow = flow
+        self.event_times = event_times
 
     def compose(self) -> ComposeResult:
         yield Static(id="title")
@@ -225,12 +179,13 @@ class StudyScreen(Screen[None]):
         yield KeyBar(id="keys")
 
     def on_mount(self) -> None:
+        flow = self.flow
         self.query_one("#title", Static).update(Text.assemble(
-            ("careful study", f"bold {NOTE}"), f" · {printable(self.study.study.name, limit=60)} · participant ",
-            (self.participant, "bold"), f" · {self.study.study.input} input",
-            (f" · recording → {printable(str(self.protocol.folder), limit=200)}", "dim"),
+            ("careful study", f"bold {NOTE}"), f" · {printable(flow.study.study.name, limit=60)} · participant ",
+            (flow.participant, "bold"), f" · {flow.study.study.input} input",
+            (f" · recording → {printable(str(flow.protocol.folder), limit=200)}", "dim"),
         ))
-        self.stage = "end" if self.protocol.finished else "instructions"
+        self.stage = flow.stage
         if not self.app.is_headless:
             # Until a play screen puts in its own (which record the running episode first).
             loop = asyncio.get_running_loop()
@@ -243,13 +198,14 @@ class StudyScreen(Screen[None]):
         os._exit(128 + signal.SIGHUP)
 
     def watch_stage(self, stage: Stage) -> None:
+        protocol = self.flow.protocol
         if stage == "instructions":
-            text = instructions_text(self.protocol)
+            text = instructions_text(protocol)
         elif stage == "end":
-            text = end_text(self.protocol)
+            text = end_text(protocol)
         else:
-            assert self._finished is not None
-            text = between_text(self.protocol, self._finished)
+            assert self.flow.finished is not None
+            text = between_text(protocol, self.flow.finished)
         self.query_one("#study-text", Static).update(text)
         self.query_one("#study-body", VerticalScroll).scroll_home(animate=False)
         self.refresh_bindings()
@@ -263,30 +219,17 @@ class StudyScreen(Screen[None]):
     def action_go_on(self, shown_on: str) -> None:
         """Space: begin or go on with the next block, or leave at the end (`shown_on` only picks
         which binding the key bar shows; `check_action` matches it to the stage)."""
-        if self.stage == "end":
+        if self.flow.stage == "end":
             self.app.exit()
             return
-        block = self.protocol.next  # read at the start and again after each block
-        if block is None:
-            self.stage = "end"
+        session = self.flow.next_block()
+        if session is None:
+            self.stage = self.flow.stage
             return
-        play = self.play_block(self.protocol, block, self.profile)
-        self.plays.append(play)
-        self.app.push_screen(play, lambda _result: self.block_ended(play, block))
+        self.app.push_screen(PlayScreen(session, event_times=self.event_times),
+                             lambda _result: self.block_ended())
 
-    def block_ended(self, play: PlayScreen, block: Block) -> None:
-        """The play screen played its episodes: read where the participant stands now."""
-        self.profile = play.profile
-        self.protocol = read_protocol(self.study, self.participant)
-        self._finished = block
-        if self.protocol.finished:
-            self.stage = "end"
-        else:
-            following = self.protocol.next
-            same_world = following is not None and following.world_index == block.world_index
-            self.stage = "practice_over" if same_world and following.phase == "main" else "next_world"
+    def block_ended(self) -> None:
+        """The play screen played its episodes: the flow reads where the participant stands now."""
+        self.stage = self.flow.block_ended()
 
-    def record_quit(self) -> None:
-        """End the running block's episode as ``quit`` and close its file (safe to call more than once)."""
-        for play in self.plays:
-            play.record_quit()

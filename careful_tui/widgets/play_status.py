@@ -8,8 +8,6 @@ it returns is always the current state, drawn or not.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from rich.text import Text
 from textual.reactive import reactive
 from textual.widgets import Static
@@ -18,45 +16,17 @@ from careful_tui.render.grid import format_value
 from careful_tui.render.palette import GOOD, WARN, level_colour
 from careful_tui.render.session import outcome_colour, outcome_text
 from irl_core.game import MoveResult
+from irl_core.play.input_modes import InputMode
+from irl_core.play.session import EpisodeNames, HoldView
 from irl_core.recording_lines import EpisodeEnd
 from irl_core.summary import outcome_code
 from irl_core.world import World
 
 
-def mode_help(input_mode: str, levels: int) -> str:
-    """Under the gauge before the first move: how to choose a level in `input_mode` (the key bar
-    says it too), with an example. Lines of at most 17 characters, the width under the narrowest
-    gauge; the first alone must make sense, as a terminal of the minimum size shows only that."""
-    if levels == 1:
-        return "arrows: move"
-    k = min(3, levels)
-    return {
-        "hold": "hold = careful\nlet go: move",
-        "tap": f"tap k× = level k\n{'→' * k}: right at {k}",
-        "digits": f"level, then arrow\n{k} →: right at {k}",
-    }[input_mode]
-
-
-@dataclass(frozen=True)
-class EpisodeNames:
-    """How the status names a game's episodes: each is a `word` ("Practice episode"), numbered
-    from 1, or, when the screen plays a set `count` of them after `done` played before, within
-    those ("1 of 2"). `first` is the game's first episode number."""
-
-    word: str = "Episode"
-    first: int = 0
-    count: int | None = None
-    done: int = 0
-
-    def number(self, episode: int) -> str:
-        """The number shown for the game's episode `episode`: "3", or "1 of 2"."""
-        if self.count is None:
-            return f"{episode + 1}"
-        return f"{self.done + episode - self.first + 1} of {self.done + self.count}"
-
-    def all_played(self, episode: int, live: bool) -> bool:
-        """Whether the `count` episodes (if any) have all ended, `episode` being the last begun."""
-        return self.count is not None and not live and episode + 1 - self.first >= self.count
+def mode_help(mode: InputMode, levels: int) -> str:
+    """Under the gauge before the first move: how to choose a level in `mode` (the key bar says
+    it too), with an example (`InputMode.gauge_help`)."""
+    return "arrows: move" if levels == 1 else mode.gauge_help(min(3, levels))
 
 
 class GameStatus(Static):
@@ -108,27 +78,17 @@ class GameStatus(Static):
         return status
 
 
-@dataclass(frozen=True)
-class HoldView:
-    """The move being entered, as shown: its arrow key, level, gauge fill (in levels) and hold ms."""
-
-    key: str | None
-    level: int
-    fill: float
-    held_ms: float
-
-
 class HoldInfo(Static):
-    """Under the gauge: the level and cost of the move being entered (and in hold mode how long
-    it has been held); between moves the last move, or before the first how to choose a level."""
+    """Under the gauge: the level and cost of the move being entered (and in a mode that times
+    holds how long it has been held); between moves the last move, or before the first how to choose a level."""
 
     hold: reactive[HoldView | None] = reactive(None)
     last_move: reactive[MoveResult | None] = reactive(None)
 
-    def __init__(self, world: World, input_mode: str, *, id: str | None = None) -> None:
+    def __init__(self, world: World, mode: InputMode, *, id: str | None = None) -> None:
         super().__init__(id=id)
         self.world = world
-        self.input_mode = input_mode
+        self.mode = mode
 
     def render(self) -> Text:
         levels, view = self.world.levels, self.hold
@@ -137,14 +97,14 @@ class HoldInfo(Static):
                 ("level ", "dim"), (f"{view.level}", f"bold {level_colour(view.level, levels)}"),
                 ("  cost ", "dim"), (format_value(self.world.cost_per_level * view.level), "bold"),
             )
-            if self.input_mode == "hold":
+            if self.mode.times_holds:
                 text.append(f"\nheld {view.held_ms:.0f} ms", style="dim")
             return text
         if self.last_move is None:
-            return Text(mode_help(self.input_mode, levels), style="dim")
+            return Text(mode_help(self.mode, levels), style="dim")
         step = self.last_move.step
         text = Text.assemble(("last move\n", "dim"), (f"{step.direction} ", "bold"),
                              (f"level {step.carefulness}", f"bold {level_colour(step.carefulness, levels)}"))
-        if step.hold_ms is not None and self.input_mode == "hold":
+        if step.hold_ms is not None and self.mode.times_holds:
             text.append(f"\n{step.hold_ms:.0f} ms" + (" (exact)" if step.hold_exact else ""), style="dim")
         return text

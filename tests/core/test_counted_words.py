@@ -5,7 +5,7 @@ import json
 from pathlib import Path
 
 from careful_tui.cli import main
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp
 from careful_tui.screens.fit import FitScreen
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import FitOptions

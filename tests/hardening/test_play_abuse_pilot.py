@@ -46,10 +46,9 @@ from textual.pilot import Pilot
 from textual.widgets import Static
 
 import irl_core.recording_writer
-from careful_tui.keys.hold import HoldProfile
+from irl_core.play.hold import HoldProfile
 from careful_tui.keys.kitty import KeyRelease, KittyParser
-from careful_tui.app import make_play_app, make_replay_app
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp, make_play_app, make_replay_app
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.play import minimum_size
 from irl_core.demonstrations import Recording, read_recording

@@ -24,10 +24,9 @@ from textual.driver import Driver
 from textual.geometry import Size
 from textual.pilot import Pilot
 
-from careful_tui.app import make_fit_app, make_play_app, make_replay_app
+from careful_tui.app import CarefulApp, make_fit_app, make_play_app, make_replay_app
 from careful_tui.cli import build_parser
 from careful_tui.commands.fit import fit_from_args
-from careful_tui.screens.careful_app import CarefulApp
 from irl_core.demonstrations import read_recording
 from irl_core.world import World
 from test_play_abuse import write_replay_recording

@@ -169,7 +169,7 @@ def test_player_names_that_are_not_utf8_are_refused_before_anything_is_written(t
 
 def test_the_fit_view_shows_a_hostile_world_name_as_text_and_saves_beside_it(tmp_path, monkeypatch):
     from irl_core.irl import FitOptions
-    from careful_tui.screens.careful_app import CarefulApp
+    from careful_tui.app import CarefulApp
     from careful_tui.screens.fit import FitScreen
     from irl_core.demonstrations import Demonstrations
 

@@ -159,7 +159,7 @@ def opened(monkeypatch):
     """`careful fit` sees a terminal on standard input and output; the fit views it runs are collected."""
     from types import SimpleNamespace
 
-    from careful_tui.screens.careful_app import CarefulApp
+    from careful_tui.app import CarefulApp
 
     apps = []
     monkeypatch.setattr(CarefulApp, "run", lambda app: apps.append(app))

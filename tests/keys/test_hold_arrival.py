@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from careful_tui.keys.hold import Hold, HoldDetector, HoldProfile
-from careful_tui.keys.modes import TapCounter
+from irl_core.play.hold import Hold, HoldDetector, HoldProfile
+from irl_core.play.modes import TapCounter
 from play_fixtures import FakeClock
 
 PROFILE = HoldProfile()

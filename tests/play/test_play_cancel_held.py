@@ -9,8 +9,7 @@ from pathlib import Path
 
 from textual.pilot import Pilot
 
-from careful_tui.app import make_play_app
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp, make_play_app
 from careful_tui.screens.play import PlayScreen
 from irl_core.demonstrations import read_recording
 from play_fixtures import FakeClock, corner_world

@@ -16,9 +16,8 @@ import pytest
 from textual import events
 from textual.pilot import Pilot
 
-from careful_tui.app import new_play_screen
-from careful_tui.keys.hold import HoldProfile
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp, new_play_screen
+from irl_core.play.hold import HoldProfile
 from careful_tui.screens.play import PlayScreen
 from irl_core.demonstrations import read_recording
 from irl_core.recording_lines import Step

@@ -14,9 +14,8 @@ from rich.console import Console
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-from careful_tui.app import make_study_app
+from careful_tui.app import CarefulApp, make_study_app
 from careful_tui.cli import main
-from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.play import PlayScreen
 from careful_tui.screens.study import StudyScreen
 from careful_tui.widgets.too_small import TooSmall

@@ -27,9 +27,9 @@ import pytest
 from textual import events
 from textual.pilot import Pilot
 
-from careful_tui.app import new_play_screen
-from careful_tui.screens.calibration import SILENCE_S, CalibrationScreen
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp, new_play_screen
+from careful_tui.screens.calibration import CalibrationScreen
+from irl_core.play.calibration import SILENCE_S
 from play_fixtures import FakeClock, corner_world
 from test_play_redraw import visible
 
@@ -89,18 +89,18 @@ def test_keys_handled_late_measure_the_delay_and_period_they_came_with(tmp_path:
             for _, arrival in came:
                 app.post_message(stamped_key("up", arrival))
             await pilot.pause()
-            assert screen._result is None and screen._problem is None, f"the attempt ended at {when - start:.2f} s"
-        measured = seen["measured"] = screen._calibration.result()
+            assert screen.calibrating.result is None and screen.calibrating.problem is None, f"the attempt ended at {when - start:.2f} s"
+        measured = seen["measured"] = screen.calibrating.calibration.result()
         assert measured.initial_delay_ms == pytest.approx(DELAY * 1000, abs=TOLERANCE_MS)
         assert measured.repeat_period_ms == pytest.approx(PERIOD * 1000, abs=TOLERANCE_MS)
         # The silence after the last key counts from its arrival, on the screen's clock.
         clock.now = arrivals[-1] + SILENCE_S - 0.01
         screen.tick()
-        assert screen._result is None, "the attempt ended before a silence"
+        assert screen.calibrating.result is None, "the attempt ended before a silence"
         clock.now = arrivals[-1] + SILENCE_S + 1e-6
         screen.tick()
         await pilot.pause()
-        assert screen._result is not None, "no end SILENCE_S after the last key's arrival"
+        assert screen.calibrating.result is not None, "no end SILENCE_S after the last key's arrival"
         seen["shown"] = " ".join(visible(screen.query_one("#calibration-text")).split())
         await pilot.press("enter")
         await pilot.pause()
@@ -152,7 +152,7 @@ def hold_through_a_real_stall(tmp_path: Path, *, stall_at: float, held_s: float,
             assert isinstance(screen, CalibrationScreen)
 
             def ended() -> bool:
-                return screen._result is not None or screen._problem is not None
+                return screen.calibrating.result is not None or screen.calibrating.problem is not None
 
             typing = threading.Thread(target=keyboard)
             typing.start()
@@ -176,11 +176,11 @@ def test_a_real_stall_of_the_event_loop_over_the_first_repeat_leaves_the_delay_m
     hold = hold_through_a_real_stall(tmp_path, stall_at=0.3, held_s=1.5)
     screen, gaps_ms = hold.screen, hold.gaps_ms
     assert hold.ended_while_held is None, f"ended {hold.ended_while_held:.2f} s into the hold"
-    assert screen._problem is None and screen._result is not None, gaps_ms
+    assert screen.calibrating.problem is None and screen.calibrating.result is not None, gaps_ms
     # Stamped as it is made, a key event's time is its sending's to within the thread's switch
     # (5 ms, more on a loaded machine); handled after the stall, the delay would be 900 ms.
-    assert screen._result.initial_delay_ms == pytest.approx(gaps_ms[0], abs=25.0), gaps_ms
-    assert screen._result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
+    assert screen.calibrating.result.initial_delay_ms == pytest.approx(gaps_ms[0], abs=25.0), gaps_ms
+    assert screen.calibrating.result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
 
 
 def test_autorepeats_queued_behind_a_stall_once_the_repeats_run_do_not_end_the_attempt(tmp_path: Path) -> None:
@@ -205,7 +205,7 @@ def test_autorepeats_queued_behind_a_stall_once_the_repeats_run_do_not_end_the_a
                 for queued in backlog:
                     app._driver.process_message(stamped_key("up", queued))
                 await screen._tick_behind_input()
-                ended = screen._result is not None or screen._problem is not None
+                ended = screen.calibrating.result is not None or screen.calibrating.problem is not None
                 await pilot.pause()  # (the keys in transit are handled before any assertion can stop the app)
                 assert not ended, "the timer ended the attempt while its repeats were on their way"
                 backlog = []
@@ -213,13 +213,13 @@ def test_autorepeats_queued_behind_a_stall_once_the_repeats_run_do_not_end_the_a
             app.post_message(stamped_key("up", t))
             await pilot.pause()
             await screen._tick_behind_input()
-            assert screen._result is None and screen._problem is None, f"the attempt ended at {t - start:.2f} s"
-        assert screen._calibration.repeats == len(arrivals) - 1
+            assert screen.calibrating.result is None and screen.calibrating.problem is None, f"the attempt ended at {t - start:.2f} s"
+        assert screen.calibrating.calibration.repeats == len(arrivals) - 1
         clock.now = arrivals[-1] + SILENCE_S + 1e-6
         await screen._tick_behind_input()
-        assert screen._result is not None, "no end SILENCE_S after the last key's arrival"
-        assert screen._result.initial_delay_ms == pytest.approx(DELAY * 1000, abs=TOLERANCE_MS)
-        assert screen._result.repeat_period_ms == pytest.approx(PERIOD * 1000, abs=TOLERANCE_MS)
+        assert screen.calibrating.result is not None, "no end SILENCE_S after the last key's arrival"
+        assert screen.calibrating.result.initial_delay_ms == pytest.approx(DELAY * 1000, abs=TOLERANCE_MS)
+        assert screen.calibrating.result.repeat_period_ms == pytest.approx(PERIOD * 1000, abs=TOLERANCE_MS)
 
     async def main() -> None:
         async with app.run_test(size=(100, 35)) as pilot:
@@ -235,7 +235,7 @@ def test_a_real_stall_of_the_event_loop_once_the_repeats_run_leaves_the_attempt_
     screen, gaps_ms = hold.screen, hold.gaps_ms
     assert hold.ended_while_held is None, \
         f"ended {hold.ended_while_held:.2f} s into the hold, repeats sent {[round(gap) for gap in gaps_ms]} ms apart"
-    assert screen._problem is None and screen._result is not None, gaps_ms
-    used, sent = screen._calibration.repeats, len(hold.sent) - 1
+    assert screen.calibrating.problem is None and screen.calibrating.result is not None, gaps_ms
+    used, sent = screen.calibrating.calibration.repeats, len(hold.sent) - 1
     assert used == sent, f"{used} of {sent} repeats used"
-    assert screen._result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms
+    assert screen.calibrating.result.repeat_period_ms == pytest.approx(statistics.median(gaps_ms[1:]), abs=5.0), gaps_ms

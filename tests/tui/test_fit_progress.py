@@ -8,8 +8,8 @@ import threading
 import careful_tui.screens.fit
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
+from careful_tui.app import CarefulApp
 from careful_tui.render.fit_printout import progress_phrase
-from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.fit import FitScreen
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, Stopped, fit

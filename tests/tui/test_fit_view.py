@@ -13,13 +13,12 @@ import pytest
 from rich.console import Console
 
 import careful_tui.screens.fit as fit_screen
+from careful_tui.app import CarefulApp, make_fit_app
 from careful_tui.cli import build_parser, main
-from careful_tui.app import make_fit_app
 from careful_tui.commands.fit import fit_from_args
-from careful_tui.render.intervals import interval_span
-from careful_tui.screens.careful_app import CarefulApp
-from careful_tui.screens.fit import board_width
 from careful_tui.render.grid import format_value
+from careful_tui.render.intervals import interval_span
+from careful_tui.screens.fit import board_width
 from careful_tui.widgets import Board, KeyBar
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import fit

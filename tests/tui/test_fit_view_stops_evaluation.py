@@ -7,7 +7,7 @@ from __future__ import annotations
 import sys
 import threading
 
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp
 from careful_tui.screens.fit import FitScreen
 from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions

@@ -8,9 +8,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from careful_tui.keys.calibration import Calibration
-from careful_tui.keys.hold import ActiveHold, Hold, HoldDetector, HoldProfile
-from careful_tui.keys.modes import DigitsInput, TapCounter, make_input
+from irl_core.play.calibration import Calibration
+from irl_core.play.hold import ActiveHold, Hold, HoldDetector, HoldProfile
+from irl_core.play.input_modes import make_input
+from irl_core.play.modes import DigitsInput, TapCounter
 from play_fixtures import FakeClock
 
 

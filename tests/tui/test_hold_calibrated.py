@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from careful_tui.keys.calibration import Calibration
-from careful_tui.keys.hold import HoldDetector, HoldProfile
-from careful_tui.keys.modes import TapCounter
+from irl_core.play.calibration import Calibration
+from irl_core.play.hold import HoldDetector, HoldProfile
+from irl_core.play.modes import TapCounter
 from play_fixtures import FakeClock
 from test_hold import repeat_times, run_hold
 

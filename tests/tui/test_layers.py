@@ -1,5 +1,6 @@
 """The project's modules import one way: irl_core <- render <- keys, widgets <- screens <- app, web <-
-commands <- cli; no cycle anywhere, and one module touches Textual's private API.
+commands <- cli; no cycle anywhere, one module touches Textual's private API, and the play
+session (`irl_core.play`) imports no front end, so a browser can drive it as the terminal does.
 
 The graph is read from the source with `ast`, imports inside functions included, so a cycle
 cannot hide behind a late import.
@@ -126,6 +127,21 @@ def test_render_imports_no_textual():
     textual_users = [module for module, path in modules.items() if module.startswith("careful_tui.render")
                      and any(name.split(".")[0] == "textual" for name in imported_names(path, module))]
     assert textual_users == []
+
+
+FRONT_ENDS = ("textual", "rich", "careful_tui")
+
+
+def test_the_play_session_and_the_rest_of_the_core_import_no_front_end():
+    modules = project_modules()
+    core = {module: path for module, path in modules.items() if layer(module) == 0}
+    assert {"irl_core.play.session", "irl_core.play.study_flow", "irl_core.play.input_modes",
+            "irl_core.play.hold", "irl_core.play.calibration", "irl_core.replay_cursor"} <= core.keys()
+    front_end_users = sorted(
+        f"{module} imports {name}" for module, path in core.items()
+        for name in imported_names(path, module) if name.split(".")[0] in FRONT_ENDS
+    )
+    assert front_end_users == []
 
 
 def test_only_the_kitty_module_touches_textuals_private_api():

@@ -10,14 +10,13 @@ import pytest
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-from careful_tui.keys.hold import HoldProfile
+from careful_tui.app import CarefulApp, make_play_app
 from careful_tui.keys.kitty import KittyParser
-from careful_tui.app import make_play_app
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.play import minimum_size
 from careful_tui.widgets import Board, Gauge
-from careful_tui.screens.calibration import CalibrationScreen
 from irl_core.demonstrations import Recording, read_recording
+from irl_core.play.hold import HoldProfile
 from irl_core.world import World, load_world
 from play_fixtures import FakeClock
 

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 from textual.pilot import Pilot
 
-from careful_tui.keys.calibration import Calibration
-from careful_tui.keys.hold import HoldProfile
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp
 from irl_core.demonstrations import read_recording
+from irl_core.play.calibration import Calibration
+from irl_core.play.hold import HoldProfile
 from play_fixtures import FakeClock
 from test_play_app import new_app, run
 

@@ -102,7 +102,7 @@ def test_calibration_tells_the_player_the_tap_wait_it_gives(tmp_path: Path) -> N
         shown = " ".join(visible(calibration.query_one("#calibration-text")).split())
         wait = app.first_screen.input.header()["tap_wait_ms"]  # still the uncalibrated 700 ms
         assert wait == pytest.approx(700.0)
-        measured = calibration._calibration.result().first_repeat_timeout_ms
+        measured = calibration.calibrating.calibration.result().first_repeat_timeout_ms
         assert measured < wait and f"A tap (no autorepeat) is a move {measured:.0f} ms after the press." in shown
         await pilot.press("enter")
         await pilot.pause()

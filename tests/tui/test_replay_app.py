@@ -13,9 +13,8 @@ from rich.console import Console
 from textual.pilot import Pilot
 from textual.widgets import Static
 
+from careful_tui.app import CarefulApp, make_replay_app
 from careful_tui.cli import main
-from careful_tui.app import make_replay_app
-from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.replay import END_TICKS, minimum_size
 from careful_tui.widgets import Board, Gauge
 from irl_core.demonstrations import read_recording

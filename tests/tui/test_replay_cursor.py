@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from careful_tui.screens.replay_cursor import ReplayCursor, ReplayFiles, group_episodes
 from irl_core.demonstrations import Recording, read_recording
 from irl_core.recording_lines import EpisodeEnd, Step
+from irl_core.replay_cursor import ReplayCursor, ReplayFiles, group_episodes
 from irl_core.step_table import StepTable
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"

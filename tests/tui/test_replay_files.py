@@ -11,10 +11,9 @@ from textual.pilot import Pilot
 from textual.widgets import Static
 
 import careful_tui.commands.replay as replay_command
-from careful_tui.app import make_replay_app
+from careful_tui.app import CarefulApp, make_replay_app
 from careful_tui.cli import main
 from careful_tui.commands.replay import name_order, recording_paths
-from careful_tui.screens.careful_app import CarefulApp
 from careful_tui.screens.replay import END_TICKS
 from careful_tui.widgets import Board, Gauge, KeyBar
 from irl_core.demonstrations import Recording, read_recording

@@ -1,22 +1,20 @@
 """The other two ways to enter a move: tap an arrow k times (`TapCounter`), or type the level and
-then the arrow (`DigitsInput`); and `make_input`, which builds the input of any mode.
+then the arrow (`DigitsInput`). `irl_core.play.input_modes` names every mode and builds its input.
 
-Like `careful_tui.keys.hold`, nothing here imports Textual; every class takes a `clock`.
+Like `irl_core.play.hold`, nothing here imports Textual; every class takes a `clock`.
 """
 
 from __future__ import annotations
 
 import time
 
-from careful_tui.keys.hold import (
+from irl_core.play.hold import (
     DIGITS,
     DIRECTIONS,
     ActiveHold,
     Clock,
     Hold,
-    HoldDetector,
     HoldProfile,
-    MoveInput,
     PendingHold,
     SilenceEnded,
     check_key,
@@ -199,17 +197,3 @@ class DigitsInput:
     def _level(self) -> int:
         typed = int(self._digits) if self._digits else 1
         return min(self.profile.levels, max(1, typed))
-
-
-INPUT_MODES: tuple[str, ...] = ("hold", "tap", "digits")
-
-
-def make_input(mode: str, profile: HoldProfile, *, clock: Clock = time.monotonic) -> MoveInput:
-    """The input for `mode` ("hold", "tap" or "digits"), sharing one profile and clock."""
-    if mode == "hold":
-        return HoldDetector(profile, clock=clock)
-    if mode == "tap":
-        return TapCounter(profile, clock=clock)
-    if mode == "digits":
-        return DigitsInput(profile, clock=clock)
-    raise ValueError(f"unknown input mode {mode!r}: use one of {', '.join(INPUT_MODES)}")

@@ -3,11 +3,12 @@
 A terminal reports key presses and autorepeats, not releases (README "Playing"), so the length of
 a hold is inferred from the autorepeat rhythm: a press starts a hold, autorepeats of the same key
 extend it, silence longer than the release timeout ends it and another key ends it at once. Where
-the terminal does report releases (kitty's keyboard protocol, see `careful_tui.keys.kitty`), a release
-ends the hold exactly.
+the front end does report releases (a terminal speaking kitty's keyboard protocol, a browser's
+keyup), a release ends the hold exactly.
 
-Three input modes produce the same `Hold` (key, level, hold_ms, exact), so the play screen can use
-any of them through the `MoveInput` protocol:
+Three input modes produce the same `Hold` (key, level, hold_ms, exact), so the play session
+(`irl_core.play.session`) can use any of them through the `MoveInput` protocol; the registry of
+modes is `irl_core.play.input_modes`:
 
 | mode     | class          | how a level is chosen                                        |
 |----------|----------------|--------------------------------------------------------------|
@@ -17,7 +18,7 @@ any of them through the `MoveInput` protocol:
 
 Time: every class takes an injectable `clock` (seconds, like `time.monotonic`) so the tests
 drive time by hand, and every key event can be given the time it happened (`at`, on that clock).
-The screen passes the time the key reached the app, not the time it got round to handling it: a
+A front end passes the time the key reached it, not the time it got round to handling it: a
 stalled app (a slow redraw, a garbage collection, a busy machine) handles a queue of autorepeats
 at once, and timed by handling they would look like a silence (the hold ended) followed by a
 burst (a new hold). Nothing here imports Textual.
@@ -32,7 +33,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 DIRECTIONS: tuple[str, ...] = ("up", "right", "down", "left")
-"""The keys that carry a move, as Textual names them (the order of `irl_core`'s directions)."""
+"""The keys that carry a move, as every front end names them (Textual's names) (the order of `irl_core`'s directions)."""
 
 DIGITS: tuple[str, ...] = tuple("0123456789")
 
@@ -172,7 +173,7 @@ class ActiveHold:
 
 
 class MoveInput(Protocol):
-    """What the play screen needs from an input mode.
+    """What the play session needs from an input mode.
 
     Feed it the keys in `keys` with `press`, every key release with `release`, each with the
     time it happened (`at`; default: the clock now), and call `poll` when `deadline` passes (a
@@ -229,8 +230,8 @@ class SilenceEnded:
         `at` (default: now).
 
         The caller must have fed every key event that happened before `at`: a poll run while
-        such events still wait in a queue would end a move those events extend (the play screen
-        polls only when none waits, `PlayScreen.tick`).
+        such events still wait in a queue would end a move those events extend (the play session
+        polls only when the front end says none waits, `PlaySession.tick`).
         """
         pending = self._pending
         if pending is None or self._now(at) < self._deadline(pending):
