@@ -220,8 +220,9 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
             session = seat.session
             if not seat.budget.spend():
                 session.cancel()
-                session.message = "Too many keys at once: nothing was played. Slow down."
-                return refuse(429, session.message)
+                why = "Too many keys at once: nothing was played. Slow down."
+                session.tell(why)
+                return refuse(429, why)
             try:
                 if kind == "press":
                     session.press(data.get("key"), data.get("t"))

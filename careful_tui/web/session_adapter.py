@@ -1,9 +1,9 @@
 """One participant's way through a study in a browser: the play session the web server drives.
 
-The server owns one `WebSession` per participant page. It runs the same rules and recordings as
-`careful study run` (`irl_core.game.Game` into an `irl_core.recording_writer.SessionRecorder`
-in ``<out>/<ID>/``, the blocks from `irl_core.study.read_protocol`) and answers every call with
-`view()`, what the page draws. The page sends only key presses and releases with their times
+The server owns one `WebSession` per participant page. It drives the same play session as
+`careful study run` (`irl_core.play.study_flow.StudyFlow` and its blocks' `PlaySession`s: the
+rules, the recordings in ``<out>/<ID>/``, resuming where the files say) and answers every call
+with `view()`, what the page draws. The page sends only key presses and releases with their times
 (`performance.now()`, milliseconds); every outcome (start cells, slips) is drawn here.
 
 ==============  ===============================================================
@@ -19,42 +19,42 @@ left            the participant left with q, or the page closed: what was played
                 is kept, and opening the link again resumes where the files say
 ==============  ===============================================================
 
-A hold is timed on the page from keydown to keyup, so every step is ``hold_exact``; its level is
-`BROWSER_TIMING`'s `HoldProfile.level_for`, the game's own timing function. A browser has no
+A hold is timed on the page from keydown to keyup and fed to the session as a press and an exact
+release, so every step is ``hold_exact``; its level is `HoldProfile.level_for`, the game's own
+timing function, on `browser_profile`. A browser has no
 autorepeat delay to wait for, so level 1 is a hold shorter than 150 ms (a tap), and each further
 150 ms adds a level. A press of another arrow while one is held is ignored, and `cancel` (the
 window lost focus) drops the hold: no move.
 
-This module is the one place the web server meets the game's flow, so that moving it onto a
-front-end-neutral play session changes this module only.
+This module is the one place the web server meets the play session: it turns the page's
+milliseconds into the session's seconds, keeps to one arrow at a time, refuses a release that
+is not a hold, and words the views for the page.
 """
 
 from __future__ import annotations
 
 import math
-import secrets
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from datetime import datetime
 from typing import Any
 
 from rich.console import Group
 from rich.text import Text
 
-from careful_tui.keys.hold import HoldProfile
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.palette import GOOD, NOTE, WARN
 from careful_tui.render.session import outcome_text
-from careful_tui.screens.study import between_text, block_heading, plan_text, where_next
+from careful_tui.screens.study import between_text, plan_text, where_next
 from careful_tui.version import app_version
 from careful_tui.widgets.gauge import format_chance
-from careful_tui.widgets.play_status import EpisodeNames
-from irl_core.game import Game, GameOver, level_costs, level_slip_chances
+from irl_core.game import level_costs, level_slip_chances
 from irl_core.mdp import DIRECTIONS
-from irl_core.recording_lines import ProlificTag, SessionHeader
-from irl_core.recording_writer import SessionRecorder
+from irl_core.play.hold import HoldProfile
+from irl_core.play.session import PlaySession, Played
+from irl_core.play.study_flow import StudyFlow
+from irl_core.recording_lines import ProlificTag
 from irl_core.safe_text import printable
-from irl_core.study import Block, LoadedStudy, Protocol, read_protocol
+from irl_core.study import LoadedStudy, Protocol, read_protocol
 from irl_core.summary import outcome_code
 from irl_core.words import plural
 
@@ -100,32 +100,38 @@ class WebSession:
         say: receives a line for the experimenter's console when the participant starts, finishes a
             block and leaves.
         seed: fixes every block's seed (a test's); without it each block draws one.
+
+    Raises (from the key calls):
+        OSError, ValueError: the recording cannot be written; the participant can play no further.
     """
 
     def __init__(self, study: LoadedStudy, participant: str, *, user_agent: str = "",
                  prolific: ProlificTag | None = None, completion_url: str | None = None,
                  say: Callable[[str], None] = lambda line: None, seed: int | None = None) -> None:
-        self.study = study
         self.participant = participant
         self.user_agent = user_agent
         self.prolific = prolific
         self.completion_url = completion_url
         self.say = say
-        self.seed = seed
-        self.protocol = read_protocol(study, participant)
-        self.stage = "end" if self.protocol.finished else "instructions"
-        self.block: Block | None = None
-        self.finished_block: Block | None = None
-        self.game: Game | None = None
-        self.recorder: SessionRecorder | None = None
-        self.profile: HoldProfile | None = None
-        self.names: EpisodeNames | None = None
+        # A browser always times holds: the study's terminal input mode does not apply here.
+        self.study = replace(study, study=study.study.model_copy(update={"input": "hold"}))
+        self.flow = StudyFlow(self.study, participant, seed=seed, app_version=app_version())
+        self.flow.profile = browser_profile(max(world.levels for world in study.worlds))  # each block's levels
+        self.session: PlaySession | None = None
+        self.stage = "end" if self.flow.stage == "end" else "instructions"
         self.held: _Held | None = None
-        self.last_step: dict[str, Any] | None = None
-        self.message = ""
+        self.note = ""
         self.left = False
         for problem in self.protocol.problems:
             say(f"warning: {printable(problem, limit=300)}")
+
+    @property
+    def protocol(self) -> Protocol:
+        return self.flow.protocol
+
+    def tell(self, note: str) -> None:
+        """A sentence for the participant in place of the session's message, until the next key."""
+        self.note = note
 
     # ------------------------------------------------------------------ the page's keys
 
@@ -133,47 +139,51 @@ class WebSession:
         """An arrow went down at `at_ms` (the page's clock): a hold starts, unless one is held."""
         self._check(key, at_ms)
         if self._live() and self.held is None:
+            assert self.session is not None
             self.held = _Held(key, at_ms)
-            self.message = ""
+            self.note = ""
+            # Each hold on a clock of its own from its press: the session's seconds then carry the
+            # page's milliseconds whole (1150 / 1000 - 1 is 0.1499999..., a 150 ms hold at level 1).
+            self._played(self.session.press(key, at=0.0, repeat=False))
 
     def release(self, key: str, at_ms: float) -> None:
         """An arrow came up at `at_ms`: the hold on it ends and its move is played."""
         self._check(key, at_ms)
-        held = self.held
-        if held is None or held.key != key:
+        held, session = self.held, self.session
+        if held is None or held.key != key or session is None:
             return
         self.held = None
-        hold_ms = at_ms - held.at_ms
-        if not 0 <= hold_ms <= LONGEST_HOLD_MS or not self._live():
-            self.message = "That key was held too long to be a move; nothing was played." if self._live() else ""
+        if not 0 <= at_ms - held.at_ms <= LONGEST_HOLD_MS:
+            session.cancel_hold("held too long to be a move")
             return
-        self._move(key, hold_ms)
+        self._played(session.release(key, at=(at_ms - held.at_ms) / 1000))
+        if session.view().all_played:
+            # The block's last episode is on disk (fsynced at its end): close its file now.
+            session.quit()
 
     def cancel(self) -> None:
         """The window lost focus (or the page could not send the release): the hold is dropped."""
-        if self.held is not None:
+        if self.held is not None and self.session is not None:
             self.held = None
-            self.message = "Move cancelled: the window lost focus."
+            self.session.cancel_hold("the window lost focus")
 
     def space(self) -> None:
         """Space: begin, go on, or start the next episode."""
+        self.note = ""
         if self.stage in ("instructions", "between"):
             self._start_block()
-        elif self.stage == "play" and self.game is not None and not self.game.live and self.held is None:
-            assert self.names is not None
-            if self.names.all_played(self.game.episode, self.game.live):
+        elif self.stage == "play" and self.session is not None and self.held is None:
+            if self.session.next_episode():
                 self._end_block()
-            else:
-                self.game.begin_episode()
-                self.last_step, self.message = None, ""
 
     def leave(self, why: str = "left") -> None:
         """q, or the page closed: a running episode with steps is recorded as quit, the file closed."""
         if self.left:
             return
-        self.left = True
-        self.held = None
-        self._close_block()
+        self.left, self.held = True, None
+        self.flow.quit()
+        if self.flow.write_error is not None:
+            self.say(f"{self.participant}: cannot close the recording ({printable(str(self.flow.write_error), limit=200)})")
         if self.stage != "end":
             self.stage = "left"
         done, total = read_protocol(self.study, self.participant).progress
@@ -182,7 +192,7 @@ class WebSession:
     # ------------------------------------------------------------------ the flow
 
     def _live(self) -> bool:
-        return self.stage == "play" and self.game is not None and self.game.live
+        return self.stage == "play" and self.session is not None and self.session.game.live
 
     def _check(self, key: str, at_ms: float) -> None:
         if key not in DIRECTIONS:
@@ -190,71 +200,38 @@ class WebSession:
         if not (isinstance(at_ms, (int, float)) and math.isfinite(at_ms) and 0 <= at_ms < 1e12):
             raise KeyRefused("a key's time must be a number of milliseconds")
 
+    def _played(self, played: Played) -> None:
+        assert self.session is not None
+        if played.stopped:
+            raise self.session.write_error
+
     def _start_block(self) -> None:
-        block = self.protocol.next
-        if block is None:
+        session = self.flow.next_block()
+        if session is None:
             self.stage = "end"
             return
-        world = self.protocol.world(block)
-        self.profile = browser_profile(world.levels)
-        header = SessionHeader(world=world, player=self.participant, created=datetime.now().astimezone(),
-                               seed=secrets.randbelow(2**32) if self.seed is None else self.seed,
-                               input=input_header(self.profile, self.user_agent), app_version=app_version(),
-                               study=self.protocol.tag(block), prolific=self.prolific)
-        self.recorder = SessionRecorder(self.protocol.folder, header)
-        self.game = Game(world, seed=header.seed, sink=self.recorder, first_episode=block.next_episode)
-        self.names = EpisodeNames("Practice episode" if block.phase == "practice" else "Episode",
-                                  block.next_episode, block.remaining, block.done)
-        self.block, self.stage = block, "play"
-        self.game.begin_episode()
-        self.last_step, self.message = None, ""
+        block = self.protocol.next
+        assert block is not None
+        recorder = session.recorder
+        recorder.set_header(recorder.header.model_copy(update={
+            "input": input_header(session.profile, self.user_agent), "prolific": self.prolific}))
+        session.start()
+        self.session, self.stage = session, "play"
         self.say(f"{self.participant}: started world {block.position + 1} of {len(self.protocol.order)} "
-                 f"({printable(world.name, limit=40)}), {block.phase}, episode {block.done + 1} of {block.target}")
-
-    def _move(self, key: str, hold_ms: float) -> None:
-        assert self.game is not None and self.profile is not None
-        try:
-            result = self.game.move(key, self.profile.level_for(hold_ms), hold_ms=hold_ms, exact=True)
-        except GameOver:
-            return
-        step = result.step
-        self.last_step = {"direction": step.direction, "level": step.carefulness, "hold_ms": step.hold_ms,
-                          "slipped": step.slipped, "realised": result.realised,
-                          "from": list(step.state), "to": list(step.next_state)}
-        self.message = f"Slipped: the move went {result.realised}." if step.slipped else ""
-        if self.recorder is not None and self.recorder.notices:
-            self.message = printable(self.recorder.notices.pop(0), limit=300)
-        if result.end is not None:
-            assert self.names is not None
-            if self.names.all_played(self.game.episode, self.game.live):
-                # The block's last episode is on disk (fsynced at its end): close its file now.
-                self._close_block(keep_game=True)
+                 f"({printable(session.world.name, limit=40)}), {block.phase}, episode {block.done + 1} of {block.target}")
 
     def _end_block(self) -> None:
-        finished = self.block
-        self._close_block()
-        self.protocol = read_protocol(self.study, self.participant)
-        assert finished is not None
-        self.finished_block = finished
-        self.say(f"{self.participant}: finished world {finished.position + 1} of {len(self.protocol.order)}, "
-                 f"{finished.phase}")
-        self.stage = "end" if self.protocol.finished else "between"
+        assert self.session is not None
+        self.session.quit()
+        finished = self.protocol.next
+        stage = self.flow.block_ended()
+        self.session = None
+        if finished is not None:
+            self.say(f"{self.participant}: finished world {finished.position + 1} of {len(self.protocol.order)}, "
+                     f"{finished.phase}")
+        self.stage = "end" if stage == "end" else "between"
         if self.stage == "end":
             self.say(f"{self.participant}: finished the study")
-
-    def _close_block(self, *, keep_game: bool = False) -> None:
-        """Record a running episode as quit and close the block's file. A file that cannot be
-        written any more (a full disk) is let go: what it held before stays on disk."""
-        recorder, self.recorder = self.recorder, None
-        try:
-            if self.game is not None and self.game.live:
-                self.game.quit()
-            if recorder is not None:
-                recorder.close()
-        except (OSError, ValueError) as exc:
-            self.say(f"{self.participant}: cannot close the recording ({printable(str(exc), limit=200)})")
-        if not keep_game:
-            self.game = None
 
     # ------------------------------------------------------------------ what the page draws
 
@@ -281,8 +258,8 @@ class WebSession:
         if self.stage == "instructions":
             return _instructions(self.protocol)
         if self.stage == "between":
-            assert self.finished_block is not None
-            return between_text(self.protocol, self.finished_block)
+            assert self.flow.finished is not None
+            return between_text(self.protocol, self.flow.finished)
         done, total = read_protocol(self.study, self.participant).progress
         if self.stage == "end":
             lines = [Text("That is the end of the study. Thank you!", style=f"bold {GOOD}"),
@@ -295,29 +272,33 @@ class WebSession:
                      Text("Open your link again to go on where you stopped.", style="dim"))
 
     def _play_view(self) -> dict[str, Any]:
-        game, block, names, profile = self.game, self.block, self.names, self.profile
-        assert game is not None and block is not None and names is not None and profile is not None
-        world = game.world
-        end = game.last_end if not game.live else None
-        shown = game.episode
+        session = self.session
+        assert session is not None
+        now, world, profile = session.view(), session.world, session.profile
+        move = now.last_move
+        message = self.note or f"{now.message.lead}{now.message.text}"
         view: dict[str, Any] = {
-            "heading": block_heading(self.protocol, block),
+            "heading": session.options.heading,
             "rows": [printable(row) for row in world.layout.splitlines()],
             "legend": [[symbol, SYMBOL_NAMES.get(symbol, printable(symbol))] for symbol in _symbols(world.layout)],
             "levels": [{"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
                        for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],
             "timing": {"tap_ms": profile.initial_delay_ms, "ms_per_level": profile.ms_per_level,
                        "levels": profile.levels},
-            "player": list(game.cell) if game.cell is not None else None,
-            "live": game.live,
-            "episode": f"{names.word} {names.number(shown)}",
-            "step": game.t, "max_steps": world.max_steps,
-            "score": format_value(game.score), "score_low": game.score < world.initial_score,
-            "last_move": self.last_step, "message": self.message,
-            "all_played": names.all_played(game.episode, game.live),
+            "player": list(now.cell) if now.cell is not None else None,
+            "live": now.live,
+            "episode": f"{session.names.word} {session.names.number(now.episode)}",
+            "step": now.step, "max_steps": world.max_steps,
+            "score": format_value(now.score), "score_low": now.score < world.initial_score,
+            "last_move": None if move is None else {
+                "direction": move.step.direction, "level": move.step.carefulness, "hold_ms": move.step.hold_ms,
+                "slipped": move.slipped, "realised": move.realised,
+                "from": list(move.step.state), "to": list(move.step.next_state)},
+            "message": message, "all_played": now.all_played,
         }
-        if end is not None:
-            view["end"] = {"text": outcome_text(end), "code": outcome_code(end), "score": format_value(end.score)}
+        if not now.live and now.last_end is not None:
+            view["end"] = {"text": outcome_text(now.last_end), "code": outcome_code(now.last_end),
+                           "score": format_value(now.last_end.score)}
         return view
 
 

@@ -189,7 +189,7 @@ def test_focus_lost_mid_hold_moves_nothing(page, live_server):
     page.evaluate("window.dispatchEvent(new FocusEvent('blur'))")
     page.wait_for_timeout(100)
     page.keyboard.up("ArrowRight")
-    page.wait_for_selector("text=Move cancelled: the window lost focus.")
+    page.wait_for_selector("text=Move cancelled (the window lost focus).")
     hold(page, "ArrowUp", 30)
     wait_for(lambda: steps_of(live_server, "p001"), "the next move")
     assert [step["direction"] for step in steps_of(live_server, "p001")] == ["up"]
