@@ -4,8 +4,9 @@ A participant plays on one page at a time: a second tab or device that opens the
 first is open is refused (never interleaved into the same file). A page holds its seat while it
 is heard from (every key, and a heartbeat every few seconds); one that closes says so
 (`navigator.sendBeacon`), and one silent for `SILENT_S` has left: its seat goes to the next page
-that asks. `claim` is the one function that decides, so a lock shared with `careful study run`
-across processes can take its place.
+that asks. A seat also holds the participant's lock (`irl_core.participant_lock`, the one
+`careful study run` takes), so a terminal session and a page never play one participant at once,
+in this process or another.
 
 `KeyBudget` is a token bucket per participant: `KEY_BURST` key events at once, then `KEY_RATE`
 a second (four moves a second sustained is more than a person makes, holding a key for each).
@@ -13,10 +14,12 @@ a second (four moves a second sustained is more than a person makes, holding a k
 
 from __future__ import annotations
 
+import contextlib
 import secrets
 import threading
 import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 
 from careful_tui.web.session_adapter import WebSession
@@ -54,6 +57,7 @@ class Seat:
     session: WebSession
     seen: float
     budget: KeyBudget
+    held: contextlib.ExitStack
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -67,16 +71,26 @@ class Seats:
         self._pages: dict[str, Seat] = {}
         self._participants: dict[str, Seat] = {}
 
-    def claim(self, participant: str, make_session: Callable[[], WebSession]) -> Seat | None:
-        """A seat for a new page of `participant`, or None while another page of theirs plays."""
+    def claim(self, participant: str, make_session: Callable[[], WebSession], *,
+              hold: Callable[[], AbstractContextManager[object]] = contextlib.nullcontext) -> Seat | None:
+        """A seat for a new page of `participant`, or None while another page of theirs plays.
+
+        `hold` makes the participant's lock, held as long as the seat.
+
+        Raises:
+            irl_core.participant_lock.ParticipantBusy: another process plays the participant.
+        """
         with self._lock:
             held = self._participants.get(participant)
             if held is not None:
                 if self.clock() - held.seen < self.silent_s:
                     return None
                 self._release(held, "left (the page went silent)")
-            seat = Seat(participant, secrets.token_urlsafe(18), make_session(), self.clock(),
-                        KeyBudget(clock=self.clock))
+            with contextlib.ExitStack() as stack:
+                stack.enter_context(hold())
+                session = make_session()
+                kept = stack.pop_all()
+            seat = Seat(participant, secrets.token_urlsafe(18), session, self.clock(), KeyBudget(clock=self.clock), kept)
             self._pages[seat.page] = seat
             self._participants[participant] = seat
             return seat
@@ -115,4 +129,7 @@ class Seats:
         del self._pages[seat.page]
         del self._participants[seat.participant]
         with seat.lock:
-            seat.session.leave(why)
+            try:
+                seat.session.leave(why)
+            finally:
+                seat.held.close()

@@ -48,6 +48,7 @@ from starlette.staticfiles import StaticFiles
 from careful_tui.web.links import prolific_ids
 from careful_tui.web.seats import Seat, Seats
 from careful_tui.web.session_adapter import KeyRefused, WebSession
+from irl_core.participant_lock import ParticipantBusy, participant_lock
 from irl_core.recording_lines import ProlificTag
 from irl_core.safe_text import printable
 from irl_core.study import LoadedStudy, StudyError
@@ -196,7 +197,12 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
             return WebSession(study, participant, user_agent=user_agent, prolific=prolific, completion_url=url,
                               say=say, seed=seed)
 
-        seat = seats.claim(participant, make_session)
+        try:
+            seat = seats.claim(participant, make_session,
+                               hold=lambda: participant_lock(study, participant, holder="careful serve (a browser page)"))
+        except ParticipantBusy as exc:
+            return refuse(409, "This study is already open for you elsewhere (" + printable(exc.holder, limit=200)
+                          + "). Go on there, or finish it first.")
         if seat is None:
             return refuse(409, "This study is already open for you in another tab, window or device. Go on "
                                "there; or close it, wait a few seconds, and reload this page.")

@@ -291,3 +291,20 @@ def test_a_recording_that_cannot_be_written_stops_the_participant_with_a_sentenc
     monkeypatch.undo()
     steps = [line for line in recorded_lines(web_study.participant_folder("p001")) if line["kind"] == "step"]
     assert len(steps) == 1
+
+
+def test_a_participant_held_by_another_session_is_refused_and_a_page_holds_the_lock(served, web_study):
+    from irl_core.participant_lock import ParticipantBusy, participant_lock
+
+    client, tokens = served
+    with participant_lock(web_study, "p001", holder="careful study run"):
+        refused = Api(client, token=tokens["p001"])
+        assert refused.answer.status_code == 409 and "careful study run" in refused.answer.json()["error"]
+    page = Api(client, token=tokens["p001"])
+    assert page.answer.status_code == 200
+    with pytest.raises(ParticipantBusy, match="careful serve"):
+        with participant_lock(web_study, "p001", holder="careful study run"):
+            pass
+    client.post("/api/leave", json={"page": page.page})
+    with participant_lock(web_study, "p001", holder="careful study run"):
+        pass
