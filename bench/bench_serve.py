@@ -69,7 +69,7 @@ def in_process_ms(study_path: Path, moves: int) -> list[float]:
         session.view()
         times.append((time.perf_counter() - start) * 1000)
         t += 300
-        if not session.game.live:
+        if not session.view()["play"]["live"]:
             session.space()
     session.leave()
     return times
