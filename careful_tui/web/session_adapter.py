@@ -21,9 +21,8 @@ left            the participant left with q, or the page closed: what was played
 
 A hold is timed on the page from keydown to keyup and fed to the session as a press and an exact
 release, so every step is ``hold_exact``; its level is `HoldProfile.level_for`, the game's own
-timing function, on `browser_profile`. A browser has no
-autorepeat delay to wait for, so level 1 is a hold shorter than 150 ms (a tap), and each further
-150 ms adds a level. A press of another arrow while one is held is ignored, and `cancel` (the
+timing function, on `browser_profile`. A browser has no autorepeat delay to wait for, so level 1
+is a hold shorter than 150 ms (a tap), and each further 150 ms adds a level. A press of another arrow while one is held is ignored, and `cancel` (the
 window lost focus) drops the hold: no move.
 
 This module is the one place the web server meets the play session: it turns the page's
@@ -314,9 +313,7 @@ def _instructions(protocol: Protocol) -> Group:
         parts.append(back)
     if study.instructions.strip():
         parts.append(Text(printable(study.instructions.strip(), keep_newlines=True)))
-    # A browser always times holds (the study's terminal input mode does not apply).
-    held = replace(protocol, study=replace(protocol.study, study=study.model_copy(update={"input": "hold"})))
-    parts.append(plan_text(held))
+    parts.append(plan_text(protocol))  # the protocol's study says hold input (`WebSession`)
     parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
     return Group(*parts)
 
