@@ -192,8 +192,11 @@
     const board = $("board");
     const largest = parseFloat(getComputedStyle(document.documentElement).getPropertyValue("--cell-max")) || 64;
     const room = Math.max(160, $("right").clientWidth || window.innerWidth - 40);
-    const cell = Math.max(18, Math.min(largest, Math.floor((room - 2 * state.cols) / state.cols)));
+    // Cells as large as the room allows (down to 6 px, so a 128-column world still fits a phone's width).
+    const gap = room / state.cols >= 26 ? 2 : 1;
+    const cell = Math.max(6, Math.min(largest, Math.floor((room - gap * (state.cols - 1)) / state.cols)));
     board.style.setProperty("--cell", cell + "px");
+    board.style.gap = gap + "px";
     board.style.gridTemplateColumns = "repeat(" + state.cols + ", var(--cell))";
     board.replaceChildren(...rows.flat().map((symbol) => {
       const node = el("div", "cell " + (SYMBOL_CLASS[symbol] || "sym-other"), symbol === "." ? "" : symbol);
@@ -278,11 +281,17 @@
       const arrow = el("div", "arrow");
       const length = cell * (0.35 + 0.9 * (now.fill - 1) / Math.max(1, levels - 1));
       const colour = levelColour(now.level, levels);
+      const half = Math.max(3, Math.round(cell * 0.16));  // the head's half height, in step with the cell
       const shaft = el("div", "shaft");
-      shaft.style.width = Math.max(0, length - 12) + "px";
+      shaft.style.width = Math.max(0, length - half) + "px";
+      shaft.style.height = Math.max(2, Math.round(half * 0.66)) + "px";
+      shaft.style.top = -Math.max(1, Math.round(half * 0.33)) + "px";
       shaft.style.background = colour;
       const head = el("div", "head");
-      head.style.left = Math.max(0, length - 14) + "px";
+      head.style.left = Math.max(0, length - 1.5 * half) + "px";
+      head.style.top = -half + "px";
+      head.style.borderTopWidth = head.style.borderBottomWidth = half + "px";
+      head.style.borderLeftWidth = 1.5 * half + "px";
       head.style.borderLeftColor = colour;
       arrow.append(shaft, head);
       arrow.style.transform = "rotate(" + ANGLE[held.key] + "deg)";
