@@ -235,7 +235,30 @@ def build_parser() -> argparse.ArgumentParser:
                         help="processes for the fits (default: every core)")
     report.add_argument("--rmax", type=positive_float, default=5000.0, metavar="X",
                         help="bound |R_S| <= rmax for every fit (default 5000, so a cliff at -1000 lies well inside)")
+
+    serve = commands.add_parser("serve", help="serve a study to participants in a web browser", description=(
+        "Serve the study to participants in a web browser: the same screens, blocks, files and resume rules as "
+        "'careful study run', with every hold timed from key down to key up. Participants arrive by a link "
+        "from --links (written to <out>/links.csv) or by a Prolific link (?PROLIFIC_PID=...&STUDY_ID=..."
+        "&SESSION_ID=...). It listens on 127.0.0.1 unless --host says otherwise; put a public study behind a "
+        "TLS reverse proxy. Ctrl+C stops it, every recording closed."),
+        epilog="Example: careful serve pilot.toml --links 20; see docs/browser.md.")
+    serve.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
+    serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    serve.add_argument("--port", type=port_number, default=8000, help="port to listen on (default 8000; 0: any free port)")
+    serve.add_argument("--links", type=positive_int, default=0, metavar="N",
+                       help="append N new participant links to <out>/links.csv (never rewritten)")
+    serve.add_argument("--completion-code", default=None, metavar="CODE",
+                       help="Prolific's completion code: a Prolific participant who finishes is sent to Prolific's "
+                       "completion address with it, once every episode is on disk")
     return parser
+
+
+def port_number(text: str) -> int:
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port from 0 to 65535, got {text}")
+    return value
 
 
 class _Parser(argparse.ArgumentParser):
@@ -286,6 +309,7 @@ COMMANDS = {
     "worlds": _lazy("careful_tui.commands.worlds", "run_worlds"),
     "experiment": _lazy("careful_tui.commands.experiment", "run_experiment"),
     "export": _lazy("careful_tui.commands.export", "run_export"),
+    "serve": _lazy("careful_tui.commands.serve", "run_serve"),
     "study": lambda args: STUDY_COMMANDS[args.study_command](args),
 }
 STUDY_COMMANDS = {

@@ -34,6 +34,14 @@ class StudyTag(_Line):
     world_index: int = Field(ge=0)
 
 
+class ProlificTag(_Line):
+    """Prolific's ids of a browser participant who came from a Prolific link (`careful serve`):
+    the header's optional ``prolific`` field (the participant id is ``PROLIFIC_PID``)."""
+
+    study_id: str
+    session_id: str
+
+
 class SessionHeader(_Line):
     kind: Literal["session"] = "session"
     schema_version: int = Field(SCHEMA_VERSION, alias="schema")
@@ -45,6 +53,8 @@ class SessionHeader(_Line):
     app_version: str = ""
     # Only in a study's recordings; a header without it reads (and is written) as before.
     study: StudyTag | None = None
+    # Only for a participant who came from a Prolific link to `careful serve`.
+    prolific: ProlificTag | None = None
 
 
 class Step(_Line):

@@ -1,4 +1,4 @@
-"""The project's modules import one way: irl_core <- render <- keys, widgets <- screens <- app <-
+"""The project's modules import one way: irl_core <- render <- keys, widgets <- screens <- app, web <-
 commands <- cli; no cycle anywhere, one module touches Textual's private API, and the play
 session (`irl_core.play`) imports no front end, so a browser can drive it as the terminal does.
 
@@ -30,6 +30,7 @@ LAYERS = (
     ("careful_tui.widgets", 4),
     ("careful_tui.screens", 5),
     ("careful_tui.app", 6),
+    ("careful_tui.web", 6),
     ("careful_tui.commands", 7),
     ("careful_tui.study_report", 7),
     ("careful_tui.cli", 8),

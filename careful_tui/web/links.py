@@ -1,0 +1,114 @@
+"""Participant links (`careful serve --links N`): unguessable tokens bound to participant ids in
+``<out>/links.csv``, and the ids a Prolific link brings.
+
+``links.csv`` has the columns ``participant,token,path``; the path is the link without its host
+(``/p/<token>``), as the server may sit behind a proxy whose address only the experimenter knows.
+The file is never rewritten: new links are appended after the ones it holds, their ids continuing
+the numbering (``p001``, ``p002``, ...) and skipping any id that already has a folder. It is
+created readable by its owner only, as its tokens let anyone play as the participant.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import re
+import secrets
+from pathlib import Path
+
+from irl_core.safe_text import printable
+from irl_core.study import LoadedStudy, StudyError, check_participant
+
+LINKS_FILE = "links.csv"
+FIELDS = ("participant", "token", "path")
+_NUMBERED = re.compile(r"p(\d+)")
+_TOKEN = re.compile(r"[A-Za-z0-9_-]{16,64}")
+# Prolific's study and session ids: 24 hex digits today; anything like a name of at most 80 is taken.
+_PROLIFIC_ID = re.compile(r"[A-Za-z0-9_.=-]{1,80}")
+
+
+class LinksError(ValueError):
+    """links.csv cannot be read or written; the message is one line naming the file (and line)."""
+
+
+def link_path(token: str) -> str:
+    return f"/p/{token}"
+
+
+def read_links(study: LoadedStudy) -> dict[str, str]:
+    """The links in ``<out>/links.csv`` (none when it does not exist), as token -> participant."""
+    path = study.out / LINKS_FILE
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return {}
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LinksError(f"{path}: cannot read the links file ({getattr(exc, 'strerror', None) or exc})") from None
+    rows = csv.reader(io.StringIO(text))
+    links: dict[str, str] = {}
+    for number, row in enumerate(rows, start=1):
+        if number == 1 and tuple(row) == FIELDS:
+            continue
+        if len(row) != len(FIELDS):
+            raise LinksError(f"{path}: line {number}: expected {len(FIELDS)} fields ({', '.join(FIELDS)}), "
+                             f"got {len(row)}")
+        participant, token, _ = row
+        try:
+            check_participant(participant)
+        except StudyError as exc:
+            raise LinksError(f"{path}: line {number}: participant: {exc}") from None
+        if not _TOKEN.fullmatch(token):
+            raise LinksError(f"{path}: line {number}: token: {printable(token, limit=40)!r} is not a link token")
+        links[token] = participant
+    return links
+
+
+def add_links(study: LoadedStudy, count: int) -> list[tuple[str, str]]:
+    """Append `count` new links to ``<out>/links.csv`` (creating it); returns them as (participant, token).
+
+    Raises:
+        LinksError: the file cannot be read or written.
+    """
+    path = study.out / LINKS_FILE
+    existing = read_links(study)
+    taken = set(existing.values())
+    numbers = [int(m.group(1)) for m in map(_NUMBERED.fullmatch, taken) if m]
+    width = max(3, len(str(max(numbers, default=0) + count)))
+    new: list[tuple[str, str]] = []
+    n = max(numbers, default=0)
+    while len(new) < count:
+        n += 1
+        participant = f"p{n:0{width}d}"
+        if participant in taken or study.participant_folder(participant).exists():
+            continue
+        new.append((participant, secrets.token_urlsafe(16)))
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    if not path.exists():
+        writer.writerow(FIELDS)
+    writer.writerows((participant, token, link_path(token)) for participant, token in new)
+    try:
+        study.out.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | getattr(os, "O_CLOEXEC", 0), 0o600)
+        try:
+            os.write(fd, out.getvalue().encode("utf-8"))
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError as exc:
+        raise LinksError(f"{path}: cannot write the links file ({exc.strerror or exc})") from None
+    return new
+
+
+def prolific_ids(pid: str, study_id: str, session_id: str) -> tuple[str, str, str]:
+    """A Prolific link's ``PROLIFIC_PID``, ``STUDY_ID`` and ``SESSION_ID``, checked; returns them.
+
+    Raises:
+        StudyError: the participant id fails the study's id rules, or another id is not a plain name.
+    """
+    check_participant(pid)
+    for name, value in (("STUDY_ID", study_id), ("SESSION_ID", session_id)):
+        if not _PROLIFIC_ID.fullmatch(value):
+            raise StudyError(f"{name} {printable(value, limit=40)!r} is not an id: Prolific's are letters and digits")
+    return pid, study_id, session_id

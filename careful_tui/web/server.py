@@ -1,0 +1,300 @@
+"""`careful serve`'s web server: the study's page, and the few requests the page makes.
+
+Starlette (a small, well-kept ASGI toolkit) routes the requests and uvicorn serves them; the page
+is one HTML file with its script and stylesheet, shipped in the package (``static/``), with no
+build step and nothing from elsewhere.
+
+=====================  ================================================================
+request                answer
+=====================  ================================================================
+GET /p/<token>         the page, for a token in ``<out>/links.csv``; any other: 404
+GET /?PROLIFIC_PID=..  the page, for a Prolific id that passes the study's id rules
+                       (with STUDY_ID and SESSION_ID); else a page that says why: 400
+POST /api/start        the page claims its participant: its page id and the first view;
+                       409 while another page of theirs plays
+POST /api/key          a key (press, release, cancel, space, quit): the new view;
+                       410 for a page that no longer plays, 429 beyond the key budget
+POST /api/alive        the page's heartbeat: 204, or 410
+POST /api/leave        the page closes (sent as a beacon): 204
+=====================  ================================================================
+
+Every request body is JSON of at most `MAX_BODY` bytes (413 beyond). Nothing the page sends
+names a file or chooses an outcome: a participant id comes from the links file or a checked
+Prolific id, and the session draws every start cell and slip. Every answer carries a
+Content-Security-Policy that lets the page load only this server's script and stylesheet; every
+text from a study or world file travels as a JSON string and is drawn with ``textContent``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import html
+import json
+import math
+from collections.abc import Awaitable, Callable
+from importlib import resources
+from typing import Any
+from urllib.parse import quote
+
+import anyio
+from starlette.applications import Starlette
+from starlette.concurrency import run_in_threadpool
+from starlette.middleware import Middleware
+from starlette.requests import Request
+from starlette.responses import HTMLResponse, JSONResponse, Response
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+
+from careful_tui.web.links import prolific_ids
+from careful_tui.web.seats import Seat, Seats
+from careful_tui.web.session_adapter import KeyRefused, WebSession
+from irl_core.participant_lock import ParticipantBusy, participant_lock
+from irl_core.recording_lines import ProlificTag
+from irl_core.safe_text import printable
+from irl_core.study import LoadedStudy, StudyError
+
+MAX_BODY = 2048
+COMPLETION_ADDRESS = "https://app.prolific.com/submissions/complete?cc="
+SWEEP_S = 5.0
+SECURITY_HEADERS = {
+    "content-security-policy": "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self'; "
+                               "connect-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+    "x-content-type-options": "nosniff",
+    "referrer-policy": "no-referrer",
+    "cache-control": "no-store",
+    "x-frame-options": "DENY",
+}
+KEY_TYPES = ("press", "release", "cancel", "space", "quit")
+
+
+class BodyTooLarge(Exception):
+    pass
+
+
+class SecurityHeaders:
+    """ASGI middleware: `SECURITY_HEADERS` on every response."""
+
+    def __init__(self, app) -> None:
+        self.app = app
+        self.headers = [(k.encode(), v.encode()) for k, v in SECURITY_HEADERS.items()]
+
+    async def __call__(self, scope, receive, send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+
+        async def send_with_headers(message) -> None:
+            if message["type"] == "http.response.start":
+                message.setdefault("headers", [])
+                message["headers"] = [*message["headers"], *self.headers]
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)
+
+
+def completion_url(code: str) -> str:
+    return COMPLETION_ADDRESS + quote(code, safe="")
+
+
+def notice_page(title: str, text: str, *, status: int) -> HTMLResponse:
+    """A page that says one thing (an unknown link, an id that cannot be used), escaped as text."""
+    body = (f'<!doctype html><html lang="en"><head><meta charset="utf-8"><meta name="viewport" '
+            f'content="width=device-width, initial-scale=1"><title>{html.escape(title)}</title>'
+            f'<link rel="stylesheet" href="/static/page.css"></head><body><main class="notice-page">'
+            f'<h1>{html.escape(title)}</h1><p>{html.escape(text)}</p></main></body></html>')
+    return HTMLResponse(body, status_code=status)
+
+
+async def read_json(request: Request) -> dict[str, Any]:
+    """The request's JSON object, read no further than `MAX_BODY` bytes.
+
+    Raises:
+        BodyTooLarge: the body is longer.
+        ValueError: it is not a JSON object.
+    """
+    declared = request.headers.get("content-length")
+    if declared is not None and (not declared.isdigit() or int(declared) > MAX_BODY):
+        raise BodyTooLarge
+    body = bytearray()
+    async for chunk in request.stream():
+        body += chunk
+        if len(body) > MAX_BODY:
+            raise BodyTooLarge
+    try:
+        data = json.loads(body.decode("utf-8"), parse_constant=lambda name: math.nan)
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+    if not isinstance(data, dict):
+        raise ValueError("not a JSON object")
+    return data
+
+
+def refuse(status: int, why: str) -> JSONResponse:
+    return JSONResponse({"error": why}, status_code=status)
+
+
+def json_endpoint(handle: Callable[[Request, dict[str, Any]], Awaitable[Response]]):
+    """An endpoint that takes `read_json`'s object: 413 for a body over the limit, 400 for one not JSON."""
+
+    async def endpoint(request: Request) -> Response:
+        try:
+            data = await read_json(request)
+        except BodyTooLarge:
+            return refuse(413, "The request is too large.")
+        except ValueError:
+            return refuse(400, "The request is not JSON.")
+        return await handle(request, data)
+
+    return endpoint
+
+
+def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str | None = None,
+             say: Callable[[str], None] = print, seed: int | None = None, seats: Seats | None = None) -> Starlette:
+    """The server's ASGI app for `study`, its participants from `links` (token -> id) and Prolific links."""
+    seats = Seats() if seats is None else seats
+    page_html = resources.files("careful_tui.web").joinpath("static/page.html").read_text(encoding="utf-8")
+    unknown = ("This link is not valid", "Check that you copied the whole link you were given; if it still "
+               "does not open, write to the experimenter.")
+
+    def page(request: Request) -> Response:
+        token = request.path_params["token"]
+        if token not in links:
+            return notice_page(*unknown, status=404)
+        return HTMLResponse(page_html)
+
+    def home(request: Request) -> Response:
+        query = request.query_params
+        if "PROLIFIC_PID" not in query:
+            return notice_page("This study opens from your link", "Open the link you were given to take part.",
+                               status=404)
+        try:
+            prolific_ids(query.get("PROLIFIC_PID", ""), query.get("STUDY_ID", ""), query.get("SESSION_ID", ""))
+        except StudyError as exc:
+            return notice_page("This link cannot be used", f"{exc}. Open the study again from Prolific; if this "
+                               "page comes back, write to the experimenter.", status=400)
+        return HTMLResponse(page_html)
+
+    def arrive(data: dict[str, Any], user_agent: str) -> Response:
+        prolific: ProlificTag | None = None
+        if "token" in data:
+            participant = links.get(data["token"]) if isinstance(data["token"], str) else None
+            if participant is None:
+                return refuse(404, "This link is not valid.")
+            came = "link"
+        else:
+            ids = data.get("prolific")
+            if not isinstance(ids, dict) or not all(isinstance(ids.get(k), str) for k in ("pid", "study_id", "session_id")):
+                return refuse(400, "The page was opened without a participant link.")
+            try:
+                participant, study_id, session_id = prolific_ids(ids["pid"], ids["study_id"], ids["session_id"])
+            except StudyError as exc:
+                return refuse(400, f"{exc}.")
+            prolific = ProlificTag(study_id=study_id, session_id=session_id)
+            came = "Prolific"
+        url = completion_url(completion_code) if completion_code is not None and prolific is not None else None
+
+        def make_session() -> WebSession:
+            return WebSession(study, participant, user_agent=user_agent, prolific=prolific, completion_url=url,
+                              say=say, seed=seed)
+
+        try:
+            seat = seats.claim(participant, make_session,
+                               hold=lambda: participant_lock(study, participant, holder="careful serve (a browser page)"))
+        except ParticipantBusy as exc:
+            return refuse(409, "This study is already open for you elsewhere (" + printable(exc.holder, limit=200)
+                          + "). Go on there, or finish it first.")
+        if seat is None:
+            return refuse(409, "This study is already open for you in another tab, window or device. Go on "
+                               "there; or close it, wait a few seconds, and reload this page.")
+        done, total = seat.session.protocol.progress
+        say(f"{participant}: opened the page from a {came} ({done} of {total} episodes done)")
+        with seat.lock:
+            return JSONResponse({"page": seat.page, "view": seat.session.view()})
+
+    @json_endpoint
+    async def start(request: Request, data: dict[str, Any]) -> Response:
+        user_agent = printable(request.headers.get("user-agent", ""), limit=400)
+        return await run_in_threadpool(arrive, data, user_agent)
+
+    def play_key(seat: Seat, data: dict[str, Any]) -> Response:
+        kind = data.get("type")
+        if kind not in KEY_TYPES:
+            return refuse(400, "Unknown key event.")
+        with seat.lock:
+            if seat.session.left:
+                return refuse(410, "This page has left the study.")
+            session = seat.session
+            if not seat.budget.spend():
+                session.cancel()
+                why = "Too many keys at once: nothing was played. Slow down."
+                session.tell(why)
+                return refuse(429, why)
+            try:
+                if kind == "press":
+                    session.press(data.get("key"), data.get("t"))
+                elif kind == "release":
+                    session.release(data.get("key"), data.get("t"))
+                elif kind == "cancel":
+                    session.cancel()
+                elif kind == "space":
+                    session.space()
+                else:
+                    session.leave()
+            except KeyRefused as exc:
+                return refuse(400, str(exc))
+            except (OSError, ValueError) as exc:
+                say(f"{seat.participant}: cannot write the recording ({printable(str(exc), limit=200)}); "
+                    "the participant was stopped")
+                session.leave("stopped: the recording cannot be written")
+                return refuse(503, "The study cannot save your moves just now; nothing more can be played. "
+                                   "Please write to the experimenter.")
+            view = session.view()
+        if kind == "quit":
+            seats.release(seat)
+        return JSONResponse({"view": view})
+
+    @json_endpoint
+    async def key(request: Request, data: dict[str, Any]) -> Response:
+        seat = seats.page(data.get("page"))
+        if seat is None:
+            return refuse(410, "This page no longer plays: reload it to go on.")
+        return await run_in_threadpool(play_key, seat, data)
+
+    @json_endpoint
+    async def alive(request: Request, data: dict[str, Any]) -> Response:
+        return Response(status_code=204 if seats.page(data.get("page")) is not None else 410)
+
+    @json_endpoint
+    async def leave(request: Request, data: dict[str, Any]) -> Response:
+        seat = seats.page(data.get("page"))
+        if seat is not None:
+            await run_in_threadpool(seats.release, seat, "left (closed the page)")
+        return Response(status_code=204)
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: Starlette):
+        async with anyio.create_task_group() as tasks:
+            async def sweep() -> None:
+                while True:
+                    await anyio.sleep(SWEEP_S)
+                    await run_in_threadpool(seats.release_silent)
+
+            tasks.start_soon(sweep)
+            try:
+                yield
+            finally:
+                tasks.cancel_scope.cancel()
+                seats.release_all("left (the server stopped)")
+
+    app = Starlette(routes=[
+        Route("/", home),
+        Route("/favicon.ico", lambda request: Response(status_code=204)),
+        Route("/p/{token}", page),
+        Route("/api/start", start, methods=["POST"]),
+        Route("/api/key", key, methods=["POST"]),
+        Route("/api/alive", alive, methods=["POST"]),
+        Route("/api/leave", leave, methods=["POST"]),
+        Mount("/static", StaticFiles(packages=[("careful_tui.web", "static")]), name="static"),
+    ], middleware=[Middleware(SecurityHeaders)], lifespan=lifespan)
+    app.state.seats = seats
+    return app

@@ -1,0 +1,337 @@
+"""One participant's way through a study in a browser: the play session the web server drives.
+
+The server owns one `WebSession` per participant page. It drives the same play session as
+`careful study run` (`irl_core.play.study_flow.StudyFlow` and its blocks' `PlaySession`s: the
+rules, the recordings in ``<out>/<ID>/``, resuming where the files say) and answers every call
+with `view()`, what the page draws. The page sends only key presses and releases with their times
+(`performance.now()`, milliseconds); every outcome (start cells, slips) is drawn here.
+
+==============  ===============================================================
+stage           what the page shows; the keys that act
+==============  ===============================================================
+instructions    the study's instructions and plan; space begins the next block
+play            the board, the gauge and the score; arrows move (hold longer: more
+                careful), space starts the next episode once one has ended
+between         practice over, or a world done; space goes on
+end             the end of the study (and, for a Prolific participant with a
+                completion code, the address to go back to)
+left            the participant left with q, or the page closed: what was played
+                is kept, and opening the link again resumes where the files say
+==============  ===============================================================
+
+A hold is timed on the page from keydown to keyup and fed to the session as a press and an exact
+release, so every step is ``hold_exact``; its level is `HoldProfile.level_for`, the game's own
+timing function, on `browser_profile`. A browser has no autorepeat delay to wait for, so level 1
+is a hold shorter than 150 ms (a tap), and each further 150 ms adds a level. A press of another arrow while one is held is ignored, and `cancel` (the
+window lost focus) drops the hold: no move.
+
+This module is the one place the web server meets the play session: it turns the page's
+milliseconds into the session's seconds, keeps to one arrow at a time, refuses a release that
+is not a hold, and words the views for the page.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+from rich.console import Group
+from rich.text import Text
+
+from careful_tui.render.grid import SYMBOL_NAMES, format_value
+from careful_tui.render.palette import GOOD, NOTE, WARN
+from careful_tui.render.session import outcome_text
+from careful_tui.screens.study import between_text, plan_text, where_next
+from careful_tui.version import app_version
+from careful_tui.widgets.gauge import format_chance
+from irl_core.game import level_costs, level_slip_chances
+from irl_core.mdp import DIRECTIONS
+from irl_core.play.hold import HoldProfile
+from irl_core.play.session import PlaySession, Played
+from irl_core.play.study_flow import StudyFlow
+from irl_core.recording_lines import ProlificTag
+from irl_core.safe_text import printable
+from irl_core.study import LoadedStudy, Protocol, read_protocol
+from irl_core.summary import outcome_code
+from irl_core.words import plural
+
+# Level 1 below 150 ms (a tap), then a level per 150 ms: level 14 from 1.95 s.
+BROWSER_TAP_MS = 150.0
+BROWSER_MS_PER_LEVEL = 150.0
+# A hold longer than this is a key left down, not a choice; it is refused (no move).
+LONGEST_HOLD_MS = 600_000.0
+USER_AGENT_LIMIT = 400
+
+
+def browser_profile(levels: int) -> HoldProfile:
+    """The timing of a browser hold for a world of `levels` levels (the header records it)."""
+    return HoldProfile(initial_delay_ms=BROWSER_TAP_MS, ms_per_level=BROWSER_MS_PER_LEVEL, levels=levels)
+
+
+def input_header(profile: HoldProfile, user_agent: str) -> dict[str, object]:
+    """The session header's ``input``: hold mode, timed exactly in a browser, and its level scale."""
+    return {"mode": "hold", "front_end": "browser", "user_agent": user_agent[:USER_AGENT_LIMIT],
+            "initial_delay_ms": profile.initial_delay_ms, "ms_per_level": profile.ms_per_level,
+            "timing": "keydown to keyup, performance.now()"}
+
+
+@dataclass
+class _Held:
+    key: str
+    at_ms: float
+
+
+class KeyRefused(ValueError):
+    """A key event the session cannot take (an unknown key, a time that is not a number)."""
+
+
+class WebSession:
+    """A participant from where their folder stands to the end of the study (see the module table).
+
+    Args:
+        study: the study.
+        participant: a checked participant id (`irl_core.study.check_participant`).
+        user_agent: the browser's, for the header.
+        prolific: Prolific's study and session ids, for the header, when the participant came that way.
+        completion_url: where the end screen sends the participant, once every episode is on disk.
+        say: receives a line for the experimenter's console when the participant starts, finishes a
+            block and leaves.
+        seed: fixes every block's seed (a test's); without it each block draws one.
+
+    Raises (from the key calls):
+        OSError, ValueError: the recording cannot be written; the participant can play no further.
+    """
+
+    def __init__(self, study: LoadedStudy, participant: str, *, user_agent: str = "",
+                 prolific: ProlificTag | None = None, completion_url: str | None = None,
+                 say: Callable[[str], None] = lambda line: None, seed: int | None = None) -> None:
+        self.participant = participant
+        self.user_agent = user_agent
+        self.prolific = prolific
+        self.completion_url = completion_url
+        self.say = say
+        # A browser always times holds: the study's terminal input mode does not apply here.
+        self.study = replace(study, study=study.study.model_copy(update={"input": "hold"}))
+        self.flow = StudyFlow(self.study, participant, seed=seed, app_version=app_version())
+        self.flow.profile = browser_profile(max(world.levels for world in study.worlds))  # each block's levels
+        self.session: PlaySession | None = None
+        self.stage = "end" if self.flow.stage == "end" else "instructions"
+        self.held: _Held | None = None
+        self.note = ""
+        self.left = False
+        for problem in self.protocol.problems:
+            say(f"warning: {printable(problem, limit=300)}")
+
+    @property
+    def protocol(self) -> Protocol:
+        return self.flow.protocol
+
+    def tell(self, note: str) -> None:
+        """A sentence for the participant in place of the session's message, until the next key."""
+        self.note = note
+
+    # ------------------------------------------------------------------ the page's keys
+
+    def press(self, key: str, at_ms: float) -> None:
+        """An arrow went down at `at_ms` (the page's clock): a hold starts, unless one is held."""
+        self._check(key, at_ms)
+        if self._live() and self.held is None:
+            assert self.session is not None
+            self.held = _Held(key, at_ms)
+            self.note = ""
+            # Each hold on a clock of its own from its press: the session's seconds then carry the
+            # page's milliseconds whole (1150 / 1000 - 1 is 0.1499999..., a 150 ms hold at level 1).
+            self._played(self.session.press(key, at=0.0, repeat=False))
+
+    def release(self, key: str, at_ms: float) -> None:
+        """An arrow came up at `at_ms`: the hold on it ends and its move is played."""
+        self._check(key, at_ms)
+        held, session = self.held, self.session
+        if held is None or held.key != key or session is None:
+            return
+        self.held = None
+        if not 0 <= at_ms - held.at_ms <= LONGEST_HOLD_MS:
+            session.cancel_hold("held too long to be a move")
+            return
+        self._played(session.release(key, at=(at_ms - held.at_ms) / 1000))
+        if session.view().all_played:
+            # The block's last episode is on disk (fsynced at its end): close its file now.
+            session.quit()
+
+    def cancel(self) -> None:
+        """The window lost focus (or the page could not send the release): the hold is dropped."""
+        if self.held is not None and self.session is not None:
+            self.held = None
+            self.session.cancel_hold("the window lost focus")
+
+    def space(self) -> None:
+        """Space: begin, go on, or start the next episode."""
+        self.note = ""
+        if self.stage in ("instructions", "between"):
+            self._start_block()
+        elif self.stage == "play" and self.session is not None and self.held is None:
+            if self.session.next_episode():
+                self._end_block()
+
+    def leave(self, why: str = "left") -> None:
+        """q, or the page closed: a running episode with steps is recorded as quit, the file closed."""
+        if self.left:
+            return
+        self.left, self.held = True, None
+        self.flow.quit()
+        if self.flow.write_error is not None:
+            self.say(f"{self.participant}: cannot close the recording ({printable(str(self.flow.write_error), limit=200)})")
+        if self.stage != "end":
+            self.stage = "left"
+        done, total = read_protocol(self.study, self.participant).progress
+        self.say(f"{self.participant}: {why} ({done} of {plural(total, 'episode')} done)")
+
+    # ------------------------------------------------------------------ the flow
+
+    def _live(self) -> bool:
+        return self.stage == "play" and self.session is not None and self.session.game.live
+
+    def _check(self, key: str, at_ms: float) -> None:
+        if key not in DIRECTIONS:
+            raise KeyRefused(f"not an arrow: {printable(str(key), limit=20)!r}")
+        if not (isinstance(at_ms, (int, float)) and math.isfinite(at_ms) and 0 <= at_ms < 1e12):
+            raise KeyRefused("a key's time must be a number of milliseconds")
+
+    def _played(self, played: Played) -> None:
+        assert self.session is not None
+        if played.stopped:
+            raise self.session.write_error
+
+    def _start_block(self) -> None:
+        session = self.flow.next_block()
+        if session is None:
+            self.stage = "end"
+            return
+        block = self.protocol.next
+        assert block is not None
+        recorder = session.recorder
+        recorder.set_header(recorder.header.model_copy(update={
+            "input": input_header(session.profile, self.user_agent), "prolific": self.prolific}))
+        session.start()
+        self.session, self.stage = session, "play"
+        self.say(f"{self.participant}: started world {block.position + 1} of {len(self.protocol.order)} "
+                 f"({printable(session.world.name, limit=40)}), {block.phase}, episode {block.done + 1} of {block.target}")
+
+    def _end_block(self) -> None:
+        assert self.session is not None
+        self.session.quit()
+        finished = self.protocol.next
+        stage = self.flow.block_ended()
+        self.session = None
+        if finished is not None:
+            self.say(f"{self.participant}: finished world {finished.position + 1} of {len(self.protocol.order)}, "
+                     f"{finished.phase}")
+        self.stage = "end" if stage == "end" else "between"
+        if self.stage == "end":
+            self.say(f"{self.participant}: finished the study")
+
+    # ------------------------------------------------------------------ what the page draws
+
+    def view(self) -> dict[str, Any]:
+        """Everything the page draws now, as JSON-ready data; every text is plain text."""
+        view: dict[str, Any] = {"stage": self.stage, "title": printable(self.study.study.name, limit=80),
+                                "participant": self.participant}
+        if self.stage == "play":
+            view["play"] = self._play_view()
+            if self._live():
+                keys = [["←↑→↓", "hold: move, longer is more careful"]]
+            else:
+                keys = [["space", "go on" if view["play"]["all_played"] else "next episode"]]
+            view["keys"] = keys + [["q", "leave"]]
+        else:
+            view["paragraphs"] = _paragraphs(self._screen_text())
+            view["keys"] = [] if self.stage in ("end", "left") else [["space", "begin" if self.stage == "instructions"
+                                                                       else "go on"], ["q", "leave"]]
+        if self.stage == "end" and self.completion_url is not None:
+            view["complete_url"] = self.completion_url
+        return view
+
+    def _screen_text(self) -> Group:
+        if self.stage == "instructions":
+            return _instructions(self.protocol)
+        if self.stage == "between":
+            assert self.flow.finished is not None
+            return between_text(self.protocol, self.flow.finished)
+        done, total = read_protocol(self.study, self.participant).progress
+        if self.stage == "end":
+            lines = [Text("That is the end of the study. Thank you!", style=f"bold {GOOD}"),
+                     Text(f"{'The episode is' if total == 1 else f'All {total} episodes are'} recorded.")]
+            if self.completion_url is not None:
+                lines.append(Text("You are being sent back to Prolific to complete your submission.", style="dim"))
+            return Group(*lines)
+        return Group(Text("You have left the study.", style=f"bold {NOTE}"),
+                     Text(f"What you played is kept: {done} of {plural(total, 'episode')} done."),
+                     Text("Open your link again to go on where you stopped.", style="dim"))
+
+    def _play_view(self) -> dict[str, Any]:
+        session = self.session
+        assert session is not None
+        now, world, profile = session.view(), session.world, session.profile
+        move = now.last_move
+        message = self.note or f"{now.message.lead}{now.message.text}"
+        view: dict[str, Any] = {
+            "heading": session.options.heading,
+            "rows": [printable(row) for row in world.layout.splitlines()],
+            "legend": [[symbol, SYMBOL_NAMES.get(symbol, printable(symbol))] for symbol in _symbols(world.layout)],
+            "levels": [{"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
+                       for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],
+            "timing": {"tap_ms": profile.initial_delay_ms, "ms_per_level": profile.ms_per_level,
+                       "levels": profile.levels},
+            "player": list(now.cell) if now.cell is not None else None,
+            "live": now.live,
+            "episode": f"{session.names.word} {session.names.number(now.episode)}",
+            "step": now.step, "max_steps": world.max_steps,
+            "score": format_value(now.score), "score_low": now.score < world.initial_score,
+            "last_move": None if move is None else {
+                "direction": move.step.direction, "level": move.step.carefulness, "hold_ms": move.step.hold_ms,
+                "slipped": move.slipped, "realised": move.realised,
+                "from": list(move.step.state), "to": list(move.step.next_state)},
+            "message": message, "all_played": now.all_played,
+        }
+        if not now.live and now.last_end is not None:
+            view["end"] = {"text": outcome_text(now.last_end), "code": outcome_code(now.last_end),
+                           "score": format_value(now.last_end.score)}
+        return view
+
+
+def _instructions(protocol: Protocol) -> Group:
+    """The first screen: the study's instructions and plan, with the browser's way to choose a level."""
+    study = protocol.study.study
+    parts: list[Text] = [Text(printable(study.name, limit=80), style=f"bold {NOTE}")]
+    if protocol.started:
+        done, total = protocol.progress
+        back = Text(f"Welcome back: {done} of {plural(total, 'episode')} {'is' if total == 1 else 'are'} done. "
+                    "You go on with: ", style=f"bold {GOOD}")
+        back.append_text(where_next(protocol))
+        parts.append(back)
+    if study.instructions.strip():
+        parts.append(Text(printable(study.instructions.strip(), keep_newlines=True)))
+    parts.append(plan_text(protocol))  # the protocol's study says hold input (`WebSession`)
+    parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
+    return Group(*parts)
+
+
+def _paragraphs(group: Group) -> list[dict[str, str]]:
+    """A screen's Rich text as paragraphs of plain text, each with its tone (title, good, warn, dim)."""
+    paragraphs = []
+    for part in group.renderables:
+        assert isinstance(part, Text)
+        if not part.plain.strip():
+            continue
+        style = str(part.style)
+        tone = next((name for name, colour in (("title", NOTE), ("good", GOOD), ("warn", WARN)) if colour in style),
+                    "dim" if "dim" in style else "")
+        paragraphs.append({"text": part.plain, "tone": tone})
+    return paragraphs
+
+
+def _symbols(layout: str) -> list[str]:
+    """The layout's symbols in the order they first appear (the legend's order)."""
+    return list(dict.fromkeys(ch for ch in layout if not ch.isspace()))

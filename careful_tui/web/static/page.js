@@ -1,0 +1,359 @@
+// careful study in a browser: times each hold from keydown to keyup and draws what the server answers.
+// The server runs the game: this page sends only keys (with their times on performance.now()'s clock,
+// the events' timeStamp) and draws the views it gets back. Every text is set with textContent.
+"use strict";
+(() => {
+  const ARROWS = { ArrowUp: "up", ArrowRight: "right", ArrowDown: "down", ArrowLeft: "left" };
+  const ANGLE = { right: 0, down: 90, left: 180, up: 270 };
+  const SYMBOL_CLASS = { ".": "sym-ground", C: "sym-C", G: "sym-G", U: "sym-U", "#": "sym-wall" };
+  const LEVEL_STOPS = [[0x4f, 0xc3, 0xf7], [0xff, 0xd5, 0x4f], [0xff, 0x5a, 0x36]];
+  const HEARTBEAT_MS = 5000;
+  const REDIRECT_MS = 1500;
+  const RETRY_MS = 2000;
+  const PROLIFIC = "https://app.prolific.com/";
+  const state = { page: null, view: null, held: null, queue: Promise.resolve(), frame: 0, beat: 0, over: false, drawnRows: null };
+  const $ = (id) => document.getElementById(id);
+
+  function el(tag, className, text) {
+    const node = document.createElement(tag);
+    if (className) node.className = className;
+    if (text !== undefined) node.textContent = text;
+    return node;
+  }
+
+  function show(section) {
+    for (const id of ["notice", "text", "play"]) $(id).hidden = id !== section;
+  }
+
+  function notice(title, text, button) {
+    $("notice-title").textContent = title;
+    $("notice-text").textContent = text;
+    const b = $("notice-button");
+    b.hidden = !button;
+    if (button) { b.textContent = button.label; b.onclick = button.act; }
+    $("keys").replaceChildren();
+    show("notice");
+  }
+
+  function flash(text) { $("flash").textContent = text || ""; }
+
+  function levelColour(level, levels) {
+    const f = levels <= 1 ? 0 : Math.min(1, Math.max(0, (level - 1) / (levels - 1)));
+    const x = f * (LEVEL_STOPS.length - 1);
+    const i = Math.min(Math.floor(x), LEVEL_STOPS.length - 2);
+    const t = x - i;
+    const [a, b] = [LEVEL_STOPS[i], LEVEL_STOPS[i + 1]];
+    return "rgb(" + a.map((p, k) => Math.round(p + (b[k] - p) * t)).join(", ") + ")";
+  }
+
+  // The level a hold of `ms` gets: the server's HoldProfile.level_for, with the timing it sent.
+  function levelFor(ms, timing) {
+    if (ms < timing.tap_ms) return 1;
+    return Math.min(timing.levels, 2 + Math.floor((ms - timing.tap_ms) / timing.ms_per_level + 1e-9));
+  }
+
+  function gaugeFill(ms, timing) {
+    const level = levelFor(ms, timing);
+    const fill = ms < timing.tap_ms ? 1 + ms / timing.tap_ms : 2 + (ms - timing.tap_ms) / timing.ms_per_level;
+    return { level, fill: Math.min(fill, level + 0.999, timing.levels) };
+  }
+
+  function credentials() {
+    const link = location.pathname.match(/^\/p\/([A-Za-z0-9_-]+)$/);
+    if (link) return { token: link[1] };
+    const q = new URLSearchParams(location.search);
+    return { prolific: { pid: q.get("PROLIFIC_PID") || "", study_id: q.get("STUDY_ID") || "", session_id: q.get("SESSION_ID") || "" } };
+  }
+
+  async function post(path, body) {
+    const response = await fetch(path, {
+      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
+      cache: "no-store", credentials: "same-origin",
+    });
+    let data = null;
+    try { data = await response.json(); } catch (e) { data = null; }
+    return { status: response.status, data };
+  }
+
+  // A device whose only pointer is a touch screen has, as a rule, no keyboard to hold keys on.
+  function touchOnly() {
+    return matchMedia("(any-pointer: coarse)").matches && !matchMedia("(any-pointer: fine)").matches;
+  }
+
+  async function start() {
+    clearTimeout(state.retry);
+    if (touchOnly()) {
+      notice("This study needs a keyboard", "It is played by holding the arrow keys of a physical keyboard. " +
+        "Please open your link again on a computer with a keyboard.");
+      return;
+    }
+    let answer;
+    try { answer = await post("/api/start", credentials()); } catch (e) {
+      notice("The study cannot be reached", "Check your connection, then try again.", { label: "Try again", act: start });
+      return;
+    }
+    const { status, data } = answer;
+    if (status === 200) {
+      state.page = data.page;
+      draw(data.view);
+      clearInterval(state.beat);
+      state.beat = setInterval(heartbeat, HEARTBEAT_MS);
+    } else if (status === 409) {
+      // The other page may be this one before a reload, whose goodbye is still on its way: try again
+      // now and then, so this page takes over as soon as the other one has closed.
+      notice("The study is open somewhere else", data.error, { label: "Try again", act: start });
+      clearTimeout(state.retry);
+      state.retry = setTimeout(start, RETRY_MS);
+    } else {
+      notice("This page cannot start the study", (data && data.error) || "The server answered " + status + ".");
+    }
+  }
+
+  async function heartbeat() {
+    if (!state.page) return;
+    try {
+      const { status } = await post("/api/alive", { page: state.page });
+      if (status === 410) lost();
+    } catch (e) { flash("The study cannot be reached just now; check your connection."); }
+  }
+
+  function lost() {
+    state.page = null;
+    state.held = null;
+    clearInterval(state.beat);
+    if (!state.over) {
+      notice("This page lost its place in the study", "What you played is kept. Reload the page to go on.",
+        { label: "Reload", act: () => location.reload() });
+    }
+  }
+
+  function send(body) {
+    const page = state.page;
+    if (!page) return;
+    state.queue = state.queue.then(async () => {
+      if (state.page !== page) return;
+      const { status, data } = await post("/api/key", Object.assign({ page }, body));
+      if (status === 200) { draw(data.view); return; }
+      if (status === 410) { lost(); return; }
+      if (status === 429) { state.held = null; drawHold(); }
+      flash((data && data.error) || "The server answered " + status + ".");
+    }).catch(() => flash("The study cannot be reached: your last key was not saved. Check your connection."));
+  }
+
+  function draw(view) {
+    state.view = view;
+    $("title").textContent = view.title;
+    $("who").textContent = "participant " + view.participant;
+    const keys = $("keys");
+    keys.replaceChildren(...view.keys.map(([key, what]) => {
+      const chip = el("span");
+      chip.append(el("kbd", "", key), document.createTextNode(what));
+      return chip;
+    }));
+    if (view.stage === "play") drawPlay(view.play);
+    else drawText(view);
+    if (view.stage === "left") { state.over = true; state.page = null; clearInterval(state.beat); }
+    if (view.complete_url && view.complete_url.startsWith(PROLIFIC) && !state.over) {
+      state.over = true;
+      const link = el("a", "", "Go back to Prolific now");
+      link.href = view.complete_url;
+      const line = el("p");
+      line.append(link);
+      $("text").append(line);
+      setTimeout(() => location.assign(view.complete_url), REDIRECT_MS);
+    }
+  }
+
+  function drawText(view) {
+    flash("");
+    $("text").replaceChildren(...view.paragraphs.map((p) => el("p", p.tone, p.text)));
+    show("text");
+  }
+
+  function drawPlay(play) {
+    $("heading").textContent = play.heading;
+    show("play");  // first, so the board is sized to the room it has
+    if (state.drawnRows !== JSON.stringify(play.rows)) buildBoard(play);
+    const board = $("board");
+    for (const cell of board.querySelectorAll(".player, .arrow")) cell.remove();
+    for (const cell of board.querySelectorAll(".slipped-to")) cell.classList.remove("slipped-to");
+    if (play.player) cellAt(play.player).append(el("div", "player"));
+    if (play.last_move && play.last_move.slipped) cellAt(play.last_move.to).classList.add("slipped-to");
+    drawStatus(play);
+    if (!play.live) state.held = null;
+    drawHold();
+  }
+
+  function cellAt([r, c]) { return $("board").children[r * state.cols + c]; }
+
+  function buildBoard(play) {
+    const rows = play.rows.map((row) => Array.from(row));
+    state.cols = rows[0].length;
+    const board = $("board");
+    const largest = parseFloat(getComputedStyle(document.documentElement).getPropertyValue("--cell-max")) || 64;
+    const room = Math.max(160, $("right").clientWidth || window.innerWidth - 40);
+    // Cells as large as the room allows (down to 6 px, so a 128-column world still fits a phone's width).
+    const gap = room / state.cols >= 26 ? 2 : 1;
+    const cell = Math.max(6, Math.min(largest, Math.floor((room - gap * (state.cols - 1)) / state.cols)));
+    board.style.setProperty("--cell", cell + "px");
+    board.style.gap = gap + "px";
+    board.style.gridTemplateColumns = "repeat(" + state.cols + ", var(--cell))";
+    board.replaceChildren(...rows.flat().map((symbol) => {
+      const node = el("div", "cell " + (SYMBOL_CLASS[symbol] || "sym-other"), symbol === "." ? "" : symbol);
+      node.title = symbol;
+      return node;
+    }));
+    $("legend").replaceChildren(...play.legend.map(([symbol, name]) => {
+      const item = el("span");
+      item.append(el("span", "swatch " + (SYMBOL_CLASS[symbol] || "sym-other")), document.createTextNode(symbol + " " + name));
+      return item;
+    }));
+    const gauge = $("gauge");
+    gauge.replaceChildren();
+    const levels = play.levels.length;
+    for (const row of [...play.levels].reverse()) {
+      const bar = el("span", "bar");
+      const fill = el("span", "fill");
+      fill.style.background = levelColour(row.level, levels);
+      bar.append(fill);
+      gauge.append(el("span", "num", String(row.level)), bar, el("span", "cost", row.cost), el("span", "slip", row.slip),
+        el("span", "mark", ""));
+    }
+    state.drawnRows = JSON.stringify(play.rows);
+  }
+
+  function drawStatus(play) {
+    const status = $("status");
+    const lines = [];
+    const head = el("p");
+    head.append(el("strong", "", play.episode), el("span", "sep", "step " + play.step + "/" + play.max_steps),
+      el("span", "sep", "score "));
+    head.lastChild.append(el("span", "score " + (play.score_low ? "low" : "high"), play.score));
+    if (play.end) {
+      const code = play.end.code === "G" ? "end-G" : ["quit", "step_limit", "unfinished"].includes(play.end.code) ? "end-note" : "end-bad";
+      const ended = el("p");
+      ended.append(el("strong", "", play.episode + ": "), el("span", code, play.end.text + "!"),
+        el("span", "sep", "score " + play.end.score));
+      lines.push(ended);
+      if (play.message) lines.push(el("p", "slip", play.message));
+      lines.push(el("p", "dim", play.all_played ? "Press space to go on." : "Press space for the next episode."));
+    } else {
+      lines.push(head);
+      lines.push(el("p", "slip", play.message || ""));
+    }
+    status.replaceChildren(...lines);
+    const info = $("hold-info");
+    if (!state.held) {
+      const move = play.last_move;
+      info.replaceChildren();
+      if (move) {
+        info.append(document.createTextNode("last move: "), el("strong", "", move.direction + " at level " + move.level),
+          document.createTextNode("\nheld " + Math.round(move.hold_ms) + " ms" + (move.slipped ? " · slipped " + move.realised : "")));
+      } else if (play.live) {
+        info.textContent = play.levels.length > 1 ? "Hold an arrow key: the longer you hold it, the more careful the move.\nLet go to move." : "Press an arrow key to move.";
+      }
+    }
+  }
+
+  // The gauge fills and the arrow on the player grows while a key is held.
+  function drawHold() {
+    cancelAnimationFrame(state.frame);
+    const view = state.view;
+    if (!view || view.stage !== "play") return;
+    const play = view.play;
+    const gauge = $("gauge");
+    const levels = play.levels.length;
+    const held = state.held;
+    const now = held ? gaugeFill(performance.now() - held.t, play.timing) : { level: 0, fill: 0 };
+    const cells = gauge.children;
+    for (let i = 0; i < levels; i++) {
+      const level = levels - i;
+      const part = Math.min(1, Math.max(0, now.fill - (level - 1)));
+      cells[i * 5 + 1].firstChild.style.width = (part * 100).toFixed(1) + "%";
+      const current = level === now.level;
+      for (const k of [0, 2, 3]) cells[i * 5 + k].classList.toggle("current", current);
+      cells[i * 5 + 4].textContent = current ? "◀" : "";
+      cells[i * 5 + 4].style.color = levelColour(level, levels);
+    }
+    for (const arrow of $("board").querySelectorAll(".arrow")) arrow.remove();
+    if (held && play.player) {
+      const cell = parseFloat(getComputedStyle($("board")).getPropertyValue("--cell")) || 56;
+      const arrow = el("div", "arrow");
+      const length = cell * (0.35 + 0.9 * (now.fill - 1) / Math.max(1, levels - 1));
+      const colour = levelColour(now.level, levels);
+      const half = Math.max(3, Math.round(cell * 0.16));  // the head's half height, in step with the cell
+      const shaft = el("div", "shaft");
+      shaft.style.width = Math.max(0, length - half) + "px";
+      shaft.style.height = Math.max(2, Math.round(half * 0.66)) + "px";
+      shaft.style.top = -Math.max(1, Math.round(half * 0.33)) + "px";
+      shaft.style.background = colour;
+      const head = el("div", "head");
+      head.style.left = Math.max(0, length - 1.5 * half) + "px";
+      head.style.top = -half + "px";
+      head.style.borderTopWidth = head.style.borderBottomWidth = half + "px";
+      head.style.borderLeftWidth = 1.5 * half + "px";
+      head.style.borderLeftColor = colour;
+      arrow.append(shaft, head);
+      arrow.style.transform = "rotate(" + ANGLE[held.key] + "deg)";
+      cellAt(play.player).append(arrow);
+      const info = $("hold-info");
+      info.replaceChildren(document.createTextNode("level "), el("strong", "", String(now.level)),
+        document.createTextNode("  cost " + play.levels[now.level - 1].cost + "  slip " + play.levels[now.level - 1].slip +
+          "\nheld " + Math.round(performance.now() - held.t) + " ms"));
+      state.frame = requestAnimationFrame(drawHold);
+    }
+  }
+
+  function stamp(event) { return event.timeStamp > 0 ? event.timeStamp : performance.now(); }
+
+  function canMove() {
+    const view = state.view;
+    return Boolean(state.page && view && view.stage === "play" && view.play.live);
+  }
+
+  addEventListener("keydown", (event) => {
+    if (event.ctrlKey || event.metaKey || event.altKey) return;
+    const key = ARROWS[event.key];
+    if (key) {
+      event.preventDefault();
+      if (event.repeat || state.held || !canMove()) return;
+      state.held = { key, t: stamp(event) };
+      flash("");
+      send({ type: "press", key, t: state.held.t });
+      drawHold();
+    } else if (event.key === " " || event.key === "Enter") {
+      event.preventDefault();
+      if (!event.repeat && !state.held) send({ type: "space" });
+    } else if (event.key === "q" || event.key === "Q") {
+      if (!event.repeat) { state.held = null; send({ type: "quit" }); }
+    }
+  });
+
+  addEventListener("keyup", (event) => {
+    const key = ARROWS[event.key];
+    if (!key) return;
+    event.preventDefault();
+    const held = state.held;
+    if (!held || held.key !== key) return;
+    state.held = null;
+    send({ type: "release", key, t: stamp(event) });
+    drawHold();
+  });
+
+  // No keyup comes for a key let go in another window: a hold cut short by lost focus is no move.
+  function focusLost() {
+    if (!state.held) return;
+    state.held = null;
+    send({ type: "cancel" });
+    drawHold();
+  }
+  addEventListener("blur", focusLost);
+  document.addEventListener("visibilitychange", () => { if (document.hidden) focusLost(); else heartbeat(); });
+
+  addEventListener("pagehide", () => {
+    if (state.page) navigator.sendBeacon("/api/leave", JSON.stringify({ page: state.page }));
+    state.page = null;
+  });
+
+  start();
+})();
