@@ -43,8 +43,9 @@ from irl_core.study_report import (
 from irl_core.words import plural
 
 FIGURE_FORMATS = (".png", ".pdf")
-# The codes of the fits' notes on what the table shows already (the method, beta).
-TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval"})
+# The codes of the fits' notes on what the table shows already (the method, beta) or that say all is well.
+TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval", "player_model", "player_estimated",
+                         "fit_check_passed"})
 TABLE_WIDTH = 200
 INFLUENTIAL_MARK = "†"
 
