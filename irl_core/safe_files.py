@@ -1,7 +1,8 @@
 """Reading only regular files, and one guard for every file a command writes (README "Limits and safety").
 
 Reading: a FIFO, a device or a folder given as a world or a recording would block or never
-end, so `open_regular` opens without blocking and refuses anything that is not a regular file.
+end, so `open_regular` opens without blocking and refuses anything that is not a regular file;
+a "regular" file that would still wait for data (`/proc/kmsg`) raises `BlockingIOError` when read.
 
 Writing: no command overwrites a recording or a file it was given to read. Every command that
 writes a file (`fit --json/--svg/--figure`, `simulate --out`, `export`, `experiment`) asks
@@ -13,10 +14,13 @@ full disk leaves the old file (or nothing), never half a file.
 
 from __future__ import annotations
 
+import errno
+import io
 import os
 import re
 import stat
 import tempfile
+import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 from typing import BinaryIO
@@ -26,6 +30,15 @@ from irl_core.safe_text import printable
 # How much of a file's start `is_recording` reads: a session header holds its whole world.
 _SNIFF_BYTES = 1 << 16
 _SESSION_KIND = re.compile(rb'"kind"\s*:\s*"session"')
+
+
+class InputError(ValueError):
+    """A file or a name a command was given that cannot be used: a recording, a world, a study.
+
+    Every reader raises its own subclass (`RecordingError`, `WorldError`, `StudyError`) for every
+    problem of what it reads, and nothing else, so that a caller who catches this one type never
+    lets one bad file stop a command (or a study's other participants). The message is one line.
+    """
 
 
 class OutputError(ValueError):
@@ -42,8 +55,21 @@ def describe_kind(mode: int) -> str:
     return "not a regular file"
 
 
+class _NeverWaiting(io.FileIO):
+    """A file read without blocking: a read that would wait raises instead of returning None."""
+
+    def readinto(self, buffer) -> int:  # type: ignore[override]
+        count = super().readinto(buffer)
+        if count is None:
+            raise BlockingIOError(errno.EAGAIN, "the file would wait for data")
+        return count
+
+
 def open_regular(path: str | Path) -> BinaryIO:
     """Open `path` for binary reading if it is a regular file.
+
+    The file stays non-blocking (files on disk ignore that): a pseudo file that waits for data,
+    such as `/proc/kmsg`, raises `BlockingIOError` on the read that would wait.
 
     Raises:
         OSError: the file cannot be opened (missing, no permission).
@@ -55,11 +81,48 @@ def open_regular(path: str | Path) -> BinaryIO:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):
             raise ValueError(f"{describe_kind(mode)}, not a regular file")
-        os.set_blocking(fd, True)
-        return os.fdopen(fd, "rb")
+        return io.BufferedReader(_NeverWaiting(fd, "rb"))
     except BaseException:
         os.close(fd)
         raise
+
+
+def read_problem(exc: OSError) -> str:
+    """Why reading an open file failed, for a message: a file that would block  says so."""
+    if isinstance(exc, BlockingIOError):
+        return "it would wait for data forever, like /proc/kmsg; give a file on disk"
+    return exc.strerror or str(exc)
+
+
+def reference_problem(name: str) -> str | None:
+    """Why `name` cannot be a path on this system (a NUL, a name or path over the system's limits), or None."""
+    if "\0" in name:
+        return "it holds a NUL character"
+    limit = os.pathconf("/", "PC_NAME_MAX") if hasattr(os, "pathconf") else 255
+    if any(len(os.fsencode(part)) > limit for part in Path(name).parts):
+        return f"a name in it is over the system's {limit} bytes"
+    if len(os.fsencode(name)) >= 4096:
+        return "it is over the system's 4,096 bytes for a path"
+    return None
+
+
+def parse_toml(raw: bytes) -> dict:
+    """A TOML file's bytes as a table.
+
+    Raises:
+        ValueError: one phrase for a message: "not UTF-8 text", "not valid TOML (...)", or the
+            number that is too long (Python refuses to read integers of over 4,300 digits).
+    """
+    try:
+        return tomllib.loads(raw.decode("utf-8-sig"))
+    except UnicodeDecodeError:
+        raise ValueError("not UTF-8 text") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"not valid TOML ({exc})") from None
+    except RecursionError:
+        raise ValueError("not valid TOML (arrays or tables nested too deeply)") from None
+    except ValueError:
+        raise ValueError("not valid TOML here (a number is over 4,300 digits long)") from None
 
 
 def is_recording(path: str | Path) -> bool:

@@ -26,17 +26,16 @@ from __future__ import annotations
 
 import hashlib
 import re
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from irl_core.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
 from irl_core.recording_lines import StudyTag
 from irl_core.recording_writer import slug
-from irl_core.safe_files import open_regular
+from irl_core.safe_files import InputError, open_regular, parse_toml, read_problem, reference_problem
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.words import plural
 from irl_core.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world
@@ -49,10 +48,12 @@ REPORT_FOLDER = "report"
 # The report's rows of every participant together carry this id (`irl_core.study_report.POOLED`).
 POOLED = "pooled"
 _MAX_STUDY_FILE_BYTES = 1 << 20
+# A study names at most this many worlds (each one a block per participant), checked before any is read.
+MAX_WORLDS = 1000
 FINISHED_OUTCOMES = ("terminal", "step_limit")
 
 
-class StudyError(ValueError):
+class StudyError(InputError):
     """A study file or participant id that cannot be used; the message is one line for the user."""
 
 
@@ -63,7 +64,8 @@ class Study(BaseModel):
 
     name: str = Field(min_length=1)
     instructions: str = Field("", max_length=20_000)
-    worlds: tuple[str, ...] = Field(min_length=1, strict=False)
+    worlds: tuple[Annotated[str, Field(max_length=4096)], ...] = Field(min_length=1, max_length=MAX_WORLDS,
+                                                                        strict=False)
     order: Literal["fixed", "shuffled"] = "fixed"
     practice_episodes: int = Field(1, ge=0, le=1000)
     episodes: int = Field(5, ge=1, le=100_000)
@@ -107,36 +109,43 @@ def load_study(path: str | Path) -> LoadedStudy:
         with open_regular(path) as file:
             raw = file.read(_MAX_STUDY_FILE_BYTES + 1)
     except OSError as exc:
-        raise StudyError(f"{path}: cannot read the study file ({exc.strerror or exc})") from None
+        raise StudyError(f"{path}: cannot read the study file ({read_problem(exc)})") from None
     except ValueError as exc:
         raise StudyError(f"{path}: is {exc}; a study is a TOML file") from None
     if len(raw) > _MAX_STUDY_FILE_BYTES:
         raise StudyError(f"{path}: the study file is over 1 MB")
     try:
-        data = tomllib.loads(raw.decode("utf-8-sig"))
-    except UnicodeDecodeError:
-        raise StudyError(f"{path}: cannot read the study file (not UTF-8 text)") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{path}: not valid TOML ({exc})") from None
-    except RecursionError:
-        raise StudyError(f"{path}: not valid TOML (arrays or tables nested too deeply)") from None
+        data = parse_toml(raw)
+    except ValueError as exc:
+        problem = str(exc)
+        raise StudyError(f"{path}: cannot read the study file ({problem})" if problem == "not UTF-8 text"
+                         else f"{path}: {problem}") from None
     data.setdefault("name", path.stem)
     try:
         study = Study.model_validate(data)
     except ValidationError as exc:
         raise StudyError(f"{path}: {describe_validation_error(exc)}") from None
-    worlds = []
+    worlds, read = [], {}
     for i, entry in enumerate(study.worlds):
         source = _world_source(entry, path.parent)
+        shown = printable(entry, limit=VALUE_LIMIT)
+        if not isinstance(source, str) and (problem := reference_problem(str(source))):
+            raise StudyError(f"{path}: worlds[{i}]: {shown!r} is not a built-in world and cannot be a file: {problem}")
         if not isinstance(source, str) and not source.exists():
-            shown = printable(entry, limit=VALUE_LIMIT)
             raise StudyError(f"{path}: worlds[{i}]: {shown!r} is neither a built-in world "
                              f"({', '.join(BUILTIN_WORLDS)}) nor a world file (looked for {source})")
         try:
-            worlds.append(load_world(source))
+            # A world named twice is read once.
+            worlds.append(read[entry] if entry in read else read.setdefault(entry, load_world(source)))
         except WorldError as exc:
             raise StudyError(f"{path}: worlds[{i}]: {exc}") from None
     return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)
+
+
+def world_files(study: LoadedStudy) -> list[Path]:
+    """The world files the study reads (not its built-in worlds): inputs no output may replace."""
+    return [source for entry in study.study.worlds
+            if not isinstance(source := _world_source(entry, study.path.parent), str)]
 
 
 def _world_source(entry: str, folder: Path) -> str | Path:
