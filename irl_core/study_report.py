@@ -21,7 +21,7 @@ import numpy as np
 
 from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitError, FitOptions, fit
-from irl_core.irl.bootstrap import run_in_pool
+from irl_core.pool import run_in_pool
 from irl_core.step_table import StepTable
 from irl_core.stopping import stop_check
 from irl_core.study import POOLED, REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
