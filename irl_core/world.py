@@ -29,7 +29,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from irl_core.safe_files import InputError, open_regular, parse_toml, read_problem, reference_problem
-from irl_core.safe_text import VALUE_LIMIT, cut, printable
+from irl_core.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
 from irl_core.words import plural
 
 WALL = "#"
@@ -220,7 +220,7 @@ def _toml_escape(value: str, *, keep_newlines: bool = False) -> str:
             out.append("\\" + ch)
         elif ch == "\n" and keep_newlines:
             out.append(ch)
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+        elif is_unsafe(ch):  # controls (C0, DEL, C1) and bidi or invisible marks: never raw in a file shown
             out.append(f"\\u{ord(ch):04X}")
         else:
             out.append(ch)

@@ -11,7 +11,6 @@ import argparse
 from pathlib import Path
 
 from rich.console import Console
-from rich.markup import escape
 from rich.progress import Progress
 from rich.text import Text
 
@@ -49,7 +48,7 @@ def run_export(args: argparse.Namespace) -> int:
         reading = progress.add_task("reading", total=sum(sizes))
         recordings: list[Recording] = []
         for path, size in zip(args.files, sizes):
-            progress.update(reading, description=f"reading {escape(printable(path.name, limit=60))}")
+            progress.update(reading, description=f"reading {for_markup(path.name, limit=60)}")
             recordings.append(read_recording(path))
             progress.advance(reading, size)
         for recording in recordings:

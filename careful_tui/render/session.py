@@ -85,7 +85,8 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     session.add_row(score, Text("final score", style="dim"))
 
     careful = Table(box=None, padding=(0, 0), show_edge=False, header_style="dim", title_style=f"bold {NOTE}",
-                    title=f"carefulness by\ndistance to {'/'.join(world.terminal)}", title_justify="left")
+                    title=Text(f"carefulness by\ndistance to {printable('/'.join(world.terminal))}"),
+                    title_justify="left")
     careful.add_column("d", justify="right", width=2)
     careful.add_column("mean", justify="right", width=5)
     careful.add_column("", width=MEAN_BAR + 1)
