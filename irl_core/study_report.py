@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irl_core.csv_cells import text_cell
 from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitError, FitOptions, fit
 from irl_core.pool import run_in_pool
@@ -287,12 +288,12 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
                 rewards += ["", "", ""]
         terminal_counts = [str(cell.outcomes.get(t, 0)) if t in world.terminal else "" for t in terminals]
         rows.append([
-            study.study.name, cell.participant, str(cell.world_index), world.name, str(cell.episodes),
+            text_cell(study.study.name), cell.participant, str(cell.world_index), text_cell(world.name), str(cell.episodes),
             str(cell.steps), str(cell.interrupted), *terminal_counts, str(cell.outcomes.get("step_limit", 0)),
             _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",
-            result.error or "; ".join(result.notes),
+            text_cell(result.error or "; ".join(result.notes)),
         ])
     return columns, rows
 
@@ -300,14 +301,3 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
 def _number(value: float | None) -> str:
     """A number for the CSV: empty for None, else up to 6 significant digits."""
     return "" if value is None or not np.isfinite(value) else f"{float(value):.6g}"
-
-
-def csv_text(columns: list[str], rows: list[list[str]]) -> str:
-    import csv
-    import io
-
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(columns)
-    writer.writerows(rows)
-    return buffer.getvalue()
