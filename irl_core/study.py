@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from irl_core.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
@@ -237,7 +238,44 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
             continue
         problems.extend(f"{warning}; the rest of the file is counted" for warning in recording.warnings)
         found.append((recording.header.study, recording))
+    found, copies = _one_per_session(found)
+    problems.extend(copies)
     return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
+
+
+def _one_per_session(found: list[tuple[StudyTag, Recording]]) -> tuple[list[tuple[StudyTag, Recording]], list[str]]:
+    """Each session once: files whose headers are equal (a backup copy, which has its own inode)
+    are one session, and the one that holds the most of it is kept; a line names each copy left out."""
+    sessions: dict[str, list[tuple[StudyTag, Recording]]] = {}
+    for entry in found:
+        sessions.setdefault(entry[1].header.model_dump_json(), []).append(entry)
+    kept, problems = [], []
+    for entries in sessions.values():
+        best = max(entries, key=lambda entry: _lines(entry[1]))
+        kept.append(best)
+        for _, copy in entries:
+            if copy is best[1]:
+                continue
+            content = "all of its lines are in" if _prefix(copy, best[1]) else "its lines differ from"
+            problems.append(f"{copy.path}: a copy of the session in {best[1].path.name} (the same header; {content} "
+                            f"{best[1].path.name}, which holds the most); left out, so the session counts once")
+    position = {id(recording): i for i, (_, recording) in enumerate(found)}
+    kept.sort(key=lambda entry: position[id(entry[1])])
+    return kept, problems
+
+
+def _lines(recording: Recording) -> int:
+    return len(recording.steps) + len(recording.episode_ends)
+
+
+def _prefix(short: Recording, long: Recording) -> bool:
+    """Whether every step and episode end of `short` is the start of `long`'s."""
+    n = len(short.steps)
+    if n > len(long.steps) or len(short.episode_ends) > len(long.episode_ends):
+        return False
+    same_steps = all(np.array_equal(short.steps.column(name), long.steps.column(name)[:n], equal_nan=True)
+                     for name in ("episode", "t", "row", "col", "direction", "carefulness", "hold_ms"))
+    return same_steps and short.episode_ends == long.episode_ends[: len(short.episode_ends)]
 
 
 def _foreign(study: LoadedStudy, participant: str, recording: Recording) -> str | None:
