@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from pydantic import Field, TypeAdapter, ValidationError
 
+from irl_core.end_table import EndTable
 from irl_core.line_checks import LineChecker, Mismatch
 from irl_core.mdp import MDP, build_mdp
 from irl_core.safe_files import InputError, open_regular, read_problem
@@ -58,14 +59,19 @@ class EmptyRecording(RecordingError):
 class Recording:
     """One session file as read: its header, steps, episode ends and any warnings.
 
-    `steps` is a `StepTable`: a sequence of `Step` stored as columns.
+    `steps` is a `StepTable` and `episode_ends` an `EndTable`: sequences of `Step` and
+    `EpisodeEnd` stored as columns.
     """
 
     path: Path
     header: SessionHeader
     steps: StepTable = field(default_factory=StepTable)
-    episode_ends: list[EpisodeEnd] = field(default_factory=list)
+    episode_ends: EndTable = field(default_factory=EndTable)
     warnings: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.episode_ends, EndTable):  # a list of ends, as a test or a caller builds one
+            self.episode_ends = EndTable(self.episode_ends)
 
     @property
     def world(self) -> World:
@@ -74,8 +80,7 @@ class Recording:
     @property
     def episodes(self) -> list[int]:
         """Episode numbers that have a step or an end, in order (the reader checks that order)."""
-        ends = np.array([e.episode for e in self.episode_ends], dtype=np.int64)
-        return np.union1d(self.steps.column("episode"), ends).tolist()
+        return np.union1d(self.steps.column("episode"), self.episode_ends.column("episode")).tolist()
 
 
 def read_recording(path: str | Path, *, progress: Callable[[int], None] | None = None) -> Recording:

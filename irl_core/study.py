@@ -244,21 +244,24 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
 
 
 def _one_per_session(found: list[tuple[StudyTag, Recording]]) -> tuple[list[tuple[StudyTag, Recording]], list[str]]:
-    """Each session once: files whose headers are equal (a backup copy, which has its own inode)
-    are one session, and the one that holds the most of it is kept; a line names each copy left out."""
+    """Each session once: a file whose header equals another's and whose lines all begin that
+    other file (a backup copy, taken then or later, which has its own inode) is a copy; the file
+    that holds the most is kept and each copy is named. Files of equal headers whose lines differ
+    are different sessions, and both count."""
     sessions: dict[str, list[tuple[StudyTag, Recording]]] = {}
     for entry in found:
         sessions.setdefault(entry[1].header.model_dump_json(), []).append(entry)
     kept, problems = [], []
     for entries in sessions.values():
-        best = max(entries, key=lambda entry: _lines(entry[1]))
-        kept.append(best)
-        for _, copy in entries:
-            if copy is best[1]:
+        mine: list[tuple[StudyTag, Recording]] = []
+        for entry in sorted(entries, key=lambda entry: -_lines(entry[1])):  # stable: name order among equals
+            original = next((k for _, k in mine if _prefix(entry[1], k)), None)
+            if original is None:
+                mine.append(entry)
                 continue
-            content = "all of its lines are in" if _prefix(copy, best[1]) else "its lines differ from"
-            problems.append(f"{copy.path}: a copy of the session in {best[1].path.name} (the same header; {content} "
-                            f"{best[1].path.name}, which holds the most); left out, so the session counts once")
+            problems.append(f"{entry[1].path}: a copy of the session in {original.path.name} (the same header, and "
+                            f"all its lines are in {original.path.name}); left out, so the session counts once")
+        kept.extend(mine)
     position = {id(recording): i for i, (_, recording) in enumerate(found)}
     kept.sort(key=lambda entry: position[id(entry[1])])
     return kept, problems

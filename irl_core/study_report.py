@@ -21,6 +21,7 @@ import numpy as np
 
 from irl_core.csv_cells import text_cell
 from irl_core.demonstrations import Demonstrations, Recording
+from irl_core.end_table import EndTable
 from irl_core.irl import FitError, FitOptions, fit
 from irl_core.pool import run_in_pool
 from irl_core.step_table import StepTable
@@ -144,7 +145,7 @@ def _finished_only(recording: Recording) -> Recording:
     for step in recording.steps:
         if step.episode in keep:
             steps.append(step)
-    ends = [end for end in recording.episode_ends if end.episode in keep]
+    ends = EndTable(end for end in recording.episode_ends if end.episode in keep)
     return dataclasses.replace(recording, steps=steps, episode_ends=ends, warnings=[])
 
 
