@@ -113,23 +113,36 @@ def reference_problem(name: str) -> str | None:
     return None
 
 
-def parse_toml(raw: bytes) -> dict:
-    """A TOML file's bytes as a table.
+def read_toml(path: Path, *, what: str, limit: int, too_big: str) -> dict:
+    """A TOML file (a world, a study) read whole, if it is a regular file of at most `limit` bytes.
+
+    Args:
+        what: "world", "study": the file's kind, for messages ("cannot read the world file").
+        too_big: the sentence after "the world file is over N MB; " (what the limit protects).
 
     Raises:
-        ValueError: one phrase for a message: "not UTF-8 text", "not valid TOML (...)", or the
-            number that is too long (Python refuses to read integers of over 4,300 digits).
+        ValueError: one line naming `path` and the problem: unreadable, not a regular file, too big,
+            not UTF-8, not valid TOML, or a number Python refuses to read (over 4,300 digits).
     """
+    try:
+        with open_regular(path) as file:
+            raw = file.read(limit + 1)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read the {what} file ({read_problem(exc)})") from None
+    except ValueError as exc:
+        raise ValueError(f"{path}: is {exc}; a {what} is a TOML file") from None
+    if len(raw) > limit:
+        raise ValueError(f"{path}: the {what} file is over {limit >> 20} MB" + (f"; {too_big}" if too_big else ""))
     try:
         return tomllib.loads(raw.decode("utf-8-sig"))
     except UnicodeDecodeError:
-        raise ValueError("not UTF-8 text") from None
+        raise ValueError(f"{path}: cannot read the {what} file (not UTF-8 text)") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"not valid TOML ({exc})") from None
+        raise ValueError(f"{path}: not valid TOML ({exc})") from None
     except RecursionError:
-        raise ValueError("not valid TOML (arrays or tables nested too deeply)") from None
+        raise ValueError(f"{path}: not valid TOML (arrays or tables nested too deeply)") from None
     except ValueError:
-        raise ValueError("not valid TOML here (a number is over 4,300 digits long)") from None
+        raise ValueError(f"{path}: not valid TOML here (a number is over 4,300 digits long)") from None
 
 
 def is_recording(path: str | Path) -> bool:

@@ -36,7 +36,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from irl_core.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
 from irl_core.recording_lines import StudyTag
 from irl_core.recording_writer import slug
-from irl_core.safe_files import InputError, open_regular, parse_toml, read_problem, reference_problem
+from irl_core.safe_files import InputError, read_toml, reference_problem
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.words import plural
 from irl_core.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world
@@ -107,20 +107,9 @@ def load_study(path: str | Path) -> LoadedStudy:
     """
     path = Path(path)
     try:
-        with open_regular(path) as file:
-            raw = file.read(_MAX_STUDY_FILE_BYTES + 1)
-    except OSError as exc:
-        raise StudyError(f"{path}: cannot read the study file ({read_problem(exc)})") from None
+        data = read_toml(path, what="study", limit=_MAX_STUDY_FILE_BYTES, too_big="")
     except ValueError as exc:
-        raise StudyError(f"{path}: is {exc}; a study is a TOML file") from None
-    if len(raw) > _MAX_STUDY_FILE_BYTES:
-        raise StudyError(f"{path}: the study file is over 1 MB")
-    try:
-        data = parse_toml(raw)
-    except ValueError as exc:
-        problem = str(exc)
-        raise StudyError(f"{path}: cannot read the study file ({problem})" if problem == "not UTF-8 text"
-                         else f"{path}: {problem}") from None
+        raise StudyError(str(exc)) from None
     data.setdefault("name", path.stem)
     try:
         study = Study.model_validate(data)

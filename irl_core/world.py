@@ -28,7 +28,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from irl_core.safe_files import InputError, open_regular, parse_toml, read_problem, reference_problem
+from irl_core.safe_files import InputError, read_toml, reference_problem
 from irl_core.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
 from irl_core.words import plural
 
@@ -279,22 +279,10 @@ def load_world(name_or_path: str | Path) -> World:
         known = ", ".join(BUILTIN_WORLDS)
         raise WorldError(f"no world named {printable(key, limit=VALUE_LIMIT)!r} and no such file (built-in worlds: {known})")
     try:
-        with open_regular(path) as file:
-            # A world file bigger than this cannot hold a world within MAX_CELLS.
-            raw = file.read(_MAX_WORLD_FILE_BYTES + 1)
-    except OSError as exc:
-        raise WorldError(f"{path}: cannot read the world file ({read_problem(exc)})") from None
+        # A world file bigger than this cannot hold a world within MAX_CELLS.
+        data = read_toml(path, what="world", limit=_MAX_WORLD_FILE_BYTES, too_big=f"a world has at most {MAX_CELLS:,} cells")
     except ValueError as exc:
-        raise WorldError(f"{path}: is {exc}; a world is a TOML file") from None
-    if len(raw) > _MAX_WORLD_FILE_BYTES:
-        raise WorldError(f"{path}: the world file is over {_MAX_WORLD_FILE_BYTES >> 20} MB; a world has at most "
-                         f"{MAX_CELLS:,} cells")
-    try:
-        data = parse_toml(raw)
-    except ValueError as exc:
-        problem = str(exc)
-        raise WorldError(f"{path}: cannot read the world file ({problem})" if problem == "not UTF-8 text"
-                         else f"{path}: {problem}") from None
+        raise WorldError(str(exc)) from None
     data.setdefault("name", path.stem)
     return world_from_dict(data, source=str(path))
 
