@@ -143,7 +143,7 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
                 raise RecordingError(path, number, None, _json_problem(exc)) from None
             if not isinstance(obj, dict):
                 raise RecordingError(path, number, None, "a line must be a JSON object")
-            if (where := lone_surrogate(obj)) is not None:
+            if (where := _lone_surrogate(obj)) is not None:
                 raise RecordingError(path, number, where, "holds a lone surrogate (\\udXXX), which is not text; "
                                      "the file was not written by careful")
             if recording is None:
@@ -223,18 +223,18 @@ def _json_problem(exc: Exception) -> str:
     return "a number is over 4,300 digits long"
 
 
-def lone_surrogate(value: Any, where: str = "") -> str | None:
+def _lone_surrogate(value: Any, where: str = "") -> str | None:
     """The field (`player`, `world.name`, ...) of the first string or key in `value` that holds
     a lone surrogate (JSON's `"\\ud800"`, which no UTF-8 file or terminal can carry), or None."""
     if isinstance(value, str):
         return where or "(value)" if any("\ud800" <= ch <= "\udfff" for ch in value) else None
     if isinstance(value, dict):
         for key, item in value.items():
-            if (found := lone_surrogate(key, where) or lone_surrogate(item, f"{where}.{key}".lstrip("."))) is not None:
+            if (found := _lone_surrogate(key, where) or _lone_surrogate(item, f"{where}.{key}".lstrip("."))) is not None:
                 return found
     elif isinstance(value, list):
         for i, item in enumerate(value):
-            if (found := lone_surrogate(item, f"{where}[{i}]")) is not None:
+            if (found := _lone_surrogate(item, f"{where}[{i}]")) is not None:
                 return found
     return None
 

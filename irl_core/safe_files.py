@@ -95,7 +95,7 @@ def open_regular(path: str | Path) -> BinaryIO:
 
 
 def read_problem(exc: OSError) -> str:
-    """Why reading an open file failed, for a message: a file that would block  says so."""
+    """Why reading an open file failed, for a message (a file that would block says so)."""
     if isinstance(exc, BlockingIOError):
         return "it would wait for data forever, like /proc/kmsg; give a file on disk"
     return exc.strerror or str(exc)
@@ -108,8 +108,9 @@ def reference_problem(name: str) -> str | None:
     limit = os.pathconf("/", "PC_NAME_MAX") if hasattr(os, "pathconf") else 255
     if any(len(os.fsencode(part)) > limit for part in Path(name).parts):
         return f"a name in it is over the system's {limit} bytes"
-    if len(os.fsencode(name)) >= 4096:
-        return "it is over the system's 4,096 bytes for a path"
+    longest = os.pathconf("/", "PC_PATH_MAX") if hasattr(os, "pathconf") else 4096
+    if len(os.fsencode(name)) >= longest:
+        return f"it is over the system's {longest:,} bytes for a path"
     return None
 
 
@@ -142,7 +143,7 @@ def read_toml(path: Path, *, what: str, limit: int, too_big: str) -> dict:
     except RecursionError:
         raise ValueError(f"{path}: not valid TOML (arrays or tables nested too deeply)") from None
     except ValueError:
-        raise ValueError(f"{path}: not valid TOML here (a number is over 4,300 digits long)") from None
+        raise ValueError(f"{path}: a number is over 4,300 digits long") from None
 
 
 def is_recording(path: str | Path) -> bool:
