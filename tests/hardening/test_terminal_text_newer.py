@@ -85,3 +85,20 @@ def test_for_markup_is_literal(text):
 def test_is_unsafe_covers_c1_bidi_and_surrogates():
     assert all(is_unsafe(ch) for ch in "\x1b\x9b\x85\u202e\u2066\u200b\ufeff\ud800")
     assert not any(is_unsafe(ch) for ch in "a[]/é日☺")
+
+
+def test_experiment_out_with_markup_and_a_bad_recording_ends_well(tmp_path, capsys, monkeypatch):
+    """`--out '[/]x'` wrote everything, then ended with exit 1 on its last line; a bad file in
+    --recordings (episode 2^63) ended the whole experiment. Now: exit 0, the folder named as text,
+    the bad file named in the notes."""
+    monkeypatch.chdir(tmp_path)
+    people = tmp_path / "people"
+    people.mkdir()
+    good = recording(people / "a.jsonl", episodes=3)
+    text = good.read_text().replace('"expert:optimal"', '"ann"')
+    good.write_text(text)
+    (people / "b.jsonl").write_text(text.replace('"episode": 0,', f'"episode": {2**63},', 1))
+    status, out, err = careful(capsys, "experiment", "--quick", "--recordings", people, "--out", "[/]x")
+    assert status == 0, err
+    assert "are in [/]x/" in out and (tmp_path / "[" / "]x" / "report.md").exists()
+    assert "b.jsonl:2: episode" in " ".join(out.split()), out[-1500:]
