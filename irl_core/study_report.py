@@ -24,9 +24,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from irl_core.claims import SYMBOL_WORDS, interval_text, number_text, order_words
+from irl_core.csv_cells import text_cell
 from irl_core.demonstrations import Demonstrations, Recording
+from irl_core.end_table import EndTable
 from irl_core.irl import FitError, FitOptions, Note, fit
-from irl_core.irl.bootstrap import run_in_pool
+from irl_core.pool import run_in_pool
 from irl_core.step_table import StepTable
 from irl_core.stopping import stop_check
 from irl_core.study import POOLED, REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
@@ -188,7 +190,7 @@ def _finished_only(recording: Recording) -> Recording:
     for step in recording.steps:
         if step.episode in keep:
             steps.append(step)
-    ends = [end for end in recording.episode_ends if end.episode in keep]
+    ends = EndTable(end for end in recording.episode_ends if end.episode in keep)
     return dataclasses.replace(recording, steps=steps, episode_ends=ends, warnings=[])
 
 
@@ -421,13 +423,14 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
                 rewards += ["", "", ""]
         terminal_counts = [str(cell.outcomes.get(t, 0)) if t in world.terminal else "" for t in terminals]
         rows.append([
-            study.study.name, cell.participant, str(cell.world_index), world.name, str(cell.episodes),
+            text_cell(study.study.name), cell.participant, str(cell.world_index), text_cell(world.name), str(cell.episodes),
             str(cell.steps), str(cell.interrupted), *terminal_counts, str(cell.outcomes.get("step_limit", 0)),
             _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",
-            result.error or "; ".join(str(note) for note in result.notes),
-            _influence_cell(result), pooled_finding(data, cell, result) if cell.participant == POOLED else "",
+            text_cell(result.error or "; ".join(str(note) for note in result.notes)),
+            _influence_cell(result),
+            text_cell(pooled_finding(data, cell, result)) if cell.participant == POOLED else "",
         ])
     return columns, rows
 
@@ -524,14 +527,3 @@ def _influence_words(pooled: CellFit) -> str:
 def _number(value: float | None) -> str:
     """A number for the CSV: empty for None, else up to 6 significant digits."""
     return "" if value is None or not np.isfinite(value) else f"{float(value):.6g}"
-
-
-def csv_text(columns: list[str], rows: list[list[str]]) -> str:
-    import csv
-    import io
-
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(columns)
-    writer.writerows(rows)
-    return buffer.getvalue()

@@ -316,7 +316,13 @@ class FitScreen(Screen[None]):
     # ------------------------------------------------------------------ saving
 
     def action_save_svg(self) -> None:
-        path = self.svg or default_svg_name(self.world.name, self._shown_method(), Path.cwd())
+        try:
+            path = self.svg or default_svg_name(self.world.name, self._shown_method(), Path.cwd())
+        except OSError as exc:  # the current folder was removed (or cannot be read) while the view was open
+            self.notify(f"cannot save the SVG: the current folder is gone ({exc.strerror or exc}); "
+                        "quit, cd to a folder that exists and fit again, or give --svg PATH",
+                        title="save SVG", severity="error", markup=False)
+            return
         self._save(path)
 
     def _save_first_svg(self) -> None:
