@@ -18,7 +18,8 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.version import app_version
-from irl_core import fit_methods, player_models
+import irl_core.fit_methods as fit_methods
+import irl_core.player_models as player_models
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.person_like import KINDS as PERSON_LIKE
 from irl_core.safe_files import InputError, OutputError

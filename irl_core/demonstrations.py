@@ -401,6 +401,12 @@ class EpisodeFacts:
         return cls(start=np.array([first[k] for k in keys], dtype=np.int64),
                    length=np.array([length[k] for k in keys], dtype=np.int64), end=tuple(ends))
 
+    def rows(self, keep: np.ndarray) -> EpisodeFacts:
+        """The facts of the episodes where `keep` (E,) is True."""
+        keep = np.asarray(keep, dtype=bool)
+        return EpisodeFacts(start=self.start[keep], length=self.length[keep],
+                            end=tuple(end for end, kept in zip(self.end, keep) if kept))
+
     @property
     def finished(self) -> np.ndarray:
         """(E,) True where the episode ran to a terminal cell or the step limit (not quit, not cut short)."""

@@ -23,6 +23,7 @@ field                 meaning
 
 from __future__ import annotations
 
+import tomllib
 from functools import cached_property
 from pathlib import Path
 from typing import Literal

@@ -28,7 +28,7 @@ from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import print_fit
-from irl_core import fit_methods
+import irl_core.fit_methods as fit_methods
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.safe_files import check_output, write_output

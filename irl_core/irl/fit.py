@@ -18,7 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from irl_core import fit_methods
+import irl_core.fit_methods as fit_methods
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl.bootstrap import Refit, Refitter, bootstrap
 from irl_core.irl.evaluation import evaluate
