@@ -409,8 +409,15 @@ class FitScreen(Screen[None]):
         return Text.assemble(
             ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
             (f"  ·  {files}: {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}", "dim"),
-            (f"  ·  {METHODS[method].label}" if METHODS[method].label else "", "dim"),
+            (f"  ·  {self._label(method)}" if self._label(method) else "", "dim"),
         )
+
+    def _label(self, method: str) -> str:
+        """What the paper calls the method, or for maxent with a model of people, that model."""
+        result = self.result
+        if result is not None and result.method == method and result.player_model not in (None, "boltzmann"):
+            return f"{result.player_model} player model"
+        return METHODS[method].label
 
     def _status(self) -> Text:
         if self.fitting is not None:
