@@ -28,7 +28,6 @@ from pathlib import Path
 import numpy as np
 
 from irl_core.claims import RECOVERED, SYMBOL_WORDS, Claim, paper_claims
-from irl_core.stage_results import Estimate, Separation
 from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
 from irl_core.experts import (
     boltzmann_policy,
@@ -41,6 +40,7 @@ from irl_core.irl.options import FitOptions
 from irl_core.irl.result import FitResult, at_bound
 from irl_core.mdp import MDP, action_parts, build_mdp
 from irl_core.planning import value_iteration
+from irl_core.stage_results import Estimate, Separation
 from irl_core.world import BUILTIN_WORLDS, World
 
 Cell = tuple[int, int]

@@ -30,8 +30,8 @@ from typing import Protocol
 
 import numpy as np
 
-from irl_core.recording_lines import EpisodeEnd, Step
 from irl_core.mdp import DIRECTIONS, action_index, build_mdp, direction_probabilities
+from irl_core.recording_lines import EpisodeEnd, Step
 from irl_core.world import World
 
 Cell = tuple[int, int]

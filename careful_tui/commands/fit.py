@@ -166,8 +166,8 @@ def run_fit(args: argparse.Namespace) -> int:
         save_figure(fit_figure(result), args.figure, option="--figure", inputs=args.files)
     if view:
         # Imported here for start-up speed: Textual loads only when the view opens.
-        from careful_tui.keys.kitty import PassiveKittyDriver
         from careful_tui.app import make_fit_app
+        from careful_tui.keys.kitty import PassiveKittyDriver
 
         # The kitty-aware driver: Textual's own crashes on key-event sequences some terminals send.
         app = make_fit_app(args, demos, result, driver_class=PassiveKittyDriver)

@@ -22,8 +22,8 @@ left            the participant left with q, or the page closed: what was played
 A hold is timed on the page from keydown to keyup and fed to the session as a press and an exact
 release, so every step is ``hold_exact``; its level is `HoldProfile.level_for`, the game's own
 timing function, on `browser_profile`. A browser has no autorepeat delay to wait for, so level 1
-is a hold shorter than 150 ms (a tap), and each further 150 ms adds a level. A press of another arrow while one is held is ignored, and `cancel` (the
-window lost focus) drops the hold: no move.
+is a hold shorter than 150 ms (a tap), and each further 150 ms adds a level. A press of another
+arrow while one is held is ignored, and `cancel` (the window lost focus) drops the hold: no move.
 
 This module is the one place the web server meets the play session: it turns the page's
 milliseconds into the session's seconds, keeps to one arrow at a time, refuses a release that
@@ -49,7 +49,7 @@ from careful_tui.widgets.gauge import format_chance
 from irl_core.game import level_costs, level_slip_chances
 from irl_core.mdp import DIRECTIONS
 from irl_core.play.hold import HoldProfile
-from irl_core.play.session import PlaySession, Played
+from irl_core.play.session import Played, PlaySession
 from irl_core.play.study_flow import StudyFlow
 from irl_core.recording_lines import ProlificTag
 from irl_core.safe_text import printable

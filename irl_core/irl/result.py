@@ -23,7 +23,6 @@ from irl_core.mdp import MDP, action_parts
 from irl_core.player_models import Player
 from irl_core.world import WALL, World
 
-
 # How near ±rmax a value must be, relative to rmax, to be "at the bound". A value the box decided
 # is exactly ±rmax from the simplex and from maxent's L-BFGS-B (which projects onto the box), but the
 # loss's cutting planes stop at a relative gap of up to 1e-6 (`loss.STALL_TOLERANCE`) and a bootstrap
