@@ -70,8 +70,11 @@ class Refitter(Protocol):
     """What the bootstrap refits with: a picklable callable from a resample's counts (S, A) to its p parameters
     (`Refit` for maxent and loss, `people.PlayerRefit` for a model of people)."""
 
-    mdp: MDP
-    unknowns: Unknowns
+    @property
+    def mdp(self) -> MDP: ...
+
+    @property
+    def unknowns(self) -> Unknowns: ...
 
     @property
     def size(self) -> int: ...
@@ -303,7 +306,7 @@ def _heeding_the_stop(function: Callable[..., T], call: tuple) -> T:
         return function(*call)
 
 
-_WORKER: tuple[Refit, sp.csr_matrix] | None = None
+_WORKER: tuple[Refitter, sp.csr_matrix] | None = None
 
 
 def _install(refit: Refitter, by_episode: sp.csr_matrix) -> None:

@@ -399,8 +399,11 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
         return None
     if fitted.people is not None:
         full = fitted.people.parameters()
+    elif fitted.beta_auto:
+        assert fitted.beta is not None, "an estimated beta"
+        full = np.append(fitted.theta, fitted.beta)
     else:
-        full = np.append(fitted.theta, fitted.beta) if fitted.beta_auto else fitted.theta
+        full = fitted.theta
     result = bootstrap(_refit(fitted, qmap, demos, options), demos.by_episode, full, confidence=options.confidence,
                        resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
                        progress=progress, workers=workers, groups=demos.episode_groups)
