@@ -11,6 +11,7 @@ import argparse
 import importlib
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from rich.console import Console
@@ -294,7 +295,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_FAILURE
 
 
-def _lazy(module: str, function: str):
+def _lazy(module: str, function: str) -> Callable[[argparse.Namespace], int]:
     """A command that imports its module when it runs: Textual, cvxpy and matplotlib load only
     for the commands that need them, so `careful --help` and `careful worlds` answer at once."""
 
@@ -315,7 +316,7 @@ COMMANDS = {
     "serve": _lazy("careful_tui.commands.serve", "run_serve"),
     "study": lambda args: STUDY_COMMANDS[args.study_command](args),
 }
-STUDY_COMMANDS = {
+STUDY_COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "run": _lazy("careful_tui.commands.study_run", "run_study_run"),
     "report": _lazy("careful_tui.study_report", "run_study_report"),
 }

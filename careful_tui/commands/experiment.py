@@ -10,7 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rich.console import Console, Group
+from rich.console import Console, Group, RenderableType
 from rich.markup import escape
 from rich.panel import Panel
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
@@ -29,7 +29,7 @@ from irl_core.safe_text import printable
 def figure_panel(figure: Figure) -> Panel:
     labels = {cell: action_label(*action, levels=figure.world.levels) for cell, action in figure.policy.items()}
     grid = WorldGrid(figure.world, values=figure.values, labels=labels)
-    parts = [grid, symbol_legend(figure.world)]
+    parts: list[RenderableType] = [grid, symbol_legend(figure.world)]
     if figure.caption:
         parts.append(Text(figure.caption, style="italic"))
     return Panel(Group(*parts), title=figure.title, expand=False)

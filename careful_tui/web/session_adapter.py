@@ -134,9 +134,9 @@ class WebSession:
 
     # ------------------------------------------------------------------ the page's keys
 
-    def press(self, key: str, at_ms: float) -> None:
+    def press(self, key: object, at_ms: object) -> None:
         """An arrow went down at `at_ms` (the page's clock): a hold starts, unless one is held."""
-        self._check(key, at_ms)
+        key, at_ms = self._check(key, at_ms)
         if self._live() and self.held is None:
             assert self.session is not None
             self.held = _Held(key, at_ms)
@@ -145,9 +145,9 @@ class WebSession:
             # page's milliseconds whole (1150 / 1000 - 1 is 0.1499999..., a 150 ms hold at level 1).
             self._played(self.session.press(key, at=0.0, repeat=False))
 
-    def release(self, key: str, at_ms: float) -> None:
+    def release(self, key: object, at_ms: object) -> None:
         """An arrow came up at `at_ms`: the hold on it ends and its move is played."""
-        self._check(key, at_ms)
+        key, at_ms = self._check(key, at_ms)
         held, session = self.held, self.session
         if held is None or held.key != key or session is None:
             return
@@ -193,16 +193,20 @@ class WebSession:
     def _live(self) -> bool:
         return self.stage == "play" and self.session is not None and self.session.game.live
 
-    def _check(self, key: str, at_ms: float) -> None:
-        if key not in DIRECTIONS:
+    def _check(self, key: object, at_ms: object) -> tuple[str, float]:
+        """The page's key and time, as they came, once they are an arrow and a time (else KeyRefused)."""
+        if not (isinstance(key, str) and key in DIRECTIONS):
             raise KeyRefused(f"not an arrow: {printable(str(key), limit=20)!r}")
         if not (isinstance(at_ms, (int, float)) and math.isfinite(at_ms) and 0 <= at_ms < 1e12):
             raise KeyRefused("a key's time must be a number of milliseconds")
+        return key, at_ms
 
     def _played(self, played: Played) -> None:
         assert self.session is not None
         if played.stopped:
-            raise self.session.write_error
+            error = self.session.write_error
+            assert error is not None, "a stopped session says why"
+            raise error
 
     def _start_block(self) -> None:
         session = self.flow.next_block()
