@@ -112,9 +112,9 @@ class ReplayScreen(Screen[None]):
 
     # What is on screen: playing or paused, the speed, and the place (file, frame). Their
     # watchers redraw; `set_reactive` in __init__ sets them before there is anything to draw.
-    playing: reactive[bool] = var(False, init=False)
-    speed_index: reactive[int] = var(SPEEDS.index(1.0), init=False)
-    place: reactive[tuple[int, int]] = var((0, 0), init=False)
+    playing: var[bool] = var(False, init=False)
+    speed_index: var[int] = var(SPEEDS.index(1.0), init=False)
+    place: var[tuple[int, int]] = var((0, 0), init=False)
 
     def __init__(self, recordings: Sequence[Recording], *, skipped: Sequence[str] = (), playing: bool = False,
                  frame_seconds: float = FRAME_S) -> None:
@@ -316,11 +316,11 @@ class ReplayScreen(Screen[None]):
         frame = self.cursor.frame
         board, gauge = self.query_one(Board), self.query_one(Gauge)
         step = None if frame is None else frame.step
+        phase = None if frame is None else frame.phase
         board.player = None if frame is None else frame.player
         board.arrow = (Arrow(step.direction, step.carefulness, self.world.levels)
-                       if step is not None and frame.phase == "before" else None)
-        slipped = step is not None and step.slipped and frame.phase == "after"
-        board.highlight = {step.next_state: SLIP} if slipped else {}
+                       if step is not None and phase == "before" else None)
+        board.highlight = {step.next_state: SLIP} if step is not None and step.slipped and phase == "after" else {}
         gauge.level = None if step is None else step.carefulness
         gauge.fill = 0.0 if step is None else float(step.carefulness)
         self.query_one("#hold-info", Static).update(self._hold_info(step), layout=False)
