@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from irl_core.demonstrations import Recording, RecordingError
-from irl_core.recording_lines import Step
 from irl_core.mdp import MDP, action_index, build_mdp
+from irl_core.recording_lines import Step
 from irl_core.world import World
 
 CSV_COLUMNS = (

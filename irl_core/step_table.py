@@ -33,7 +33,7 @@ class StepTable(Sequence):
 
     def __init__(self) -> None:
         self._size = 0
-        self._columns = {name: np.empty(0, dtype) for name, dtype in _COLUMNS.items()}
+        self._columns: dict[str, np.ndarray] = {name: np.empty(0, dtype) for name, dtype in _COLUMNS.items()}
         self._blocks: list[dict[str, np.ndarray]] = []
         self._pending: list[tuple] = []
 

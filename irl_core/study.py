@@ -227,7 +227,9 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
             problems.append(f"{path}: {problem}; left out")
             continue
         problems.extend(f"{warning}; the rest of the file is counted" for warning in recording.warnings)
-        found.append((recording.header.study, recording))
+        tag = recording.header.study
+        assert tag is not None, "_foreign refuses a recording without a study tag"
+        found.append((tag, recording))
     return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
 
 

@@ -29,8 +29,16 @@ from irl_core.irl import FitError, FitOptions, Note, fit
 from irl_core.irl.bootstrap import run_in_pool
 from irl_core.step_table import StepTable
 from irl_core.stopping import stop_check
-from irl_core.study import POOLED, REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
-    interrupted_episodes, read_participant
+from irl_core.study import (
+    POOLED,
+    REPORT_FOLDER,
+    LoadedStudy,
+    StudyError,
+    check_participant,
+    finished_episodes,
+    interrupted_episodes,
+    read_participant,
+)
 from irl_core.summary import distance_to_terminal, outcome_code
 
 

@@ -32,7 +32,7 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
-from textual.reactive import reactive, var
+from textual.reactive import var
 from textual.screen import Screen
 from textual.widgets import Static
 from textual.worker import get_current_worker
@@ -56,9 +56,9 @@ from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Demonstrations
-from irl_core.recording_writer import slug
 from irl_core.fit_methods import METHODS
 from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
+from irl_core.recording_writer import slug
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable
 from irl_core.words import plural

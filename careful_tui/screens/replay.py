@@ -23,7 +23,7 @@ from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.reactive import reactive, var
+from textual.reactive import var
 from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
@@ -31,7 +31,8 @@ from textual.widgets import Static
 from careful_tui.render.grid import format_value
 from careful_tui.render.palette import NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_colour, outcome_text, summary_panel
-from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
+from careful_tui.screens.game_layout import compose_game
+from careful_tui.screens.game_layout import minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording

@@ -20,10 +20,11 @@ better calibrated one (`INTERVAL_VARIANT`, chosen from that measurement: see the
 
 Resamples run in parallel across cores in a process pool: forked from this process when it
 has a single thread, else from a server that has imported this module once (forking beside
-threads, such as the fit view's, is unsafe). Either way a worker starts in milliseconds. The multiplicities are drawn in the parent from
-`seed`, so the same seed gives the same interval whatever the number of workers. A fit told to
-stop tells its workers too (`stopping.stop_when` on their side): queued resamples are dropped
-and running maxent refits stop at their next soft Bellman solve.
+threads, such as the fit view's, is unsafe). Either way a worker starts in milliseconds. The
+multiplicities are drawn in the parent from `seed`, so the same seed gives the same interval
+whatever the number of workers. A fit told to stop tells its workers too (`stopping.stop_when`
+on their side): queued resamples are dropped and running maxent refits stop at their next soft
+Bellman solve.
 
 Episodes that come in groups (a study's pool: each participant's episodes) are resampled at two
 levels (`two_level_weights`): the groups with replacement, then within each group drawn its
