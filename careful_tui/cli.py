@@ -17,15 +17,14 @@ from pathlib import Path
 from rich.console import Console
 from rich.text import Text
 
+import irl_core.fit_methods as fit_methods
+import irl_core.player_models as player_models
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.version import app_version
-from irl_core import fit_methods, player_models
-from irl_core.demonstrations import RecordingError
 from irl_core.person_like import KINDS as PERSON_LIKE
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
-from irl_core.safe_files import OutputError
+from irl_core.safe_files import InputError, OutputError
 from irl_core.safe_text import one_line
-from irl_core.world import WorldError
 
 
 def finite_float(text: str) -> float:
@@ -283,7 +282,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         return COMMANDS[args.command](args) or EXIT_OK
-    except (UsageError, WorldError, RecordingError, OutputError) as exc:
+    except (UsageError, InputError, OutputError) as exc:
         say("", str(exc))
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:

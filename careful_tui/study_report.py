@@ -23,15 +23,15 @@ from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
+from irl_core.csv_cells import csv_text
 from irl_core.irl import at_bound
 from irl_core.safe_files import check_output_folder, write_output
 from irl_core.safe_text import printable
-from irl_core.study import StudyError, load_study
+from irl_core.study import StudyError, load_study, world_files
 from irl_core.study_report import (
     POOLED,
     CellFit,
     StudyData,
-    csv_text,
     fit_report,
     gather,
     influence_cells,
@@ -43,8 +43,9 @@ from irl_core.study_report import (
 from irl_core.words import plural
 
 FIGURE_FORMATS = (".png", ".pdf")
-# The codes of the fits' notes on what the table shows already (the method, beta).
-TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval"})
+# The codes of the fits' notes on what the table shows already (the method, beta) or that say all is well.
+TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval", "player_model", "player_estimated",
+                         "fit_check_passed"})
 TABLE_WIDTH = 200
 INFLUENTIAL_MARK = "†"
 
@@ -124,7 +125,7 @@ def left_out_text(data: StudyData) -> str:
 
 def write_report(data: StudyData, fits: list[CellFit], out: Path) -> list[Path]:
     """The CSV and every figure, in `out` (through the output guard); returns the files written."""
-    inputs = [data.study.path]
+    inputs = [data.study.path, *world_files(data.study)]  # recordings are refused by the guard anyway
     out.mkdir(parents=True, exist_ok=True)
     columns, rows = report_rows(data, fits)
     written = [write_output(out / "report.csv", csv_text(columns, rows), option="--out", inputs=inputs)]

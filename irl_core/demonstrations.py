@@ -22,16 +22,17 @@ import numpy as np
 import scipy.sparse as sp
 from pydantic import Field, TypeAdapter, ValidationError
 
+from irl_core.end_table import EndTable
 from irl_core.line_checks import LineChecker, Mismatch
 from irl_core.mdp import MDP, build_mdp
 from irl_core.recording_lines import SCHEMA_VERSION, EpisodeEnd, SessionHeader, Step
-from irl_core.safe_files import open_regular
+from irl_core.safe_files import InputError, open_regular, read_problem
 from irl_core.safe_text import VALUE_LIMIT, cut, printable
 from irl_core.step_table import StepTable
 from irl_core.world import World, field_path
 
 
-class RecordingError(ValueError):
+class RecordingError(InputError):
     """A recording that cannot be used. `str()` is `file:line: field: problem`."""
 
     def __init__(self, path: str | Path, line: int | None, field: str | None, problem: str):
@@ -59,14 +60,19 @@ class EmptyRecording(RecordingError):
 class Recording:
     """One session file as read: its header, steps, episode ends and any warnings.
 
-    `steps` is a `StepTable`: a sequence of `Step` stored as columns.
+    `steps` is a `StepTable` and `episode_ends` an `EndTable`: sequences of `Step` and
+    `EpisodeEnd` stored as columns.
     """
 
     path: Path
     header: SessionHeader
     steps: StepTable = field(default_factory=StepTable)
-    episode_ends: list[EpisodeEnd] = field(default_factory=list)
+    episode_ends: EndTable = field(default_factory=EndTable)
     warnings: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.episode_ends, EndTable):  # a list of ends, as a test or a caller builds one
+            self.episode_ends = EndTable(self.episode_ends)
 
     @property
     def world(self) -> World:
@@ -75,8 +81,7 @@ class Recording:
     @property
     def episodes(self) -> list[int]:
         """Episode numbers that have a step or an end, in order (the reader checks that order)."""
-        ends = np.array([e.episode for e in self.episode_ends], dtype=np.int64)
-        return np.union1d(self.steps.column("episode"), ends).tolist()
+        return np.union1d(self.steps.column("episode"), self.episode_ends.column("episode")).tolist()
 
 
 def read_recording(path: str | Path, *, progress: Callable[[int], None] | None = None) -> Recording:
@@ -96,7 +101,14 @@ def read_recording(path: str | Path, *, progress: Callable[[int], None] | None =
     except ValueError as exc:
         raise RecordingError(path, None, None, f"is {exc}; a recording is a file") from None
     with file:
-        return _read_lines(path, file, progress)
+        try:
+            return _read_lines(path, file, progress)
+        except OSError as exc:
+            raise RecordingError(path, None, None, f"cannot read the file ({read_problem(exc)})") from None
+        except RecordingError:
+            raise
+        except (ValueError, OverflowError, TypeError, IndexError) as exc:  # the last net: no other error escapes
+            raise RecordingError(path, None, None, f"cannot be read ({type(exc).__name__}: {exc})") from None
 
 
 def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -> Recording:
@@ -125,13 +137,16 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
         if recording is None or line is None:
             try:
                 obj = json.loads(text.decode("utf-8"))
-            except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+            except (ValueError, RecursionError) as exc:  # not JSON, not UTF-8, or a number of over 4,300 digits
                 if not ends_cleanly and recording is not None:
                     recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
                     break
                 raise RecordingError(path, number, None, _json_problem(exc)) from None
             if not isinstance(obj, dict):
                 raise RecordingError(path, number, None, "a line must be a JSON object")
+            if (where := _lone_surrogate(obj)) is not None:
+                raise RecordingError(path, number, where, "holds a lone surrogate (\\udXXX), which is not text; "
+                                     "the file was not written by careful")
             if recording is None:
                 recording = Recording(path=path, header=_read_header(obj, path, number))
                 checker = LineChecker(build_mdp(recording.world))
@@ -199,12 +214,30 @@ def read_recordings(
     return recordings, warnings
 
 
-def _json_problem(exc: UnicodeDecodeError | json.JSONDecodeError | RecursionError) -> str:
+def _json_problem(exc: Exception) -> str:
     if isinstance(exc, UnicodeDecodeError):
         return "not UTF-8 text"
     if isinstance(exc, RecursionError):
         return "not valid JSON (arrays or objects nested too deeply)"
-    return f"not valid JSON ({exc.msg})"
+    if isinstance(exc, json.JSONDecodeError):
+        return f"not valid JSON ({exc.msg})"
+    return "a number is over 4,300 digits long"
+
+
+def _lone_surrogate(value: Any, where: str = "") -> str | None:
+    """The field (`player`, `world.name`, ...) of the first string or key in `value` that holds
+    a lone surrogate (JSON's `"\\ud800"`, which no UTF-8 file or terminal can carry), or None."""
+    if isinstance(value, str):
+        return where or "(value)" if any("\ud800" <= ch <= "\udfff" for ch in value) else None
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if (found := _lone_surrogate(key, where) or _lone_surrogate(item, f"{where}.{key}".lstrip("."))) is not None:
+                return found
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            if (found := _lone_surrogate(item, f"{where}[{i}]")) is not None:
+                return found
+    return None
 
 
 def _brief(value: Any) -> str:
@@ -369,6 +402,12 @@ class EpisodeFacts:
                         (end.terminal_symbol or "terminal") if end.outcome == "terminal" else end.outcome)
         return cls(start=np.array([first[k] for k in keys], dtype=np.int64),
                    length=np.array([length[k] for k in keys], dtype=np.int64), end=tuple(ends))
+
+    def rows(self, keep: np.ndarray) -> EpisodeFacts:
+        """The facts of the episodes where `keep` (E,) is True."""
+        keep = np.asarray(keep, dtype=bool)
+        return EpisodeFacts(start=self.start[keep], length=self.length[keep],
+                            end=tuple(end for end, kept in zip(self.end, keep) if kept))
 
     @property
     def finished(self) -> np.ndarray:

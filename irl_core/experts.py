@@ -25,6 +25,7 @@ from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
 from irl_core.planning import Plan, soft_value_iteration, value_iteration
 from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recording_writer import RecordingWriter
+from irl_core.safe_files import built_beside
 
 # Simulated sessions are a function of (world, policy, seed): their header carries this
 # fixed time so that the same seed writes the same bytes.
@@ -238,28 +239,27 @@ def simulate_to_file(
     """Roll out and write `episodes` episodes, `block` at a time (memory does not grow with `episodes`).
 
     The episodes are those of one `rollouts` call with `seed` when `episodes <= block`, and the
-    same seed always writes the same bytes. A file that cannot be finished is removed: it
-    would be an expert's session cut short. Returns how the episodes ended ("G", "C", "step limit").
+    same seed always writes the same bytes. The file is built beside `path` and renamed into place
+    when whole (`safe_files.built_beside`): a file that cannot be finished, or a kill, leaves none
+    under its name (an expert's session cut short would read as complete). Returns how the
+    episodes ended ("G", "C", "step limit").
 
     Raises:
-        OSError: the file cannot be written (it is removed again).
+        OSError: the file cannot be written (nothing is left), or `path` exists (`FileExistsError`).
     """
     rng = np.random.default_rng(seed)
     # A block's steps are held in memory: at most STEPS_PER_BLOCK of them, however long episodes may be.
     block = max(1, min(block, STEPS_PER_BLOCK // mdp.world.max_steps))
     ended: Counter[str] = Counter()
-    try:
-        with RecordingWriter(path, session_header(mdp, player=player, seed=seed), sync_episodes=False) as writer:
-            for first in range(0, episodes, block):
-                result = rollouts(mdp, policy, episodes=min(block, episodes - first), rng=rng)
-                counted: Callable[[int], None] | None = (
-                    None if progress is None else lambda done, first=first: progress(first + done))
-                _write_block(writer, mdp, result, first_episode=first, progress=counted)
-                ended.update(mdp.symbols[s] if not t else "step limit"
-                             for s, t in zip(result.final_state.tolist(), result.truncated.tolist()))
-    except BaseException:
-        Path(path).unlink(missing_ok=True)
-        raise
+    header = session_header(mdp, player=player, seed=seed)
+    with built_beside(path) as temporary, RecordingWriter(temporary, header, sync_episodes=False) as writer:
+        for first in range(0, episodes, block):
+            result = rollouts(mdp, policy, episodes=min(block, episodes - first), rng=rng)
+            counted: Callable[[int], None] | None = (
+                None if progress is None else lambda done, first=first: progress(first + done))
+            _write_block(writer, mdp, result, first_episode=first, progress=counted)
+            ended.update(mdp.symbols[s] if not t else "step limit"
+                         for s, t in zip(result.final_state.tolist(), result.truncated.tolist()))
     return ended
 
 

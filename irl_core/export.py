@@ -27,7 +27,8 @@ so `recover_environment()` rebuilds the same world without the world file.
 
 from __future__ import annotations
 
-import csv
+import contextlib
+import os
 import shutil
 import warnings
 from collections.abc import Callable, Iterator
@@ -37,9 +38,11 @@ from typing import Any
 
 import numpy as np
 
+from irl_core.csv_cells import csv_writer, header, text_cell
 from irl_core.demonstrations import Recording, RecordingError
 from irl_core.mdp import MDP, action_index, build_mdp
 from irl_core.recording_lines import Step
+from irl_core.safe_files import built_beside, rename_no_replace, sync_tree, temporary_name
 from irl_core.world import World
 
 CSV_COLUMNS = (
@@ -79,8 +82,8 @@ def _text(value: object) -> str:
 def csv_rows(recording: Recording, *, study_columns: bool) -> Iterator[list[str]]:
     """One row per step of `recording`, in `csv_columns` order."""
     study = _study(recording) or {}
-    extra = [_text(study.get(name)) for name in STUDY_FIELDS] if study_columns else []
-    file, player = str(recording.path), recording.header.player
+    extra = [text_cell(_text(study.get(name))) for name in STUDY_FIELDS] if study_columns else []
+    file, player = text_cell(str(recording.path)), text_cell(recording.header.player)
     for s in recording.steps:
         yield [
             file, player, str(s.episode), str(s.t), str(s.state[0]), str(s.state[1]), s.direction,
@@ -92,25 +95,22 @@ def csv_rows(recording: Recording, *, study_columns: bool) -> Iterator[list[str]
 def write_csv(path: str | Path, recordings: list[Recording], *, progress: Callable[[int], None] | None = None) -> int:
     """Write every step of `recordings` to a new CSV file; returns the number of rows.
 
-    The file is created exclusively (`FileExistsError` if it exists) and removed again if
-    writing fails. `progress(rows)` is called after each recording.
+    The file is built beside `path` and renamed into place when whole (`safe_files.built_beside`):
+    `FileExistsError` if `path` exists by then, and a failure or a kill leaves no file under its
+    name. Text cells that would start a formula are made text (`csv_cells.text_cell`).
+    `progress(rows)` is called after each recording.
     """
     path = Path(path)
     columns = csv_columns(recordings)
     rows = 0
-    with open(path, "x", encoding="utf-8", newline="") as handle:
-        try:
-            writer = csv.writer(handle)
-            writer.writerow(columns)
-            for recording in recordings:
-                writer.writerows(csv_rows(recording, study_columns=len(columns) > len(CSV_COLUMNS)))
-                rows += len(recording.steps)
-                if progress:
-                    progress(rows)
-        except BaseException:
-            handle.close()
-            path.unlink()
-            raise
+    with built_beside(path) as temporary, open(temporary, "x", encoding="utf-8", newline="") as handle:
+        writer = csv_writer(handle, lineterminator="\r\n")
+        writer.writerow(header(columns))
+        for recording in recordings:
+            writer.writerows(csv_rows(recording, study_columns=len(columns) > len(CSV_COLUMNS)))
+            rows += len(recording.steps)
+            if progress:
+                progress(rows)
     return rows
 
 
@@ -202,6 +202,48 @@ def check_dataset_id(dataset_id: str) -> str | None:
     return None
 
 
+def dataset_place_problem(dataset_id: str) -> str | None:
+    """Why `dataset_id` cannot be written (it exists, or lies inside another dataset's folder), or None."""
+    root, target = minari_dataset_path(""), minari_dataset_path(dataset_id)
+    if target.exists():
+        return f"a Minari dataset {dataset_id!r} already exists at {target}"
+    for folder in target.parents:
+        if folder == root or root not in folder.parents:
+            break
+        if (folder / "data" / "metadata.json").exists():
+            inside = folder.relative_to(root).as_posix()
+            return (f"{dataset_id!r} would be written inside the Minari dataset {inside!r} at {folder}; "
+                    "choose an id outside it")
+    return None
+
+
+def _ensure_namespace(dataset_id: str) -> None:
+    """The dataset's namespace in the real root (Minari makes it on the way, but there it would be built aside)."""
+    from minari.dataset.minari_dataset import parse_dataset_id
+    from minari.namespace import create_namespace, list_local_namespaces
+
+    namespace = parse_dataset_id(dataset_id)[0]
+    if namespace is not None and namespace not in list_local_namespaces():
+        try:
+            create_namespace(namespace)
+        except ValueError:  # another export made it meanwhile
+            pass
+
+
+@contextlib.contextmanager
+def _datasets_root(folder: Path) -> Iterator[None]:
+    """Minari's datasets root is `folder` inside the block (it reads MINARI_DATASETS_PATH at each call)."""
+    saved = os.environ.get("MINARI_DATASETS_PATH")
+    os.environ["MINARI_DATASETS_PATH"] = str(folder)
+    try:
+        yield
+    finally:
+        if saved is None:
+            del os.environ["MINARI_DATASETS_PATH"]
+        else:
+            os.environ["MINARI_DATASETS_PATH"] = saved
+
+
 def write_minari(
     dataset_id: str,
     recordings: list[Recording],
@@ -211,10 +253,12 @@ def write_minari(
 ) -> Any:
     """Create the local Minari dataset `dataset_id` from `recordings` of one world.
 
-    Returns the `minari.MinariDataset`. Raises `FileExistsError` if the dataset exists,
-    `RecordingError` for recordings of different worlds or with a broken episode, and
-    `ValueError` when there is no step to export. A dataset left half-written by a failure
-    is removed. `progress(episodes)` is called after each batch of episodes.
+    Returns the `minari.MinariDataset`. Raises `FileExistsError` if the dataset exists (also
+    when another export wrote it while this one was built) or the id lies inside another
+    dataset, `RecordingError` for recordings of different worlds or with a broken episode, and
+    `ValueError` when there is no step to export. The dataset is built in a hidden folder and
+    renamed into place whole; a failure removes it. `progress(episodes)` is called after each
+    batch of episodes.
     """
     import gymnasium as gym
     import minari
@@ -228,8 +272,8 @@ def write_minari(
     if not episodes:
         raise ValueError("the recordings hold no steps: there is nothing to export")
     target = minari_dataset_path(dataset_id)
-    if target.exists():
-        raise FileExistsError(f"a Minari dataset {dataset_id!r} already exists at {target}")
+    if problem := dataset_place_problem(dataset_id):
+        raise FileExistsError(problem)
 
     def buffers(start: int) -> list:
         return [
@@ -237,25 +281,38 @@ def write_minari(
             for i, e in enumerate(episodes[start : start + MINARI_BATCH])
         ]
 
+    _ensure_namespace(dataset_id)
     env = gym.make(ENV_ID, world=world.model_dump(mode="json"))
     players = {r.header.player for r in recordings}
+    # Built whole in a hidden root beside the real one (Minari lists no hidden folder), then
+    # renamed into place only if no dataset took the id meanwhile: a kill leaves no dataset
+    # that loads part of the episodes, and two exports to one id never delete each other's.
+    root = minari_dataset_path("")
+    building = temporary_name(root / "careful-export")
     try:
-        with warnings.catch_warnings():
+        with _datasets_root(building), warnings.catch_warnings():
             # Minari asks for a code link, an e-mail and an evaluation env; recordings have none.
             warnings.filterwarnings("ignore", category=UserWarning, module=r"minari\.")
             dataset = minari.create_dataset_from_buffers(
                 dataset_id, buffers(0), env=env, algorithm_name="careful recordings",
                 author=players, description=description, data_format="hdf5", requirements=["careful"],
             )
-        for start in range(MINARI_BATCH, len(episodes), MINARI_BATCH):
-            if progress:
-                progress(start)
-            dataset.update_dataset_from_buffer(buffers(start))
-    except BaseException:
-        shutil.rmtree(target, ignore_errors=True)
-        raise
+            for start in range(MINARI_BATCH, len(episodes), MINARI_BATCH):
+                if progress:
+                    progress(start)
+                dataset.update_dataset_from_buffer(buffers(start))
+            del dataset  # its files are closed before they move
+        built = building / dataset_id
+        sync_tree(built)
+        try:
+            rename_no_replace(built, target)
+        except FileExistsError:
+            raise FileExistsError(f"a Minari dataset {dataset_id!r} was written at {target} while this one "
+                                  "was built; choose another id") from None
     finally:
         env.close()
+        shutil.rmtree(building, ignore_errors=True)
+    dataset = minari.load_dataset(dataset_id)
     if progress:
         progress(len(episodes))
     return dataset

@@ -13,6 +13,9 @@ from pydantic import BaseModel, ConfigDict, Field
 from irl_core.world import World
 
 SCHEMA_VERSION = 1
+# Episode numbers and counts are at most 2^53: every JSON reader holds them exactly, and the
+# 64-bit columns they are stored in (`irl_core.step_table`) hold them and the next number too.
+MAX_COUNT = 2**53
 Direction = Literal["up", "right", "down", "left"]
 
 
@@ -31,7 +34,7 @@ class StudyTag(_Line):
     name: str
     participant: str
     phase: Literal["practice", "main"]
-    world_index: int = Field(ge=0)
+    world_index: int = Field(ge=0, le=MAX_COUNT)
 
 
 class ProlificTag(_Line):
@@ -59,8 +62,8 @@ class SessionHeader(_Line):
 
 class Step(_Line):
     kind: Literal["step"] = "step"
-    episode: int = Field(ge=0)
-    t: int = Field(ge=0)
+    episode: int = Field(ge=0, le=MAX_COUNT)
+    t: int = Field(ge=0, le=MAX_COUNT)
     # JSON has no tuples: a cell arrives as a 2-element array.
     state: tuple[int, int] = Field(strict=False)
     direction: Direction
@@ -77,9 +80,9 @@ class Step(_Line):
 
 class EpisodeEnd(_Line):
     kind: Literal["episode_end"] = "episode_end"
-    episode: int = Field(ge=0)
+    episode: int = Field(ge=0, le=MAX_COUNT)
     outcome: Literal["terminal", "quit", "step_limit"]
     terminal_symbol: str | None = None
-    steps: int = Field(ge=0)
+    steps: int = Field(ge=0, le=MAX_COUNT)
     return_: float = Field(alias="return")
     score: float

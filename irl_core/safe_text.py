@@ -5,6 +5,10 @@ terminal, `ESC [ 2 J` clears it, a right-to-left override turns the rest of a li
 `printable` shows every such character as an escape (`\\x1b`, `\\u202e`) instead, and cuts a
 long value so that a message stays one readable line. It returns a plain string; the terminal
 code shows it as `rich.text.Text` (never as Rich markup), so `[bold]` in a name is just text.
+Where a string must go into markup (a Rich table's title, a Textual label), `for_markup`
+escapes it too, so `[/]` in a world's symbols or an output folder stays text. Files that
+are read back (a world's TOML, a CSV) escape their cells with `is_unsafe` and
+`irl_core.csv_cells`.
 """
 
 from __future__ import annotations
@@ -21,6 +25,21 @@ _UNSAFE_KEEPING_NEWLINES = re.compile(
 VALUE_LIMIT = 80
 # A whole one-line message (which may name a path, a field and a value) is cut at this length.
 MESSAGE_LIMIT = 400
+
+
+# Rich's and Textual's markup tag: `[` then a tag name (or `/`, `#`, `@`) up to `]`.
+_MARKUP_TAG = re.compile(r"(\\*)(\[[a-zA-Z#/@][^[]*?])")
+
+
+def is_unsafe(character: str) -> bool:
+    """Whether `character` is a control or invisible format character (`printable` escapes it)."""
+    return _UNSAFE.fullmatch(character) is not None or "\ud800" <= character <= "\udfff"
+
+
+def for_markup(text: str, *, limit: int | None = None) -> str:
+    """`printable(text)` made literal in Rich or Textual markup: every tag-like `[...]` escaped."""
+    safe = printable(text, limit=limit)
+    return _MARKUP_TAG.sub(lambda m: f"{m.group(1)}{m.group(1)}\\{m.group(2)}", safe)
 
 
 def _escape(match: re.Match[str]) -> str:

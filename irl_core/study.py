@@ -26,17 +26,17 @@ from __future__ import annotations
 
 import hashlib
 import re
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from irl_core.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
 from irl_core.recording_lines import StudyTag
 from irl_core.recording_writer import slug
-from irl_core.safe_files import open_regular
+from irl_core.safe_files import InputError, read_toml, reference_problem
 from irl_core.safe_text import VALUE_LIMIT, printable
 from irl_core.words import plural
 from irl_core.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world
@@ -49,10 +49,12 @@ REPORT_FOLDER = "report"
 # The report's rows of every participant together carry this id (`irl_core.study_report.POOLED`).
 POOLED = "pooled"
 _MAX_STUDY_FILE_BYTES = 1 << 20
+# A study names at most this many worlds (each one a block per participant), checked before any is read.
+MAX_WORLDS = 1000
 FINISHED_OUTCOMES = ("terminal", "step_limit")
 
 
-class StudyError(ValueError):
+class StudyError(InputError):
     """A study file or participant id that cannot be used; the message is one line for the user."""
 
 
@@ -63,7 +65,8 @@ class Study(BaseModel):
 
     name: str = Field(min_length=1)
     instructions: str = Field("", max_length=20_000)
-    worlds: tuple[str, ...] = Field(min_length=1, strict=False)
+    worlds: tuple[Annotated[str, Field(max_length=4096)], ...] = Field(min_length=1, max_length=MAX_WORLDS,
+                                                                        strict=False)
     order: Literal["fixed", "shuffled"] = "fixed"
     practice_episodes: int = Field(1, ge=0, le=1000)
     episodes: int = Field(5, ge=1, le=100_000)
@@ -104,39 +107,36 @@ def load_study(path: str | Path) -> LoadedStudy:
     """
     path = Path(path)
     try:
-        with open_regular(path) as file:
-            raw = file.read(_MAX_STUDY_FILE_BYTES + 1)
-    except OSError as exc:
-        raise StudyError(f"{path}: cannot read the study file ({exc.strerror or exc})") from None
+        data = read_toml(path, what="study", limit=_MAX_STUDY_FILE_BYTES, too_big="")
     except ValueError as exc:
-        raise StudyError(f"{path}: is {exc}; a study is a TOML file") from None
-    if len(raw) > _MAX_STUDY_FILE_BYTES:
-        raise StudyError(f"{path}: the study file is over 1 MB")
-    try:
-        data = tomllib.loads(raw.decode("utf-8-sig"))
-    except UnicodeDecodeError:
-        raise StudyError(f"{path}: cannot read the study file (not UTF-8 text)") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{path}: not valid TOML ({exc})") from None
-    except RecursionError:
-        raise StudyError(f"{path}: not valid TOML (arrays or tables nested too deeply)") from None
+        raise StudyError(str(exc)) from None
     data.setdefault("name", path.stem)
     try:
         study = Study.model_validate(data)
     except ValidationError as exc:
         raise StudyError(f"{path}: {describe_validation_error(exc)}") from None
-    worlds = []
+    worlds: list[World] = []
+    read: dict[str, World] = {}
     for i, entry in enumerate(study.worlds):
         source = _world_source(entry, path.parent)
+        shown = printable(entry, limit=VALUE_LIMIT)
+        if not isinstance(source, str) and (problem := reference_problem(str(source))):
+            raise StudyError(f"{path}: worlds[{i}]: {shown!r} is not a built-in world and cannot be a file: {problem}")
         if not isinstance(source, str) and not source.exists():
-            shown = printable(entry, limit=VALUE_LIMIT)
             raise StudyError(f"{path}: worlds[{i}]: {shown!r} is neither a built-in world "
                              f"({', '.join(BUILTIN_WORLDS)}) nor a world file (looked for {source})")
         try:
-            worlds.append(load_world(source))
+            # A world named twice is read once.
+            worlds.append(read[entry] if entry in read else read.setdefault(entry, load_world(source)))
         except WorldError as exc:
             raise StudyError(f"{path}: worlds[{i}]: {exc}") from None
     return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)
+
+
+def world_files(study: LoadedStudy) -> list[Path]:
+    """The world files the study reads (not its built-in worlds): inputs no output may replace."""
+    return [source for entry in study.study.worlds
+            if not isinstance(source := _world_source(entry, study.path.parent), str)]
 
 
 def _world_source(entry: str, folder: Path) -> str | Path:
@@ -230,7 +230,47 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
         tag = recording.header.study
         assert tag is not None, "_foreign refuses a recording without a study tag"
         found.append((tag, recording))
+    found, copies = _one_per_session(found)
+    problems.extend(copies)
     return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
+
+
+def _one_per_session(found: list[tuple[StudyTag, Recording]]) -> tuple[list[tuple[StudyTag, Recording]], list[str]]:
+    """Each session once: a file whose header equals another's and whose lines all begin that
+    other file (a backup copy, taken then or later, which has its own inode) is a copy; the file
+    that holds the most is kept and each copy is named. Files of equal headers whose lines differ
+    are different sessions, and both count."""
+    sessions: dict[str, list[tuple[StudyTag, Recording]]] = {}
+    for entry in found:
+        sessions.setdefault(entry[1].header.model_dump_json(), []).append(entry)
+    kept, problems = [], []
+    for entries in sessions.values():
+        mine: list[tuple[StudyTag, Recording]] = []
+        for entry in sorted(entries, key=lambda entry: -_lines(entry[1])):  # stable: name order among equals
+            original = next((k for _, k in mine if _prefix(entry[1], k)), None)
+            if original is None:
+                mine.append(entry)
+                continue
+            problems.append(f"{entry[1].path}: a copy of the session in {original.path.name} (the same header, and "
+                            f"all its lines are in {original.path.name}); left out, so the session counts once")
+        kept.extend(mine)
+    position = {id(recording): i for i, (_, recording) in enumerate(found)}
+    kept.sort(key=lambda entry: position[id(entry[1])])
+    return kept, problems
+
+
+def _lines(recording: Recording) -> int:
+    return len(recording.steps) + len(recording.episode_ends)
+
+
+def _prefix(short: Recording, long: Recording) -> bool:
+    """Whether every step and episode end of `short` is the start of `long`'s."""
+    n = len(short.steps)
+    if n > len(long.steps) or len(short.episode_ends) > len(long.episode_ends):
+        return False
+    same_steps = all(np.array_equal(short.steps.column(name), long.steps.column(name)[:n], equal_nan=True)
+                     for name in ("episode", "t", "row", "col", "direction", "carefulness", "hold_ms"))
+    return same_steps and short.episode_ends == long.episode_ends[: len(short.episode_ends)]
 
 
 def _foreign(study: LoadedStudy, participant: str, recording: Recording) -> str | None:

@@ -24,9 +24,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from irl_core.claims import SYMBOL_WORDS, interval_text, number_text, order_words
+from irl_core.csv_cells import text_cell
 from irl_core.demonstrations import Demonstrations, Recording
+from irl_core.end_table import EndTable
 from irl_core.irl import FitError, FitOptions, Note, fit
-from irl_core.irl.bootstrap import run_in_pool
+from irl_core.pool import run_in_pool
 from irl_core.step_table import StepTable
 from irl_core.stopping import stop_check
 from irl_core.study import (
@@ -69,6 +71,8 @@ class Cell:
             ``demos.episode_groups`` (group g is members[g]).
         without: in a pool without one participant (`leave_out`), that participant: its fit is a
             point fit (no interval) that measures their influence on the pool.
+        player_model: the model of the player to fit with, where the report has chosen it already
+            (the world's pool chooses; its participants and the pools without one of them follow).
     """
 
     participant: str
@@ -82,6 +86,7 @@ class Cell:
     participants: int = 1
     members: tuple[str, ...] = ()
     without: str | None = None
+    player_model: str | None = None
 
     @property
     def interrupted(self) -> int:
@@ -179,8 +184,9 @@ def leave_out(pool: Cell, participant: str) -> Cell:
     by_episode = demos.by_episode[keep]
     counts = np.asarray(by_episode.sum(axis=0)).reshape(demos.counts.shape)
     # files stays the pool's: a leave-one-out fit is never written out.
+    facts = None if demos.episode_facts is None else demos.episode_facts.rows(keep)
     demos = dataclasses.replace(demos, counts=counts, episodes=int(keep.sum()), steps=int(counts.sum()),
-                                by_episode=by_episode, episode_groups=None)
+                                by_episode=by_episode, episode_groups=None, episode_facts=facts)
     return dataclasses.replace(pool, demos=demos, episodes=demos.episodes, steps=demos.steps,
                                members=tuple(m for m in pool.members if m != participant), without=participant)
 
@@ -198,7 +204,7 @@ def _finished_only(recording: Recording) -> Recording:
     for step in recording.steps:
         if step.episode in keep:
             steps.append(step)
-    ends = [end for end in recording.episode_ends if end.episode in keep]
+    ends = EndTable(end for end in recording.episode_ends if end.episode in keep)
     return dataclasses.replace(recording, steps=steps, episode_ends=ends, warnings=[])
 
 
@@ -251,6 +257,7 @@ class CellFit:
     rmax: float = 0.0
     reward_grid: np.ndarray | None = None
     notes: tuple[Note, ...] = ()
+    player_model: str | None = None
     elapsed_s: float = 0.0
     error: str | None = None
     influential: bool | None = None
@@ -291,6 +298,8 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
         return CellFit(error="no finished main episodes")
     if cell.without is not None:
         options = dataclasses.replace(options, intervals=False)
+    if cell.player_model is not None:
+        options = dataclasses.replace(options, player_model=cell.player_model)
     try:
         result = fit(cell.demos, options, workers=1, stop=stop)
     except FitError as exc:
@@ -300,7 +309,7 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
                    intervals=None if result.intervals is None else np.asarray(result.intervals, dtype=float),
                    truth=result.unknowns.true_theta(result.mdp), interval_kind=result.interval_kind,
                    confidence=options.confidence, rmax=options.rmax, reward_grid=result.reward_grid,
-                   notes=tuple(result.notes),
+                   notes=tuple(result.notes), player_model=result.player_model,
                    elapsed_s=result.elapsed_s)
 
 
@@ -341,13 +350,31 @@ def fit_report(data: StudyData, options: FitOptions, *, workers: int | None = No
                progress: Callable[[int, int], None] | None = None) -> list[CellFit]:
     """Every cell's fit (in `data.cells`' order), with each pool's participants marked by their influence.
 
-    The pools without each participant (`influence_cells`) are point fits in the same process pool.
+    Each world's pool is fitted first: where it chooses a model of the player (`FitOptions.player_model`
+    auto), its participants and the pools without each of them (`influence_cells`, point fits) are then
+    fitted with that model, so that their rewards are read through one model and the choice by held-out
+    episodes is made once per world, on the most data.
 
     Args:
         progress: called as progress(fits done, fits) as each comes back.
     """
     without = influence_cells(data)
-    fits = run_fits([*data.cells, *without], options, workers=workers, progress=progress)
+    cells = [*data.cells, *without]
+    first = [i for i, cell in enumerate(cells) if cell.participant == POOLED and cell.without is None]
+    rest = [i for i in range(len(cells)) if i not in first]
+
+    def counted(offset: int) -> Callable[[int, int], None] | None:
+        return None if progress is None else (lambda done, _: progress(offset + done, len(cells)))
+
+    fitted: dict[int, CellFit] = {}
+    chosen: dict[int, str | None] = {}
+    for i, fit_of_pool in zip(first, run_fits([cells[i] for i in first], options, workers=workers,
+                                              progress=counted(0))):
+        fitted[i] = fit_of_pool
+        chosen[cells[i].world_index] = fit_of_pool.player_model
+    later = [dataclasses.replace(cells[i], player_model=chosen.get(cells[i].world_index)) for i in rest]
+    fitted.update(zip(rest, run_fits(later, options, workers=workers, progress=counted(len(first)))))
+    fits = [fitted[i] for i in range(len(cells))]
     return with_influence(data, fits[: len(data.cells)], dict(zip(((c.world_index, c.without) for c in without),
                                                                   fits[len(data.cells):])))
 
@@ -433,13 +460,14 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
                 rewards += ["", "", ""]
         terminal_counts = [str(cell.outcomes.get(t, 0)) if t in world.terminal else "" for t in terminals]
         rows.append([
-            study.study.name, cell.participant, str(cell.world_index), world.name, str(cell.episodes),
+            text_cell(study.study.name), cell.participant, str(cell.world_index), text_cell(world.name), str(cell.episodes),
             str(cell.steps), str(cell.interrupted), *terminal_counts, str(cell.outcomes.get("step_limit", 0)),
             _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             *rewards, str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",
-            result.error or "; ".join(str(note) for note in result.notes),
-            _influence_cell(result), pooled_finding(data, cell, result) if cell.participant == POOLED else "",
+            text_cell(result.error or "; ".join(str(note) for note in result.notes)),
+            _influence_cell(result),
+            text_cell(pooled_finding(data, cell, result)) if cell.participant == POOLED else "",
         ])
     return columns, rows
 
@@ -536,14 +564,3 @@ def _influence_words(pooled: CellFit) -> str:
 def _number(value: float | None) -> str:
     """A number for the CSV: empty for None, else up to 6 significant digits."""
     return "" if value is None or not np.isfinite(value) else f"{float(value):.6g}"
-
-
-def csv_text(columns: list[str], rows: list[list[str]]) -> str:
-    import csv
-    import io
-
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(columns)
-    writer.writerows(rows)
-    return buffer.getvalue()

@@ -30,8 +30,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from irl_core.safe_files import open_regular
-from irl_core.safe_text import VALUE_LIMIT, cut, printable
+from irl_core.safe_files import InputError, read_toml, reference_problem
+from irl_core.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
 from irl_core.words import plural
 
 WALL = "#"
@@ -51,7 +51,7 @@ MAX_MAGNITUDE = 1e12
 MAX_STEPS = 1_000_000
 
 
-class WorldError(ValueError):
+class WorldError(InputError):
     """A world file or name that cannot be used; the message is one sentence for the user."""
 
 
@@ -224,7 +224,7 @@ def _toml_escape(value: str, *, keep_newlines: bool = False) -> str:
             out.append("\\" + ch)
         elif ch == "\n" and keep_newlines:
             out.append(ch)
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+        elif is_unsafe(ch):  # controls (C0, DEL, C1) and bidi or invisible marks: never raw in a file shown
             out.append(f"\\u{ord(ch):04X}")
         else:
             out.append(ch)
@@ -288,38 +288,21 @@ def load_world(name_or_path: str | Path) -> World:
     if key in BUILTIN_WORLDS:
         return BUILTIN_WORLDS[key]
     path = Path(key)
+    if problem := reference_problem(key):
+        raise WorldError(f"no world named {printable(key, limit=VALUE_LIMIT)!r}, and it cannot be a file: {problem}")
     if not path.exists():
         known = ", ".join(BUILTIN_WORLDS)
         raise WorldError(f"no world named {printable(key, limit=VALUE_LIMIT)!r} and no such file (built-in worlds: {known})")
     try:
-        with open_regular(path) as file:
-            # A world file bigger than this cannot hold a world within MAX_CELLS.
-            raw = file.read(_MAX_WORLD_FILE_BYTES + 1)
-        if len(raw) > _MAX_WORLD_FILE_BYTES:
-            raise WorldError(f"{path}: the world file is over {_MAX_WORLD_FILE_BYTES >> 20} MB; a world has at most "
-                             f"{MAX_CELLS:,} cells")
-        data = tomllib.loads(raw.decode("utf-8-sig"))
+        # A world file bigger than this cannot hold a world within MAX_CELLS.
+        data = read_toml(path, what="world", limit=_MAX_WORLD_FILE_BYTES, too_big=f"a world has at most {MAX_CELLS:,} cells")
     except ValueError as exc:
-        if isinstance(exc, WorldError | UnicodeDecodeError | tomllib.TOMLDecodeError):
-            raise _world_read_error(path, exc) from None
-        raise WorldError(f"{path}: is {exc}; a world is a TOML file") from None
-    except OSError as exc:
-        raise WorldError(f"{path}: cannot read the world file ({exc.strerror or exc})") from None
-    except RecursionError:
-        raise WorldError(f"{path}: not valid TOML (arrays or tables nested too deeply)") from None
+        raise WorldError(str(exc)) from None
     data.setdefault("name", path.stem)
     return world_from_dict(data, source=str(path))
 
 
 _MAX_WORLD_FILE_BYTES = 16 << 20
-
-
-def _world_read_error(path: Path, exc: ValueError) -> WorldError:
-    if isinstance(exc, WorldError):
-        return exc
-    if isinstance(exc, UnicodeDecodeError):
-        return WorldError(f"{path}: cannot read the world file (not UTF-8 text)")
-    return WorldError(f"{path}: not valid TOML ({exc})")
 
 
 def describe_validation_error(exc: ValidationError) -> str:

@@ -11,7 +11,6 @@ import json
 from pathlib import Path
 
 from rich.console import Console, Group, RenderableType
-from rich.markup import escape
 from rich.panel import Panel
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
@@ -23,7 +22,7 @@ from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult,
 from irl_core.experiment import run_experiment as run_stages
 from irl_core.irl import FitOptions
 from irl_core.safe_files import check_output, check_output_folder, write_output
-from irl_core.safe_text import printable
+from irl_core.safe_text import for_markup, printable
 
 
 def figure_panel(figure: Figure) -> Panel:
@@ -171,7 +170,7 @@ def run_experiment(args: argparse.Namespace) -> int:
                   console=Console(stderr=True), transient=True) as progress:
         task = progress.add_task("starting", total=None)
         result = run_stages(sizes=QUICK if args.quick else FULL, recordings=args.recordings, seed=args.seed,
-                            progress=lambda stage: progress.update(task, description=escape(printable(stage))))
+                            progress=lambda stage: progress.update(task, description=for_markup(stage)))
     for figure in result.figures:
         console.print(figure_panel(figure))
     write_figures(result, out)
@@ -186,5 +185,6 @@ def run_experiment(args: argparse.Namespace) -> int:
     summary, report = REPORT_FILES
     write_output(out / summary, json.dumps(result.summary(), indent=2) + "\n", option="--out")
     write_output(out / report, report_markdown(result), option="--out")
-    console.print(f"done in {result.seconds:.1f} s; figures, summary.json and report.md are in {out}/")
+    console.print(Text(f"done in {result.seconds:.1f} s; figures, summary.json and report.md are in "
+                       f"{printable(str(out), limit=160)}/"), soft_wrap=True)
     return 0

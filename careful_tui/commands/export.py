@@ -11,7 +11,6 @@ import argparse
 from pathlib import Path
 
 from rich.console import Console
-from rich.markup import escape
 from rich.progress import Progress
 from rich.text import Text
 
@@ -19,9 +18,17 @@ from careful_tui.commands.notices import warn
 from careful_tui.errors import UsageError
 from careful_tui.version import app_version
 from irl_core.demonstrations import Recording, read_recording
-from irl_core.export import check_dataset_id, minari_dataset_path, one_world, recorded_episodes, write_csv, write_minari
+from irl_core.export import (
+    check_dataset_id,
+    dataset_place_problem,
+    minari_dataset_path,
+    one_world,
+    recorded_episodes,
+    write_csv,
+    write_minari,
+)
 from irl_core.safe_files import check_output
-from irl_core.safe_text import printable
+from irl_core.safe_text import for_markup, printable
 from irl_core.words import plural
 
 # Inputs at least this large (in bytes, all files together) get progress bars.
@@ -40,16 +47,15 @@ def run_export(args: argparse.Namespace) -> int:
         problem = check_dataset_id(args.out)
         if problem:
             raise UsageError(problem)
-        if minari_dataset_path(args.out).exists():
-            raise UsageError(f"a Minari dataset {args.out!r} already exists at {minari_dataset_path(args.out)}; "
-                             "choose another id (or a new version, -v1, -v2, ...)")
+        if problem := dataset_place_problem(args.out):
+            raise UsageError(f"{problem}; choose another id (or a new version, -v1, -v2, ...)")
 
     sizes = [_size(path) for path in args.files]
     with Progress(console=err, transient=True, disable=sum(sizes) < PROGRESS_FROM_BYTES) as progress:
         reading = progress.add_task("reading", total=sum(sizes))
         recordings: list[Recording] = []
         for path, size in zip(args.files, sizes):
-            progress.update(reading, description=f"reading {escape(printable(path.name, limit=60))}")
+            progress.update(reading, description=f"reading {for_markup(path.name, limit=60)}")
             recordings.append(read_recording(path))
             progress.advance(reading, size)
         for recording in recordings:

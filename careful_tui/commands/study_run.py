@@ -10,19 +10,27 @@ from careful_tui.app import make_study_app
 from careful_tui.commands.play import say_recorded, write_problem
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
+from irl_core.participant_lock import participant_lock
 from irl_core.recording_writer import check_writable
 from irl_core.safe_text import printable
-from irl_core.study import LoadedStudy, StudyError, load_study, read_protocol
+from irl_core.study import LoadedStudy, StudyError, check_participant, load_study, read_protocol
 from irl_core.words import plural
 
 
 def run_study_run(args: argparse.Namespace) -> int:
-    """`careful study run STUDY.toml --participant ID` (exit 0 also when they had finished already)."""
+    """`careful study run STUDY.toml --participant ID` (exit 0 also when they had finished already);
+    one session per participant at a time (`participant_lock`)."""
     try:
         study = load_study(args.study)
-        protocol = read_protocol(study, args.participant)
+        check_participant(args.participant)
+        with participant_lock(study, args.participant, holder="careful study run"):
+            return _run_participant(study, args)
     except StudyError as exc:
         raise UsageError(str(exc)) from None
+
+
+def _run_participant(study: LoadedStudy, args: argparse.Namespace) -> int:
+    protocol = read_protocol(study, args.participant)
     name = printable(study.study.name, limit=80)
     if protocol.finished:
         report_problems(protocol.problems)

@@ -13,7 +13,7 @@ from careful_tui.render.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_
 from careful_tui.render.palette import BAD, GOOD, HERE, NOTE, SLIP, WARN, level_colour
 from irl_core.demonstrations import Recording
 from irl_core.recording_lines import EpisodeEnd
-from irl_core.safe_text import VALUE_LIMIT, printable
+from irl_core.safe_text import VALUE_LIMIT, for_markup, printable
 from irl_core.summary import SessionSummary, outcome_code
 from irl_core.words import plural
 from irl_core.world import World
@@ -85,7 +85,7 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     session.add_row(score, Text("final score", style="dim"))
 
     careful = Table(box=None, padding=(0, 0), show_edge=False, header_style="dim", title_style=f"bold {NOTE}",
-                    title=f"carefulness by\ndistance to {'/'.join(world.terminal)}", title_justify="left")
+                    title=f"carefulness by\ndistance to {for_markup('/'.join(world.terminal))}", title_justify="left")
     careful.add_column("d", justify="right", width=2)
     careful.add_column("mean", justify="right", width=5)
     careful.add_column("", width=MEAN_BAR + 1)

@@ -320,7 +320,13 @@ class FitScreen(Screen[None]):
     # ------------------------------------------------------------------ saving
 
     def action_save_svg(self) -> None:
-        path = self.svg or default_svg_name(self.world.name, self._shown_method(), Path.cwd())
+        try:
+            path = self.svg or default_svg_name(self.world.name, self._shown_method(), Path.cwd())
+        except OSError as exc:  # the current folder was removed (or cannot be read) while the view was open
+            self.notify(f"cannot save the SVG: the current folder is gone ({exc.strerror or exc}); "
+                        "quit, cd to a folder that exists and fit again, or give --svg PATH",
+                        title="save SVG", severity="error", markup=False)
+            return
         self._save(path)
 
     def _save_first_svg(self) -> None:
@@ -408,8 +414,15 @@ class FitScreen(Screen[None]):
         return Text.assemble(
             ("careful fit", f"bold {NOTE}"), "  ", (method, "bold"), " on ", (printable(self.world.name, limit=80), "bold"),
             (f"  ·  {files}: {plural(demos.episodes, 'episode')}, {plural(demos.steps, 'step')}", "dim"),
-            (f"  ·  {METHODS[method].label}" if METHODS[method].label else "", "dim"),
+            (f"  ·  {self._label(method)}" if self._label(method) else "", "dim"),
         )
+
+    def _label(self, method: str) -> str:
+        """What the paper calls the method, or for maxent with a model of people, that model."""
+        result = self.result
+        if result is not None and result.method == method and result.player_model not in (None, "boltzmann"):
+            return f"{result.player_model} player model"
+        return METHODS[method].label
 
     def _status(self) -> Text:
         if self.fitting is not None:

@@ -348,7 +348,7 @@ class ReplayScreen(Screen[None]):
             if step.hold_exact:
                 text.append(" exact", style=f"bold {NOTE}")
         elif mode is not None:
-            text.append(f"\n{mode} input", style="dim")
+            text.append(f"\n{printable(str(mode), limit=20)} input", style="dim")
         return text
 
     def _status(self, frame: Frame | None) -> Text:

@@ -18,13 +18,11 @@ the refits at (1 - confidence)/2 and (1 + confidence)/2):
 `bench/bench_calibration.py` measures how often each contains the truth; `fit` uses the
 better calibrated one (`INTERVAL_VARIANT`, chosen from that measurement: see the README).
 
-Resamples run in parallel across cores in a process pool: forked from this process when it
-has a single thread, else from a server that has imported this module once (forking beside
-threads, such as the fit view's, is unsafe). Either way a worker starts in milliseconds. The
-multiplicities are drawn in the parent from `seed`, so the same seed gives the same interval
-whatever the number of workers. A fit told to stop tells its workers too (`stopping.stop_when`
-on their side): queued resamples are dropped and running maxent refits stop at their next soft
-Bellman solve.
+Resamples run in parallel across cores in `irl_core.pool.run_in_pool` (its workers die with this
+process). The multiplicities are drawn in the parent from
+`seed`, so the same seed gives the same interval whatever the number of workers. A fit told to
+stop tells its workers too (`stopping.stop_when` on their side): queued resamples are dropped
+and running maxent refits stop at their next soft Bellman solve.
 
 Episodes that come in groups (a study's pool: each participant's episodes) are resampled at two
 levels (`two_level_weights`): the groups with replacement, then within each group drawn its
@@ -33,16 +31,10 @@ episodes with replacement, so the interval covers differences between the groups
 
 from __future__ import annotations
 
-import contextlib
-import multiprocessing
-import multiprocessing.synchronize
 import os
-import sys
-import threading
-from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol, TypeVar
+from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -53,7 +45,8 @@ from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
 from irl_core.mdp import MDP
-from irl_core.stopping import Stopped, stop_if_asked, stop_when
+from irl_core.pool import run_in_pool
+from irl_core.stopping import Stopped
 
 VARIANTS = ("percentile", "basic")
 INTERVAL_VARIANT = "percentile"
@@ -61,10 +54,6 @@ INTERVAL_VARIANT = "percentile"
 # stops at this projected gradient: its error is then far below the resampling noise.
 RESAMPLE_GRADIENT_TOLERANCE = 1e-5
 RESAMPLE_VALUE_TOLERANCE = 1e-12
-# While the workers refit, this process asks the fit's stop check this often (seconds).
-STOP_POLL_S = 0.1
-
-T = TypeVar("T")
 
 
 class Refitter(Protocol):
@@ -258,55 +247,6 @@ def _refit_rows(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray)
     return out
 
 
-def run_in_pool(function: Callable[..., T], calls: list[tuple], *, workers: int,
-                on_result: Callable[[int, T], None], initializer: Callable[..., None] | None = None,
-                initargs: tuple = ()) -> None:
-    """`function(*calls[i])` for every i in a pool of `workers` processes (each first running
-    `initializer(*initargs)`); `on_result(i, result)` in this process as each comes back.
-
-    The workers hear this process's stop: while waiting it asks this thread's stop check every
-    STOP_POLL_S, and leaving early (`Stopped`, Ctrl+C, an error, also from `on_result`) drops the
-    queued calls and stops the running ones at their solvers' next check, instead of waiting for
-    them all (65 s of a 16x16 world's 200 resamples; 24 s of a 26-fit study report).
-    """
-    context = process_context()
-    with contextlib.ExitStack() as stack:
-        with _stderr_with_a_descriptor():  # the pool (and the stop signal's semaphore) start their helpers here
-            stopping = context.Event()
-            pool = stack.enter_context(ProcessPoolExecutor(
-                max_workers=workers, mp_context=context, initializer=_start_worker,
-                initargs=(stopping, initializer, initargs)))
-            futures = {pool.submit(_heeding_the_stop, function, call): i for i, call in enumerate(calls)}
-        try:
-            pending = set(futures)
-            while pending:
-                finished, pending = wait(pending, timeout=STOP_POLL_S, return_when=FIRST_COMPLETED)
-                stop_if_asked()
-                for future in finished:
-                    on_result(futures[future], future.result())
-        except BaseException:
-            stopping.set()
-            pool.shutdown(cancel_futures=True)
-            raise
-
-
-_STOPPING: Callable[[], bool] | None = None  # in a worker of `run_in_pool`: its parent's stop signal
-
-
-def _start_worker(stopping: multiprocessing.synchronize.Event, initializer: Callable[..., None] | None,
-                  initargs: tuple) -> None:
-    global _STOPPING
-    _STOPPING = stopping.is_set
-    if initializer is not None:
-        initializer(*initargs)
-
-
-def _heeding_the_stop(function: Callable[..., T], call: tuple) -> T:
-    assert _STOPPING is not None
-    with stop_when(_STOPPING):
-        return function(*call)
-
-
 _WORKER: tuple[Refitter, sp.csr_matrix] | None = None
 
 
@@ -319,35 +259,3 @@ def _install(refit: Refitter, by_episode: sp.csr_matrix) -> None:
 def _refit_chunk(weights: np.ndarray) -> np.ndarray:
     assert _WORKER is not None
     return _refit_rows(*_WORKER, weights)
-
-
-@contextlib.contextmanager
-def _stderr_with_a_descriptor() -> Iterator[None]:
-    """Starting workers passes sys.stderr's file descriptor on; where sys.stderr has none (a Textual
-    app or a test capture replaces it), lend it the process's own stderr while they start."""
-    try:
-        usable = sys.stderr.fileno() >= 0
-    except (AttributeError, OSError, ValueError):
-        usable = False
-    if usable or sys.__stderr__ is None:
-        yield
-        return
-    saved, sys.stderr = sys.stderr, sys.__stderr__
-    try:
-        yield
-    finally:
-        sys.stderr = saved
-
-
-def process_context() -> multiprocessing.context.BaseContext:
-    """Fork when this process has one thread (quick, and a script without a main guard still
-    works); otherwise fork from a server that has imported this module (forking beside other
-    threads, such as the fit view's, can deadlock)."""
-    methods = multiprocessing.get_all_start_methods()
-    if "fork" in methods and threading.active_count() == 1:
-        return multiprocessing.get_context("fork")
-    if "forkserver" not in methods:
-        return multiprocessing.get_context("spawn")
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload([__name__])
-    return context

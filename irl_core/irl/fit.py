@@ -18,7 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from irl_core import fit_methods
+import irl_core.fit_methods as fit_methods
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl.bootstrap import Refit, Refitter, bootstrap
 from irl_core.irl.evaluation import evaluate
@@ -302,8 +302,8 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     if flat.any():
         sides = [f"{label} {'at most' if side < 0 else 'at least'} {value:.3g}"
                  for label, value, side in zip(unknowns.labels, solution.theta, flat) if side]
-        notes.append(Note("one_sided", "bounded on one side only (moving them to ±{rmax} costs the likelihood "
-                                       f"less than {FLAT_DROP:g}): " + "; ".join(sides)))
+        notes.append(Note("one_sided", "bounded on one side only (moving them to the bound, {rmax}, costs the "
+                                       f"likelihood less than {FLAT_DROP:g}): " + "; ".join(sides)))
     V = solution.V1 / player.beta
     return _Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
                    status="optimal" if solution.converged else "not_converged", notes=notes,

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from irl_core import fit_methods
+import irl_core.fit_methods as fit_methods
 from irl_core.irl.notes import Note
 from irl_core.irl.qmap import RewardCells
 from irl_core.player_models import AUTO as PLAYER_AUTO

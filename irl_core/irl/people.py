@@ -492,12 +492,15 @@ def choose_player_model(
                            f"cannot be split into folds (a choice needs {MIN_EPISODES_TO_CHOOSE})")
     fits: dict[str, PlayerFit] = {}
     for model in models:
-        # A richer model starts where the one before it ended, its extra parameters from their defaults.
+        # From the default start, and for a richer model also from where the one before it ended: the
+        # likelihood is not concave, and either start alone can stop in a poorer optimum.
+        tries = [fit_player(mdp, unknowns, counts, model=model, rmax=rmax)]
         previous = fits[models[models.index(model) - 1].name] if fits else None
-        start = None if previous is None else (previous.theta, Player(previous.player.beta,
-                                                                      previous.player.sigma or START_SIGMA,
-                                                                      previous.player.lapse or START_LAPSE))
-        fits[model.name] = fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start)
+        if previous is not None:
+            start = (previous.theta, Player(previous.player.beta, previous.player.sigma or START_SIGMA,
+                                            previous.player.lapse or START_LAPSE))
+            tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
+        fits[model.name] = max(tries, key=lambda fit: fit.mean_log_likelihood)
     k = min(folds, E)
     fold_of = np.random.default_rng(seed).permutation(np.arange(E) % k)
     per_episode = {model.name: np.zeros(E) for model in models}

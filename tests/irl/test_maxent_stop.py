@@ -13,7 +13,8 @@ import pytest
 from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
-from irl_core.irl import Stopped, bootstrap as bootstrap_module, fit, maxent
+from irl_core import pool as pool_module
+from irl_core.irl import Stopped, fit, maxent
 from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.qmap import build_unknowns
 from irl_core.mdp import build_mdp
@@ -90,7 +91,7 @@ def test_the_bootstraps_workers_stop_their_refits_too(monkeypatch):
     it now asks every STOP_POLL_S and the workers stop their refits at their next check.
     The workers' evaluations are counted (forked workers inherit the counter)."""
     fork = multiprocessing.get_context("fork")
-    monkeypatch.setattr(bootstrap_module, "process_context", lambda: fork)
+    monkeypatch.setattr(pool_module, "process_context", lambda: fork)
     in_workers = fork.Value("i", 0)
     parent = os.getpid()
     real = maxent._likelihood

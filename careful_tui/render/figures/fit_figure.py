@@ -83,6 +83,14 @@ def interval_kind(result: FitResult) -> tuple[str, float | None]:
     return kind, result.options.confidence if kind == "confidence" else None
 
 
+def player_line(result: FitResult) -> list[str]:
+    """Under the fitted grid: the model of the player where it is one of people's, and a failed fit check."""
+    parts = [f"{result.player_model} player"] if result.player_model not in (None, "boltzmann") else []
+    if result.fit_check is not None and result.fit_check.passed is False:
+        parts.append("fit check failed: read with care")
+    return ["; ".join(parts)] if parts else []
+
+
 def fit_figure(result: FitResult) -> Figure:
     """The fitted reward beside the true one; the demonstrated policy and carefulness; the intervals."""
     world, mdp = result.world, result.mdp
@@ -116,7 +124,7 @@ def fit_figure(result: FitResult) -> Figure:
         for ax, (title, grid), name in zip(axes, rewards, ("fitted", "true")):
             image = draw_reward(ax, grid, board, norm=norm, title=title, width=width)
             ax.set_label(name)
-        axes[0].set_xlabel(fitted_cells(result), labelpad=2)
+        axes[0].set_xlabel("\n".join([fitted_cells(result), *player_line(result)]), labelpad=2)
         if len(rewards) == 1:
             axes[1].set_visible(False)  # keeps the fitted grid the same size as with a true one
         assert image is not None, "the fitted reward is always drawn"
