@@ -18,6 +18,9 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
+from functools import partial
+from typing import TypeVar
 
 import numpy as np
 
@@ -29,8 +32,10 @@ from irl_core.person_like import person_like
 from irl_core.planning import soft_value_iteration
 from irl_core.world import BUILTIN_WORLDS
 
+T = TypeVar("T")
 
-def _timed(call) -> tuple[float, object]:
+
+def _timed(call: Callable[[], T]) -> tuple[float, T]:
     started = time.perf_counter()
     out = call()
     return time.perf_counter() - started, out
@@ -55,9 +60,9 @@ def big(sizes: tuple[int, ...] = (16, 32, 64)) -> None:
     for size in sizes:
         mdp = build_mdp(cliff_world(size, size))
         demos = demonstrations_of(mdp, rollouts(mdp, boltzmann_policy(mdp, beta=0.5), episodes=100, seed=0))
-        planning, _ = _timed(lambda: soft_value_iteration(mdp, beta=1.0))
-        t_people, people = _timed(lambda: fit(demos, player_model="person"))
-        t_maxent, maxent = _timed(lambda: fit(demos, method="maxent", beta="auto"))
+        planning, _ = _timed(partial(soft_value_iteration, mdp, beta=1.0))
+        t_people, people = _timed(partial(fit, demos, player_model="person"))
+        t_maxent, maxent = _timed(partial(fit, demos, method="maxent", beta="auto"))
         print(f"{size}x{size}: people {t_people:.1f} s ({people.status}, {t_people / planning:.1f} soft value "
               "iterations of the world), "
               f"maxent beta auto {t_maxent:.1f} s ({maxent.status}): {t_people / t_maxent:.2f}x")

@@ -139,10 +139,12 @@ def main() -> None:
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])}
     server = subprocess.Popen([sys.executable, "-m", "careful_tui.cli", "serve", str(study_path), "--port", "0",
                                "--links", str(args.participants)], stdout=subprocess.PIPE, text=True, env=env)
+    output = server.stdout
+    assert output is not None, "stdout=PIPE"
     try:
-        first = server.stdout.readline()
+        first = output.readline()
         port = int(first.split(" at ")[1].split("/ ")[0].rsplit(":", 1)[1])
-        threading.Thread(target=lambda: server.stdout.read(), daemon=True).start()  # keep its pipe drained
+        threading.Thread(target=output.read, daemon=True).start()  # keep its pipe drained
         time.sleep(0.5)
         rss_before = rss_kib(server.pid)
         rows = (folder / "data" / "links.csv").read_text().splitlines()[1:]

@@ -16,9 +16,10 @@ import argparse
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Generic, TypeVar
 
 from textual.app import App
-from textual.binding import Binding
+from textual.binding import Binding, BindingType
 from textual.driver import Driver
 from textual.screen import Screen
 from textual.theme import Theme
@@ -66,13 +67,16 @@ CAREFUL_THEME = Theme(
 
 # The app quits with q, Ctrl+C or Ctrl+Q, whatever screen is on top (a screen that must save
 # something as it goes, as play records the running episode, does it when it is unmounted).
-QUIT_BINDINGS = [
+QUIT_BINDINGS: list[BindingType] = [
     Binding("q", "quit", "quit", priority=True),
     Binding("ctrl+c,ctrl+q", "quit", "quit", priority=True, show=False),
 ]
 
 
-class CarefulApp(App[None]):
+FirstScreen = TypeVar("FirstScreen", bound=Screen)
+
+
+class CarefulApp(App[None], Generic[FirstScreen]):
     """The careful app: the careful theme, `careful.tcss`, no command palette, opening on `first_screen`.
 
     Args:
@@ -85,14 +89,14 @@ class CarefulApp(App[None]):
     ENABLE_COMMAND_PALETTE = False
     BINDINGS = QUIT_BINDINGS
 
-    def __init__(self, first_screen: Screen, *, driver_class=None) -> None:
+    def __init__(self, first_screen: FirstScreen, *, driver_class=None) -> None:
         super().__init__(driver_class=driver_class)
         self.register_theme(CAREFUL_THEME)
         self.theme = CAREFUL_THEME.name
         self.first_screen = first_screen
         self.title = first_screen.TITLE or self.title
 
-    def get_default_screen(self) -> Screen:
+    def get_default_screen(self) -> FirstScreen:
         return self.first_screen
 
 
@@ -106,7 +110,7 @@ def make_play_app(
     clock: Clock = time.monotonic,
     calibrate: bool = False,
     driver_class: type[Driver] | None = None,
-) -> CarefulApp:
+) -> CarefulApp[PlayScreen]:
     """The app on the play screen, recording to a new file in `out` (the CLI and the tests both build it here)."""
     screen = new_play_screen(world, out=out, player=player, seed=seed, input_mode=input_mode, clock=clock,
                              calibrate=calibrate)
@@ -125,7 +129,7 @@ def new_play_screen(world: World, *, out: str | Path, player: str, seed: int, in
 
 
 def make_study_app(study: LoadedStudy, participant: str, *, clock: Clock = time.monotonic,
-                   seed: int | None = None, driver_class: type[Driver] | None = None) -> CarefulApp:
+                   seed: int | None = None, driver_class: type[Driver] | None = None) -> CarefulApp[StudyScreen]:
     """The app on the study screen: `participant` through `study`'s protocol from where their folder
     stands (`careful study run` and the tests build it here). `seed` fixes every block's seed (a
     test's); without it each block draws one."""
@@ -134,7 +138,8 @@ def make_study_app(study: LoadedStudy, participant: str, *, clock: Clock = time.
 
 
 def make_replay_app(*recordings: Recording, skipped: Sequence[str] = (), playing: bool = False,
-                    frame_seconds: float = FRAME_S, driver_class: type[Driver] | None = None) -> CarefulApp:
+                    frame_seconds: float = FRAME_S, driver_class: type[Driver] | None = None
+                    ) -> CarefulApp[ReplayScreen]:
     """The app on the replay screen of `recordings`, watched in that order (`skipped`: a line per
     file left out; the CLI plays at once; the tests start paused)."""
     return CarefulApp(ReplayScreen(recordings, skipped=skipped, playing=playing, frame_seconds=frame_seconds),
@@ -142,7 +147,7 @@ def make_replay_app(*recordings: Recording, skipped: Sequence[str] = (), playing
 
 
 def make_fit_app(args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,
-                 *, show_times: bool = True, driver_class: type[Driver] | None = None) -> CarefulApp:
+                 *, show_times: bool = True, driver_class: type[Driver] | None = None) -> CarefulApp[FitScreen]:
     """The app on the fit view `careful fit` opens for its parsed `args` (the CLI and the tests build it here)."""
     screen = FitScreen(demos, options_from_args(args), result=result, sources=args.files, svg=args.svg,
                        show_times=show_times)

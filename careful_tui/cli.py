@@ -11,19 +11,21 @@ import argparse
 import importlib
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from rich.console import Console
 from rich.text import Text
 
-from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
-from careful_tui.version import app_version
 import irl_core.fit_methods as fit_methods
 import irl_core.player_models as player_models
-from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
+from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.version import app_version
 from irl_core.person_like import KINDS as PERSON_LIKE
+from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.safe_files import InputError, OutputError
 from irl_core.safe_text import one_line
+
 
 def finite_float(text: str) -> float:
     """A number JSON can hold: "inf" and "nan" are refused (exit 2), as is anything beyond 1e300."""
@@ -103,7 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
         "(careful moves cost more and slip less). Every step is saved as JSONL."))
     play.add_argument("--world", default="paper", metavar="NAME|FILE", help="built-in world or TOML file (default: paper)")
     play.add_argument("--player", type=text_argument, default=None, help="name recorded in the session (default: your user name)")
-    play.add_argument("--out", type=Path, default=Path("recordings"), metavar="DIR", help="folder for recordings (default: recordings/)")
+    play.add_argument("--out", type=Path, default=Path("recordings"), metavar="DIR",
+                      help="folder for recordings (default: recordings/)")
     play.add_argument("--input", choices=INPUT_MODE_NAMES, default=DEFAULT_INPUT_MODE, help="; ".join(
         f"{mode.name}: {mode.cli_help}" + (" (default)" if mode.name == DEFAULT_INPUT_MODE else "")
         for mode in INPUT_MODES.values()))
@@ -184,7 +187,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     experiment = commands.add_parser("experiment", help="the paper's experiments, end to end", description=(
         "Run the paper's experiments end to end: figures as PDF and PNG (300 dpi), summary.json and report.md."))
-    experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR", help="output folder (default: experiment/)")
+    experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR",
+                            help="output folder (default: experiment/)")
     experiment.add_argument("--quick", action="store_true", help="reduced sizes, for a fast check")
     experiment.add_argument("--recordings", type=Path, default=None, metavar="DIR",
                             help="people's recordings of paper for the human stage (default: simulated noisy "
@@ -290,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_FAILURE
 
 
-def _lazy(module: str, function: str):
+def _lazy(module: str, function: str) -> Callable[[argparse.Namespace], int]:
     """A command that imports its module when it runs: Textual, cvxpy and matplotlib load only
     for the commands that need them, so `careful --help` and `careful worlds` answer at once."""
 
@@ -311,7 +315,7 @@ COMMANDS = {
     "serve": _lazy("careful_tui.commands.serve", "run_serve"),
     "study": lambda args: STUDY_COMMANDS[args.study_command](args),
 }
-STUDY_COMMANDS = {
+STUDY_COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "run": _lazy("careful_tui.commands.study_run", "run_study_run"),
     "report": _lazy("careful_tui.study_report", "run_study_report"),
 }

@@ -80,8 +80,8 @@ def run_study_report(args: argparse.Namespace) -> int:
         if not data.participants:
             raise UsageError(f"{study.out}: no participant folders: nothing to report (run the study, or write "
                              "simulated participants, first)")
-        for problem in data.problems:
-            err.print(Text(f"warning: {printable(problem, limit=400)}", style="yellow"), soft_wrap=True)
+        for warning in data.problems:
+            err.print(Text(f"warning: {printable(warning, limit=400)}", style="yellow"), soft_wrap=True)
         progress.update(task, description="fitting (per participant, pooled with intervals, and each pool without "
                         "each participant)", completed=0, total=None)
         start = time.perf_counter()

@@ -141,8 +141,9 @@ def separation_claim(separations: list[Separation]) -> Claim:
     """(b) from the cliff and mud intervals: with carefulness they should lie apart (cliff below), without
     it they should overlap. Each kind of interval (identified, confidence) is one test; the verdict is
     ``supported`` when every test agrees, ``not supported`` when none does, else ``mixed``."""
-    evidence, discussion = [], []
-    tests = {}
+    evidence: list[str] = []
+    discussion: list[str] = []
+    tests: dict[str, list[bool]] = {}
     for s in separations:
         where = "with" if s.careful else "without"
         order = order_words(s.cliff, s.mud)

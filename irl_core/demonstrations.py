@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
@@ -25,11 +25,12 @@ from pydantic import Field, TypeAdapter, ValidationError
 from irl_core.end_table import EndTable
 from irl_core.line_checks import LineChecker, Mismatch
 from irl_core.mdp import MDP, build_mdp
-from irl_core.safe_files import InputError, open_regular, read_problem
 from irl_core.recording_lines import SCHEMA_VERSION, EpisodeEnd, SessionHeader, Step
+from irl_core.safe_files import InputError, open_regular, read_problem
 from irl_core.safe_text import VALUE_LIMIT, cut, printable
 from irl_core.step_table import StepTable
 from irl_core.world import World, field_path
+
 
 class RecordingError(InputError):
     """A recording that cannot be used. `str()` is `file:line: field: problem`."""
@@ -322,7 +323,8 @@ class Demonstrations:
                 raise RecordingError(
                     other.path, None, "world",
                     f"recorded in world {printable(other.world.name, limit=VALUE_LIMIT)!r}, but {recordings[0].path} is from "
-                    f"{printable(world.name, limit=VALUE_LIMIT)!r} (they differ in {differ}): fit recordings of one world at a time",
+                    f"{printable(world.name, limit=VALUE_LIMIT)!r} (they differ in {differ}): "
+                    "fit recordings of one world at a time",
                 )
         mdp = build_mdp(world)
         counts = np.zeros((mdp.n_states, mdp.n_actions))
@@ -351,7 +353,7 @@ class Demonstrations:
         )
 
     @classmethod
-    def read(cls, paths: list[str | Path]) -> Demonstrations:
+    def read(cls, paths: Sequence[str | Path]) -> Demonstrations:
         return cls.from_recordings(read_recordings(paths)[0])
 
     @property
@@ -388,7 +390,7 @@ class EpisodeFacts:
     def of_steps(cls, episode_of_step: list, state_of_step: np.ndarray, endings: dict) -> EpisodeFacts:
         """From each step's episode key and state (in order) and the `EpisodeEnd` lines by key."""
         keys = list(dict.fromkeys(episode_of_step))
-        first = {}
+        first: dict = {}
         length: dict = {}
         for key, state in zip(episode_of_step, np.asarray(state_of_step).tolist()):
             first.setdefault(key, state)

@@ -28,7 +28,6 @@ from pathlib import Path
 import numpy as np
 
 from irl_core.claims import RECOVERED, SYMBOL_WORDS, Claim, paper_claims
-from irl_core.stage_results import Estimate, Separation
 from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
 from irl_core.experts import (
     boltzmann_policy,
@@ -41,6 +40,7 @@ from irl_core.irl.options import FitOptions
 from irl_core.irl.result import FitResult, at_bound
 from irl_core.mdp import MDP, action_parts, build_mdp
 from irl_core.planning import value_iteration
+from irl_core.stage_results import Estimate, Separation
 from irl_core.world import BUILTIN_WORLDS, World
 
 Cell = tuple[int, int]
@@ -327,7 +327,9 @@ def _bound_set_cliff(e: Estimate) -> str:
     sentence = (f"The cliff comes out at {e.cliff:.0f} against {e.true_cliff:.0f} ({e.cliff_error:.0%} off), but "
                 f"{n} of its {e.cliff_cells} cells {'is' if n == 1 else 'are'} at the fit's bound ({bound}), "
                 f"which set {'it' if n == 1 else 'them'}, not the data")
-    inside, error = e.cliff_inside, abs(e.cliff_inside - e.true_cliff) / abs(e.true_cliff)
+    inside = e.cliff_inside
+    assert inside is not None, "some cliff cells are inside the bound"
+    error = abs(inside - e.true_cliff) / abs(e.true_cliff)
     rest = e.cliff_cells - n
     what = f"the one the data set is {inside:.0f}" if rest == 1 else f"the {rest} the data set average {inside:.0f}"
     return f"{sentence}; {what} ({error:.0%} off)."
@@ -336,7 +338,8 @@ def _bound_set_cliff(e: Estimate) -> str:
 def _carefulness_caption(mdp: MDP, actions: np.ndarray) -> str:
     """How careful the policy is beside the cliff against elsewhere (mean levels)."""
     cliff = {cell for cell, symbol in zip(mdp.cells, mdp.symbols) if symbol == "C"}
-    beside, elsewhere = [], []
+    beside: list[int] = []
+    elsewhere: list[int] = []
     for s, cell in enumerate(mdp.cells):
         if not mdp.nonterminal[s]:
             continue

@@ -15,21 +15,21 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
 from irl_core.demonstrations import Demonstrations, EpisodeFacts, episode_matrix
+from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
+from irl_core.planning import Plan, soft_value_iteration, value_iteration
 from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recording_writer import RecordingWriter
 from irl_core.safe_files import built_beside
-from irl_core.mdp import DIRECTIONS, MDP, direction_probabilities
-from irl_core.planning import Plan, soft_value_iteration, value_iteration
 
 # Simulated sessions are a function of (world, policy, seed): their header carries this
 # fixed time so that the same seed writes the same bytes.
-SIMULATED_AT = datetime(2000, 1, 1, tzinfo=timezone.utc)
+SIMULATED_AT = datetime(2000, 1, 1, tzinfo=UTC)
 
 
 class NotConverged(ValueError):
@@ -162,8 +162,9 @@ def rollouts(
         live = live[mdp.nonterminal[s_next]]
 
     columns = [np.concatenate(parts) for parts in zip(*trace)] if trace else [np.zeros(0, int)] * 7
+    episode, step_t, step_state, action, direction, next_state, reward = columns
     return Rollouts(
-        *columns,
+        episode, step_t, step_state, action, direction, next_state, reward,
         length=length,
         final_state=state,
         truncated=mdp.nonterminal[state],
@@ -254,8 +255,9 @@ def simulate_to_file(
     with built_beside(path) as temporary, RecordingWriter(temporary, header, sync_episodes=False) as writer:
         for first in range(0, episodes, block):
             result = rollouts(mdp, policy, episodes=min(block, episodes - first), rng=rng)
-            _write_block(writer, mdp, result, first_episode=first,
-                         progress=None if progress is None else lambda done, first=first: progress(first + done))
+            counted: Callable[[int], None] | None = (
+                None if progress is None else lambda done, first=first: progress(first + done))
+            _write_block(writer, mdp, result, first_episode=first, progress=counted)
             ended.update(mdp.symbols[s] if not t else "step limit"
                          for s, t in zip(result.final_state.tolist(), result.truncated.tolist()))
     return ended

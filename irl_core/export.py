@@ -40,8 +40,8 @@ import numpy as np
 
 from irl_core.csv_cells import csv_writer, header, text_cell
 from irl_core.demonstrations import Recording, RecordingError
-from irl_core.recording_lines import Step
 from irl_core.mdp import MDP, action_index, build_mdp
+from irl_core.recording_lines import Step
 from irl_core.safe_files import built_beside, rename_no_replace, sync_tree, temporary_name
 from irl_core.world import World
 

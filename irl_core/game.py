@@ -26,12 +26,12 @@ with the recordings: the writer there, the reader in `irl_core.demonstrations`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Literal, Protocol
 
 import numpy as np
 
-from irl_core.recording_lines import EpisodeEnd, Step
 from irl_core.mdp import DIRECTIONS, action_index, build_mdp, direction_probabilities
+from irl_core.recording_lines import EpisodeEnd, Step
 from irl_core.world import World
 
 Cell = tuple[int, int]
@@ -78,7 +78,7 @@ def level_slip_chances(world: World) -> list[float]:
     With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0.
     """
     levels = range(1, world.levels + 1)
-    return [float(1.0 - p[0]) for p in direction_probabilities(list(levels), slip=world.slip)]
+    return [float(1.0 - p[0]) for p in direction_probabilities(np.array(levels), slip=world.slip)]
 
 
 class GameOver(RuntimeError):
@@ -186,7 +186,7 @@ class Game:
         episode, if any, stays as far as it was written."""
         self.live = False
 
-    def _end(self, outcome: str, symbol: str | None) -> EpisodeEnd:
+    def _end(self, outcome: Literal["terminal", "quit", "step_limit"], symbol: str | None) -> EpisodeEnd:
         end = EpisodeEnd(
             episode=self.episode,
             outcome=outcome,

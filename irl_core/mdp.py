@@ -24,9 +24,10 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
+from irl_core.recording_lines import Direction
 from irl_core.world import World
 
-DIRECTIONS: tuple[str, ...] = ("up", "right", "down", "left")
+DIRECTIONS: tuple[Direction, ...] = ("up", "right", "down", "left")
 # (row, col) offsets in the order of DIRECTIONS.
 OFFSETS = np.array([(-1, 0), (0, 1), (1, 0), (0, -1)])
 

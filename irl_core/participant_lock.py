@@ -15,7 +15,7 @@ import fcntl
 import os
 import socket
 from collections.abc import Iterator
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 from irl_core.safe_text import printable
@@ -60,8 +60,9 @@ def participant_lock(study: LoadedStudy, participant: str, *, holder: str) -> It
         raise StudyError(f"cannot lock participant {participant} in {printable(str(study.out), limit=160)} "
                          f"({exc.strerror or exc}); check the study's out folder") from None
     try:
-        since = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-        text = f"{printable(holder, limit=200)} (process {os.getpid()} on {printable(socket.gethostname(), limit=80)}, since {since})"
+        since = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+        host = printable(socket.gethostname(), limit=80)
+        text = f"{printable(holder, limit=200)} (process {os.getpid()} on {host}, since {since})"
         os.ftruncate(fd, 0)
         os.pwrite(fd, text.encode("utf-8"), 0)
         yield path

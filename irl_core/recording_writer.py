@@ -139,6 +139,8 @@ class RecordingWriter:
 
     def sync(self) -> None:
         """Flush the file to disk."""
+        if self._fd is None:
+            raise ValueError(f"{self.path} is closed")
         os.fsync(self._fd)
         if os.fstat(self._fd).st_nlink == 0:
             raise RecordingLost(f"{self.path} was deleted while it was being written")

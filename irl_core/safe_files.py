@@ -65,7 +65,7 @@ def describe_kind(mode: int) -> str:
 class _NeverWaiting(io.FileIO):
     """A file read without blocking: a read that would wait raises instead of returning None."""
 
-    def readinto(self, buffer) -> int:  # type: ignore[override]
+    def readinto(self, buffer) -> int:
         count = super().readinto(buffer)
         if count is None:
             raise BlockingIOError(errno.EAGAIN, "the file would wait for data")
@@ -232,22 +232,22 @@ def rename_no_replace(source: str | Path, target: str | Path) -> None:
     Raises:
         FileExistsError: `target` exists (then `source` is left as it was).
     """
-    source, target = os.fsencode(source), os.fsencode(target)
+    old, new = os.fsencode(source), os.fsencode(target)
     if sys.platform.startswith("linux"):
         libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
         if hasattr(libc, "renameat2"):
-            if libc.renameat2(_AT_FDCWD, source, _AT_FDCWD, target, _RENAME_NOREPLACE) == 0:
+            if libc.renameat2(_AT_FDCWD, old, _AT_FDCWD, new, _RENAME_NOREPLACE) == 0:
                 return
             code = ctypes.get_errno()
             if code not in (errno.ENOSYS, errno.EINVAL):
-                raise OSError(code, os.strerror(code), os.fsdecode(target))
-    if os.path.isdir(source):
-        if os.path.lexists(target):
-            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), os.fsdecode(target))
-        os.rename(source, target)
+                raise OSError(code, os.strerror(code), os.fsdecode(new))
+    if os.path.isdir(old):
+        if os.path.lexists(new):
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), os.fsdecode(new))
+        os.rename(old, new)
         return
-    os.link(source, target)  # FileExistsError if it exists
-    os.unlink(source)
+    os.link(old, new)  # FileExistsError if it exists
+    os.unlink(old)
 
 
 def _sync_folder(folder: Path) -> None:

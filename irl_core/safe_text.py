@@ -18,7 +18,8 @@ import re
 # C0 and C1 controls, DEL, and the invisible format characters that move or hide text
 # (zero-width, bidirectional marks, overrides and isolates, line and paragraph separators, BOM).
 _UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb]")
-_UNSAFE_KEEPING_NEWLINES = re.compile("[\x00-\x09\x0b-\x1f\x7f-\x9f\u061c\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb]")
+_UNSAFE_KEEPING_NEWLINES = re.compile(
+    "[\x00-\x09\x0b-\x1f\x7f-\x9f\u061c\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb]")
 
 # A value longer than this is cut in messages: a 5,000-character name must not make a 5,000-character line.
 VALUE_LIMIT = 80

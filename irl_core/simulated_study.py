@@ -3,9 +3,10 @@
 For tests and benchmarks of `careful study report`, and to try a study before running people:
 each simulated participant is a Boltzmann expert (`irl_core.experts`) with its own beta, or a
 person-like player (`irl_core.person_like`), who plays the study's protocol (its order, practice
-and main episodes per world) and whose files carry the ``study`` header field, with the participant id as the player and the expert in the
-header's ``input.expert``. One file per block: ``<out>/<ID>/<ID>-<block>-w<world_index>-<phase>.jsonl``,
-``<block>`` counting the blocks in the order a participant plays them, so that name order is play order.
+and main episodes per world) and whose files carry the ``study`` header field, with the participant
+id as the player and the expert in the header's ``input.expert``. One file per block:
+``<out>/<ID>/<ID>-<block>-w<world_index>-<phase>.jsonl``, ``<block>`` counting the blocks in the
+order a participant plays them, so that name order is play order.
 The same participants and seed write the same bytes. `write_person_like_study` writes a whole
 study, its file included, of person-like participants and one reckless one (level 1 everywhere,
 a quarter of moves random), for `careful study report` to be tried on.

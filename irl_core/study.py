@@ -115,7 +115,8 @@ def load_study(path: str | Path) -> LoadedStudy:
         study = Study.model_validate(data)
     except ValidationError as exc:
         raise StudyError(f"{path}: {describe_validation_error(exc)}") from None
-    worlds, read = [], {}
+    worlds: list[World] = []
+    read: dict[str, World] = {}
     for i, entry in enumerate(study.worlds):
         source = _world_source(entry, path.parent)
         shown = printable(entry, limit=VALUE_LIMIT)
@@ -226,7 +227,9 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
             problems.append(f"{path}: {problem}; left out")
             continue
         problems.extend(f"{warning}; the rest of the file is counted" for warning in recording.warnings)
-        found.append((recording.header.study, recording))
+        tag = recording.header.study
+        assert tag is not None, "_foreign refuses a recording without a study tag"
+        found.append((tag, recording))
     found, copies = _one_per_session(found)
     problems.extend(copies)
     return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))

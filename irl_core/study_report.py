@@ -31,8 +31,16 @@ from irl_core.irl import FitError, FitOptions, Note, fit
 from irl_core.pool import run_in_pool
 from irl_core.step_table import StepTable
 from irl_core.stopping import stop_check
-from irl_core.study import POOLED, REPORT_FOLDER, LoadedStudy, StudyError, check_participant, finished_episodes, \
-    interrupted_episodes, read_participant
+from irl_core.study import (
+    POOLED,
+    REPORT_FOLDER,
+    LoadedStudy,
+    StudyError,
+    check_participant,
+    finished_episodes,
+    interrupted_episodes,
+    read_participant,
+)
 from irl_core.summary import distance_to_terminal, outcome_code
 
 
@@ -105,7 +113,8 @@ class StudyData:
 def participant_ids(study: LoadedStudy) -> tuple[list[str], list[str]]:
     """The participant folders under the study's ``out`` (name order), and one line per folder
     that cannot be a participant's."""
-    ids, problems = [], []
+    ids: list[str] = []
+    problems: list[str] = []
     if not study.out.is_dir():
         return ids, problems
     for folder in sorted(p for p in study.out.iterdir() if p.is_dir()):
@@ -158,12 +167,13 @@ def _grouped(pool: Cell, mine: list[Cell]) -> Cell:
     whose episodes the pool's rows hold one participant after another)."""
     if pool.demos is None or pool.demos.by_episode is None:
         return pool
-    members = [cell for cell in mine if cell.demos is not None and cell.demos.by_episode is not None]
-    rows = [cell.demos.by_episode.shape[0] for cell in members]
+    members = [(cell.participant, cell.demos.by_episode.shape[0]) for cell in mine
+               if cell.demos is not None and cell.demos.by_episode is not None]
+    rows = [episodes for _, episodes in members]
     assert sum(rows) == pool.demos.by_episode.shape[0], "a pool's episodes are its participants' in order"
     groups = np.repeat(np.arange(len(members)), rows)
     return dataclasses.replace(pool, demos=dataclasses.replace(pool.demos, episode_groups=groups),
-                               members=tuple(cell.participant for cell in members))
+                               members=tuple(participant for participant, _ in members))
 
 
 def leave_out(pool: Cell, participant: str) -> Cell:
@@ -326,7 +336,9 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
             returned(k, fit_cell(cells[i], options))
     else:
         run_in_pool(_fit_in_worker, [(cells[i], options) for i in order], workers=workers, on_result=returned)
-    return fits
+    fitted = [fit for fit in fits if fit is not None]
+    assert len(fitted) == len(cells), "every cell came back fitted"
+    return fitted
 
 
 def _fit_in_worker(cell: Cell, options: FitOptions) -> CellFit:
@@ -502,7 +514,7 @@ def pooled_finding(data: StudyData, cell: Cell, result: CellFit) -> str:
                      f"{interval_text(interval[nuisance])}: {verdict}")
     elif hazards:
         parts.append(_signs(hazards[0][1], interval, [s for s in result.symbols if truth[s] > 0]))
-    missed = [f"the {_word(s)}'s interval misses the world's {truth[s]:g}" for s in sorted(result.symbols, key=truth.get)
+    missed = [f"the {_word(s)}'s interval misses the world's {truth[s]:g}" for s in sorted(result.symbols, key=truth.__getitem__)
               if not interval[s][0] <= truth[s] <= interval[s][1]]
     parts.append("; ".join(missed) if missed else "every interval covers the world's reward")
     if result.influence:

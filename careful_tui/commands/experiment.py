@@ -10,7 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rich.console import Console, Group
+from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
@@ -18,7 +18,8 @@ from rich.text import Text
 
 from careful_tui.errors import UsageError
 from careful_tui.render.grid import WorldGrid, action_label, format_value, symbol_legend
-from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption, run_experiment as run_stages
+from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption
+from irl_core.experiment import run_experiment as run_stages
 from irl_core.irl import FitOptions
 from irl_core.safe_files import check_output, check_output_folder, write_output
 from irl_core.safe_text import for_markup, printable
@@ -27,7 +28,7 @@ from irl_core.safe_text import for_markup, printable
 def figure_panel(figure: Figure) -> Panel:
     labels = {cell: action_label(*action, levels=figure.world.levels) for cell, action in figure.policy.items()}
     grid = WorldGrid(figure.world, values=figure.values, labels=labels)
-    parts = [grid, symbol_legend(figure.world)]
+    parts: list[RenderableType] = [grid, symbol_legend(figure.world)]
     if figure.caption:
         parts.append(Text(figure.caption, style="italic"))
     return Panel(Group(*parts), title=figure.title, expand=False)

@@ -18,10 +18,18 @@ from careful_tui.commands.notices import warn
 from careful_tui.errors import UsageError
 from careful_tui.version import app_version
 from irl_core.demonstrations import Recording, read_recording
+from irl_core.export import (
+    check_dataset_id,
+    dataset_place_problem,
+    minari_dataset_path,
+    one_world,
+    recorded_episodes,
+    write_csv,
+    write_minari,
+)
 from irl_core.safe_files import check_output
 from irl_core.safe_text import for_markup, printable
 from irl_core.words import plural
-from irl_core.export import check_dataset_id, dataset_place_problem, minari_dataset_path, one_world, recorded_episodes, write_csv, write_minari
 
 # Inputs at least this large (in bytes, all files together) get progress bars.
 PROGRESS_FROM_BYTES = 1_000_000

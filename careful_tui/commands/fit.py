@@ -21,6 +21,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
+import irl_core.fit_methods as fit_methods
 from careful_tui.arguments import options_from_args
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.commands.reading import read_with_progress
@@ -28,7 +29,6 @@ from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import print_fit
-import irl_core.fit_methods as fit_methods
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.safe_files import check_output, write_output
@@ -166,8 +166,8 @@ def run_fit(args: argparse.Namespace) -> int:
         save_figure(fit_figure(result), args.figure, option="--figure", inputs=args.files)
     if view:
         # Imported here for start-up speed: Textual loads only when the view opens.
-        from careful_tui.keys.kitty import PassiveKittyDriver
         from careful_tui.app import make_fit_app
+        from careful_tui.keys.kitty import PassiveKittyDriver
 
         # The kitty-aware driver: Textual's own crashes on key-event sequences some terminals send.
         app = make_fit_app(args, demos, result, driver_class=PassiveKittyDriver)

@@ -10,9 +10,9 @@ from careful_tui.app import make_study_app
 from careful_tui.commands.play import say_recorded, write_problem
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
+from irl_core.participant_lock import participant_lock
 from irl_core.recording_writer import check_writable
 from irl_core.safe_text import printable
-from irl_core.participant_lock import participant_lock
 from irl_core.study import LoadedStudy, StudyError, check_participant, load_study, read_protocol
 from irl_core.words import plural
 

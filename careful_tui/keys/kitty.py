@@ -160,7 +160,7 @@ def _textual_name(base: str, modifiers: frozenset[str], text: str | None) -> str
     """
     if base in MODIFIER_FUNCTIONAL_KEYS:
         return base
-    named = [
+    named: list[str] = [
         name
         for name in ("alt", "ctrl", "super", "hyper", "meta")
         if name in modifiers and not (name == "alt" and text is not None)
@@ -207,7 +207,8 @@ def key_repeat(event: events.Key) -> bool | None:
 class KittyParser(XTermParser):
     """Textual's input parser, reading kitty event types instead of raising on them."""
 
-    def _sequence_to_key_events(
+    # Textual annotates this as yielding only keys, but its parse loop posts whatever it yields.
+    def _sequence_to_key_events(  # type: ignore[override]
         self, sequence: str, alt: bool = False
     ) -> Iterable[events.Key | KeyRelease]:
         # The parse loop calls this for every prefix of an escape sequence and stops at the
@@ -262,8 +263,9 @@ class KittyDriver(LinuxDriver):
         they are in the environment (a launcher that imported readline exports them, for one):
         the screen is then drawn at that size whatever the window's, and no resize is ever seen.
         """
+        file = self._file
         try:
-            width, height = os.get_terminal_size(self._file.fileno())
+            width, height = os.get_terminal_size(file.fileno()) if file is not None else (0, 0)
         except (AttributeError, ValueError, OSError):
             width = height = 0
         return (width, height) if width and height else super()._get_terminal_size()

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from rich.console import Console, ConsoleOptions, RenderResult
+from rich.console import Console, ConsoleOptions, JustifyMethod, RenderResult
 from rich.style import Style
 from rich.table import Table
 from rich.text import Text
@@ -22,12 +22,15 @@ from irl_core.irl import FitResult, at_bound
 def interval_table(result: FitResult) -> Table:
     """One row per unknown: fitted and true values, the interval and what it means."""
     rmax = result.rmax
+    intervals = result.intervals
+    assert intervals is not None, "a fit with intervals"
     table = Table(title=interval_title(result))
-    for name, justify in (("unknown", "left"), ("fitted", "right"), ("true", "right"),
-                          ("low", "right"), ("high", "right"), ("reading", "left")):
+    columns: tuple[tuple[str, JustifyMethod], ...] = (("unknown", "left"), ("fitted", "right"), ("true", "right"),
+                                                      ("low", "right"), ("high", "right"), ("reading", "left"))
+    for name, justify in columns:
         table.add_column(name, justify=justify)
     first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
-    for label, value, state, (low, high) in zip(result.labels, result.theta, first_state, result.intervals):
+    for label, value, state, (low, high) in zip(result.labels, result.theta, first_state, intervals):
         true = format_value(float(result.mdp.R_S[state])) if result.world.rewards else "-"
         table.add_row(
             Text(label), format_value(float(value)), true, format_value(float(low)), format_value(float(high)),
@@ -74,6 +77,7 @@ def symbol_name(symbol: str) -> str:
 
 def symbol_intervals(result: FitResult) -> dict[str, tuple[float, float]]:
     """Per symbol (in the order the unknowns first use it): the lowest low and highest high of its unknowns."""
+    assert result.intervals is not None, "a fit with intervals"
     hulls: dict[str, tuple[float, float]] = {}
     for symbol, (low, high) in zip(result.unknowns.symbols, result.intervals):
         old_low, old_high = hulls.get(symbol, (np.inf, -np.inf))
@@ -139,11 +143,13 @@ class IntervalChart:
 
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
         result = self.result
+        intervals = result.intervals
+        assert intervals is not None, "a fit with intervals"
         rmax = float(result.rmax)
         true = result.unknowns.true_theta(result.mdp) if result.world.rewards else None
         symbols = _low_to_high(symbol_intervals(result))
         rows = sorted(range(len(result.labels)), key=lambda j: (symbols.index(result.unknowns.symbols[j]), j))
-        spans = [interval_span(float(lo), float(hi), rmax) for lo, hi in result.intervals]
+        spans = [interval_span(float(lo), float(hi), rmax) for lo, hi in intervals]
         # Tied unknowns are named by their symbol: "cliff" reads better than "C".
         labels = [symbol_name(s) for s in result.unknowns.symbols] if result.options.tie else result.labels
         label_width = max(map(len, labels), default=0)
@@ -152,7 +158,7 @@ class IntervalChart:
         room = options.max_width - label_width - span_width - 6
         axis = max(21, room if room % 2 else room - 1)
         for j in rows:
-            low, high = (float(v) for v in result.intervals[j])
+            low, high = (float(v) for v in intervals[j])
             open_low, open_high = _open_ends(low, high, rmax)
             line = Text(f"{labels[j]:<{label_width}}  ", no_wrap=True, overflow="crop")
             line.append("◀" if open_low else " ", style="bold")

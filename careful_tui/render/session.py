@@ -5,7 +5,7 @@ The play and replay screens share these; they draw nothing themselves.
 
 from __future__ import annotations
 
-from rich.console import Group
+from rich.console import Group, RenderableType
 from rich.table import Table
 from rich.text import Text
 
@@ -98,7 +98,7 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     # Warnings first: the panel is cut at the bottom in a small terminal.
     warnings = [Text(f"⚠ {printable(short_warning(recording, warning), limit=200)}\n", style=f"bold {WARN}")
                 for warning in recording.warnings]
-    parts = [*warnings, player, about, created, Text(), session, Text(), careful]
+    parts: list[RenderableType] = [*warnings, player, about, created, Text(), session, Text(), careful]
     if not summary.carefulness_by_distance:
         parts.append(Text("(no steps)", style="dim"))
     return Group(*parts)

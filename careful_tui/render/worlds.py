@@ -26,7 +26,8 @@ def print_world_table(console: Console) -> None:
 def print_world(console: Console, world: World) -> None:
     # The name is text from a file: shown escaped and cut, never as markup.
     console.print(Text.assemble((printable(world.name, limit=VALUE_LIMIT), "bold"),
-                                f": {world.rows}x{world.cols} cells, {plural(world.levels, 'carefulness level')}, slip {world.slip}, gamma {world.gamma}"), soft_wrap=True)
+                                f": {world.rows}x{world.cols} cells, {plural(world.levels, 'carefulness level')},"
+                                f" slip {world.slip}, gamma {world.gamma}"), soft_wrap=True)
     console.print(WorldGrid(world))
     console.print(symbol_legend(world))
     console.print(Syntax(world.to_toml(), "toml", theme="ansi_dark", background_color="default"))

@@ -11,10 +11,28 @@ their way reach a queue before the tick, and tells the tick whether any wait the
 from __future__ import annotations
 
 import asyncio
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    from textual.app import App
 
 # Event-loop turns a key takes from Textual's input thread into the app's queue (Textual 8.2.8:
 # the thread schedules a coroutine, the coroutine queues the key).
 TURNS_TO_QUEUE = 2
+
+
+class _Ticking(Protocol):
+    """What the mixin needs of its screen."""
+
+    @property
+    def app(self) -> App[object]: ...
+
+    @property
+    def message_queue_size(self) -> int: ...
+
+    def clock(self) -> float: ...
+
+    def tick(self, *, input_until: float) -> None: ...
 
 
 class TickBehindInput:
@@ -26,7 +44,7 @@ class TickBehindInput:
     thread too), whose keys are read, and stamped, only when it resumes.
     """
 
-    async def _tick_behind_input(self) -> None:
+    async def _tick_behind_input(self: _Ticking) -> None:
         """The timer's tick, run once every key that reached the app before it is in a queue.
 
         Letting the loop turn `TURNS_TO_QUEUE` times puts the keys on their way in the app's
@@ -38,6 +56,6 @@ class TickBehindInput:
             await asyncio.sleep(0)
         self.tick(input_until=began)
 
-    def input_waiting(self) -> bool:
+    def input_waiting(self: _Ticking) -> bool:
         """Whether the app's or this screen's queue holds a message (a key, maybe) not yet handled."""
         return self.app.message_queue_size > 0 or self.message_queue_size > 0

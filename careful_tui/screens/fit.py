@@ -32,7 +32,7 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Container, Horizontal, VerticalScroll
 from textual.message import Message
-from textual.reactive import reactive, var
+from textual.reactive import var
 from textual.screen import Screen
 from textual.widgets import Static
 from textual.worker import get_current_worker
@@ -56,9 +56,9 @@ from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Demonstrations
-from irl_core.recording_writer import slug
 from irl_core.fit_methods import METHODS
 from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
+from irl_core.recording_writer import slug
 from irl_core.safe_files import OutputError, write_output
 from irl_core.safe_text import printable
 from irl_core.words import plural
@@ -143,10 +143,10 @@ class FitScreen(Screen[None]):
     # its settings, the error of the last refit and the settings being fitted now. Their watchers
     # ask for one redraw after the next refresh, however many of them change at once (a fit's
     # end sets three); `set_reactive` in __init__ sets them before there is anything to draw.
-    result: reactive[FitResult | None] = var(None, init=False, always_update=True)
-    options: reactive[FitOptions] = var(FitOptions, init=False)
-    error: reactive[str | None] = var(None, init=False)
-    fitting: reactive[FitOptions | None] = var(None, init=False)
+    result: var[FitResult | None] = var(None, init=False, always_update=True)
+    options: var[FitOptions] = var(FitOptions, init=False)
+    error: var[str | None] = var(None, init=False)
+    fitting: var[FitOptions | None] = var(None, init=False)
 
     TITLE = "careful fit"
     METHOD = Binding.Group("/".join(METHODS))
@@ -250,8 +250,11 @@ class FitScreen(Screen[None]):
         # A newer request (exclusive) or the view closing cancels the worker, which stops the fit
         # (instead of minutes more on a big world's intervals, with the app waiting to exit).
         worker = get_current_worker()
+
+        def heard(stage: str, done: int, total: int | None) -> None:
+            self.post_message(FitScreen.Progress(request, progress_phrase(stage, done, total)))
+
         try:
-            heard = lambda *done: self.post_message(FitScreen.Progress(request, progress_phrase(*done)))  # noqa: E731
             result, error = fit(self.demos, options, progress=heard, stop=lambda: worker.is_cancelled), None
         except Stopped:
             return
@@ -274,6 +277,7 @@ class FitScreen(Screen[None]):
         if message.result is None:
             # The view keeps the fit it shows, and its settings: the next key acts on that fit.
             self._failed_method = message.options.method
+            assert message.error is not None, "a fit without a result ended with an error"
             self.error = error_message(message.error)
             self.notify(printable(self.error), title=f"{message.options.method} failed", severity="error", timeout=8,
                         markup=False)
@@ -329,6 +333,7 @@ class FitScreen(Screen[None]):
         if not self._save_first:
             return
         self._save_first = False
+        assert self.svg is not None, "_save_first is set only with --svg"
         self._save(self.svg)
 
     def _save(self, path: Path) -> None:

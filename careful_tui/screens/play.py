@@ -40,7 +40,8 @@ from careful_tui.keys.kitty import KeyRelease, key_repeat
 from careful_tui.render.palette import NOTE, SLIP, WARN
 from careful_tui.screens.behind_input import TickBehindInput
 from careful_tui.screens.calibration import CalibrationScreen
-from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
+from careful_tui.screens.game_layout import compose_game
+from careful_tui.screens.game_layout import minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.play_status import GameStatus, HoldInfo
 from careful_tui.widgets.too_small import TooSmall

@@ -23,7 +23,7 @@ from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.reactive import reactive, var
+from textual.reactive import var
 from textual.screen import Screen
 from textual.timer import Timer
 from textual.widgets import Static
@@ -31,7 +31,8 @@ from textual.widgets import Static
 from careful_tui.render.grid import format_value
 from careful_tui.render.palette import NOTE, SLIP, WARN, level_colour
 from careful_tui.render.session import outcome_colour, outcome_text, summary_panel
-from careful_tui.screens.game_layout import compose_game, minimum_size as game_minimum_size
+from careful_tui.screens.game_layout import compose_game
+from careful_tui.screens.game_layout import minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.demonstrations import Recording
@@ -112,9 +113,9 @@ class ReplayScreen(Screen[None]):
 
     # What is on screen: playing or paused, the speed, and the place (file, frame). Their
     # watchers redraw; `set_reactive` in __init__ sets them before there is anything to draw.
-    playing: reactive[bool] = var(False, init=False)
-    speed_index: reactive[int] = var(SPEEDS.index(1.0), init=False)
-    place: reactive[tuple[int, int]] = var((0, 0), init=False)
+    playing: var[bool] = var(False, init=False)
+    speed_index: var[int] = var(SPEEDS.index(1.0), init=False)
+    place: var[tuple[int, int]] = var((0, 0), init=False)
 
     def __init__(self, recordings: Sequence[Recording], *, skipped: Sequence[str] = (), playing: bool = False,
                  frame_seconds: float = FRAME_S) -> None:
@@ -316,11 +317,11 @@ class ReplayScreen(Screen[None]):
         frame = self.cursor.frame
         board, gauge = self.query_one(Board), self.query_one(Gauge)
         step = None if frame is None else frame.step
+        phase = None if frame is None else frame.phase
         board.player = None if frame is None else frame.player
         board.arrow = (Arrow(step.direction, step.carefulness, self.world.levels)
-                       if step is not None and frame.phase == "before" else None)
-        slipped = step is not None and step.slipped and frame.phase == "after"
-        board.highlight = {step.next_state: SLIP} if slipped else {}
+                       if step is not None and phase == "before" else None)
+        board.highlight = {step.next_state: SLIP} if step is not None and step.slipped and phase == "after" else {}
         gauge.level = None if step is None else step.carefulness
         gauge.fill = 0.0 if step is None else float(step.carefulness)
         self.query_one("#hold-info", Static).update(self._hold_info(step), layout=False)

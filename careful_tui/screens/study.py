@@ -78,7 +78,8 @@ def instructions_text(protocol: Protocol) -> Group:
     parts: list[Text] = [Text(printable(study.name, limit=80), style=f"bold {NOTE}")]
     if protocol.started:
         done, total = protocol.progress
-        back = Text(f"Welcome back: {done} of {plural(total, 'episode')} {'is' if total == 1 else 'are'} done. You go on with: ", style=f"bold {GOOD}")
+        back = Text(f"Welcome back: {done} of {plural(total, 'episode')} {'is' if total == 1 else 'are'} done."
+                    " You go on with: ", style=f"bold {GOOD}")
         back.append_text(where_next(protocol))
         parts.append(back)
     if study.instructions.strip():

@@ -15,7 +15,6 @@ import io
 import os
 import re
 import secrets
-from pathlib import Path
 
 from irl_core.safe_text import printable
 from irl_core.study import LoadedStudy, StudyError, check_participant

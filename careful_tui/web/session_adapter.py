@@ -22,8 +22,8 @@ left            the participant left with q, or the page closed: what was played
 A hold is timed on the page from keydown to keyup and fed to the session as a press and an exact
 release, so every step is ``hold_exact``; its level is `HoldProfile.level_for`, the game's own
 timing function, on `browser_profile`. A browser has no autorepeat delay to wait for, so level 1
-is a hold shorter than 150 ms (a tap), and each further 150 ms adds a level. A press of another arrow while one is held is ignored, and `cancel` (the
-window lost focus) drops the hold: no move.
+is a hold shorter than 150 ms (a tap), and each further 150 ms adds a level. A press of another
+arrow while one is held is ignored, and `cancel` (the window lost focus) drops the hold: no move.
 
 This module is the one place the web server meets the play session: it turns the page's
 milliseconds into the session's seconds, keeps to one arrow at a time, refuses a release that
@@ -49,7 +49,7 @@ from careful_tui.widgets.gauge import format_chance
 from irl_core.game import level_costs, level_slip_chances
 from irl_core.mdp import DIRECTIONS
 from irl_core.play.hold import HoldProfile
-from irl_core.play.session import PlaySession, Played
+from irl_core.play.session import Played, PlaySession
 from irl_core.play.study_flow import StudyFlow
 from irl_core.recording_lines import ProlificTag
 from irl_core.safe_text import printable
@@ -134,9 +134,9 @@ class WebSession:
 
     # ------------------------------------------------------------------ the page's keys
 
-    def press(self, key: str, at_ms: float) -> None:
+    def press(self, key: object, at_ms: object) -> None:
         """An arrow went down at `at_ms` (the page's clock): a hold starts, unless one is held."""
-        self._check(key, at_ms)
+        key, at_ms = self._check(key, at_ms)
         if self._live() and self.held is None:
             assert self.session is not None
             self.held = _Held(key, at_ms)
@@ -145,9 +145,9 @@ class WebSession:
             # page's milliseconds whole (1150 / 1000 - 1 is 0.1499999..., a 150 ms hold at level 1).
             self._played(self.session.press(key, at=0.0, repeat=False))
 
-    def release(self, key: str, at_ms: float) -> None:
+    def release(self, key: object, at_ms: object) -> None:
         """An arrow came up at `at_ms`: the hold on it ends and its move is played."""
-        self._check(key, at_ms)
+        key, at_ms = self._check(key, at_ms)
         held, session = self.held, self.session
         if held is None or held.key != key or session is None:
             return
@@ -193,16 +193,20 @@ class WebSession:
     def _live(self) -> bool:
         return self.stage == "play" and self.session is not None and self.session.game.live
 
-    def _check(self, key: str, at_ms: float) -> None:
-        if key not in DIRECTIONS:
+    def _check(self, key: object, at_ms: object) -> tuple[str, float]:
+        """The page's key and time, as they came, once they are an arrow and a time (else KeyRefused)."""
+        if not (isinstance(key, str) and key in DIRECTIONS):
             raise KeyRefused(f"not an arrow: {printable(str(key), limit=20)!r}")
         if not (isinstance(at_ms, (int, float)) and math.isfinite(at_ms) and 0 <= at_ms < 1e12):
             raise KeyRefused("a key's time must be a number of milliseconds")
+        return key, at_ms
 
     def _played(self, played: Played) -> None:
         assert self.session is not None
         if played.stopped:
-            raise self.session.write_error
+            error = self.session.write_error
+            assert error is not None, "a stopped session says why"
+            raise error
 
     def _start_block(self) -> None:
         session = self.flow.next_block()

@@ -104,7 +104,7 @@ def _with_marks(segments, marks: Mapping[int, Mark]):
     chars = [Segment(ch, seg.style) for seg in segments for ch in seg.text]
     for j, (glyph, style) in marks.items():
         if 0 <= j < len(chars):
-            chars[j] = Segment(glyph, chars[j].style + style)
+            chars[j] = Segment(glyph, (chars[j].style or Style.null()) + style)
     return list(Segment.simplify(chars))
 
 

@@ -9,8 +9,8 @@ marked. Play, replay and the fit view share it.
 from __future__ import annotations
 
 import math
-from decimal import ROUND_HALF_UP, Decimal
 from collections.abc import Sequence
+from decimal import ROUND_HALF_UP, Decimal
 
 from rich.segment import Segment
 from rich.style import Style

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from rich.cells import cell_len
 from rich.text import Text
+from textual.binding import Binding
 from textual.widget import Widget
 
 from careful_tui.render.palette import NOTE, ON_NOTE
@@ -42,7 +43,8 @@ class KeyBar(Widget):
     def _chips(self) -> list[tuple[str, str, bool]]:
         """(keys, what they do, whether they quit) per chip."""
         too_small = self.screen.has_class("-too-small")
-        first_of_action = {}  # several keys of one binding (or one action and text) make one chip
+        # Several keys of one binding (or one action and text) make one chip.
+        first_of_action: dict[tuple[str, str], Binding] = {}
         for active in self.screen.active_bindings.values():
             binding = active.binding
             if binding.show and active.enabled and (binding.action == "quit" or not too_small):

@@ -32,6 +32,7 @@ episodes with replacement, so the interval covers differences between the groups
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -59,8 +60,11 @@ class Refitter(Protocol):
     """What the bootstrap refits with: a picklable callable from a resample's counts (S, A) to its p parameters
     (`Refit` for maxent and loss, `people.PlayerRefit` for a model of people)."""
 
-    mdp: MDP
-    unknowns: Unknowns
+    @property
+    def mdp(self) -> MDP: ...
+
+    @property
+    def unknowns(self) -> Unknowns: ...
 
     @property
     def size(self) -> int: ...
@@ -243,7 +247,7 @@ def _refit_rows(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray)
     return out
 
 
-_WORKER: tuple[Refit, sp.csr_matrix] | None = None
+_WORKER: tuple[Refitter, sp.csr_matrix] | None = None
 
 
 def _install(refit: Refitter, by_episode: sp.csr_matrix) -> None:

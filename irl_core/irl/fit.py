@@ -22,21 +22,30 @@ import irl_core.fit_methods as fit_methods
 from irl_core.demonstrations import Demonstrations
 from irl_core.irl.bootstrap import Refit, Refitter, bootstrap
 from irl_core.irl.evaluation import evaluate
+from irl_core.irl.fit_check import FitCheck, fit_check
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp import Progress, solve_margin_lp
 from irl_core.irl.margin import lp_constraints
 from irl_core.irl.maxent import MaxEntSolution, curvature_scale, fit_maxent, identification, soft_bellman
-from irl_core.irl.people import (FLAT_DROP, ModelChoice, PlayerFit, PlayerRefit, choose_player_model,
-                                 fit_player, flat_toward_bound, significantly_better)
-from irl_core.irl.people import curvature_scale as people_curvature_scale
 from irl_core.irl.notes import Note
 from irl_core.irl.options import FitOptions
+from irl_core.irl.people import (
+    FLAT_DROP,
+    ModelChoice,
+    PlayerFit,
+    PlayerRefit,
+    choose_player_model,
+    fit_player,
+    flat_toward_bound,
+    significantly_better,
+)
+from irl_core.irl.people import curvature_scale as people_curvature_scale
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bound
-from irl_core.irl.fit_check import FitCheck, fit_check
 from irl_core.mdp import MDP
-from irl_core.player_models import AUTO as PLAYER_AUTO, Player, player_model
+from irl_core.player_models import AUTO as PLAYER_AUTO
+from irl_core.player_models import Player, player_model
 from irl_core.stopping import Stopped, stop_when
 
 METHODS = fit_methods.FITTED
@@ -390,8 +399,11 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
         return None
     if fitted.people is not None:
         full = fitted.people.parameters()
+    elif fitted.beta_auto:
+        assert fitted.beta is not None, "an estimated beta"
+        full = np.append(fitted.theta, fitted.beta)
     else:
-        full = np.append(fitted.theta, fitted.beta) if fitted.beta_auto else fitted.theta
+        full = fitted.theta
     result = bootstrap(_refit(fitted, qmap, demos, options), demos.by_episode, full, confidence=options.confidence,
                        resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
                        progress=progress, workers=workers, groups=demos.episode_groups)

@@ -94,10 +94,10 @@ def terminal_distance(mdp: MDP) -> np.ndarray:
     distance[list(queue)] = 0
     # neighbour[s, d] is one move away from s; walk it backwards from the terminal cells.
     sources: list[list[int]] = [[] for _ in range(mdp.n_states)]
-    for s in np.flatnonzero(mdp.nonterminal):
+    for s in np.flatnonzero(mdp.nonterminal).tolist():
         for t in set(mdp.neighbour[s].tolist()):
             if t != s:
-                sources[t].append(int(s))
+                sources[t].append(s)
     while queue:
         t = queue.popleft()
         for s in sources[t]:

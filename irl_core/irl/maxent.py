@@ -53,8 +53,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.optimize import minimize
 from scipy.linalg.lapack import dgesv
+from scipy.optimize import minimize
 from threadpoolctl import ThreadpoolController
 
 from irl_core.irl.qmap import Unknowns

@@ -16,7 +16,8 @@ from typing import Any, Literal
 import irl_core.fit_methods as fit_methods
 from irl_core.irl.notes import Note
 from irl_core.irl.qmap import RewardCells
-from irl_core.player_models import AUTO as PLAYER_AUTO, player_model
+from irl_core.player_models import AUTO as PLAYER_AUTO
+from irl_core.player_models import player_model
 
 MIN_RESAMPLES = 20
 DEFAULT_BETA = 1.0

@@ -54,10 +54,9 @@ from scipy.optimize import minimize
 from irl_core.irl.maxent import LOG_BETA_BOUNDS, _expected_next, _solve, one_blas_thread, policy_system
 from irl_core.irl.qmap import Unknowns
 from irl_core.irl.result import SolverError
-from irl_core.player_models import AUTO, CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
 from irl_core.mdp import MDP
+from irl_core.player_models import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
 from irl_core.stopping import stop_if_asked
-
 
 # The hand's noise, sigma in levels: at the lower end the kernel is the identity to double precision
 # (exp(-1 / (2 * 0.05^2)) = 1e-87), so "no hand noise" is inside the search range.
@@ -165,7 +164,8 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
         return Q, pi, log_pi, q, (top + log_totals)[:, 0]
 
     Q, pi, log_pi, q, soft_max = improve(V)
-    for iteration in range(1, SOFT_MAX_ITER + 1):
+    # B007 is wrong here: the plan records the last `iteration`, after the loop.
+    for iteration in range(1, SOFT_MAX_ITER + 1):  # noqa: B007
         stop_if_asked()
         entropy = np.where(acting, -(pi * log_pi).sum(axis=1), end_entropy)
         system = policy_system(mdp, q)
@@ -478,8 +478,9 @@ def choose_player_model(
 ) -> ModelChoice:
     """Fit each candidate model to the episodes (rows of `by_episode`, (E, S * A)) and choose by
     `folds`-fold held-out log likelihood of whole episodes: of the models within `SIMPLER_MARGIN` of
-    the best, the one with the fewest parameters, the likeliest among those. With fewer than `MIN_EPISODES_TO_CHOOSE` episodes the choice is the ``ends`` model (the
-    simplest with a person's episode end), said so."""
+    the best, the one with the fewest parameters, the likeliest among those. With fewer than
+    `MIN_EPISODES_TO_CHOOSE` episodes the choice is the ``ends`` model (the simplest with a person's
+    episode end), said so."""
     by_episode = sp.csr_matrix(by_episode)
     counts = _counts_of(by_episode, mdp)
     E = by_episode.shape[0]

@@ -9,7 +9,7 @@ the solver's status and time, and notes a researcher should read (`Note`, e.g. `
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -23,7 +23,6 @@ from irl_core.mdp import MDP, action_parts
 from irl_core.player_models import Player
 from irl_core.world import WALL, World
 
-
 # How near ±rmax a value must be, relative to rmax, to be "at the bound". A value the box decided
 # is exactly ±rmax from the simplex and from maxent's L-BFGS-B (which projects onto the box), but the
 # loss's cutting planes stop at a relative gap of up to 1e-6 (`loss.STALL_TOLERANCE`) and a bootstrap
@@ -34,6 +33,10 @@ from irl_core.world import WALL, World
 AT_BOUND_TOLERANCE = 1e-5
 
 
+@overload
+def at_bound(value: float, rmax: float) -> bool: ...
+@overload
+def at_bound(value: np.ndarray, rmax: float) -> np.ndarray: ...
 def at_bound(value: float | np.ndarray, rmax: float) -> bool | np.ndarray:
     """Whether `value` (elementwise for an array) lies at the ±rmax box: there the bound, not the
     demonstrations, set it. The one test of it: fits, readings, captions and figures all ask here."""

@@ -113,8 +113,9 @@ class StudyFlow:
             self.stage = "end"
         else:
             following = self.protocol.next
-            same_world = following is not None and following.world_index == block.world_index
-            self.stage = "practice_over" if same_world and following.phase == "main" else "next_world"
+            practice_over = (following is not None and following.world_index == block.world_index
+                             and following.phase == "main")
+            self.stage = "practice_over" if practice_over else "next_world"
         return self.stage
 
     def quit(self) -> None:
