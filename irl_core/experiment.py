@@ -161,6 +161,19 @@ def human_sessions(folder: Path, world: World) -> tuple[list[Path], list[str]]:
     return found, left_out
 
 
+def _people_caption(result: FitResult) -> str:
+    """What the people fit of people's episodes shows, from its own numbers: the cliff and the goal, whether
+    the data bound the cliff from one side only, and the fit check's verdict."""
+    cliff, goal = symbol_mean(result, "C"), symbol_mean(result, "G")
+    one_sided = any(note.code == "one_sided" for note in result.notes)
+    words = (f"Cliff {cliff:.3g}{' (the data bound it from above only: at most that)' if one_sided else ''} "
+             f"against {result.world.reward_of('C'):g}; goal {goal:.3g} against {result.world.reward_of('G'):g}"
+             f"{', above zero' if goal > 0 else ', not above zero'}.")
+    if result.fit_check is not None:
+        words += f" {result.fit_check.summary()[0].upper()}{result.fit_check.summary()[1:]}."
+    return words
+
+
 def _estimate(stage: str, data: str, result: FitResult, seconds: float) -> Estimate:
     world = result.world
     rmax = result.options.rmax
@@ -251,6 +264,15 @@ def run_experiment(
     out.figures.append(_fitted(result, "Figure 8: loss IRL from noisy demonstrations", "fig8-loss",
                                severity(out.estimates[-1])))
     out.notes += [f"loss: {note}" for note in result.notes]
+    if humans:
+        # People's own play, read as the default fit reads it: maxent with a model of the player.
+        t = time.perf_counter()
+        result = fit(demos, method="auto", tie=True)
+        out.estimates.append(_estimate("people fit, human", data, result, time.perf_counter() - t))
+        out.figures.append(_fitted(result, f"The people fit of the same episodes ({result.player_model} player)",
+                                   "fig8b-people", _people_caption(result)))
+        out.notes += [f"people fit: {note}" for note in result.notes
+                      if note.code in ("player_model", "fit_check_failed", "fit_check_not_run", "one_sided")]
 
     # 5. Beyond the paper: what carefulness buys, as intervals.
     for name in ("mud", "mud-simple"):
