@@ -42,6 +42,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from irl_core.play.hold import HoldProfile
+
 if TYPE_CHECKING:  # the command line reads KINDS; planning's scipy waits until a player is made
     from irl_core.experts import Chooser
     from irl_core.mdp import MDP
@@ -55,10 +57,10 @@ KINDS: dict[str, dict[str, float]] = {
     "reckless": {"lapse": 0.25},
 }
 
-# The game's hold timing with its defaults (careful_tui.keys.hold.HoldProfile, which irl_core may not
-# import): a hold shorter than the autorepeat delay is level 1, then one level per MS_PER_LEVEL.
-DELAY_MS = 500.0
-MS_PER_LEVEL = 150.0
+# The game's hold timing with its defaults (`irl_core.play.hold.HoldProfile`, whose level_for is per hold,
+# not per array): a hold shorter than the autorepeat delay is level 1, then one level per MS_PER_LEVEL.
+DELAY_MS = HoldProfile().initial_delay_ms
+MS_PER_LEVEL = HoldProfile().ms_per_level
 
 
 @dataclass(frozen=True)

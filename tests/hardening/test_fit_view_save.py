@@ -11,7 +11,7 @@ import shutil
 
 import pytest
 
-from careful_tui.screens.careful_app import CarefulApp
+from careful_tui.app import CarefulApp
 from careful_tui.screens.fit import FitScreen
 from hardening_checks import recording
 from irl_core.demonstrations import Demonstrations

@@ -9,7 +9,7 @@ measure, not these tests'.
 import numpy as np
 import pytest
 
-from careful_tui.keys.hold import HoldProfile
+from irl_core.play.hold import HoldProfile
 from irl_core.experts import Rollouts, optimal_plan, rollouts
 from irl_core.mdp import build_mdp
 from irl_core.person_like import KINDS, intended_hold_ms, level_of_hold, person_like
