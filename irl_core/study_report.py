@@ -287,8 +287,9 @@ class Influence:
     most: str
 
 
-def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None = None) -> CellFit:
-    """Fit one cell (its bootstrap in this process; a pool without a participant, `Cell.without`, is
+def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None = None,
+             workers: int = 1) -> CellFit:
+    """Fit one cell (its bootstrap on `workers` processes; a pool without a participant, `Cell.without`, is
     fitted without intervals); a cell without steps or a failed fit gives an error.
 
     Raises:
@@ -301,7 +302,7 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
     if cell.player_model is not None:
         options = dataclasses.replace(options, player_model=cell.player_model)
     try:
-        result = fit(cell.demos, options, workers=1, stop=stop)
+        result = fit(cell.demos, options, workers=workers, stop=stop)
     except FitError as exc:
         return CellFit(error=str(exc))
     return CellFit(method=result.method, beta=result.beta, beta_auto=result.beta_auto,
@@ -321,7 +322,8 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
     """
     fits: list[CellFit | None] = [None] * len(cells)
     order = sorted(range(len(cells)), key=lambda i: -cells[i].steps)
-    workers = max(1, min(workers or os.cpu_count() or 1, len(cells)))
+    cores = workers or os.cpu_count() or 1
+    workers = max(1, min(cores, len(cells)))
     done = 0
 
     def returned(k: int, fitted: CellFit) -> None:
@@ -332,8 +334,9 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
             progress(done, len(cells))
 
     if workers == 1:
+        # One cell at a time (a world's pool, fitted first): its bootstrap takes the cores instead.
         for k, i in enumerate(order):
-            returned(k, fit_cell(cells[i], options))
+            returned(k, fit_cell(cells[i], options, workers=cores))
     else:
         run_in_pool(_fit_in_worker, [(cells[i], options) for i in order], workers=workers, on_result=returned)
     fitted = [fit for fit in fits if fit is not None]
