@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from careful_tui.study_report import write_report
+from careful_tui.commands.study_report import write_report
 from irl_core.simulated_study import simulated_participants, write_simulated_participant
 from irl_core.study import load_study
 from irl_core.study_report import fit_cell, fit_report, gather, influence_cells, report_options

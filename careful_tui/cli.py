@@ -317,7 +317,7 @@ COMMANDS = {
 }
 STUDY_COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "run": _lazy("careful_tui.commands.study_run", "run_study_run"),
-    "report": _lazy("careful_tui.study_report", "run_study_report"),
+    "report": _lazy("careful_tui.commands.study_report", "run_study_report"),
 }
 
 

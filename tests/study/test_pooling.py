@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from rich.console import Console
 
 from careful_tui.cli import main
-from careful_tui.study_report import INFLUENTIAL_MARK, influence_legend, report_table
+from careful_tui.commands.study_report import INFLUENTIAL_MARK, influence_legend, report_table
 from irl_core.experts import boltzmann_policy, optimal_policy, rollouts, session_header, write_rollouts
 from irl_core.irl.bootstrap import bootstrap, two_level_weights
 from irl_core.mdp import build_mdp

@@ -11,7 +11,7 @@ from rich.console import Console
 
 from careful_tui.cli import main
 from careful_tui.render.session import outcome_words
-from careful_tui.study_report import outcomes_text, report_table
+from careful_tui.commands.study_report import outcomes_text, report_table
 from irl_core.irl import Note
 from irl_core.simulated_study import simulated_participants, write_simulated_participant
 from irl_core.study import load_study
@@ -87,7 +87,7 @@ def test_a_folder_named_pooled_is_left_out_not_taken_for_the_pool(study):
 def test_the_last_line_counts_the_folders_left_out_too(study):
     """A folder whose name cannot be a participant's ("P 07", a typo) holds a participant's files:
     the command's last line counts it beside the files left out, not only the warning above the table."""
-    from careful_tui.study_report import left_out_text
+    from careful_tui.commands.study_report import left_out_text
 
     recording = write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
     assert left_out_text(gather(study)) == ""
@@ -239,7 +239,7 @@ def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
     """A fit's notes that qualify its numbers (too few episodes for a bootstrap, beta not identified,
     not converged) reach the user: once each on stdout with the rows they apply to, and in the
     CSV's note column; the beta estimate the table shows already is not repeated."""
-    from careful_tui.study_report import fit_notes
+    from careful_tui.commands.study_report import fit_notes
     from irl_core.study_report import report_rows
 
     for participant in ("p1", "p2"):
@@ -264,7 +264,7 @@ def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
 def test_the_printed_caveats_are_chosen_by_code_not_by_wording(study):
     """A reworded note on beta is still left out of the printed caveats, and a caveat that happens
     to begin like one is still printed: the report reads the notes' codes."""
-    from careful_tui.study_report import fit_notes
+    from careful_tui.commands.study_report import fit_notes
 
     write_block(study, "p1", 0, "main", name="a.jsonl", finished=2)
     data = gather(study)

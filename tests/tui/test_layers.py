@@ -32,7 +32,6 @@ LAYERS = (
     ("careful_tui.app", 6),
     ("careful_tui.web", 6),
     ("careful_tui.commands", 7),
-    ("careful_tui.study_report", 7),
     ("careful_tui.cli", 8),
     ("careful_tui.entry", 9),
 )
