@@ -36,7 +36,7 @@ from irl_core.irl.people import (
     PlayerFit,
     PlayerRefit,
     choose_player_model,
-    fit_player,
+    fit_given_model,
     flat_toward_bound,
     significantly_better,
 )
@@ -285,7 +285,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                               f"episodes ({solution.model.name} and {rival.model.name} agree within their "
                               "noise): the reward's size depends on it, so the intervals cover both"))
     else:
-        solution = fit_player(mdp, unknowns, demos.counts, model=player_model(model), rmax=options.rmax)
+        solution = fit_given_model(mdp, unknowns, demos.counts, model=player_model(model), rmax=options.rmax)
         notes.append(Note("player_model", f"player model {model}, as asked: {solution.model.summary}"))
     player = solution.player
     words = [f"beta {player.beta:.3g}"] + ([f"the hand's sigma {player.sigma:.2g} levels"] if solution.model.hand else []) \

@@ -543,6 +543,18 @@ def significantly_better(first: np.ndarray, second: np.ndarray) -> bool:
     return bool(difference.mean() / (spread / np.sqrt(difference.size)) > SIGNIFICANT_Z)
 
 
+def fit_given_model(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, model: PlayerModel, rmax: float) -> PlayerFit:
+    """`fit_player` for one model named in advance, from the starts `choose_player_model` tries: the default,
+    and for a model with a hand, where the simpler ``ends`` model ends (the likelier answer is kept), so that a
+    model given by name finds the optimum the choice would have found."""
+    tries = [fit_player(mdp, unknowns, counts, model=model, rmax=rmax)]
+    if model.hand:
+        simpler = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=rmax)
+        tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax,
+                                start=(simpler.theta, Player(simpler.player.beta, START_SIGMA, START_LAPSE))))
+    return max(tries, key=lambda fit: fit.mean_log_likelihood)
+
+
 def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
     """(S, A) counts summed over episode rows (n, S * A)."""
     return np.asarray(rows.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
