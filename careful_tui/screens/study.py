@@ -72,8 +72,12 @@ def plan_text(protocol: Protocol) -> Text:
     return text
 
 
-def instructions_text(protocol: Protocol) -> Group:
-    """The first screen: the study's own instructions, the plan, where a returning participant stands."""
+BEGIN = "Press space to begin. q leaves at any time; what you played is kept."
+
+
+def opening_texts(protocol: Protocol) -> list[Text]:
+    """The first screen's paragraphs, for every front end: the study's name, where a returning participant
+    stands, the study's own instructions and the plan."""
     study = protocol.study.study
     parts: list[Text] = [Text(printable(study.name, limit=80), style=f"bold {NOTE}")]
     if protocol.started:
@@ -86,9 +90,12 @@ def instructions_text(protocol: Protocol) -> Group:
         # Whole (the study file caps them at 20,000 characters; the screen scrolls).
         parts.append(Text(printable(study.instructions.strip(), keep_newlines=True)))
     parts.append(plan_text(protocol))
-    parts.extend(problems_text(protocol))
-    parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
-    return _spaced(parts)
+    return parts
+
+
+def instructions_text(protocol: Protocol) -> Group:
+    """The first screen: the study's own instructions, the plan, where a returning participant stands."""
+    return _spaced([*opening_texts(protocol), *problems_text(protocol), Text(BEGIN, style="dim")])
 
 
 def between_text(protocol: Protocol, finished: Block) -> Group:

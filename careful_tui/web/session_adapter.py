@@ -43,7 +43,7 @@ from rich.text import Text
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.palette import GOOD, NOTE, WARN
 from careful_tui.render.session import outcome_text
-from careful_tui.screens.study import between_text, plan_text, where_next
+from careful_tui.screens.study import BEGIN, between_text, opening_texts
 from careful_tui.version import app_version
 from careful_tui.widgets.gauge import format_chance
 from irl_core.game import level_costs, level_slip_chances
@@ -306,20 +306,9 @@ class WebSession:
 
 
 def _instructions(protocol: Protocol) -> Group:
-    """The first screen: the study's instructions and plan, with the browser's way to choose a level."""
-    study = protocol.study.study
-    parts: list[Text] = [Text(printable(study.name, limit=80), style=f"bold {NOTE}")]
-    if protocol.started:
-        done, total = protocol.progress
-        back = Text(f"Welcome back: {done} of {plural(total, 'episode')} {'is' if total == 1 else 'are'} done. "
-                    "You go on with: ", style=f"bold {GOOD}")
-        back.append_text(where_next(protocol))
-        parts.append(back)
-    if study.instructions.strip():
-        parts.append(Text(printable(study.instructions.strip(), keep_newlines=True)))
-    parts.append(plan_text(protocol))  # the protocol's study says hold input (`WebSession`)
-    parts.append(Text("Press space to begin. q leaves at any time; what you played is kept.", style="dim"))
-    return Group(*parts)
+    """The first screen: the study's instructions and plan (the terminal's, `opening_texts`; the protocol's
+    study says hold input, `WebSession`, so the plan words the browser's way to choose a level)."""
+    return Group(*opening_texts(protocol), Text(BEGIN, style="dim"))
 
 
 def _paragraphs(group: Group) -> list[dict[str, str]]:
