@@ -18,12 +18,12 @@ import time
 
 import numpy as np
 
-from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import FitOptions, fit
 from irl_core.irl.bootstrap import VARIANTS, Refit, bootstrap, interval
 from irl_core.irl.maxent import curvature_scale
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 BETA, EPISODES, RMAX, RESAMPLES, CONFIDENCE = 0.5, 40, 5000.0, 200, 0.95
 

@@ -31,8 +31,8 @@ from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
 from irl_core.irl import fit
 from irl_core.irl.evaluation import evaluate
-from irl_core.mdp import build_mdp
-from irl_core.stopping import stop_when
+from irl_core.support.stopping import stop_when
+from irl_core.worlds.mdp import build_mdp
 
 PAIRS = 7
 

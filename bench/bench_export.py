@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from bench.timing import best_of
-from irl_core.demonstrations import read_recording
-from irl_core.env import CarefulEnv
-from irl_core.experts import boltzmann_policy, expert_name, rollouts, write_rollouts
-from irl_core.export import write_csv, write_minari
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, expert_name, rollouts, write_rollouts
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.export import write_csv, write_minari
+from irl_core.worlds.env import CarefulEnv
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def main(episodes: int = 2000, steps: int = 20_000) -> None:

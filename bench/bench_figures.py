@@ -47,7 +47,7 @@ def main() -> None:
               f"target {TARGET_S:.0f} s: {verdict}")
 
         import careful_tui.commands.experiment as command
-        from irl_core.experiment import run_experiment
+        from irl_core.experiment.run import run_experiment
 
         recordings = Path(tmp) / "none"
         stages = best_of(args.repeats, lambda: run_experiment(recordings=recordings))

@@ -24,16 +24,16 @@ import scipy.sparse as sp
 from scipy.optimize import linprog
 
 from bench.timing import best_of
-from irl_core.demonstrations import Demonstrations
-from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import fit_loss
 from irl_core.irl.loss_model import loss_constraints, loss_problem
 from irl_core.irl.margin import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def demonstrations(name: str, *, episodes: int, seed: int, beta: float | None = None) -> Demonstrations:

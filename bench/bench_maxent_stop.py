@@ -24,13 +24,13 @@ import numpy as np
 
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
-from irl_core.demonstrations import Demonstrations
-from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import maxent
 from irl_core.irl.qmap import build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.stopping import stop_if_asked, stop_when
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.stopping import stop_if_asked, stop_when
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 PAIRS = {"mud, beta auto": 41, "cliff 16x16, beta 1": 15}
 CHECKS_TIMED = 100_000

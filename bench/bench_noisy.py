@@ -16,11 +16,11 @@ from __future__ import annotations
 import os
 
 from bench.timing import best_of
-from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import FitOptions, fit
-from irl_core.mdp import build_mdp
-from irl_core.planning import soft_value_iteration
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import soft_value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def boltzmann(name: str, *, beta: float, episodes: int, seed: int):

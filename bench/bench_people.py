@@ -1,6 +1,6 @@
 """Person-like play: does the default fit for noisy play get people's rewards right?
 
-For each person-like player (irl_core.person_like) and world (`mud`, `walls`), N seeds of 30
+For each person-like player (irl_core.players.person_like) and world (`mud`, `walls`), N seeds of 30
 episodes, each fitted as a user's recordings are by default: `FitOptions(method="auto",
 intervals=True, resamples=200, seed=seed)` (per-cell unknowns; `--tie` for one per symbol, as
 people's data are usually fitted). Per (player, world) it reports, as a Markdown table:
@@ -37,12 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from irl_core.experts import demonstrations_of, rollouts
 from irl_core.irl import FitOptions, fit
 from irl_core.irl.result import FitError
-from irl_core.mdp import build_mdp
-from irl_core.person_like import KINDS, person_like
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import demonstrations_of, rollouts
+from irl_core.players.person_like import KINDS, person_like
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 EPISODES = 30
 WORLDS = ("mud", "walls")

@@ -25,12 +25,12 @@ from typing import TypeVar
 import numpy as np
 
 from bench.worlds import cliff_world
-from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import fit
-from irl_core.mdp import build_mdp
-from irl_core.person_like import person_like
-from irl_core.planning import soft_value_iteration
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
+from irl_core.players.person_like import person_like
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import soft_value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 T = TypeVar("T")
 

@@ -12,9 +12,9 @@ import numpy as np
 
 from bench.timing import best_of
 from bench.worlds import cliff_world
-from irl_core.mdp import build_mdp
-from irl_core.planning import value_iteration
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def dense_value_iteration(P: np.ndarray, R: np.ndarray, gamma: float, *, tol: float = 1e-8, max_iter: int = 10_000):

@@ -26,7 +26,7 @@ from textual import events
 
 from careful_tui.app import CarefulApp, make_play_app
 from careful_tui.screens.play import PlayScreen
-from irl_core.world import load_world
+from irl_core.worlds.world import load_world
 
 PERIOD_MS = 33.0
 TARGET = 0.3

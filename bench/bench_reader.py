@@ -21,7 +21,7 @@ READ = """
 import json, resource, sys, time
 from pathlib import Path
 path = Path(sys.argv[2])
-import irl_core.demonstrations as d, numpy
+import irl_core.recordings.demonstrations as d, numpy
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 start = time.perf_counter()
 if sys.argv[1] == "careful":
@@ -46,9 +46,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(prog="bench_reader")
     parser.add_argument("--episodes", type=int, default=100_000)
     args = parser.parse_args()
-    from irl_core.experts import boltzmann_policy, expert_name, simulate_to_file
-    from irl_core.mdp import build_mdp
-    from irl_core.world import BUILTIN_WORLDS
+    from irl_core.players.experts import boltzmann_policy, expert_name, simulate_to_file
+    from irl_core.worlds.mdp import build_mdp
+    from irl_core.worlds.world import BUILTIN_WORLDS
 
     mdp = build_mdp(BUILTIN_WORLDS["paper"])
     with tempfile.TemporaryDirectory() as folder:

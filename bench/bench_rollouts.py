@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from bench.timing import best_of
-from irl_core.experts import optimal_policy, rollouts
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import optimal_policy, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def per_episode_loop(mdp, policy, *, episodes: int, seed: int) -> int:

@@ -29,7 +29,7 @@ STAGES = ("value_iteration", "rollouts_10k", "lp_fit", "intervals_cells", "inter
 
 def _setup(size: str):
     from bench.worlds import cliff_world
-    from irl_core.mdp import build_mdp
+    from irl_core.worlds.mdp import build_mdp
 
     rows, cols = (int(n) for n in size.split("x"))
     return build_mdp(cliff_world(rows, cols))
@@ -38,8 +38,8 @@ def _setup(size: str):
 def run_stage(size: str, stage: str) -> dict:
     """Time one stage after its inputs are built; report seconds, the VI ratio and peak RSS in MiB."""
     from bench.timing import best_of
-    from irl_core.experts import optimal_policy, rollouts
-    from irl_core.planning import value_iteration
+    from irl_core.players.experts import optimal_policy, rollouts
+    from irl_core.worlds.planning import value_iteration
 
     mdp = _setup(size)
     one_vi = best_of(3, lambda: value_iteration(mdp))

@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 from careful_tui.web.session_adapter import WebSession
-from irl_core.study import load_study
+from irl_core.studies.study import load_study
 
 STUDY = """\
 name = "bench"

@@ -22,9 +22,9 @@ import time
 from pathlib import Path
 
 from careful_tui.commands.study_report import write_report
-from irl_core.simulated_study import simulated_participants, write_simulated_participant
-from irl_core.study import load_study
-from irl_core.study_report import fit_cell, fit_report, gather, influence_cells, report_options
+from irl_core.studies.report import fit_cell, fit_report, gather, influence_cells, report_options
+from irl_core.studies.simulated import simulated_participants, write_simulated_participant
+from irl_core.studies.study import load_study
 
 STUDY = """\
 name = "bench"

@@ -58,7 +58,7 @@ def steps_to_terminal(mdp) -> np.ndarray:
 
 def true_discount(mdp) -> np.ndarray:
     """(S,) E[gamma^T] at the end of an episode under the world's optimal policy."""
-    from irl_core.experts import optimal_policy
+    from irl_core.players.experts import optimal_policy
 
     policy = optimal_policy(mdp)
     action = policy.argmax(axis=1) if policy.ndim == 2 else policy

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from irl_core.demonstrations import Demonstrations
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import fit
-from irl_core.mdp import MDP
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.worlds.mdp import MDP
 
 
 def demonstrations_for(mdp: MDP, *, episodes: int, seed: int) -> Demonstrations:

@@ -1,6 +1,6 @@
 """Generated cliff worlds for the benchmarks: the paper's layout stretched to any size."""
 
-from irl_core.world import World
+from irl_core.worlds.world import World
 
 
 def cliff_world(rows: int, cols: int, *, levels: int = 14) -> World:

@@ -31,15 +31,15 @@ from careful_tui.screens.play import PlayScreen
 from careful_tui.screens.replay import FRAME_S, ReplayScreen
 from careful_tui.screens.study import StudyScreen
 from careful_tui.version import app_version
-from irl_core.demonstrations import Demonstrations, Recording
 from irl_core.irl import FitResult
 from irl_core.play.hold import Clock, HoldProfile
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE
 from irl_core.play.session import PlayOptions, new_session
-from irl_core.play.study_flow import StudyFlow
-from irl_core.recording_lines import StudyTag
-from irl_core.study import LoadedStudy
-from irl_core.world import World
+from irl_core.recordings.demonstrations import Demonstrations, Recording
+from irl_core.recordings.lines import StudyTag
+from irl_core.studies.flow import StudyFlow
+from irl_core.studies.study import LoadedStudy
+from irl_core.worlds.world import World
 
 CAREFUL_THEME = Theme(
     name="careful",

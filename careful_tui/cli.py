@@ -17,14 +17,14 @@ from pathlib import Path
 from rich.console import Console
 from rich.text import Text
 
-import irl_core.fit_methods as fit_methods
-import irl_core.player_models as player_models
+import irl_core.irl.fit_methods as fit_methods
+import irl_core.irl.player_models as player_models
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.version import app_version
-from irl_core.person_like import KINDS as PERSON_LIKE
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
-from irl_core.safe_files import InputError, OutputError
-from irl_core.safe_text import one_line
+from irl_core.players.person_like import KINDS as PERSON_LIKE
+from irl_core.support.safe_files import InputError, OutputError
+from irl_core.support.safe_text import one_line
 
 
 def finite_float(text: str) -> float:

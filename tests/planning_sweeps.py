@@ -1,7 +1,7 @@
 """Counting value iteration's sweeps (`MDP.expected_next` calls: one P V a sweep, and one more for
 Q once it has converged): how the stop tests say "promptly" without timing anything."""
 
-from irl_core.mdp import MDP
+from irl_core.worlds.mdp import MDP
 
 
 def count_sweeps(monkeypatch) -> list[int]:

@@ -7,10 +7,10 @@ import tomllib
 from datetime import datetime
 from pathlib import Path
 
-from irl_core.game import Game
-from irl_core.recording_lines import SessionHeader
-from irl_core.recording_writer import SessionRecorder
-from irl_core.world import World, world_from_dict
+from irl_core.play.game import Game
+from irl_core.recordings.lines import SessionHeader
+from irl_core.recordings.writer import SessionRecorder
+from irl_core.worlds.world import World, world_from_dict
 
 
 class FakeClock:

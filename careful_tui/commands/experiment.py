@@ -18,11 +18,11 @@ from rich.text import Text
 
 from careful_tui.errors import UsageError
 from careful_tui.render.grid import WorldGrid, action_label, format_value, symbol_legend
-from irl_core.experiment import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption
-from irl_core.experiment import run_experiment as run_stages
+from irl_core.experiment.run import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption
+from irl_core.experiment.run import run_experiment as run_stages
 from irl_core.irl import FitOptions
-from irl_core.safe_files import check_output, check_output_folder, write_output
-from irl_core.safe_text import for_markup, printable
+from irl_core.support.safe_files import check_output, check_output_folder, write_output
+from irl_core.support.safe_text import for_markup, printable
 
 
 def figure_panel(figure: Figure) -> Panel:

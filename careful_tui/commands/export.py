@@ -2,7 +2,7 @@
 
 The files are read and checked with the recording reader before anything is written, so a
 bad file ends the command (exit 2, one line) with no output left behind. Gymnasium and
-Minari are imported only here and in `irl_core.export`'s Minari writer, never by the game.
+Minari are imported only here and in `irl_core.recordings.export`'s Minari writer, never by the game.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from rich.text import Text
 from careful_tui.commands.notices import warn
 from careful_tui.errors import UsageError
 from careful_tui.version import app_version
-from irl_core.demonstrations import Recording, read_recording
-from irl_core.export import (
+from irl_core.recordings.demonstrations import Recording, read_recording
+from irl_core.recordings.export import (
     check_dataset_id,
     dataset_place_problem,
     minari_dataset_path,
@@ -27,9 +27,9 @@ from irl_core.export import (
     write_csv,
     write_minari,
 )
-from irl_core.safe_files import check_output
-from irl_core.safe_text import for_markup, printable
-from irl_core.words import plural
+from irl_core.support.safe_files import check_output
+from irl_core.support.safe_text import for_markup, printable
+from irl_core.support.words import plural
 
 # Inputs at least this large (in bytes, all files together) get progress bars.
 PROGRESS_FROM_BYTES = 1_000_000

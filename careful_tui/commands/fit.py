@@ -21,7 +21,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
-import irl_core.fit_methods as fit_methods
+import irl_core.irl.fit_methods as fit_methods
 from careful_tui.arguments import options_from_args
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.commands.reading import read_with_progress
@@ -29,11 +29,11 @@ from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import print_fit
-from irl_core.demonstrations import Demonstrations
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
-from irl_core.safe_files import check_output, write_output
-from irl_core.safe_text import printable
-from irl_core.words import plural
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.safe_files import check_output, write_output
+from irl_core.support.safe_text import printable
+from irl_core.support.words import plural
 
 
 def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:

@@ -9,7 +9,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.text import Text
 
-from irl_core.safe_text import printable
+from irl_core.support.safe_text import printable
 
 
 def warn(err: Console, message: str) -> None:

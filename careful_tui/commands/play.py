@@ -13,9 +13,9 @@ from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
 from irl_core.play.input_modes import INPUT_MODES, input_mode
-from irl_core.recording_writer import SessionRecorder, check_writable
-from irl_core.safe_text import printable
-from irl_core.world import load_world
+from irl_core.recordings.writer import SessionRecorder, check_writable
+from irl_core.support.safe_text import printable
+from irl_core.worlds.world import load_world
 
 
 def default_player() -> str:

@@ -8,14 +8,14 @@ from rich.console import Console
 from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn
 
 from careful_tui.commands.notices import warn
-from irl_core.demonstrations import Recording, read_recordings
+from irl_core.recordings.demonstrations import Recording, read_recordings
 
 # Below this many bytes in all, reading takes under a second or so: no bar.
 PROGRESS_FROM_BYTES = 32 << 20
 
 
 def read_with_progress(paths: list[Path], err: Console) -> list[Recording]:
-    """Read `paths` (`irl_core.demonstrations.read_recordings`), printing its warnings to `err`.
+    """Read `paths` (`irl_core.recordings.demonstrations.read_recordings`), printing its warnings to `err`.
 
     Raises what `read_recordings` raises (`RecordingError`).
     """

@@ -13,8 +13,8 @@ from careful_tui.commands.notices import warn
 from careful_tui.commands.reading import read_with_progress
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import PassiveKittyDriver
-from irl_core.demonstrations import Recording, RecordingError
-from irl_core.safe_text import printable
+from irl_core.recordings.demonstrations import Recording, RecordingError
+from irl_core.support.safe_text import printable
 
 
 def name_order(path: Path) -> tuple:

@@ -7,9 +7,9 @@ import re
 import socket
 
 from careful_tui.errors import UsageError
-from irl_core.recording_writer import check_writable
-from irl_core.safe_text import printable
-from irl_core.study import StudyError, load_study
+from irl_core.recordings.writer import check_writable
+from irl_core.studies.study import StudyError, load_study
+from irl_core.support.safe_text import printable
 
 _COMPLETION_CODE = re.compile(r"[A-Za-z0-9_-]{1,40}")
 

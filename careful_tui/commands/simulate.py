@@ -12,16 +12,16 @@ from rich.text import Text
 
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import EXIT_OK, UsageError
-from irl_core.experts import Chooser, NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
-from irl_core.mdp import MDP, build_mdp
-from irl_core.person_like import KINDS, person_like
-from irl_core.safe_files import check_output
-from irl_core.safe_text import one_line
-from irl_core.words import plural
-from irl_core.world import load_world
+from irl_core.players.experts import Chooser, NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
+from irl_core.players.person_like import KINDS, person_like
+from irl_core.support.safe_files import check_output
+from irl_core.support.safe_text import one_line
+from irl_core.support.words import plural
+from irl_core.worlds.mdp import MDP, build_mdp
+from irl_core.worlds.world import load_world
 
 DEFAULT_BETA = 1.0  # --beta's default (cli.py's help says so)
-# The person-like players' options: one per parameter of irl_core.person_like.KINDS, named as it is.
+# The person-like players' options: one per parameter of irl_core.players.person_like.KINDS, named as it is.
 PLAYER_OPTIONS = tuple(dict.fromkeys(name for parameters in KINDS.values() for name in parameters))
 
 

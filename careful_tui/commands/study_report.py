@@ -1,6 +1,6 @@
 """`careful study report STUDY.toml`: per participant and pooled fits per world (README "Studies").
 
-The computation is `irl_core.study_report`; this module prints it with Rich (a progress bar
+The computation is `irl_core.studies.report`; this module prints it with Rich (a progress bar
 on stderr, the table on stdout) and writes the CSV and the figures under ``<out>/report/``
 (or ``--out``), every file through the output guard. A file that cannot be used is named on
 stderr (``file:line: field: problem``) and left out; the report goes on with the rest.
@@ -23,12 +23,8 @@ from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
-from irl_core.csv_cells import csv_text
 from irl_core.irl import at_bound
-from irl_core.safe_files import check_output_folder, write_output
-from irl_core.safe_text import printable
-from irl_core.study import StudyError, load_study, world_files
-from irl_core.study_report import (
+from irl_core.studies.report import (
     POOLED,
     CellFit,
     StudyData,
@@ -40,7 +36,11 @@ from irl_core.study_report import (
     report_rows,
     report_symbols,
 )
-from irl_core.words import plural
+from irl_core.studies.study import StudyError, load_study, world_files
+from irl_core.support.csv_cells import csv_text
+from irl_core.support.safe_files import check_output_folder, write_output
+from irl_core.support.safe_text import printable
+from irl_core.support.words import plural
 
 FIGURE_FORMATS = (".png", ".pdf")
 # The codes of the fits' notes on what the table shows already (the method, beta) or that say all is well.

@@ -10,11 +10,11 @@ from careful_tui.app import make_study_app
 from careful_tui.commands.play import say_recorded, write_problem
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
-from irl_core.participant_lock import participant_lock
-from irl_core.recording_writer import check_writable
-from irl_core.safe_text import printable
-from irl_core.study import LoadedStudy, StudyError, check_participant, load_study, read_protocol
-from irl_core.words import plural
+from irl_core.recordings.writer import check_writable
+from irl_core.studies.participant_lock import participant_lock
+from irl_core.studies.study import LoadedStudy, StudyError, check_participant, load_study, read_protocol
+from irl_core.support.safe_text import printable
+from irl_core.support.words import plural
 
 
 def run_study_run(args: argparse.Namespace) -> int:

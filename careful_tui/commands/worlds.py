@@ -8,7 +8,7 @@ from rich.console import Console
 
 from careful_tui.errors import EXIT_OK
 from careful_tui.render.worlds import print_world, print_world_table
-from irl_core.world import load_world
+from irl_core.worlds.world import load_world
 
 
 def run_worlds(args: argparse.Namespace) -> int:

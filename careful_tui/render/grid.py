@@ -19,9 +19,7 @@ from rich.segment import Segment
 from rich.style import Style
 from rich.text import Text
 
-from irl_core.world import WALL, World
-
-Cell = tuple[int, int]
+from irl_core.worlds.world import WALL, Cell, World
 
 SYMBOL_COLOURS: dict[str, str] = {
     ".": "#3b4a3f",  # ground

@@ -11,12 +11,12 @@ from rich.text import Text
 
 from careful_tui.render.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, format_value
 from careful_tui.render.palette import BAD, GOOD, HERE, NOTE, SLIP, WARN, level_colour
-from irl_core.demonstrations import Recording
-from irl_core.recording_lines import EpisodeEnd
-from irl_core.safe_text import VALUE_LIMIT, for_markup, printable
-from irl_core.summary import SessionSummary, outcome_code
-from irl_core.words import plural
-from irl_core.world import World
+from irl_core.recordings.demonstrations import Recording
+from irl_core.recordings.lines import EpisodeEnd
+from irl_core.recordings.summary import SessionSummary, outcome_code
+from irl_core.support.safe_text import VALUE_LIMIT, for_markup, printable
+from irl_core.support.words import plural
+from irl_core.worlds.world import World
 
 MEAN_BAR = 5
 
@@ -27,14 +27,14 @@ def outcome_text(end: EpisodeEnd | None) -> str:
 
 
 def outcome_words(code: str) -> str:
-    """An `irl_core.summary.outcome_code` in words, the one wording play, replay and the summary use."""
+    """An `irl_core.recordings.summary.outcome_code` in words, the one wording play, replay and the summary use."""
     words = {"quit": "quit", "step_limit": "ran out of steps", "unfinished": "unfinished",
              "G": "reached the goal", "C": "fell off the cliff"}
     return words.get(code) or f"ended on {SYMBOL_NAMES.get(code, repr(code))}"
 
 
 def outcome_colour(code: str) -> str:
-    """The colour of an `irl_core.summary.outcome_code`: the goal good, any other terminal cell
+    """The colour of an `irl_core.recordings.summary.outcome_code`: the goal good, any other terminal cell
     bad, an episode that ended without one (quit, out of steps, unfinished) a note."""
     if code == "G":
         return GOOD

@@ -6,7 +6,7 @@ It shows the fitted R_S coloured on the diverging log scale of `careful_tui.rend
 world's own R_S beside it on the same scale, how far the demonstrations pin each reward
 (`IntervalChart` and a sentence per symbol), the demonstrated policy, the status and notes.
 
-Keys switch the method (one per entry of `irl_core.fit_methods`: a for auto, l, o, m; tab cycles),
+Keys switch the method (one per entry of `irl_core.irl.fit_methods`: a for auto, l, o, m; tab cycles),
 toggle the intervals (i), save an SVG of the view (s) and quit (q). A refit runs in a thread worker
 while the last result stays on screen, dimmed, under a "fitting…" status; the thread posts
 `FitScreen.Progress` while it works and hands back a `FitScreen.Fitted`. A newer request, or closing
@@ -55,13 +55,13 @@ from careful_tui.render.session import legend
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import Demonstrations
-from irl_core.fit_methods import METHODS
 from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
-from irl_core.recording_writer import slug
-from irl_core.safe_files import OutputError, write_output
-from irl_core.safe_text import printable
-from irl_core.words import plural
+from irl_core.irl.fit_methods import METHODS
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.recordings.writer import slug
+from irl_core.support.safe_files import OutputError, write_output
+from irl_core.support.safe_text import printable
+from irl_core.support.words import plural
 
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.
 CELL_HEIGHT = MIN_CELL[1]
@@ -87,7 +87,7 @@ def error_message(error: Exception) -> str:
 
 
 def method_bindings(group: Binding.Group) -> list[Binding]:
-    """A key per method (`irl_core.fit_methods`), in its order."""
+    """A key per method (`irl_core.irl.fit_methods`), in its order."""
     return [Binding(m.key, f"method('{m.name}')", m.name, priority=True, group=group) for m in METHODS.values()]
 
 
@@ -299,7 +299,7 @@ class FitScreen(Screen[None]):
         self._start(dataclasses.replace(self._wanted(), method=method))
 
     def action_next_method(self) -> None:
-        """The next method in the keys' order (`irl_core.fit_methods.METHODS`), after the one asked for."""
+        """The next method in the keys' order (`irl_core.irl.fit_methods.METHODS`), after the one asked for."""
         cycle = tuple(METHODS)
         self.action_method(cycle[(cycle.index(self._wanted().method) + 1) % len(cycle)])
 

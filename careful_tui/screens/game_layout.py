@@ -18,10 +18,10 @@ from careful_tui.render.session import legend
 from careful_tui.widgets import Board, Gauge, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.game import level_costs, level_slip_chances
-from irl_core.safe_text import printable
-from irl_core.words import plural
-from irl_core.world import World
+from irl_core.play.game import level_costs, level_slip_chances
+from irl_core.support.safe_text import printable
+from irl_core.support.words import plural
+from irl_core.worlds.world import World
 
 STATUS_LINES = 3
 

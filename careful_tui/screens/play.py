@@ -45,14 +45,14 @@ from careful_tui.screens.game_layout import minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.play_status import GameStatus, HoldInfo
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.game import Cell, Game, MoveResult
+from irl_core.play.game import Cell, Game, MoveResult
 from irl_core.play.hold import Clock, HoldProfile, MoveInput
 from irl_core.play.input_modes import ARROWS, INPUT_MODES
 from irl_core.play.session import HoldView, Message, Played, PlaySession
-from irl_core.recording_lines import EpisodeEnd
-from irl_core.recording_writer import SessionRecorder
-from irl_core.safe_text import printable
-from irl_core.world import World
+from irl_core.recordings.lines import EpisodeEnd
+from irl_core.recordings.writer import SessionRecorder
+from irl_core.support.safe_text import printable
+from irl_core.worlds.world import World
 
 FLASH_S = 0.8
 TICK_S = 1 / 30

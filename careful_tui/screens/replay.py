@@ -3,8 +3,8 @@
 The screen is the play screen's, reused: the board shows the player where the step starts
 with the arrow of the recorded direction and carefulness, then where the move went (a slip
 framed in the slip colour); the gauge shows the step's recorded level and hold time. A side
-panel summarises the session (`irl_core.summary`), with mean carefulness by distance from
-the nearest terminal cell. Where the replay is lives in `irl_core.replay_cursor`.
+panel summarises the session (`irl_core.recordings.summary`), with mean carefulness by distance from
+the nearest terminal cell. Where the replay is lives in `irl_core.recordings.replay_cursor`.
 
 Several files are watched one after another, each in its own world: the title and the panel
 say which file (n of m) is on screen, and coming to a file recorded in another world than the
@@ -35,15 +35,15 @@ from careful_tui.screens.game_layout import compose_game
 from careful_tui.screens.game_layout import minimum_size as game_minimum_size
 from careful_tui.widgets import Arrow, Board, Gauge
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import Recording
-from irl_core.mdp import DIRECTIONS, OFFSETS
 from irl_core.play.input_modes import INPUT_MODES
-from irl_core.recording_lines import Step
-from irl_core.replay_cursor import Frame, ReplayCursor, ReplayFiles
-from irl_core.safe_text import VALUE_LIMIT, printable
-from irl_core.summary import distance_to_terminal, outcome_code, summarise
-from irl_core.words import plural
-from irl_core.world import World
+from irl_core.recordings.demonstrations import Recording
+from irl_core.recordings.lines import Step
+from irl_core.recordings.replay_cursor import Frame, ReplayCursor, ReplayFiles
+from irl_core.recordings.summary import distance_to_terminal, outcome_code, summarise
+from irl_core.support.safe_text import VALUE_LIMIT, printable
+from irl_core.support.words import plural
+from irl_core.worlds.mdp import DIRECTIONS, OFFSETS
+from irl_core.worlds.world import World
 
 FRAME_S = 0.5
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)

@@ -1,4 +1,4 @@
-"""`careful study run`'s screen: the study's flow (`irl_core.play.study_flow`) in a terminal (README "Studies").
+"""`careful study run`'s screen: the study's flow (`irl_core.studies.flow`) in a terminal (README "Studies").
 
 The flow keeps the stages (instructions, each block, between blocks, the end) and where the
 participant stands; this screen draws the stage's text and, when space asks for the next block,
@@ -33,10 +33,10 @@ from careful_tui.render.palette import GOOD, NOTE, WARN
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
 from irl_core.play.input_modes import input_mode
-from irl_core.play.study_flow import Stage, StudyFlow
-from irl_core.safe_text import printable
-from irl_core.study import Block, Protocol
-from irl_core.words import plural
+from irl_core.studies.flow import Stage, StudyFlow
+from irl_core.studies.study import Block, Protocol
+from irl_core.support.safe_text import printable
+from irl_core.support.words import plural
 
 PROBLEMS_SHOWN = 3
 

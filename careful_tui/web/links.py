@@ -16,8 +16,8 @@ import os
 import re
 import secrets
 
-from irl_core.safe_text import printable
-from irl_core.study import LoadedStudy, StudyError, check_participant
+from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+from irl_core.support.safe_text import printable
 
 LINKS_FILE = "links.csv"
 FIELDS = ("participant", "token", "path")

@@ -4,7 +4,7 @@ A participant plays on one page at a time: a second tab or device that opens the
 first is open is refused (never interleaved into the same file). A page holds its seat while it
 is heard from (every key, and a heartbeat every few seconds); one that closes says so
 (`navigator.sendBeacon`), and one silent for `SILENT_S` has left: its seat goes to the next page
-that asks. A seat also holds the participant's lock (`irl_core.participant_lock`, the one
+that asks. A seat also holds the participant's lock (`irl_core.studies.participant_lock`, the one
 `careful study run` takes), so a terminal session and a page never play one participant at once,
 in this process or another.
 
@@ -78,7 +78,7 @@ class Seats:
         `hold` makes the participant's lock, held as long as the seat.
 
         Raises:
-            irl_core.participant_lock.ParticipantBusy: another process plays the participant.
+            irl_core.studies.participant_lock.ParticipantBusy: another process plays the participant.
         """
         with self._lock:
             held = self._participants.get(participant)

@@ -48,10 +48,10 @@ from starlette.staticfiles import StaticFiles
 from careful_tui.web.links import prolific_ids
 from careful_tui.web.seats import Seat, Seats
 from careful_tui.web.session_adapter import KeyRefused, WebSession
-from irl_core.participant_lock import ParticipantBusy, participant_lock
-from irl_core.recording_lines import ProlificTag
-from irl_core.safe_text import printable
-from irl_core.study import LoadedStudy, StudyError
+from irl_core.recordings.lines import ProlificTag
+from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
+from irl_core.studies.study import LoadedStudy, StudyError
+from irl_core.support.safe_text import printable
 
 MAX_BODY = 2048
 COMPLETION_ADDRESS = "https://app.prolific.com/submissions/complete?cc="

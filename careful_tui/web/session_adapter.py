@@ -1,7 +1,7 @@
 """One participant's way through a study in a browser: the play session the web server drives.
 
 The server owns one `WebSession` per participant page. It drives the same play session as
-`careful study run` (`irl_core.play.study_flow.StudyFlow` and its blocks' `PlaySession`s: the
+`careful study run` (`irl_core.studies.flow.StudyFlow` and its blocks' `PlaySession`s: the
 rules, the recordings in ``<out>/<ID>/``, resuming where the files say) and answers every call
 with `view()`, what the page draws. The page sends only key presses and releases with their times
 (`performance.now()`, milliseconds); every outcome (start cells, slips) is drawn here.
@@ -46,16 +46,16 @@ from careful_tui.render.session import outcome_text
 from careful_tui.screens.study import BEGIN, between_text, opening_texts
 from careful_tui.version import app_version
 from careful_tui.widgets.gauge import format_chance
-from irl_core.game import level_costs, level_slip_chances
-from irl_core.mdp import DIRECTIONS
+from irl_core.play.game import level_costs, level_slip_chances
 from irl_core.play.hold import HoldProfile
 from irl_core.play.session import Played, PlaySession
-from irl_core.play.study_flow import StudyFlow
-from irl_core.recording_lines import ProlificTag
-from irl_core.safe_text import printable
-from irl_core.study import LoadedStudy, Protocol, read_protocol
-from irl_core.summary import outcome_code
-from irl_core.words import plural
+from irl_core.recordings.lines import ProlificTag
+from irl_core.recordings.summary import outcome_code
+from irl_core.studies.flow import StudyFlow
+from irl_core.studies.study import LoadedStudy, Protocol, read_protocol
+from irl_core.support.safe_text import printable
+from irl_core.support.words import plural
+from irl_core.worlds.mdp import DIRECTIONS
 
 # Level 1 below 150 ms (a tap), then a level per 150 ms: level 14 from 1.95 s.
 BROWSER_TAP_MS = 150.0
@@ -92,7 +92,7 @@ class WebSession:
 
     Args:
         study: the study.
-        participant: a checked participant id (`irl_core.study.check_participant`).
+        participant: a checked participant id (`irl_core.studies.study.check_participant`).
         user_agent: the browser's, for the header.
         prolific: Prolific's study and session ids, for the header, when the participant came that way.
         completion_url: where the end screen sends the participant, once every episode is on disk.

@@ -23,10 +23,9 @@ from textual.widget import Widget
 
 from careful_tui.render.grid import WorldGrid
 from careful_tui.render.palette import WHITE, level_colour
-from irl_core.mdp import DIRECTIONS, OFFSETS
-from irl_core.world import World
+from irl_core.worlds.mdp import DIRECTIONS, OFFSETS
+from irl_core.worlds.world import Cell, World
 
-Cell = tuple[int, int]
 Mark = tuple[str, Style]
 
 MIN_CELL = (7, 3)

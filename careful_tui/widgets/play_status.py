@@ -15,12 +15,12 @@ from textual.widgets import Static
 from careful_tui.render.grid import format_value
 from careful_tui.render.palette import GOOD, WARN, level_colour
 from careful_tui.render.session import outcome_colour, outcome_text
-from irl_core.game import MoveResult
+from irl_core.play.game import MoveResult
 from irl_core.play.input_modes import InputMode
 from irl_core.play.session import EpisodeNames, HoldView
-from irl_core.recording_lines import EpisodeEnd
-from irl_core.summary import outcome_code
-from irl_core.world import World
+from irl_core.recordings.lines import EpisodeEnd
+from irl_core.recordings.summary import outcome_code
+from irl_core.worlds.world import World
 
 
 def mode_help(mode: InputMode, levels: int) -> str:

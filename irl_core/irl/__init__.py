@@ -2,7 +2,7 @@
 "Game and Loss IRL agent" and MaxEnt baseline).
 
 Every method shares one affine Q map (`qmap`), returns one `FitResult` (`result`) and is
-reached through `fit` (`irl_core.fit_methods` holds one entry per method):
+reached through `fit` (`irl_core.irl.fit_methods` holds one entry per method):
 
 ==========  ====================================================================
 ``lp``      the simple IRL agent: rewards under which the most frequent actions are
@@ -18,13 +18,45 @@ reached through `fit` (`irl_core.fit_methods` holds one entry per method):
 ``intervals=True`` bounds every unknown: over the lp constraints for lp (`intervals`, the
 identified set), by resampling episodes for maxent and loss (`bootstrap`, a confidence
 interval). `evaluation` says what an agent trained on the fitted reward would do.
+
+The registries live here too: `fit_methods` (one entry per method: where a new method goes) and
+`player_models` (one entry per model of the player).
+
+May import: every wing below it (`support`, `worlds`, `recordings`, `play`, `players`).
 """
 
-from irl_core.irl.fit import METHODS, fit
-from irl_core.irl.notes import Note
-from irl_core.irl.options import FitOptions
-from irl_core.irl.result import BadInputError, FitError, FitResult, InfeasibleError, SolverError, at_bound
-from irl_core.stopping import Stopped
+from __future__ import annotations
 
-__all__ = ["METHODS", "BadInputError", "FitError", "FitOptions", "FitResult", "InfeasibleError", "Note",
-           "SolverError", "Stopped", "at_bound", "fit"]
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from irl_core.irl.fit import METHODS, fit  # noqa: F401
+    from irl_core.irl.notes import Note  # noqa: F401
+    from irl_core.irl.options import FitOptions  # noqa: F401
+    from irl_core.irl.result import BadInputError, FitError, FitResult, InfeasibleError, SolverError, at_bound  # noqa: F401
+    from irl_core.support.stopping import Stopped  # noqa: F401
+
+# Names are imported on first use, so that a registry (`irl_core.irl.fit_methods`) can be read
+# without loading the solvers.
+_HOMES = {
+    "METHODS": "irl_core.irl.fit", "fit": "irl_core.irl.fit", "Note": "irl_core.irl.notes",
+    "FitOptions": "irl_core.irl.options", "BadInputError": "irl_core.irl.result", "FitError": "irl_core.irl.result",
+    "FitResult": "irl_core.irl.result", "InfeasibleError": "irl_core.irl.result", "SolverError": "irl_core.irl.result",
+    "at_bound": "irl_core.irl.result", "Stopped": "irl_core.support.stopping",
+}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'irl_core.irl' has no attribute {name!r}")
+    value = getattr(importlib.import_module(home), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_HOMES])

@@ -18,7 +18,7 @@ the refits at (1 - confidence)/2 and (1 + confidence)/2):
 `bench/bench_calibration.py` measures how often each contains the truth; `fit` uses the
 better calibrated one (`INTERVAL_VARIANT`, chosen from that measurement: see the README).
 
-Resamples run in parallel across cores in `irl_core.pool.run_in_pool` (its workers die with this
+Resamples run in parallel across cores in `irl_core.support.pool.run_in_pool` (its workers die with this
 process). The multiplicities are drawn in the parent from
 `seed`, so the same seed gives the same interval whatever the number of workers. A fit told to
 stop tells its workers too (`stopping.stop_when` on their side): queued resamples are dropped
@@ -39,14 +39,14 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.fit_methods import METHODS, check_covers
+from irl_core.irl.fit_methods import METHODS, check_covers
 from irl_core.irl.loss import fit_loss
 from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
-from irl_core.mdp import MDP
-from irl_core.pool import run_in_pool
-from irl_core.stopping import Stopped
+from irl_core.support.pool import run_in_pool
+from irl_core.support.stopping import Stopped
+from irl_core.worlds.mdp import MDP
 
 VARIANTS = ("percentile", "basic")
 INTERVAL_VARIANT = "percentile"
@@ -116,7 +116,7 @@ def _refit_loss(refit: Refit, counts: np.ndarray) -> np.ndarray:
     return np.asarray(solution.x[: refit.unknowns.k], dtype=float)
 
 
-# The refit of every method whose intervals are a bootstrap's (`irl_core.fit_methods`), checked against the registry.
+# The refit of every method whose intervals are a bootstrap's (`irl_core.irl.fit_methods`), checked against the registry.
 REFITS: dict[str, Callable[[Refit, np.ndarray], np.ndarray]] = {"loss": _refit_loss, "maxent": _refit_maxent}
 check_covers(REFITS, (m.name for m in METHODS.values() if m.interval_kind == "confidence"),
              "irl_core.irl.bootstrap.REFITS")

@@ -23,9 +23,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from irl_core.mdp import MDP
-from irl_core.planning import policy_evaluation, policy_matrix, value_iteration
-from irl_core.stopping import stop_if_asked
+from irl_core.support.stopping import stop_if_asked
+from irl_core.worlds.mdp import MDP
+from irl_core.worlds.planning import policy_evaluation, policy_matrix, value_iteration
 
 
 @dataclass(frozen=True)

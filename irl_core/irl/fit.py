@@ -1,7 +1,7 @@
 """`fit`: one entry point for the inverse-RL methods in README "Fitting a reward" and docs/answers.md.
 
 It builds the unknowns and the Q map once, runs the method's fitter (`FITTERS`, one per entry
-of `irl_core.fit_methods`; ``auto``'s chooses lp for a deterministic expert whose lp is
+of `irl_core.irl.fit_methods`; ``auto``'s chooses lp for a deterministic expert whose lp is
 feasible, else maxent with beta estimated), optionally bounds every unknown (``intervals``:
 the identified set, or a bootstrap confidence interval, by the method's interval kind),
 evaluates an agent trained on the fitted reward in the true world, and returns a `FitResult`
@@ -18,8 +18,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-import irl_core.fit_methods as fit_methods
-from irl_core.demonstrations import Demonstrations
+import irl_core.irl.fit_methods as fit_methods
 from irl_core.irl.bootstrap import Refit, Refitter, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.fit_check import FitCheck, fit_check
@@ -41,12 +40,13 @@ from irl_core.irl.people import (
     significantly_better,
 )
 from irl_core.irl.people import curvature_scale as people_curvature_scale
+from irl_core.irl.player_models import AUTO as PLAYER_AUTO
+from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bound
-from irl_core.mdp import MDP
-from irl_core.player_models import AUTO as PLAYER_AUTO
-from irl_core.player_models import Player, player_model
-from irl_core.stopping import Stopped, stop_when
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.stopping import Stopped, stop_when
+from irl_core.worlds.mdp import MDP
 
 METHODS = fit_methods.FITTED
 

@@ -29,9 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.demonstrations import EpisodeFacts
-from irl_core.experts import rollouts
-from irl_core.mdp import MDP
+from irl_core.players.experts import rollouts
+from irl_core.recordings.demonstrations import EpisodeFacts
+from irl_core.worlds.mdp import MDP
 
 REPLICATES = 200
 FAMILY_LEVEL = 0.05

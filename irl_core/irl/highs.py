@@ -36,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from irl_core.irl.result import InfeasibleError, SolverError
-from irl_core.stopping import Stopped, stop_check
+from irl_core.support.stopping import Stopped, stop_check
 
 Kind = Literal["answer", "infeasible", "unbounded", "failure"]
 _Status = highspy.HighsModelStatus

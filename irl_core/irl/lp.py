@@ -68,7 +68,7 @@ from irl_core.irl.margin import (
     shares_terminal_unknowns,
 )
 from irl_core.irl.result import SolverError
-from irl_core.planning import policy_evaluation
+from irl_core.worlds.planning import policy_evaluation
 
 INFEASIBLE_MESSAGE = (
     "the demonstrations are not optimal for any reward within ±rmax; "

@@ -59,9 +59,9 @@ from threadpoolctl import ThreadpoolController
 
 from irl_core.irl.qmap import Unknowns
 from irl_core.irl.result import SolverError
-from irl_core.mdp import MDP
-from irl_core.planning import policy_matrix
-from irl_core.stopping import stop_if_asked
+from irl_core.support.stopping import stop_if_asked
+from irl_core.worlds.mdp import MDP
+from irl_core.worlds.planning import policy_matrix
 
 SOFT_TOLERANCE = 1e-13
 SOFT_MAX_ITER = 200

@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-import irl_core.fit_methods as fit_methods
+import irl_core.irl.fit_methods as fit_methods
 from irl_core.irl.notes import Note
+from irl_core.irl.player_models import AUTO as PLAYER_AUTO
+from irl_core.irl.player_models import player_model
 from irl_core.irl.qmap import RewardCells
-from irl_core.player_models import AUTO as PLAYER_AUTO
-from irl_core.player_models import player_model
 
 MIN_RESAMPLES = 20
 DEFAULT_BETA = 1.0
@@ -28,12 +28,12 @@ class FitOptions:
     """One fit's settings, as `careful fit` names them (`lam` is ``--lambda``).
 
     Attributes:
-        method: a name in `irl_core.fit_methods` (``auto``, ``lp``, ``loss``, ``maxent``);
+        method: a name in `irl_core.irl.fit_methods` (``auto``, ``lp``, ``loss``, ``maxent``);
             ``auto`` by default, as for `careful fit`.
         rmax: the bound |R_S| <= rmax.
         lam: the L1 penalty lambda on R_S (lp and loss).
         beta: maxent's inverse temperature, ``"auto"`` to estimate it, or None for the default.
-        player_model: maxent's model of the player (`irl_core.player_models`: ``boltzmann``, the paper's
+        player_model: maxent's model of the player (`irl_core.irl.player_models`: ``boltzmann``, the paper's
             expert; ``ends``, ``hand``, ``person``, ``naive``, models of people), ``"auto"`` to choose one by
             held-out episodes, or None for the default: ``auto`` after method auto, ``boltzmann`` for maxent.
         reward_cells: ``special`` or ``all``.

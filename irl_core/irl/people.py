@@ -52,11 +52,11 @@ import scipy.sparse as sp
 from scipy.optimize import minimize
 
 from irl_core.irl.maxent import LOG_BETA_BOUNDS, _expected_next, _solve, one_blas_thread, policy_system
+from irl_core.irl.player_models import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
 from irl_core.irl.qmap import Unknowns
 from irl_core.irl.result import SolverError
-from irl_core.mdp import MDP
-from irl_core.player_models import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
-from irl_core.stopping import stop_if_asked
+from irl_core.support.stopping import stop_if_asked
+from irl_core.worlds.mdp import MDP
 
 # The hand's noise, sigma in levels: at the lower end the kernel is the identity to double precision
 # (exp(-1 / (2 * 0.05^2)) = 1e-87), so "no hand noise" is inside the search range.

@@ -33,8 +33,8 @@ from typing import Literal
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.mdp import MDP
-from irl_core.world import GROUND
+from irl_core.worlds.mdp import MDP
+from irl_core.worlds.world import GROUND
 
 RewardCells = Literal["special", "all"]
 

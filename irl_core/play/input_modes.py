@@ -8,7 +8,7 @@ calibration applies to it, its gauge fills with time and its hold's milliseconds
 is the built input's `header()` (`InputMode.header`).
 
 Adding a mode: its `MoveInput` class (as `irl_core.play.modes`), its entry here, its tests; the
-study file's `input` field lists the names too (`irl_core.study.Study`, which a test holds to
+study file's `input` field lists the names too (`irl_core.studies.study.Study`, which a test holds to
 this registry). An unknown name raises `ValueError` where it enters (`input_mode`).
 """
 

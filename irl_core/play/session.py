@@ -3,7 +3,7 @@
 A front end (the terminal's `PlayScreen`, the browser's server) turns its key events into calls
 and draws what `view()` answers; the session keeps every rule of the session in between:
 
-- the game's rules are `irl_core.game.Game`'s, the recording `irl_core.recording_writer`'s;
+- the game's rules are `irl_core.play.game.Game`'s, the recording `irl_core.recordings.writer`'s;
 - keys become moves through the input mode (`irl_core.play.input_modes`) on one timing profile,
   which a calibration can replace (offered while no episode is half played; a file that already
   holds steps is closed, and the next move starts a new one with the calibrated header);
@@ -36,14 +36,14 @@ from datetime import datetime
 from pathlib import Path
 from typing import Literal
 
-from irl_core.game import Cell, Game, MoveResult
 from irl_core.play.calibration import Calibrating
+from irl_core.play.game import Cell, Game, MoveResult
 from irl_core.play.hold import ActiveHold, Clock, Hold, HoldProfile, MoveInput
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, InputMode, input_mode
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, StudyTag
-from irl_core.recording_writer import SessionRecorder
-from irl_core.safe_text import printable
-from irl_core.world import World
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, StudyTag
+from irl_core.recordings.writer import SessionRecorder
+from irl_core.support.safe_text import printable
+from irl_core.worlds.world import World
 
 MessageKind = Literal["", "slip", "note", "warn"]
 

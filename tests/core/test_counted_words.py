@@ -4,12 +4,12 @@ import asyncio
 import json
 from pathlib import Path
 
-from careful_tui.cli import main
 from careful_tui.app import CarefulApp
+from careful_tui.cli import main
 from careful_tui.screens.fit import FitScreen
-from irl_core.demonstrations import Demonstrations
 from irl_core.irl import FitOptions
-from irl_core.words import plural
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.words import plural
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 
@@ -61,9 +61,10 @@ def test_the_fit_views_title_counts_one_file_as_one_file():
 
 
 def test_a_study_of_one_episode_counts_it_in_the_singular(tmp_path):
-    from careful_tui.screens.study import end_text, instructions_text
-    from irl_core.study import load_study, read_protocol
     from study.conftest import write_study
+
+    from careful_tui.screens.study import end_text, instructions_text
+    from irl_core.studies.study import load_study, read_protocol
 
     study = load_study(write_study(tmp_path, worlds='["paper"]', practice=0, episodes=1))
     protocol = read_protocol(study, "p01")

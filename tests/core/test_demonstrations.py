@@ -1,20 +1,20 @@
 """Recordings: the writer never overwrites and survives crashes; the reader names line and field."""
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 import pytest
 
-from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import RecordingWriter
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def header(world="paper", player="ada"):
     return SessionHeader(
-        world=BUILTIN_WORLDS[world], player=player, created=datetime(2026, 11, 21, 12, 0, tzinfo=timezone.utc),
+        world=BUILTIN_WORLDS[world], player=player, created=datetime(2026, 11, 21, 12, 0, tzinfo=UTC),
         seed=1, input={"mode": "hold", "initial_delay_ms": 500.0}, app_version="test",
     )
 

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from careful_tui.cli import main
-from irl_core.demonstrations import read_recording
-from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
-from irl_core.mdp import action_index, build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.worlds.mdp import action_index, build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def simulate(tmp_path, name, *extra):
@@ -102,8 +102,8 @@ def test_worlds_command_and_bad_usage_exit_codes(tmp_path):
 
 
 def test_demonstrations_of_rollouts_equal_the_written_file(tmp_path):
-    from irl_core.demonstrations import Demonstrations
-    from irl_core.experts import demonstrations_of, write_rollouts
+    from irl_core.players.experts import demonstrations_of, write_rollouts
+    from irl_core.recordings.demonstrations import Demonstrations
 
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     result = rollouts(mdp, boltzmann_policy(mdp, beta=1.0), episodes=25, seed=4)

@@ -38,6 +38,6 @@ def test_the_whole_api_needs_nothing_from_an_extra():
 
 def test_importing_the_package_alone_loads_no_solver():
     # careful play imports irl_core's world and game modules; the package must not drag the fit stack along.
-    code = "import sys, irl_core.world\nprint(sorted(m for m in ('cvxpy', 'highspy', 'gymnasium') if m in sys.modules))\n"
+    code = "import sys, irl_core.worlds.world\nprint(sorted(m for m in ('cvxpy', 'highspy', 'gymnasium') if m in sys.modules))\n"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"

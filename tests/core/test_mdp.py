@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from irl_core.mdp import action_index, action_parts, build_mdp
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.worlds.mdp import action_index, action_parts, build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 
 def dense(mdp):

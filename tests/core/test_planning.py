@@ -3,15 +3,15 @@
 import numpy as np
 import pytest
 
-from irl_core.mdp import action_parts, build_mdp
-from irl_core.planning import (
+from irl_core.worlds.mdp import action_parts, build_mdp
+from irl_core.worlds.planning import (
     iterative_policy_evaluation,
     one_hot,
     policy_evaluation,
     soft_value_iteration,
     value_iteration,
 )
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 
 @pytest.fixture(scope="module")

@@ -4,12 +4,12 @@ says yes changes nothing. Counted in sweeps (`MDP.expected_next` calls), not sec
 
 import numpy as np
 import pytest
+from planning_sweeps import count_sweeps
 
 from bench.worlds import cliff_world
-from irl_core.mdp import build_mdp
-from irl_core.planning import soft_value_iteration, value_iteration
-from irl_core.stopping import Stopped, stop_when
-from planning_sweeps import count_sweeps
+from irl_core.support.stopping import Stopped, stop_when
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import soft_value_iteration, value_iteration
 
 PLANNERS = {"value iteration": value_iteration,
             "soft value iteration": lambda mdp: soft_value_iteration(mdp, beta=1.0)}

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from careful_tui.cli import main
-from irl_core.demonstrations import Demonstrations, read_recording
-from irl_core.experiment import human_sessions
+from irl_core.experiment.run import human_sessions
 from irl_core.irl import fit
-from irl_core.mdp import action_index, build_mdp
-from irl_core.person_like import KINDS
+from irl_core.players.person_like import KINDS
+from irl_core.recordings.demonstrations import Demonstrations, read_recording
+from irl_core.worlds.mdp import action_index, build_mdp
 
 
 def careful_simulate(capsys, tmp_path, name, *extra) -> tuple:
@@ -90,7 +90,7 @@ def test_a_bad_parameter_is_refused_before_anything_is_written(capsys, tmp_path,
 
 
 def test_a_lapse_of_zero_follows_the_optimal_directions(capsys, tmp_path):
-    from irl_core.experts import optimal_plan
+    from irl_core.players.experts import optimal_plan
 
     code, out, _ = careful_simulate(capsys, tmp_path, "l.jsonl", "--world", "walls", "--policy", "loose",
                                     "--lapse", "0", "--episodes", "30", "--seed", "2")

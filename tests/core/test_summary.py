@@ -1,9 +1,9 @@
 """Session summaries: outcomes, final score, carefulness by distance to danger."""
 
-from irl_core.demonstrations import read_recording
-from irl_core.summary import distance_to_terminal, summarise
-from irl_core.world import BUILTIN_WORLDS, World
 from careful_tui.cli import main
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.summary import distance_to_terminal, summarise
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 
 def test_distance_to_terminal_by_hand():

@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-import irl_core.world
-from irl_core.world import BUILTIN_WORLDS, World, WorldError, load_world
+import irl_core.worlds.world
+from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError, load_world
 
 
 def test_builtin_worlds_match_the_spec_table():
@@ -24,7 +24,7 @@ def test_builtin_worlds_match_the_spec_table():
 
 def test_walls_is_a_walled_world_with_a_hazard_a_nuisance_and_a_goal_read_from_its_file():
     walls = BUILTIN_WORLDS["walls"]
-    assert load_world("walls") == walls == load_world(Path(irl_core.world.__file__).parent / "worlds" / "walls.toml")
+    assert load_world("walls") == walls == load_world(Path(irl_core.worlds.world.__file__).parent / "walls.toml")
     symbols = {ch for row in walls.grid for ch in row}
     assert symbols == {".", "#", "C", "U", "G"} and (walls.rows, walls.cols, walls.levels) == (6, 7, 14)
     assert walls.rewards == {"C": -1000.0, "G": 100.0, "U": -30.0}

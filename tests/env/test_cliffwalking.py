@@ -3,10 +3,10 @@
 import gymnasium as gym
 import numpy as np
 
-from irl_core.env import CarefulEnv
-from irl_core.mdp import build_mdp
-from irl_core.planning import value_iteration
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.worlds.env import CarefulEnv
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 WORLD = BUILTIN_WORLDS["cliffwalking"]
 

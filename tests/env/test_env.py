@@ -9,11 +9,11 @@ from gymnasium.error import ResetNeeded
 from gymnasium.utils.env_checker import check_env
 from scipy.stats import chisquare
 
-import irl_core.env  # noqa: F401  (registers careful/Careful-v0)
-from irl_core.env import ENV_ID, CarefulEnv, cell_observation
-from irl_core.game import Game
-from irl_core.mdp import action_index, build_mdp
-from irl_core.world import BUILTIN_WORLDS, World, WorldError
+import irl_core.worlds.env  # noqa: F401  (registers careful/Careful-v0)
+from irl_core.play.game import Game
+from irl_core.worlds.env import ENV_ID, CarefulEnv, cell_observation
+from irl_core.worlds.mdp import action_index, build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError
 
 
 class Lines:
@@ -58,7 +58,7 @@ def test_the_checker_would_report_a_broken_environment():
 
 
 def test_make_by_module_path_registers_on_import():
-    env = gym.make("irl_core.env:careful/Careful-v0", world="mud")
+    env = gym.make("irl_core.worlds.env:careful/Careful-v0", world="mud")
     assert env.unwrapped.world == BUILTIN_WORLDS["mud"]
 
 

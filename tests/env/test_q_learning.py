@@ -6,9 +6,9 @@ Markov chain over the MDP, propagated for the world's step limit from the start 
 
 import numpy as np
 
-from irl_core.env import CarefulEnv, cell_observation
-from irl_core.mdp import MDP
-from irl_core.planning import policy_matrix
+from irl_core.worlds.env import CarefulEnv, cell_observation
+from irl_core.worlds.mdp import MDP
+from irl_core.worlds.planning import policy_matrix
 
 
 def ending_probabilities(mdp: MDP, actions: np.ndarray) -> dict[str, float]:

@@ -7,7 +7,7 @@ import sys
 def test_gymnasium_make_with_the_module_prefix_in_a_fresh_process():
     code = (
         "import gymnasium as gym\n"
-        "env = gym.make('irl_core.env:careful/Careful-v0', world='cliffwalking')\n"
+        "env = gym.make('irl_core.worlds.env:careful/Careful-v0', world='cliffwalking')\n"
         "obs, info = env.reset(seed=0)\n"
         "print(obs, env.spec.id, env.action_space)\n"
     )

@@ -2,8 +2,8 @@
 words follow the numbers, and a stage that undercuts a claim is discussed."""
 
 from careful_tui.commands.experiment import report_markdown
-from irl_core.claims import loss_claim, maxent_claim, paper_claims, separation_claim
-from irl_core.experiment import ExperimentResult, Estimate, Separation, interval_caption
+from irl_core.experiment.claims import loss_claim, maxent_claim, paper_claims, separation_claim
+from irl_core.experiment.run import Estimate, ExperimentResult, Separation, interval_caption
 
 
 def estimate(stage, cliff, goal=100.0, *, cells=4, at_bound=0, inside=None, data="10 episodes"):

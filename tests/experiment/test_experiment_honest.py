@@ -1,16 +1,16 @@
 """`careful experiment` says what its numbers show: captions change with the numbers."""
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 
 from careful_tui.cli import main
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import RecordingWriter
-from irl_core.experiment import Estimate, Separation, interval_caption, severity
-from irl_core.mdp import DIRECTIONS, build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.experiment.run import Estimate, Separation, interval_caption, severity
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.mdp import DIRECTIONS, build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def estimate(cliff, goal=100.0):
@@ -65,7 +65,7 @@ def careless_person(folder):
     world = BUILTIN_WORLDS["paper"]
     mdp = build_mdp(world)
     rng = np.random.default_rng(0)
-    header = SessionHeader(world=world, player="careless", created=datetime(2000, 1, 1, tzinfo=timezone.utc), seed=0)
+    header = SessionHeader(world=world, player="careless", created=datetime(2000, 1, 1, tzinfo=UTC), seed=0)
     with RecordingWriter(folder / "careless.jsonl", header) as writer:
         for episode in range(6):
             s, score = mdp.state_of[(0, 0)], 200.0
@@ -104,7 +104,7 @@ def test_a_careless_persons_recordings_are_reported_as_not_recovering_the_cliff(
 
 
 def test_an_unreadable_recording_in_the_folder_is_named_in_the_notes(tmp_path):
-    from irl_core.experiment import human_sessions
+    from irl_core.experiment.run import human_sessions
 
     people = tmp_path / "people"
     people.mkdir()

@@ -5,7 +5,7 @@ import dataclasses
 import json
 import subprocess
 import sys
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 
 from careful_tui.cli import main
-from irl_core import export
-from irl_core.demonstrations import RecordingError, read_recording
-from irl_core.recording_lines import SessionHeader
-from irl_core.recording_writer import RecordingWriter
-from irl_core.export import CSV_COLUMNS, STUDY_COLUMNS, csv_columns, csv_rows, recorded_episodes
-from irl_core.game import Game
-from irl_core.mdp import DIRECTIONS, action_index, build_mdp
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.play.game import Game
+from irl_core.recordings import export
+from irl_core.recordings.demonstrations import RecordingError, read_recording
+from irl_core.recordings.export import CSV_COLUMNS, STUDY_COLUMNS, csv_columns, csv_rows, recorded_episodes
+from irl_core.recordings.lines import SessionHeader
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.mdp import DIRECTIONS, action_index, build_mdp
+from irl_core.worlds.world import World
 
 CORPUS = Path(__file__).parents[1] / "corpus" / "recordings"
 # A world no built-in name or file gives: the dataset must carry it.
@@ -31,7 +31,7 @@ SHORT = World(name="paper-short", layout="......\n......\n......\n.CCCCG\n", lev
 
 def play_session(path: Path, world: World, *, seed: int, episodes: int) -> Path:
     """A session as `careful play` records it: random moves and hold times; some episodes quit."""
-    header = SessionHeader(world=world, player="ada", created=datetime(2026, 1, 1, tzinfo=timezone.utc),
+    header = SessionHeader(world=world, player="ada", created=datetime(2026, 1, 1, tzinfo=UTC),
                            seed=seed, input={"mode": "hold"})
     rng = np.random.default_rng(seed)
     with RecordingWriter(path, header) as writer:
@@ -286,7 +286,7 @@ def test_a_failed_export_leaves_no_dataset(tmp_path, session, datasets, monkeypa
 
 def test_the_game_does_not_import_gymnasium_or_minari():
     code = (
-        "import sys, careful_tui.cli, careful_tui.screens.play, careful_tui.commands.export, irl_core.export; "
+        "import sys, careful_tui.cli, careful_tui.screens.play, careful_tui.commands.export, irl_core.recordings.export; "
         "print(sorted({m.split('.')[0] for m in sys.modules} & {'gymnasium', 'minari', 'h5py', 'jax'}))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -42,7 +42,7 @@ def matches_baseline(tmp_path):
 
 @pytest.fixture
 def mud_world():
-    from irl_core.world import BUILTIN_WORLDS
+    from irl_core.worlds.world import BUILTIN_WORLDS
 
     return BUILTIN_WORLDS["mud"]
 

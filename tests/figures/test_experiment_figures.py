@@ -8,8 +8,8 @@ from matplotlib.patches import Rectangle
 
 from careful_tui.render.figures.board import Board
 from careful_tui.render.figures.experiment_figures import draw_experiment_figure, policy_panel
-from irl_core.experiment import ExperimentResult, Figure, Separation
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.experiment.run import ExperimentResult, Figure, Separation
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 @pytest.fixture

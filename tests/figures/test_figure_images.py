@@ -19,7 +19,7 @@ from careful_tui.render.figures.heatmap import (
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure, kind_label, worst_first
 from careful_tui.render.figures.policy import PolicyPanel, policy_figure
 from careful_tui.render.figures.style import figure_style, new_figure
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 # The optimal policy of `paper` (up, right, down, left = 0..3; -1 at terminal cells) and its levels.
 PAPER_OPTIMAL_DIRECTION = np.array([[1, 1, 1, 1, 1, 2], [1, 1, 1, 1, 1, 2], [0, 1, 1, 1, 1, 2], [0, -1, -1, -1, -1, -1]])

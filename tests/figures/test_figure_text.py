@@ -24,8 +24,8 @@ from matplotlib.text import Text
 from careful_tui.cli import main
 from careful_tui.render.figures import style
 from careful_tui.render.figures.style import figure_style, plain
-from irl_core.safe_text import printable
-from irl_core.world import World
+from irl_core.support.safe_text import printable
+from irl_core.worlds.world import World
 
 # Four `$`: read as mathtext, "$ \x1b[31m...a_b$" would not parse (matplotlib raises on "\x").
 HOSTILE = "$5 $x^2$ \x1b[31m\n[bold] a_b$"
@@ -100,8 +100,8 @@ def test_fit_figure_of_a_hostile_world_draws_and_shows_its_symbols(tmp_path, mon
     assert {"$", "^", "_"} <= set(texts)  # the symbols in the reward grids' cells
 
     from careful_tui.render.figures.fit_figure import fit_figure
-    from irl_core.demonstrations import Demonstrations
     from irl_core.irl import fit
+    from irl_core.recordings.demonstrations import Demonstrations
 
     assert_every_text_is_plain(fit_figure(fit(Demonstrations.read([recording]), method="lp", intervals=True)))
 
@@ -110,7 +110,7 @@ def test_experiment_figures_of_a_hostile_world_draw_as_text():
     """`careful experiment` draws its own worlds; its figure code still shows a world's symbols as written."""
     from careful_tui.render.figures.board import Board
     from careful_tui.render.figures.experiment_figures import draw_experiment_figure
-    from irl_core.experiment import ExperimentResult, Figure
+    from irl_core.experiment.run import ExperimentResult, Figure
 
     world = HOSTILE_WORLD
     result = ExperimentResult(figures=[
@@ -126,10 +126,11 @@ def test_experiment_figures_of_a_hostile_world_draw_as_text():
 @pytest.fixture(scope="module")
 def hostile_study(tmp_path_factory):
     """A study of one hostile world, two simulated participants, gathered (not fitted)."""
-    from irl_core.simulated_study import simulated_participants, write_simulated_participant
-    from irl_core.study import load_study
-    from irl_core.study_report import gather
     from study.conftest import write_study
+
+    from irl_core.studies.report import gather
+    from irl_core.studies.simulated import simulated_participants, write_simulated_participant
+    from irl_core.studies.study import load_study
 
     folder = tmp_path_factory.mktemp("study")
     (folder / "hostile.toml").write_text(HOSTILE_WORLD.to_toml())
@@ -141,7 +142,7 @@ def hostile_study(tmp_path_factory):
 
 def given_fits(data):
     """A fit per cell, made up (a study's fits take too long for a test): the true reward, ±5."""
-    from irl_core.study_report import CellFit
+    from irl_core.studies.report import CellFit
 
     world = data.study.worlds[0]
     symbols = tuple(sorted(world.rewards))

@@ -24,8 +24,8 @@ def mud_recording(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def mud_fit(mud_recording):
-    from irl_core.demonstrations import Demonstrations
     from irl_core.irl import fit
+    from irl_core.recordings.demonstrations import Demonstrations
 
     return fit(Demonstrations.read([mud_recording]), method="lp", intervals=True)
 
@@ -141,8 +141,8 @@ def test_playing_and_the_command_line_do_not_import_matplotlib():
 
 def test_confidence_intervals_are_labelled_and_drawn_as_the_json_says(tmp_path):
     from careful_tui.render.figures.fit_figure import fit_figure
-    from irl_core.demonstrations import Demonstrations
     from irl_core.irl import fit
+    from irl_core.recordings.demonstrations import Demonstrations
 
     path = tmp_path / "noisy.jsonl"
     assert main(["simulate", "--world", "mud", "--policy", "boltzmann", "--beta", "0.5", "--episodes", "30",

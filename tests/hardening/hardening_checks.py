@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 
 from careful_tui.cli import main
-from irl_core.experts import optimal_policy, rollouts, write_rollouts
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import optimal_policy, rollouts, write_rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 # Any C0 control but the newline, DEL, and the C1 controls: none may reach a terminal.
 RAW_CONTROL = re.compile("[\x00-\x09\x0b-\x1f\x7f-\x9f]")

@@ -10,12 +10,12 @@ import asyncio
 import shutil
 
 import pytest
+from hardening_checks import recording
 
 from careful_tui.app import CarefulApp
 from careful_tui.screens.fit import FitScreen
-from hardening_checks import recording
-from irl_core.demonstrations import Demonstrations
 from irl_core.irl import FitOptions
+from irl_core.recordings.demonstrations import Demonstrations
 
 
 def saved_after_removing(folder, app, remove) -> list[str]:

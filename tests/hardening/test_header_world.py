@@ -7,16 +7,16 @@ readable and fittable after the built-in `paper` changes.
 import json
 import subprocess
 import sys
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from importlib.util import find_spec
 
 import numpy as np
 import pytest
 
-from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import RecordingWriter
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 # "paper" as an older careful might have defined it: 5x5 with mud, other rewards, 5 levels.
 OLD_PAPER = World(
@@ -32,7 +32,7 @@ def step(t, state, direction, c, next_state):
 
 @pytest.fixture
 def old_recording(tmp_path):
-    header = SessionHeader(world=OLD_PAPER, player="ada", created=datetime(2020, 1, 1, tzinfo=timezone.utc), seed=3)
+    header = SessionHeader(world=OLD_PAPER, player="ada", created=datetime(2020, 1, 1, tzinfo=UTC), seed=3)
     path = tmp_path / "old-paper.jsonl"
     with RecordingWriter(path, header) as writer:
         # Row 4 is outside the built-in paper (4 rows): read with it, the first step is an error.
@@ -75,7 +75,7 @@ def test_demonstrations_use_the_header_world(old_recording):
 
 
 def test_the_header_world_is_not_mixed_with_the_built_in(old_recording, tmp_path):
-    header = SessionHeader(world=BUILTIN_WORLDS["paper"], player="bo", created=datetime.now(timezone.utc))
+    header = SessionHeader(world=BUILTIN_WORLDS["paper"], player="bo", created=datetime.now(UTC))
     current = tmp_path / "paper-now.jsonl"
     with RecordingWriter(current, header) as writer:
         writer.write_step(Step(episode=0, t=0, state=(0, 0), direction="right", carefulness=1, next_state=(0, 1),

@@ -12,14 +12,14 @@ import math
 
 import numpy as np
 import pytest
-
-import irl_core.experts as experts
 from hardening_checks import RAW_CONTROL, assert_refused, careful, recording
-from irl_core.demonstrations import read_recording
-from irl_core.experts import NotConverged, optimal_policy, rollouts, simulate_to_file, write_rollouts
-from irl_core.mdp import build_mdp
-from irl_core.planning import soft_value_iteration
-from irl_core.world import BUILTIN_WORLDS, World
+
+import irl_core.players.experts as experts
+from irl_core.players.experts import NotConverged, optimal_policy, rollouts, simulate_to_file, write_rollouts
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import soft_value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 SIMULATE = ["simulate", "--world", "paper", "--policy", "boltzmann", "--episodes", "2"]
 

@@ -11,9 +11,9 @@ import os
 from pathlib import Path
 
 import pytest
-
 from hardening_checks import assert_refused, careful, digest, fill, recording, tiny_filesystem
-from irl_core.safe_files import OutputError, check_output, is_recording, write_output
+
+from irl_core.support.safe_files import OutputError, check_output, is_recording, write_output
 
 
 @pytest.fixture

@@ -20,12 +20,12 @@ import time
 from pathlib import Path
 
 import pytest
-
 from hardening_checks import assert_refused, careful, digest, recording
-from irl_core import export as export_module
-from irl_core.csv_cells import text_cell
-from irl_core.demonstrations import read_recording
-from irl_core.safe_files import is_recording
+
+from irl_core.recordings import export as export_module
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.support.csv_cells import text_cell
+from irl_core.support.safe_files import is_recording
 
 ENV = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
 
@@ -143,8 +143,8 @@ def test_study_report_never_replaces_a_world_file_it_reads(tmp_path, capsys):
     world.write_text('name = "w"\nlayout = """\n....\n.CCG\n"""\nlevels = 3\n[rewards]\nC = -100.0\nG = 10.0\n')
     study = tmp_path / "s.toml"
     study.write_text('worlds = ["out/report.csv"]\nepisodes = 2\npractice_episodes = 0\n')
-    from irl_core.simulated_study import simulated_participants, write_simulated_participant
-    from irl_core.study import load_study
+    from irl_core.studies.simulated import simulated_participants, write_simulated_participant
+    from irl_core.studies.study import load_study
 
     write_simulated_participant(load_study(study), simulated_participants(1)[0])
     before = digest(world)
@@ -178,8 +178,8 @@ def test_study_report_csv_writes_formula_names_as_text(tmp_path, capsys):
     world.write_text('name = "@SUM(1+1)"\nlayout = """\n....\n.CCG\n"""\nlevels = 3\n[rewards]\nC = -100.0\nG = 10.0\n')
     study = tmp_path / "s.toml"
     study.write_text('name = "-study"\nworlds = ["w.toml"]\nepisodes = 2\npractice_episodes = 0\n')
-    from irl_core.simulated_study import simulated_participants, write_simulated_participant
-    from irl_core.study import load_study
+    from irl_core.studies.simulated import simulated_participants, write_simulated_participant
+    from irl_core.studies.study import load_study
 
     write_simulated_participant(load_study(study), simulated_participants(1)[0])
     status, _, err = careful(capsys, "study", "report", study, "--resamples", "20", "--workers", "1")

@@ -1,4 +1,4 @@
-"""One session per participant at a time (`irl_core.participant_lock`), for `study run` and a web server.
+"""One session per participant at a time (`irl_core.studies.participant_lock`), for `study run` and a web server.
 
 Before, two `study run` for one participant at once played the same block under the same episode
 numbers (4 of 2 episodes done, each number twice, all fitted).
@@ -13,16 +13,16 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from hardening_checks import assert_refused, careful
-from irl_core.participant_lock import ParticipantBusy, participant_lock
-from irl_core.study import load_study
-from irl_core.study_report import participant_ids
+
+from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
+from irl_core.studies.report import participant_ids
+from irl_core.studies.study import load_study
 
 HOLD = """
 import sys, time
-from irl_core.participant_lock import participant_lock
-from irl_core.study import load_study
+from irl_core.studies.participant_lock import participant_lock
+from irl_core.studies.study import load_study
 with participant_lock(load_study(sys.argv[1]), sys.argv[2], holder="browser session 3f2a"):
     print("held", flush=True)
     time.sleep(600)

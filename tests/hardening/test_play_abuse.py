@@ -40,13 +40,13 @@ from itertools import groupby
 from pathlib import Path
 
 import pytest
-
-from irl_core.demonstrations import Demonstrations, Recording, read_recording
-from careful_tui.screens.play import minimum_size as play_minimum_size
-from irl_core.world import world_from_dict
 from hardening_checks import tiny_filesystem
-from tmux_terminal import SIZE, TIMEOUT_S, Terminal, needs_tmux, terminal
 from play_fixtures import corner_world, corner_world_toml, write_two_episodes
+from tmux_terminal import SIZE, TIMEOUT_S, Terminal, needs_tmux, terminal
+
+from careful_tui.screens.play import minimum_size as play_minimum_size
+from irl_core.recordings.demonstrations import Demonstrations, Recording, read_recording
+from irl_core.worlds.world import world_from_dict
 
 WORLD_TOML = corner_world_toml("abuse")
 # The smallest window play fits in for this world (the gauge's cost and slip columns decide the width).

@@ -42,20 +42,20 @@ from itertools import pairwise
 from pathlib import Path
 
 import pytest
+from play_fixtures import FakeClock, corner_world, write_two_episodes
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-import irl_core.recording_writer
-from irl_core.play.hold import HoldProfile
-from careful_tui.keys.kitty import KeyRelease, KittyParser
+import irl_core.recordings.writer
 from careful_tui.app import CarefulApp, make_play_app, make_replay_app
+from careful_tui.keys.kitty import KeyRelease, KittyParser
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.play import minimum_size
-from irl_core.demonstrations import Recording, read_recording
-from irl_core.recording_lines import SessionHeader
-from irl_core.recording_writer import SessionRecorder
-from irl_core.game import Game, MoveResult
-from play_fixtures import FakeClock, corner_world, write_two_episodes
+from irl_core.play.game import Game, MoveResult
+from irl_core.play.hold import HoldProfile
+from irl_core.recordings.demonstrations import Recording, read_recording
+from irl_core.recordings.lines import SessionHeader
+from irl_core.recordings.writer import SessionRecorder
 
 WORLD = corner_world("abuse")
 PROFILE = HoldProfile(levels=14)
@@ -458,7 +458,7 @@ def test_two_games_in_the_same_second_write_two_files(tmp_path: Path, monkeypatc
         def now(cls, tz=None):
             return instant
 
-    monkeypatch.setattr(irl_core.recording_writer, "datetime", Frozen)
+    monkeypatch.setattr(irl_core.recordings.writer, "datetime", Frozen)
     one, one_clock, one_moves = new_app(tmp_path)
     two, two_clock, two_moves = new_app(tmp_path)
 

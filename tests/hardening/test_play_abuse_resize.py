@@ -14,11 +14,12 @@ from __future__ import annotations
 import asyncio
 import io
 import re
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 from rich.console import Console
+from test_play_abuse import write_replay_recording
 from textual import events
 from textual.driver import Driver
 from textual.geometry import Size
@@ -27,9 +28,8 @@ from textual.pilot import Pilot
 from careful_tui.app import CarefulApp, make_fit_app, make_play_app, make_replay_app
 from careful_tui.cli import build_parser
 from careful_tui.commands.fit import fit_from_args
-from irl_core.demonstrations import read_recording
-from irl_core.world import World
-from test_play_abuse import write_replay_recording
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.worlds.world import World
 
 SIZE = (100, 35)
 WORLD = World(name="abuse", layout="......\n......\n......\n.CCCCG\n", levels=14, slip="none", start=(0, 0),

@@ -16,14 +16,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
-
 from hardening_checks import RAW_CONTROL, fill, tiny_filesystem
-from irl_core.demonstrations import read_recording
-from irl_core.recording_lines import SessionHeader
-from irl_core.recording_writer import RecordingWriter, SessionRecorder
-from irl_core.game import Game
-from irl_core.world import World
 from tmux_terminal import needs_tmux, terminal
+
+from irl_core.play.game import Game
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.lines import SessionHeader
+from irl_core.recordings.writer import RecordingWriter, SessionRecorder
+from irl_core.worlds.world import World
 
 WALK = World(name="walk", layout="....\n.CCG\n", levels=3, slip="none", start=(0, 0), rewards={"C": -100.0, "G": 10.0})
 WORLD_TOML = 'name = "walk"\nlayout = """\n....\n.CCG\n"""\nlevels = 3\nslip = "none"\nstart = [0, 0]\n'

@@ -14,15 +14,15 @@ import time
 from pathlib import Path
 
 import pytest
-
 from hardening_checks import recording
-from irl_core.simulated_study import simulated_participants, write_simulated_participant
-from irl_core.study import load_study
+
+from irl_core.studies.simulated import simulated_participants, write_simulated_participant
+from irl_core.studies.study import load_study
 
 # The parent: a pool of 2 workers, each call sleeping far longer than the test waits.
 POOL_SCRIPT = """
 import sys, time
-from irl_core.pool import run_in_pool
+from irl_core.support.pool import run_in_pool
 run_in_pool(time.sleep, [(600,)] * 4, workers=2, on_result=lambda i, r: None)
 """
 

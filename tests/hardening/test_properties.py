@@ -10,18 +10,18 @@ The examples are derandomized, so every run (and CI) tries the same ones.
 from __future__ import annotations
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from irl_core.demonstrations import Demonstrations, RecordingError, read_recording
-from irl_core.recording_lines import SessionHeader
-from irl_core.recording_writer import RecordingWriter
-from irl_core.mdp import build_mdp
-from irl_core.world import World, WorldError, load_world, world_from_dict
+from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recordings.lines import SessionHeader
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import World, WorldError, load_world, world_from_dict
 
 CORPUS = Path(__file__).parents[1] / "corpus"
 HEADER, *BODY = (json.loads(line) for line in (CORPUS / "recordings" / "valid.jsonl").read_text().splitlines())
@@ -174,7 +174,7 @@ def check_world_accepted(world: World, folder: Path) -> None:
     assert mdp.P.shape == (mdp.n_states * mdp.n_actions, mdp.n_states)
     path = write(folder, "round-trip.toml", world.to_toml().encode())
     assert load_world(path) == world
-    header = SessionHeader(world=world, player="p", created=datetime(2026, 1, 1, tzinfo=timezone.utc))
+    header = SessionHeader(world=world, player="p", created=datetime(2026, 1, 1, tzinfo=UTC))
     recording = folder / "round-trip.jsonl"
     recording.unlink(missing_ok=True)
     RecordingWriter(recording, header).close()

@@ -17,12 +17,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
-
 from hardening_checks import RAW_CONTROL, assert_refused, careful, careful_process, digest
-from irl_core.demonstrations import read_recording
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import to_json_line
-from irl_core.world import World
+
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import to_json_line
+from irl_core.worlds.world import World
 
 # Start top-left, no slip: right, right, down reaches the goal; right, down falls off the cliff.
 WALK = World(name="walk", layout="...\n.CG\n", levels=3, slip="none", start=(0, 0), rewards={"C": -100.0, "G": 10.0})
@@ -189,7 +189,7 @@ def test_worlds_show_of_a_100k_character_name_is_quick(tmp_path):
 
 
 def test_reading_reports_progress_in_bytes(tmp_path):
-    from irl_core.demonstrations import read_recordings
+    from irl_core.recordings.demonstrations import read_recordings
 
     objects = walk_lines()
     objects += [dict(obj, episode=obj["episode"] + 2 * k) for k in range(1, 3000) for obj in objects[1:]]

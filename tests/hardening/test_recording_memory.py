@@ -1,4 +1,4 @@
-"""A recording's episode ends are stored as columns (`irl_core.end_table`), so memory follows the file's size.
+"""A recording's episode ends are stored as columns (`irl_core.recordings.end_table`), so memory follows the file's size.
 
 Before, each end was a pydantic object of about 600 bytes: a recording of a million one-step
 episodes (365 MB) peaked at 1,349 MB when read (3.7x; 4.4x in a command), and a 943 MB one
@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import tracemalloc
 
-from irl_core.demonstrations import read_recording
-from irl_core.experts import optimal_policy, rollouts, write_rollouts
-from irl_core.mdp import build_mdp
-from irl_core.recording_lines import EpisodeEnd
-from irl_core.end_table import EndTable
-from irl_core.world import World
+from irl_core.players.experts import optimal_policy, rollouts, write_rollouts
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.end_table import EndTable
+from irl_core.recordings.lines import EpisodeEnd
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import World
 
 ONE_STEP = World(name="one", layout="....\n.CCG\n", levels=3, max_steps=1, rewards={"C": -100.0, "G": 10.0})
 

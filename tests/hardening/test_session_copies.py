@@ -11,10 +11,10 @@ import shutil
 from pathlib import Path
 
 import pytest
-
 from hardening_checks import careful
-from irl_core.simulated_study import simulated_participants, write_simulated_participant
-from irl_core.study import load_study, read_participant, read_protocol
+
+from irl_core.studies.simulated import simulated_participants, write_simulated_participant
+from irl_core.studies.study import load_study, read_participant, read_protocol
 
 
 @pytest.fixture

@@ -13,14 +13,14 @@ import json
 from pathlib import Path
 
 import pytest
-
-from careful_tui.screens.fit import default_svg_name
-from careful_tui.app import make_play_app, make_replay_app
 from hardening_checks import RAW_CONTROL, assert_refused, careful, digest, recording
-from irl_core.demonstrations import read_recording
-from irl_core.safe_text import MESSAGE_LIMIT, cut, one_line, printable
-from irl_core.world import World
 from tmux_terminal import needs_tmux, terminal
+
+from careful_tui.app import make_play_app, make_replay_app
+from careful_tui.screens.fit import default_svg_name
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.support.safe_text import MESSAGE_LIMIT, cut, one_line, printable
+from irl_core.worlds.world import World
 
 RETITLE, CLEAR = "\x1b]2;pwned\x07", "\x1b[2J"
 EVIL = f"{RETITLE}[/][link=file:///etc/passwd]y{CLEAR}"
@@ -168,10 +168,10 @@ def test_player_names_that_are_not_utf8_are_refused_before_anything_is_written(t
 
 
 def test_the_fit_view_shows_a_hostile_world_name_as_text_and_saves_beside_it(tmp_path, monkeypatch):
-    from irl_core.irl import FitOptions
     from careful_tui.app import CarefulApp
     from careful_tui.screens.fit import FitScreen
-    from irl_core.demonstrations import Demonstrations
+    from irl_core.irl import FitOptions
+    from irl_core.recordings.demonstrations import Demonstrations
 
     path = evil_recording(tmp_path)
     monkeypatch.chdir(tmp_path)

@@ -1,4 +1,4 @@
-"""The newer commands' text goes through one path too (`irl_core.safe_text`): printable, and literal in markup.
+"""The newer commands' text goes through one path too (`irl_core.support.safe_text`): printable, and literal in markup.
 
 Before: a recording's `input.mode` reached replay's hold line raw (an OSC sequence retitled the
 terminal); terminal symbols `[` and `]` crashed replay's summary panel with a MarkupError;
@@ -11,18 +11,17 @@ from __future__ import annotations
 import asyncio
 import json
 import re
-from pathlib import Path
 
 import pytest
+from hardening_checks import RAW_CONTROL, careful, recording
 from rich.markup import render
 
 from careful_tui.app import make_replay_app
-from hardening_checks import RAW_CONTROL, careful, recording
-from irl_core.demonstrations import read_recording
-from irl_core.experts import optimal_policy, rollouts, write_rollouts
-from irl_core.mdp import build_mdp
-from irl_core.safe_text import for_markup, is_unsafe
-from irl_core.world import World, load_world
+from irl_core.players.experts import optimal_policy, rollouts, write_rollouts
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.support.safe_text import for_markup, is_unsafe
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import World, load_world
 
 RETITLE = "\x1b]2;pwned\x07"
 BIDI = re.compile("[\u202a-\u202e\u2066-\u2069]")

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from irl_core.experts import rollouts
 from irl_core.irl.evaluation import evaluate, policy_ends
-from irl_core.mdp import action_index, build_mdp
-from irl_core.planning import one_hot, value_iteration
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.players.experts import rollouts
+from irl_core.worlds.mdp import action_index, build_mdp
+from irl_core.worlds.planning import one_hot, value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 CORRIDOR = World(name="corridor", layout="C.G\n", levels=2, start=(0, 1), rewards={"C": -100.0, "G": 10.0})
 

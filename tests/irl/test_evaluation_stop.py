@@ -7,16 +7,16 @@ import sys
 
 import numpy as np
 import pytest
+from planning_sweeps import count_sweeps
 
 from bench.worlds import cliff_world
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import Stopped, evaluation, fit
 from irl_core.irl.evaluation import evaluate, policy_ends
-from irl_core.mdp import build_mdp
-from irl_core.planning import value_iteration
-from irl_core.stopping import stop_when
-from irl_core.world import BUILTIN_WORLDS
-from planning_sweeps import count_sweeps
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.support.stopping import stop_when
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 @pytest.fixture(scope="module")

@@ -1,18 +1,18 @@
 """`careful fit` on simulated recordings: the fit JSON, the printout and the errors."""
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import pytest
 
 import careful_tui.commands.fit as fit_command
 from careful_tui.cli import main
-from irl_core.recording_lines import SessionHeader, Step
-from irl_core.recording_writer import RecordingWriter
-from irl_core.experts import optimal_policy, rollouts, write_rollouts
 from irl_core.irl import SolverError
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.players.experts import optimal_policy, rollouts, write_rollouts
+from irl_core.recordings.lines import SessionHeader, Step
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 WALLED = World(name="walled", layout="..#.\n....\n.C.G\n", levels=3, rewards={"C": -100.0, "G": 10.0})
 
@@ -25,7 +25,7 @@ def simulate(path, world, episodes=30, seed=0):
 
 
 def header(world):
-    return SessionHeader(world=world, player="tester", created=datetime(2000, 1, 1, tzinfo=timezone.utc), seed=0)
+    return SessionHeader(world=world, player="tester", created=datetime(2000, 1, 1, tzinfo=UTC), seed=0)
 
 
 def run(capsys, *argv):

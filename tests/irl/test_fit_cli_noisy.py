@@ -1,17 +1,17 @@
 """`careful fit` on a person's kind of recording: auto, confidence intervals, evaluation, bad input."""
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 import pytest
 
 from careful_tui.cli import main
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import RecordingWriter
-from irl_core.experts import optimal_policy
-from irl_core.mdp import DIRECTIONS, build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import optimal_policy
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.mdp import DIRECTIONS, build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def person_like(path, *, episodes=12, seed=0):
@@ -20,7 +20,7 @@ def person_like(path, *, episodes=12, seed=0):
     mdp = build_mdp(world)
     best = optimal_policy(mdp).argmax(axis=1)
     rng = np.random.default_rng(seed)
-    header = SessionHeader(world=world, player="person", created=datetime(2000, 1, 1, tzinfo=timezone.utc), seed=seed)
+    header = SessionHeader(world=world, player="person", created=datetime(2000, 1, 1, tzinfo=UTC), seed=seed)
     starts = [mdp.state_of[cell] for cell in world.start_cells]
     with RecordingWriter(path, header) as writer:
         for episode in range(episodes):

@@ -11,15 +11,14 @@ import pytest
 from careful_tui.cli import build_parser
 from careful_tui.option_words import FLAGS, said
 from careful_tui.screens.fit import FitScreen
-from irl_core import fit_methods
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
-from irl_core.irl import FitOptions, InfeasibleError, Note, SolverError, fit
+from irl_core.irl import FitOptions, InfeasibleError, Note, SolverError, fit, fit_methods
 from irl_core.irl.bootstrap import REFITS, Refit
 from irl_core.irl.fit import FITTERS
 from irl_core.irl.notes import CODES
 from irl_core.irl.qmap import build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "fit-json.md"
 

@@ -11,15 +11,15 @@ import pytest
 import scipy.sparse as sp
 
 from bench.worlds import cliff_world
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts, write_rollouts
 from irl_core.irl import InfeasibleError, SolverError, Stopped, fit
 from irl_core.irl import highs as highs_module
 from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program
 from irl_core.irl.margin import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.stopping import stop_when
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts, write_rollouts
+from irl_core.support.stopping import stop_when
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def one_variable(row_lower, row_upper, *, lower=-np.inf, upper=np.inf, cost=-1.0):
@@ -65,7 +65,7 @@ def test_nan_and_misplaced_infinities_never_reach_highs(bad):
 
 @pytest.fixture(scope="module")
 def mud_demos():
-    from irl_core.experts import demonstrations_of
+    from irl_core.players.experts import demonstrations_of
 
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     return demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=10, seed=0))

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from irl_core.demonstrations import Demonstrations
-from irl_core.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 TOLERANCE = 1e-6
 

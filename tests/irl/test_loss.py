@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from careful_tui.option_words import said
-from irl_core.demonstrations import Demonstrations
-from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.loss import fit_loss
 from irl_core.irl.loss_model import loss_constraints, loss_problem, loss_value, relu_terms
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import action_index, build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.worlds.mdp import action_index, build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def demonstrations(name, policy, episodes, seed):

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 
 from careful_tui.option_words import said
-from irl_core.demonstrations import Demonstrations
-from irl_core.experts import optimal_policy, rollouts
 from irl_core.irl import InfeasibleError, fit
 from irl_core.irl.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import action_index, build_mdp
-from irl_core.planning import value_iteration
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.players.experts import optimal_policy, rollouts
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.worlds.mdp import action_index, build_mdp
+from irl_core.worlds.planning import value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 
 def demonstrations(mdp, counts, episodes=1):

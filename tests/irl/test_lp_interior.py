@@ -17,7 +17,7 @@ from irl_core.irl.highs import INTERIOR, HighsModel
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
+from irl_core.worlds.mdp import build_mdp
 
 RMAX = 1000.0
 

@@ -14,14 +14,14 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from bench.worlds import cliff_world
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import InfeasibleError, fit
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.lp import margin_options, solve_margin_lp
 from irl_core.irl.margin import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 RMAX = 1000.0
 WALLED = World(name="walled", layout="..#..\n.#...\n...#.\n.C.UG\n", levels=4, rewards={"C": -100.0, "U": -5.0, "G": 10.0})

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 import irl_core.irl.lp as lp
-from irl_core.irl.margin import lp_constraints
 from bench.worlds import cliff_world
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.irl.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 RMAX = 1000.0
 

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp, softmax
 
-from irl_core.demonstrations import Demonstrations
-from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.irl import FitOptions, fit, maxent
 from irl_core.irl.maxent import SoftPlan, log_likelihood, log_likelihood_beta, soft_bellman
-from irl_core.mdp import build_mdp
-from irl_core.planning import soft_value_iteration
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import soft_value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 
 def boltzmann_demonstrations(mdp, beta, episodes, seed):

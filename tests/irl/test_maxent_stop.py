@@ -9,18 +9,18 @@ import os
 
 import numpy as np
 import pytest
+from maxent_evaluations import count_evaluations
 
-from irl_core.experts import boltzmann_policy, demonstrations_of, rollouts
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
-from irl_core import pool as pool_module
 from irl_core.irl import Stopped, fit, maxent
 from irl_core.irl.bootstrap import Refit, bootstrap
 from irl_core.irl.qmap import build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.stopping import stop_when
-from irl_core.world import BUILTIN_WORLDS
-from maxent_evaluations import count_evaluations
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
+from irl_core.support import pool as pool_module
+from irl_core.support.stopping import stop_when
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 @pytest.fixture(scope="module")

@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-from irl_core.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, fit
 from irl_core.irl.bootstrap import interval, resample_weights
 from irl_core.irl.maxent import fit_maxent, log_likelihood
 from irl_core.irl.qmap import build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def boltzmann(name, beta, episodes, seed):

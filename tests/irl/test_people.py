@@ -7,8 +7,8 @@ import pytest
 
 from irl_core.irl import maxent
 from irl_core.irl.people import PLAYER_MODELS, Player, level_kernel, log_likelihood, player_model
-from irl_core.mdp import build_mdp
-from irl_core.world import World
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import World
 
 SMALL = World(name="small", layout="...\n.U.\nCUG\n", levels=4, rewards={"C": -50.0, "G": 10.0, "U": -3.0})
 

@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import fit
 from irl_core.irl.fit_check import fit_check, terminal_distance
 from irl_core.irl.people import choose_player_model, fit_player, log_likelihood
+from irl_core.irl.player_models import PLAYER_MODELS, Player
 from irl_core.irl.qmap import build_unknowns
 from irl_core.irl.result import InfeasibleError
-from irl_core.mdp import build_mdp
-from irl_core.person_like import person_like
-from irl_core.player_models import PLAYER_MODELS, Player
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.players.person_like import person_like
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def _played(kind: str, *, episodes: int = 30, seed: int = 0, world: str = "mud"):

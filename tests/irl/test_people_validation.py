@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from irl_core.play.hold import HoldProfile
-from irl_core.experts import Rollouts, optimal_plan, rollouts
-from irl_core.mdp import build_mdp
-from irl_core.person_like import KINDS, intended_hold_ms, level_of_hold, person_like
-from irl_core.summary import distance_to_terminal
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.players.experts import Rollouts, optimal_plan, rollouts
+from irl_core.players.person_like import KINDS, intended_hold_ms, level_of_hold, person_like
+from irl_core.recordings.summary import distance_to_terminal
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 WORLDS = ("mud", "walls")
 EPISODES = 1500
@@ -153,8 +153,8 @@ def test_a_player_that_cannot_be_made_is_refused_with_a_reason(kind, parameters,
 
 
 def test_a_person_like_study_has_its_participants_and_one_reckless_one_last(tmp_path):
-    from irl_core.simulated_study import write_person_like_study
-    from irl_core.study import load_study, read_participant
+    from irl_core.studies.simulated import write_person_like_study
+    from irl_core.studies.study import load_study, read_participant
 
     study = load_study(write_person_like_study(tmp_path / "s", participants=4, episodes=6))
     assert [world.name for world in study.worlds] == ["mud", "walls"]

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from irl_core.irl.qmap import build_qmap, build_unknowns
-from irl_core.mdp import build_mdp
-from irl_core.planning import value_iteration
-from irl_core.world import BUILTIN_WORLDS, World
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.planning import value_iteration
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 
 @pytest.fixture(scope="module")

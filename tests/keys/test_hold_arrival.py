@@ -8,10 +8,10 @@ detector is handed each event's own time (`at`), so the stall changes nothing it
 from __future__ import annotations
 
 import pytest
+from play_fixtures import FakeClock
 
 from irl_core.play.hold import Hold, HoldDetector, HoldProfile
 from irl_core.play.modes import TapCounter
-from play_fixtures import FakeClock
 
 PROFILE = HoldProfile()
 PERIOD = 0.033

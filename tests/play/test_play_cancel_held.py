@@ -7,12 +7,12 @@ from __future__ import annotations
 import asyncio
 from pathlib import Path
 
+from play_fixtures import FakeClock, corner_world
 from textual.pilot import Pilot
 
 from careful_tui.app import CarefulApp, make_play_app
 from careful_tui.screens.play import PlayScreen
-from irl_core.demonstrations import read_recording
-from play_fixtures import FakeClock, corner_world
+from irl_core.recordings.demonstrations import read_recording
 
 SIZE, SMALL = (100, 35), (40, 12)
 PERIOD = 0.033

@@ -13,15 +13,15 @@ import time
 from pathlib import Path
 
 import pytest
+from play_fixtures import FakeClock, corner_world
 from textual import events
 from textual.pilot import Pilot
 
 from careful_tui.app import CarefulApp, new_play_screen
-from irl_core.play.hold import HoldProfile
 from careful_tui.screens.play import PlayScreen
-from irl_core.demonstrations import read_recording
-from irl_core.recording_lines import Step
-from play_fixtures import FakeClock, corner_world
+from irl_core.play.hold import HoldProfile
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.lines import Step
 
 PROFILE = HoldProfile(levels=14)
 PERIOD = 0.033

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
 
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step, StudyTag
-from irl_core.recording_writer import RecordingWriter
-from irl_core.study import LoadedStudy, load_study
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step, StudyTag
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.studies.study import LoadedStudy, load_study
 
 STUDY_TOML = """\
 name = "pilot"
@@ -43,7 +43,7 @@ def write_block(study: LoadedStudy, participant: str, world_index: int, phase: s
     folder = study.participant_folder(participant)
     folder.mkdir(parents=True, exist_ok=True)
     header = SessionHeader(world=study.worlds[world_index], player=participant,
-                           created=datetime(2026, 1, 1, tzinfo=timezone.utc), input={"mode": "digits"},
+                           created=datetime(2026, 1, 1, tzinfo=UTC), input={"mode": "digits"},
                            study=StudyTag(name=study.study.name, participant=participant, phase=phase,
                                           world_index=world_index))
     # From (2, 1) down into the cliff at (3, 1): one step, then the episode ends in C.

@@ -1,21 +1,21 @@
 """The ``study`` header field: optional, written when given, and checked like every other field."""
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import pytest
 
-from irl_core.demonstrations import RecordingError, read_recording
-from irl_core.recording_lines import SessionHeader, StudyTag
-from irl_core.recording_writer import RecordingWriter
-from irl_core.world import BUILTIN_WORLDS
+from irl_core.recordings.demonstrations import RecordingError, read_recording
+from irl_core.recordings.lines import SessionHeader, StudyTag
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 TAG = {"name": "pilot", "participant": "p7", "phase": "main", "world_index": 1}
 
 
 def header(**fields):
     return SessionHeader(world=BUILTIN_WORLDS["paper"], player="p7",
-                         created=datetime(2026, 1, 1, tzinfo=timezone.utc), **fields)
+                         created=datetime(2026, 1, 1, tzinfo=UTC), **fields)
 
 
 def test_a_study_header_is_written_and_read_back(tmp_path):
@@ -52,9 +52,10 @@ def test_a_bad_study_field_is_named_with_file_and_line(tmp_path, change, field, 
 
 
 def test_export_adds_the_study_columns_from_a_real_study_header(tmp_path):
-    from irl_core.export import CSV_COLUMNS, STUDY_COLUMNS, csv_columns, csv_rows
-    from irl_core.study import load_study
     from study.conftest import write_block, write_study
+
+    from irl_core.recordings.export import CSV_COLUMNS, STUDY_COLUMNS, csv_columns, csv_rows
+    from irl_core.studies.study import load_study
 
     study = load_study(write_study(tmp_path))
     path = write_block(study, "p7", 1, "main", name="a.jsonl", finished=2)

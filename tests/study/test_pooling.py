@@ -10,16 +10,16 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 from rich.console import Console
+from study.conftest import write_block, write_study
 
 from careful_tui.cli import main
 from careful_tui.commands.study_report import INFLUENTIAL_MARK, influence_legend, report_table
-from irl_core.experts import boltzmann_policy, optimal_policy, rollouts, session_header, write_rollouts
 from irl_core.irl.bootstrap import bootstrap, two_level_weights
-from irl_core.mdp import build_mdp
-from irl_core.recording_lines import StudyTag
-from irl_core.study import load_study
-from irl_core.study_report import POOLED, CellFit, gather, pooled_finding, report_rows, with_influence
-from study.conftest import write_block, write_study
+from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts, session_header, write_rollouts
+from irl_core.recordings.lines import StudyTag
+from irl_core.studies.report import POOLED, CellFit, gather, pooled_finding, report_rows, with_influence
+from irl_core.studies.study import load_study
+from irl_core.worlds.mdp import build_mdp
 
 
 def test_two_level_weights_draw_participants_then_episodes_within_each():

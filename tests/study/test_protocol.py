@@ -7,12 +7,12 @@ Participant p01's order is [1, 0] (mud first): sha256("p01:1") is even, so Fishe
 import hashlib
 
 import pytest
+from study.conftest import write_block
 
 from careful_tui.commands.replay import name_order
-from irl_core.demonstrations import read_recording
-from irl_core.simulated_study import SimulatedParticipant, write_simulated_participant
-from irl_core.study import Study, read_protocol, world_order
-from study.conftest import write_block
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.studies.simulated import SimulatedParticipant, write_simulated_participant
+from irl_core.studies.study import Study, read_protocol, world_order
 
 
 def blocks(protocol):
@@ -94,8 +94,9 @@ def test_files_that_are_not_this_participants_are_named_and_not_counted(study):
 
 
 def test_fixed_order_follows_the_file(tmp_path):
-    from irl_core.study import load_study
     from study.conftest import write_study
+
+    from irl_core.studies.study import load_study
 
     study = load_study(write_study(tmp_path, order="fixed", practice=0, episodes=2))
     protocol = read_protocol(study, "p01")
@@ -127,7 +128,7 @@ def test_a_file_cut_mid_line_by_a_crash_is_counted_and_not_called_left_out(study
 @pytest.mark.parametrize("bad", ["", "../x", "..", ".hidden", "a/b", "a b", "report", "Report", "pooled", "Pooled",
                                  "x" * 81, "é"])
 def test_participant_ids_that_cannot_be_folders_are_refused(study, bad):
-    from irl_core.study import StudyError
+    from irl_core.studies.study import StudyError
 
     with pytest.raises(StudyError, match="participant id"):
         read_protocol(study, bad)

@@ -8,15 +8,15 @@ import json
 import numpy as np
 import pytest
 from rich.console import Console
+from study.conftest import write_block, write_study
 
 from careful_tui.cli import main
-from careful_tui.render.session import outcome_words
 from careful_tui.commands.study_report import outcomes_text, report_table
+from careful_tui.render.session import outcome_words
 from irl_core.irl import Note
-from irl_core.simulated_study import simulated_participants, write_simulated_participant
-from irl_core.study import load_study
-from irl_core.study_report import POOLED, CellFit, fit_cell, gather, report_options, run_fits
-from study.conftest import write_block, write_study
+from irl_core.studies.report import POOLED, CellFit, fit_cell, gather, report_options, run_fits
+from irl_core.studies.simulated import simulated_participants, write_simulated_participant
+from irl_core.studies.study import load_study
 
 PARTICIPANTS = simulated_participants(3, betas=(0.3, 1.5))
 
@@ -144,7 +144,7 @@ def _stand_in_fit(cell, options, *, stop=None):
     worker's process): the biggest cell (sent first) takes 0.1 s, the others 2 s."""
     import time
 
-    from irl_core.stopping import Stopped
+    from irl_core.support.stopping import Stopped
 
     for _ in range(10 if cell.steps == 11 else 200):
         if stop is not None and stop():
@@ -161,7 +161,7 @@ def test_ctrl_c_during_the_fits_stops_the_running_ones_and_drops_the_rest(tmp_pa
     its end while the user waits (a 26-fit report went on for 24 s)."""
     from types import SimpleNamespace
 
-    from irl_core import study_report
+    from irl_core.studies import report as study_report
 
     marks = tmp_path / "marks"
     monkeypatch.setattr(study_report, "fit_cell", _stand_in_fit)
@@ -191,7 +191,7 @@ def test_the_figures_show_each_participant_the_pool_and_the_truth(study_path):
     """Figures drawn from given fits (no fitting): which panels there are, and what the cells hold."""
     from careful_tui.render.figures.study_figures import report_figures
     from careful_tui.render.figures.style import plain
-    from irl_core.study_report import CellFit
+    from irl_core.studies.report import CellFit
 
     data = gather(load_study(study_path))
     fits = []
@@ -240,7 +240,7 @@ def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
     not converged) reach the user: once each on stdout with the rows they apply to, and in the
     CSV's note column; the beta estimate the table shows already is not repeated."""
     from careful_tui.commands.study_report import fit_notes
-    from irl_core.study_report import report_rows
+    from irl_core.studies.report import report_rows
 
     for participant in ("p1", "p2"):
         write_block(study, participant, 0, "main", name="a.jsonl", finished=2)

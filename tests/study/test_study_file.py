@@ -1,12 +1,11 @@
 """The study file: what it holds, one-line errors naming file and field, and the shuffled order."""
 
 import hashlib
-from pathlib import Path
 
 import pytest
-
-from irl_core.study import Study, StudyError, load_study, world_order
 from study.conftest import write_study
+
+from irl_core.studies.study import Study, StudyError, load_study, world_order
 
 
 def test_a_study_file_reads_with_worlds_relative_to_it(tmp_path):

@@ -10,7 +10,9 @@ from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
+from play_fixtures import FakeClock
 from rich.console import Console
+from study.study_run_files import RIGHT, write_study
 from textual.pilot import Pilot
 from textual.widgets import Static
 
@@ -19,10 +21,8 @@ from careful_tui.cli import main
 from careful_tui.screens.play import PlayScreen
 from careful_tui.screens.study import StudyScreen
 from careful_tui.widgets.too_small import TooSmall
-from irl_core.demonstrations import read_recording
-from irl_core.study import load_study, read_protocol
-from study.study_run_files import RIGHT, write_study
-from play_fixtures import FakeClock
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.studies.study import load_study, read_protocol
 
 ENDING_MOVE = {"right": "right", "left": "left"}
 

@@ -9,10 +9,11 @@ import os
 import signal
 from pathlib import Path
 
-from irl_core.demonstrations import read_recording
-from irl_core.study import load_study, read_protocol
-from tmux_terminal import Terminal, needs_tmux, terminal
 from study.study_run_files import write_study
+from tmux_terminal import Terminal, needs_tmux, terminal
+
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.studies.study import load_study, read_protocol
 
 pytestmark = needs_tmux
 

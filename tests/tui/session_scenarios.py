@@ -114,7 +114,7 @@ def write_mode_study(folder: Path, mode: str) -> Path:
 @contextmanager
 def full_disk_switch() -> Iterator[list[bool]]:
     """A switch (`switch[0] = True`) after which writing a step fails as on a full disk."""
-    from irl_core.recording_writer import RecordingWriter
+    from irl_core.recordings.writer import RecordingWriter
 
     switch = [False]
     write_step = RecordingWriter.write_step
@@ -145,9 +145,10 @@ def installed_version() -> str:
 
 def run_headless(study_path: Path, script: Script, participant: str = "p01") -> list[list[str]]:
     """Play `script` on the session with no front end; the files each run wrote, in order."""
-    from irl_core.play.study_flow import StudyFlow
-    from irl_core.study import load_study
     from play_fixtures import FakeClock
+
+    from irl_core.studies.flow import StudyFlow
+    from irl_core.studies.study import load_study
 
     written: list[list[str]] = []
     for run in script:

@@ -5,11 +5,12 @@ from __future__ import annotations
 import asyncio
 from pathlib import Path
 
-from careful_tui.screens.calibration import CalibrationScreen
-from careful_tui.screens.play import minimum_size
 from play_fixtures import FakeClock, corner_world
 from test_calibration_stall import calibrating_app, stamped_key
 from test_play_redraw import visible
+
+from careful_tui.screens.calibration import CalibrationScreen
+from careful_tui.screens.play import minimum_size
 
 
 def holding_box(tmp_path: Path, size: tuple[int, int]) -> tuple[list[str], bool]:

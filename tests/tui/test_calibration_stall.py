@@ -24,14 +24,14 @@ from itertools import groupby
 from pathlib import Path
 
 import pytest
+from play_fixtures import FakeClock, corner_world
+from test_play_redraw import visible
 from textual import events
 from textual.pilot import Pilot
 
 from careful_tui.app import CarefulApp, new_play_screen
 from careful_tui.screens.calibration import CalibrationScreen
 from irl_core.play.calibration import SILENCE_S
-from play_fixtures import FakeClock, corner_world
-from test_play_redraw import visible
 
 DELAY = 0.5
 PERIOD = 0.033

@@ -7,9 +7,8 @@ import re
 from pathlib import Path
 
 import pytest
-
-from tmux_terminal import needs_tmux, terminal
 from test_play_tmux import WORLD, finished_recording
+from tmux_terminal import needs_tmux, terminal
 
 pytestmark = needs_tmux
 

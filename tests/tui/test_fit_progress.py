@@ -5,18 +5,19 @@ from __future__ import annotations
 import asyncio
 import threading
 
+from fit_view_fits import close_the_view_when, watch_view_fits
+from maxent_evaluations import count_evaluations
+
 import careful_tui.screens.fit
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
 from careful_tui.app import CarefulApp
 from careful_tui.render.fit_printout import progress_phrase
 from careful_tui.screens.fit import FitScreen
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.irl import FitOptions, Stopped, fit
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
-from fit_view_fits import close_the_view_when, watch_view_fits
-from maxent_evaluations import count_evaluations
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def test_progress_phrases():

@@ -20,8 +20,8 @@ from careful_tui.render.grid import format_value
 from careful_tui.render.intervals import interval_span
 from careful_tui.screens.fit import board_width
 from careful_tui.widgets import Board, KeyBar
-from irl_core.demonstrations import Demonstrations
 from irl_core.irl import fit
+from irl_core.recordings.demonstrations import Demonstrations
 
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 

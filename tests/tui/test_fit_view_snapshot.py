@@ -12,9 +12,9 @@ import io
 import pytest
 from rich.console import Console
 
+from careful_tui.app import make_fit_app
 from careful_tui.cli import build_parser, main
 from careful_tui.commands.fit import fit_from_args
-from careful_tui.app import make_fit_app
 
 
 @pytest.fixture(scope="module")

@@ -7,14 +7,15 @@ from __future__ import annotations
 import sys
 import threading
 
-from careful_tui.app import CarefulApp
-from careful_tui.screens.fit import FitScreen
-from irl_core.experts import demonstrations_of, optimal_policy, rollouts
-from irl_core.irl import FitOptions
-from irl_core.mdp import build_mdp
-from irl_core.world import BUILTIN_WORLDS
 from fit_view_fits import close_the_view_when, watch_view_fits
 from planning_sweeps import count_sweeps
+
+from careful_tui.app import CarefulApp
+from careful_tui.screens.fit import FitScreen
+from irl_core.irl import FitOptions
+from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
 
 
 def test_closing_the_view_during_the_evaluation_ends_the_fit(monkeypatch):

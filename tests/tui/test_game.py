@@ -2,18 +2,18 @@
 
 from __future__ import annotations
 
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from irl_core.demonstrations import read_recording
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import SessionRecorder, check_writable
-from irl_core.game import Game, GameOver
-from irl_core.mdp import DIRECTIONS, OFFSETS
-from irl_core.world import World, load_world
+from irl_core.play.game import Game, GameOver
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import SessionRecorder, check_writable
+from irl_core.worlds.mdp import DIRECTIONS, OFFSETS
+from irl_core.worlds.world import World, load_world
 
 TINY = World(
     name="tiny",
@@ -38,7 +38,7 @@ class ListSink:
 
 
 def header(world: World, **changes) -> SessionHeader:
-    return SessionHeader(world=world, player="tester", created=datetime(2024, 1, 1, tzinfo=timezone.utc),
+    return SessionHeader(world=world, player="tester", created=datetime(2024, 1, 1, tzinfo=UTC),
                          seed=0, **changes)
 
 

@@ -7,12 +7,12 @@ import math
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from play_fixtures import FakeClock
 
 from irl_core.play.calibration import Calibration
 from irl_core.play.hold import ActiveHold, Hold, HoldDetector, HoldProfile
 from irl_core.play.input_modes import make_input
 from irl_core.play.modes import DigitsInput, TapCounter
-from play_fixtures import FakeClock
 
 
 def repeat_times(length_s: float, *, delay_s: float, period_s: float) -> list[float]:

@@ -7,12 +7,12 @@ from __future__ import annotations
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from play_fixtures import FakeClock
+from test_hold import repeat_times, run_hold
 
 from irl_core.play.calibration import Calibration
 from irl_core.play.hold import HoldDetector, HoldProfile
 from irl_core.play.modes import TapCounter
-from play_fixtures import FakeClock
-from test_hold import repeat_times, run_hold
 
 
 def calibrated(delay_s: float, period_s: float, *, gaps_s: list[float] | None = None) -> HoldProfile:

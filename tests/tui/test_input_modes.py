@@ -11,7 +11,7 @@ from careful_tui.cli import build_parser
 from careful_tui.screens.play import PlayScreen
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES, input_mode
 from irl_core.play.session import PlayOptions
-from irl_core.study import Study
+from irl_core.studies.study import Study
 
 
 def test_the_study_file_takes_exactly_the_registered_modes() -> None:

@@ -104,7 +104,7 @@ def test_the_cycle_finder_finds_a_cycle():
 
 def test_no_import_cycle_among_the_projects_modules():
     graph = import_graph()
-    assert "careful_tui.screens.play" in graph and "irl_core.mdp" in graph["irl_core.game"]
+    assert "careful_tui.screens.play" in graph and "irl_core.worlds.mdp" in graph["irl_core.play.game"]
     assert find_cycle(graph) is None
 
 
@@ -137,8 +137,8 @@ FRONT_ENDS = ("textual", "rich", "careful_tui")
 def test_the_play_session_and_the_rest_of_the_core_import_no_front_end():
     modules = project_modules()
     core = {module: path for module, path in modules.items() if layer(module) == 0}
-    assert {"irl_core.play.session", "irl_core.play.study_flow", "irl_core.play.input_modes",
-            "irl_core.play.hold", "irl_core.play.calibration", "irl_core.replay_cursor"} <= core.keys()
+    assert {"irl_core.play.session", "irl_core.studies.flow", "irl_core.play.input_modes",
+            "irl_core.play.hold", "irl_core.play.calibration", "irl_core.recordings.replay_cursor"} <= core.keys()
     front_end_users = sorted(
         f"{module} imports {name}" for module, path in core.items()
         for name in imported_names(path, module) if name.split(".")[0] in FRONT_ENDS
@@ -157,3 +157,44 @@ def test_only_the_kitty_module_touches_textuals_private_api():
 def test_the_kitty_module_was_written_for_the_installed_textual():
     # Its private-API list must be re-read against a new Textual before the pin moves.
     assert textual.__version__ == WRITTEN_FOR_TEXTUAL
+
+
+# irl_core's wings, lowest first: a module may import its own wing and those before it.
+WINGS = ("support", "worlds", "recordings", "play", "players", "irl", "experiment", "studies")
+
+
+def wing(module: str) -> int | None:
+    parts = module.split(".")
+    return WINGS.index(parts[1]) if parts[0] == "irl_core" and len(parts) > 1 and parts[1] in WINGS else None
+
+
+def test_irl_core_holds_only_its_wings():
+    loose = sorted(module for module in project_modules() if module.startswith("irl_core.") and wing(module) is None)
+    assert loose == []
+    assert {path.name for path in (ROOT / "irl_core").iterdir() if path.is_dir() and path.name != "__pycache__"} == set(WINGS)
+
+
+def test_irl_core_imports_run_down_its_wings():
+    upward = sorted(
+        f"{module} imports {target}"
+        for module, targets in import_graph().items()
+        for target in targets
+        if wing(module) is not None and wing(target) is not None and wing(target) > wing(module)
+    )
+    assert upward == []
+    # The check can fail: a studies module importing the worlds wing is downward, the reverse is not.
+    assert wing("irl_core.studies.report") > wing("irl_core.worlds.mdp")
+
+
+def test_the_layout_page_lists_every_module_of_every_wing():
+    import re
+
+    page = (ROOT / "docs" / "layout.md").read_text(encoding="utf-8")
+    rows = {row.split("|")[1].strip(" `/"): row.split("|")[2] for row in page.splitlines() if row.startswith("| `")}
+    assert list(rows) == list(WINGS)
+    missing = sorted(
+        module for module in project_modules()
+        if wing(module) is not None and module.count(".") == 2
+        and not re.search(rf"`{module.split('.')[-1]}`", rows[module.split(".")[1]])
+    )
+    assert missing == []

@@ -12,8 +12,9 @@ import sys
 import time
 from pathlib import Path
 
-from irl_core.demonstrations import read_recording
 from tmux_terminal import needs_tmux, terminal
+
+from irl_core.recordings.demonstrations import read_recording
 
 pytestmark = needs_tmux
 

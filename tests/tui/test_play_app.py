@@ -7,6 +7,7 @@ from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
+from play_fixtures import FakeClock
 from textual.pilot import Pilot
 from textual.widgets import Static
 
@@ -15,10 +16,9 @@ from careful_tui.keys.kitty import KittyParser
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.play import minimum_size
 from careful_tui.widgets import Board, Gauge
-from irl_core.demonstrations import Recording, read_recording
 from irl_core.play.hold import HoldProfile
-from irl_core.world import World, load_world
-from play_fixtures import FakeClock
+from irl_core.recordings.demonstrations import Recording, read_recording
+from irl_core.worlds.world import World, load_world
 
 # A deterministic walk: start top-left, the goal is right, right, down; the cliff is right, down.
 WALK = World(

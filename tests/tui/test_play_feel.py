@@ -7,14 +7,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from play_fixtures import FakeClock
+from test_play_app import new_app, run
 from textual.pilot import Pilot
 
 from careful_tui.app import CarefulApp
-from irl_core.demonstrations import read_recording
 from irl_core.play.calibration import Calibration
 from irl_core.play.hold import HoldProfile
-from play_fixtures import FakeClock
-from test_play_app import new_app, run
+from irl_core.recordings.demonstrations import read_recording
 
 SMALL = (40, 12)
 

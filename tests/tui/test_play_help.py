@@ -14,9 +14,9 @@ from careful_tui.app import make_play_app
 from careful_tui.screens.play import minimum_size
 from careful_tui.widgets import Gauge, KeyBar
 from careful_tui.widgets.gauge import format_chance
-from irl_core.game import Game, level_slip_chances
-from irl_core.recording_lines import EpisodeEnd, Step
-from irl_core.world import World, load_world
+from irl_core.play.game import Game, level_slip_chances
+from irl_core.recordings.lines import EpisodeEnd, Step
+from irl_core.worlds.world import World, load_world
 
 NO_SLIP = World(name="flat", layout="...\n.CG\n", levels=3, slip="none", start=(0, 0),
                 rewards={"C": -1000.0, "G": 100.0})

@@ -7,14 +7,14 @@ import os
 from pathlib import Path
 
 import pytest
+from test_play_app import hold, measure_autorepeat, new_app, run
+from test_play_feel import SMALL, calibrated
 from textual.pilot import Pilot
 from textual.widget import Widget
 
 from careful_tui.widgets import Board, Gauge
 from careful_tui.widgets.play_status import GameStatus, HoldInfo
-from irl_core.demonstrations import read_recording
-from test_play_app import hold, measure_autorepeat, new_app, run
-from test_play_feel import SMALL, calibrated
+from irl_core.recordings.demonstrations import read_recording
 
 
 def visible(widget: Widget) -> str:

@@ -7,11 +7,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-from irl_core.demonstrations import read_recording
-from irl_core.play.session import Message, PlayOptions, PlaySession, new_session
-from irl_core.recording_writer import RecordingWriter
 from play_fixtures import FakeClock, corner_world
+
+from irl_core.play.session import Message, PlayOptions, PlaySession, new_session
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.writer import RecordingWriter
 
 
 def session(tmp_path: Path, **options) -> tuple[PlaySession, FakeClock]:

@@ -7,11 +7,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from play_fixtures import FakeClock
 from textual.pilot import Pilot
 
 from careful_tui.app import make_play_app
-from irl_core.world import load_world
-from play_fixtures import FakeClock
+from irl_core.worlds.world import load_world
 
 
 def test_play_screen_mid_hold(snap_compare) -> None:

@@ -5,9 +5,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from irl_core.demonstrations import Recording, read_recording
-from tmux_terminal import needs_tmux, terminal
 from play_fixtures import corner_world_toml
+from tmux_terminal import needs_tmux, terminal
+
+from irl_core.recordings.demonstrations import Recording, read_recording
 
 pytestmark = needs_tmux
 

@@ -17,10 +17,10 @@ from careful_tui.app import CarefulApp, make_replay_app
 from careful_tui.cli import main
 from careful_tui.screens.replay import END_TICKS, minimum_size
 from careful_tui.widgets import Board, Gauge
-from irl_core.demonstrations import read_recording
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import RecordingWriter
-from irl_core.world import World
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.world import World
 
 # Start top-left; the goal is right, right, down; the cliff is right, down.
 WALK = World(name="walk", layout="...\n.CG\n", levels=14, start=(0, 0), rewards={"C": -1000.0, "G": 100.0})

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from irl_core.demonstrations import Recording, read_recording
-from irl_core.recording_lines import EpisodeEnd, Step
-from irl_core.replay_cursor import ReplayCursor, ReplayFiles, group_episodes
-from irl_core.step_table import StepTable
+from irl_core.recordings.demonstrations import Recording, read_recording
+from irl_core.recordings.lines import EpisodeEnd, Step
+from irl_core.recordings.replay_cursor import ReplayCursor, ReplayFiles, group_episodes
+from irl_core.recordings.step_table import StepTable
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 
@@ -145,11 +145,11 @@ def test_a_recorded_session_gives_two_frames_a_step_and_one_an_episode() -> None
 
 
 def test_a_long_recording_is_replayed_without_building_its_steps(tmp_path: Path, monkeypatch) -> None:
-    from irl_core.experts import optimal_policy, rollouts, write_rollouts
-    from irl_core.mdp import build_mdp
-    from irl_core.step_table import StepTable
-    from irl_core.summary import summarise
-    from irl_core.world import BUILTIN_WORLDS
+    from irl_core.players.experts import optimal_policy, rollouts, write_rollouts
+    from irl_core.recordings.step_table import StepTable
+    from irl_core.recordings.summary import summarise
+    from irl_core.worlds.mdp import build_mdp
+    from irl_core.worlds.world import BUILTIN_WORLDS
 
     mdp = build_mdp(BUILTIN_WORLDS["paper"])
     path = write_rollouts(tmp_path / "long.jsonl", mdp, rollouts(mdp, optimal_policy(mdp), episodes=2000, seed=0),

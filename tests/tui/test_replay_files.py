@@ -7,6 +7,7 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
+from test_replay_app import run, text  # the Pilot helpers of the one-file replay tests
 from textual.pilot import Pilot
 from textual.widgets import Static
 
@@ -16,11 +17,10 @@ from careful_tui.cli import main
 from careful_tui.commands.replay import name_order, recording_paths
 from careful_tui.screens.replay import END_TICKS
 from careful_tui.widgets import Board, Gauge, KeyBar
-from irl_core.demonstrations import Recording, read_recording
-from irl_core.recording_lines import EpisodeEnd, SessionHeader, Step
-from irl_core.recording_writer import RecordingWriter
-from irl_core.world import World
-from test_replay_app import run, text  # the Pilot helpers of the one-file replay tests
+from irl_core.recordings.demonstrations import Recording, read_recording
+from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.worlds.world import World
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 # A small world of its own: right, right to the goal.

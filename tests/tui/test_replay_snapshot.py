@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from careful_tui.app import make_replay_app
-from irl_core.demonstrations import read_recording
+from irl_core.recordings.demonstrations import read_recording
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 

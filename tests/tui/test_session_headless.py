@@ -15,16 +15,16 @@ import sys
 from pathlib import Path
 
 import pytest
+from play_fixtures import FakeClock
+from session_scenarios import MODES, SEED, NoFrontEnd, Script, full_disk_switch, study_script, write_mode_study
 from textual.pilot import Pilot
 
 from careful_tui.app import make_study_app
 from careful_tui.keys.kitty import KittyParser
 from careful_tui.screens.calibration import CalibrationScreen
 from careful_tui.screens.play import PlayScreen
-from irl_core.demonstrations import read_recording
-from irl_core.study import load_study, read_protocol
-from play_fixtures import FakeClock
-from session_scenarios import MODES, SEED, NoFrontEnd, Script, full_disk_switch, study_script, write_mode_study
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.studies.study import load_study, read_protocol
 
 HERE = Path(__file__).parent
 ROOT = HERE.parents[1]

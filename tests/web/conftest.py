@@ -7,7 +7,6 @@ without either the browser tests are skipped, saying which is missing.
 from __future__ import annotations
 
 import json
-import shutil
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -19,7 +18,7 @@ from careful_tui.commands.serve import bind, make_server
 from careful_tui.web.links import add_links, read_links
 from careful_tui.web.seats import Seats
 from careful_tui.web.server import make_app
-from irl_core.study import LoadedStudy, load_study
+from irl_core.studies.study import LoadedStudy, load_study
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",

@@ -6,12 +6,12 @@ import asyncio
 import csv
 
 from starlette.testclient import TestClient
+from web.conftest import Api, web_app
 
 from careful_tui.app import make_replay_app
 from careful_tui.cli import main
 from careful_tui.widgets import Board
-from irl_core.demonstrations import read_recording
-from web.conftest import Api, web_app
+from irl_core.recordings.demonstrations import read_recording
 
 
 def test_a_browser_participants_recording_goes_through_every_tool(web_study, tmp_path, capsys):

@@ -8,10 +8,10 @@ import re
 import time
 
 import pytest
+from web.conftest import recorded_lines
 
 from careful_tui.web.session_adapter import browser_profile
-from irl_core.study import read_protocol
-from web.conftest import recorded_lines
+from irl_core.studies.study import read_protocol
 
 TIMEOUT_S = 10
 # Case-sensitive and from the start: "Practice episode 1 of 1" must not match.

@@ -8,14 +8,14 @@ from pathlib import Path
 
 import pytest
 from starlette.testclient import TestClient
+from web.conftest import Api, recorded_lines, web_app
 
 from careful_tui.web.links import LINKS_FILE, add_links, read_links
 from careful_tui.web.seats import SILENT_S, Seats
 from careful_tui.web.server import MAX_BODY
 from careful_tui.web.session_adapter import browser_profile
-from irl_core.demonstrations import read_recording
-from irl_core.study import read_protocol
-from web.conftest import Api, recorded_lines, web_app
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.studies.study import read_protocol
 
 
 @pytest.fixture
@@ -284,7 +284,7 @@ def test_a_recording_that_cannot_be_written_stops_the_participant_with_a_sentenc
     def full(self, data):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("irl_core.recording_writer.RecordingWriter._write_bytes", full)
+    monkeypatch.setattr("irl_core.recordings.writer.RecordingWriter._write_bytes", full)
     answer = api.hold("right", 100)
     assert answer.status_code == 503 and "cannot save your moves" in answer.json()["error"]
     assert api.key("press", key="right", t=1.0).status_code == 410
@@ -294,7 +294,7 @@ def test_a_recording_that_cannot_be_written_stops_the_participant_with_a_sentenc
 
 
 def test_a_participant_held_by_another_session_is_refused_and_a_page_holds_the_lock(served, web_study):
-    from irl_core.participant_lock import ParticipantBusy, participant_lock
+    from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
 
     client, tokens = served
     with participant_lock(web_study, "p001", holder="careful study run"):

@@ -14,10 +14,10 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from web.conftest import recorded_lines, write_web_study
 
 from careful_tui.cli import main
-from irl_core.study import load_study, read_protocol
-from web.conftest import recorded_lines, write_web_study
+from irl_core.studies.study import load_study, read_protocol
 
 ROOT = Path(__file__).parents[2]
 

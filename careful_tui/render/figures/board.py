@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from irl_core.world import WALL, World
+from irl_core.worlds.world import WALL, World
 
 GROUND = "."
 

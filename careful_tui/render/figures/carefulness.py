@@ -1,7 +1,7 @@
 """Carefulness against distance to danger: the plot a human study would show.
 
 For each distance (grid steps to the nearest terminal cell, around walls, as
-`irl_core.summary.distance_to_terminal` measures it) the mean carefulness level of the
+`irl_core.recordings.summary.distance_to_terminal` measures it) the mean carefulness level of the
 demonstrated steps taken there, with a 95% interval for that mean (±1.96 standard errors,
 counting steps as independent draws: steps of one episode are not, so read it as a guide).
 A careful expert's line falls with distance: most careful next to the cliff.
@@ -18,8 +18,8 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from careful_tui.render.figures.style import OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
-from irl_core.mdp import MDP
-from irl_core.summary import distance_to_terminal
+from irl_core.recordings.summary import distance_to_terminal
+from irl_core.worlds.mdp import MDP
 
 Z_95 = 1.959964
 

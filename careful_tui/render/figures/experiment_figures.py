@@ -1,4 +1,4 @@
-"""The experiment's figures (`irl_core.experiment.Figure`) drawn for a paper.
+"""The experiment's figures (`irl_core.experiment.run.Figure`) drawn for a paper.
 
 What a figure holds decides how it is drawn, so new stages need no new code here:
 - an `intervals-...` figure: the interval plot of the interval result added with it to
@@ -20,8 +20,8 @@ from careful_tui.render.figures.heatmap import reward_figure, reward_limit
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.policy import PolicyPanel, policy_figure
 from careful_tui.render.figures.style import symbol_label
-from irl_core.experiment import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
-from irl_core.mdp import DIRECTIONS
+from irl_core.experiment.run import NOISY_CONFIDENCE, ExperimentResult, Figure, Separation
+from irl_core.worlds.mdp import DIRECTIONS
 
 
 def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: float) -> PlotFigure:

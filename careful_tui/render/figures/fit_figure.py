@@ -35,7 +35,7 @@ from careful_tui.render.figures.policy import NOTE_HEIGHT, draw_policy, policy_n
 from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure, symbol_label
 from careful_tui.render.intervals import interval_title
 from irl_core.irl import FitResult
-from irl_core.words import plural
+from irl_core.support.words import plural
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
 MAX_INTERVAL_ROWS = 24

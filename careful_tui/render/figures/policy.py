@@ -29,7 +29,7 @@ from careful_tui.render.figures.heatmap import (
     reward_norm,
 )
 from careful_tui.render.figures.style import INK, PANEL_WIDTH, figure_style, new_figure, plain
-from irl_core.mdp import MDP
+from irl_core.worlds.mdp import MDP
 
 # (dx, dy) on the page for up, right, down, left; rows grow downwards.
 STEP = np.array([(0, -1), (1, 0), (0, 1), (-1, 0)], dtype=float)

@@ -18,9 +18,9 @@ from careful_tui.render.figures.carefulness import carefulness_by_distance, stat
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.small_multiples import carefulness_multiples, reward_multiples
 from careful_tui.render.figures.style import plain, symbol_label
-from irl_core.recording_writer import slug
-from irl_core.study_report import POOLED, CellFit, StudyData
-from irl_core.words import plural
+from irl_core.recordings.writer import slug
+from irl_core.studies.report import POOLED, CellFit, StudyData
+from irl_core.support.words import plural
 
 
 def world_key(data: StudyData, world_index: int) -> str:

@@ -24,8 +24,8 @@ from matplotlib.figure import Figure
 
 from careful_tui.render.figures import FIGURE_SUFFIXES
 from careful_tui.render.grid import SYMBOL_NAMES
-from irl_core.safe_files import write_output
-from irl_core.safe_text import cut, printable
+from irl_core.support.safe_files import write_output
+from irl_core.support.safe_text import cut, printable
 
 DPI = 300
 PANEL_WIDTH = 2.2  # inches: a third of a page's width
@@ -100,7 +100,7 @@ def new_figure(width: float, height: float) -> Figure:
 def save_figure(figure: Figure, path: Path, *, option: str = "--figure", inputs: Iterable[Path] = ()) -> None:
     """Write `figure` to `path` as PDF, PNG (300 dpi) or SVG, by the suffix.
 
-    The file goes through the one output guard (`irl_core.safe_files.write_output`): it never
+    The file goes through the one output guard (`irl_core.support.safe_files.write_output`): it never
     replaces a recording or one of `inputs`, and a failed write leaves no half-written file.
 
     Text is plain (no mathtext): every PDF then embeds one font, DejaVu Sans, and embedding

@@ -1,0 +1,199 @@
+"""The cliff game's rules, without a screen: what `careful play` runs (README "Worlds" and recordings/README.md).
+
+A `Game` takes move intents (direction, carefulness, how long the key was held) and plays
+them in the world's MDP with one seeded numpy Generator. It keeps the score and writes every
+step and every episode end to a `RecordingSink` the moment it happens.
+
+==============  ==============================================================
+episode         numbered 0, 1, 2, ... for the whole game (or on from
+                ``first_episode``); starts at a start cell drawn from the world
+                (a fixed cell, or uniform over non-terminal cells)
+score           undiscounted, reset to ``initial_score`` at each episode start;
+                a step adds R(s, a) = R_S(s) + R_A(a); entering a terminal cell
+                adds its R_S once, at the episode end
+slip            the realised direction differs from the chosen one (a move into
+                a wall or off the grid that slips still counts as a slip)
+episode end     ``terminal`` (entered a terminal cell), ``step_limit`` (after
+                ``max_steps`` moves), ``quit`` (`Game.quit` during an episode
+                that has at least one step; an episode without steps is not
+                recorded)
+==============  ==============================================================
+
+The sink `careful play` uses is `irl_core.recordings.writer.SessionRecorder` (all file IO lives
+with the recordings: the writer there, the reader in `irl_core.recordings.demonstrations`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Protocol
+
+import numpy as np
+
+from irl_core.recordings.lines import EpisodeEnd, Step
+from irl_core.worlds.mdp import DIRECTIONS, action_index, build_mdp, direction_probabilities
+from irl_core.worlds.world import Cell, World
+
+
+class RecordingSink(Protocol):
+    """Where a game's lines go (a `RecordingWriter`, a `SessionRecorder`, a list in tests).
+
+    A sink may raise `OSError` (the file cannot be written); the move is then not played.
+    """
+
+    def write_step(self, step: Step) -> None: ...
+
+    def end_episode(self, end: EpisodeEnd) -> None: ...
+
+
+@dataclass(frozen=True)
+class MoveResult:
+    """One resolved move.
+
+    Attributes:
+        step: the step line as recorded.
+        realised: the direction actually taken ("up", ...); differs from `step.direction` on a slip.
+        end: the episode end this move caused (a terminal cell or the step limit), else None.
+    """
+
+    step: Step
+    realised: str
+    end: EpisodeEnd | None
+
+    @property
+    def slipped(self) -> bool:
+        return self.step.slipped
+
+
+def level_costs(world: World) -> list[float]:
+    """The action cost of each carefulness level 1..L, as a positive number."""
+    return [world.cost_per_level * c for c in range(1, world.levels + 1)]
+
+
+def level_slip_chances(world: World) -> list[float]:
+    """The chance that a move of each carefulness level 1..L goes another way than chosen.
+
+    With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0.
+    """
+    levels = range(1, world.levels + 1)
+    return [float(1.0 - p[0]) for p in direction_probabilities(np.array(levels), slip=world.slip)]
+
+
+class GameOver(RuntimeError):
+    """A move was asked for when no episode is running (a programmer's error)."""
+
+
+class Game:
+    """Episodes of one world, played move by move and recorded as they happen.
+
+    Args:
+        world: the world to play.
+        seed: seeds the one Generator behind start cells and slips.
+        sink: receives every step and episode end.
+        first_episode: the number of the first episode (a resumed study block continues its
+            numbering, so no number is used twice).
+    """
+
+    def __init__(self, world: World, *, seed: int, sink: RecordingSink, first_episode: int = 0) -> None:
+        self.world = world
+        self.mdp = build_mdp(world)
+        self.seed = seed
+        self.sink = sink
+        self._rng = np.random.default_rng(seed)
+        self._reward = self.mdp.reward_matrix()
+        self._starts = [self.mdp.state_of[cell] for cell in world.start_cells]
+        self.first_episode = first_episode
+        self.episode = first_episode - 1
+        self.t = 0
+        self.cell: Cell | None = None
+        self.score = world.initial_score
+        self.live = False
+        self.last_end: EpisodeEnd | None = None
+
+    def costs(self) -> list[float]:
+        """The action cost of each carefulness level 1..L, as a positive number."""
+        return level_costs(self.world)
+
+    def begin_episode(self) -> Cell:
+        """Start the next episode at a start cell; returns that cell."""
+        if self.live:
+            raise GameOver("an episode is already running")
+        self.episode += 1
+        self.t = 0
+        self.score = self.world.initial_score
+        self.cell = self.mdp.cells[self._starts[int(self._rng.integers(len(self._starts)))]]
+        self.live = True
+        return self.cell
+
+    def move(self, direction: str, carefulness: int, *, hold_ms: float | None = None, exact: bool = False) -> MoveResult:
+        """Play one move, record it, and end the episode if it ends here.
+
+        Raises:
+            GameOver: no episode is running.
+            ValueError: an unknown direction or a carefulness outside 1..L.
+        """
+        if not self.live or self.cell is None:
+            raise GameOver("no episode is running: call begin_episode first")
+        if direction not in DIRECTIONS:
+            raise ValueError(f"unknown direction {direction!r}")
+        if not 1 <= carefulness <= self.world.levels:
+            raise ValueError(f"carefulness must be in 1..{self.world.levels}, got {carefulness}")
+        s = self.mdp.state_of[self.cell]
+        a = action_index(direction, carefulness, self.world.levels)
+        s_next, realised = self.mdp.move(s, a, self._rng)
+        reward = float(self._reward[s, a])
+        step = Step(
+            episode=self.episode,
+            t=self.t,
+            state=self.cell,
+            direction=direction,
+            carefulness=carefulness,
+            hold_ms=None if hold_ms is None else round(float(hold_ms), 1),
+            hold_exact=exact,
+            next_state=self.mdp.cells[s_next],
+            slipped=DIRECTIONS[realised] != direction,
+            reward=reward,
+            score=self.score + reward,
+            realised=DIRECTIONS[realised],
+        )
+        self.sink.write_step(step)
+        self.score = step.score
+        self.t += 1
+        self.cell = step.next_state
+        end = None
+        if self.mdp.terminal[s_next]:
+            symbol = self.mdp.symbols[s_next]
+            self.score += float(self.mdp.R_S[s_next])
+            end = self._end("terminal", symbol)
+        elif self.t >= self.world.max_steps:
+            end = self._end("step_limit", None)
+        return MoveResult(step=step, realised=DIRECTIONS[realised], end=end)
+
+    def quit(self) -> EpisodeEnd | None:
+        """End the running episode as ``quit``; None (and nothing recorded) when no step was played."""
+        if not self.live:
+            return None
+        if self.t == 0:
+            self.live = False
+            self.episode -= 1
+            return None
+        return self._end("quit", None)
+
+    def stop(self) -> None:
+        """Play no further, recording nothing more (the recording cannot be written): the running
+        episode, if any, stays as far as it was written."""
+        self.live = False
+
+    def _end(self, outcome: Literal["terminal", "quit", "step_limit"], symbol: str | None) -> EpisodeEnd:
+        end = EpisodeEnd(
+            episode=self.episode,
+            outcome=outcome,
+            terminal_symbol=symbol,
+            steps=self.t,
+            return_=self.score - self.world.initial_score,
+            score=self.score,
+        )
+        self.sink.end_episode(end)
+        self.live = False
+        self.last_end = end
+        return end

@@ -1,0 +1,202 @@
+"""Person-like players: simulated people who choose a direction sharply and a level loosely.
+
+People do not play as a Boltzmann expert over (direction, level) does: a hold is timed by a
+hand, not picked from a menu, and now and then a person lapses. These players act over the
+world's true optimal plan (`experts.optimal_plan`): a*(s) = (d*(s), c*(s)), Q*(s, a). Each
+differs in how its level and its direction go wrong. They are the test bench of a fit meant
+for people (docs/people.md, "Person-like players"): a fit that recovers the rewards of these,
+one of which lies outside every player model the fit contains (``timed``), is one that can
+be trusted on people.
+
+============  ==============================================  ===============================================
+player        direction                                       level
+============  ==============================================  ===============================================
+``loose``     d*(s); with probability `lapse` (0.1) a         c*(s) + round(N(0, `spread`)), `spread` 1.75,
+              uniformly random one (a lapse)                  clipped to 1..L: the spread has nothing to do
+                                                              with what is at stake
+``timed``     d*(s); with probability `lapse` (0.1) the       the level of a hold time: c*(s)'s hold (the
+              previous step's direction (a random one at      middle of its window under the game's timing,
+              an episode's first step)                        500 ms delay, 150 ms per level) times
+                                                              exp(N(0, `weber`)), `weber` 0.25: the spread
+                                                              grows with the level (Weber's law)
+``hasty``     softmax over directions of max_c Q*(s, d, c)    the chosen direction's best level minus
+              / `temperature` (1.25): errors cost-sensitive   `bias` (2) + round(N(0, `spread`)), `spread` 1,
+                                                              clipped: people under-hold
+``inverted``  as ``loose``                                    c*(s) mapped backwards onto 1..L (most careful
+                                                              where the plan is least, careless beside the
+                                                              cliff), then ``loose``'s noise: care no reward
+                                                              explains
+``reckless``  d*(s); with probability `lapse` (0.25) a        1 everywhere
+              uniformly random one
+============  ==============================================  ===============================================
+
+Every player is a `experts.Chooser`, so `experts.rollouts` and `experts.simulate_to_file` roll
+them out and write them exactly as they do computer experts, with the player named
+``person:loose(lapse=0.1, spread=1.75)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from irl_core.play.hold import HoldProfile
+
+if TYPE_CHECKING:  # the command line reads KINDS; planning's scipy waits until a player is made
+    from irl_core.players.experts import Chooser
+    from irl_core.worlds.mdp import MDP
+
+# Each kind's parameters and their defaults, in the order the player's name gives them.
+KINDS: dict[str, dict[str, float]] = {
+    "loose": {"lapse": 0.1, "spread": 1.75},
+    "timed": {"lapse": 0.1, "weber": 0.25},
+    "hasty": {"temperature": 1.25, "bias": 2.0, "spread": 1.0},
+    "inverted": {"lapse": 0.1, "spread": 1.75},
+    "reckless": {"lapse": 0.25},
+}
+
+# The game's hold timing with its defaults (`irl_core.play.hold.HoldProfile`, whose level_for is per hold,
+# not per array): a hold shorter than the autorepeat delay is level 1, then one level per MS_PER_LEVEL.
+DELAY_MS = HoldProfile().initial_delay_ms
+MS_PER_LEVEL = HoldProfile().ms_per_level
+
+
+@dataclass(frozen=True)
+class PersonLike:
+    """A person-like player of one world.
+
+    Attributes:
+        kind: one of `KINDS`.
+        parameters: the kind's parameters, every one of them (defaults filled in).
+        choose: draws the player's actions (`experts.Chooser`).
+    """
+
+    kind: str
+    parameters: dict[str, float] = field(compare=False)
+    choose: Chooser = field(compare=False, repr=False)
+
+    @property
+    def player(self) -> str:
+        """The recordings' `player`, e.g. ``person:loose(lapse=0.1, spread=1.75)``."""
+        return f"person:{self.kind}(" + ", ".join(f"{k}={v:g}" for k, v in self.parameters.items()) + ")"
+
+
+def person_like(mdp: MDP, kind: str, **parameters: float) -> PersonLike:
+    """The person-like player `kind` of `mdp`'s world, with `parameters` in place of the defaults.
+
+    Raises:
+        ValueError: an unknown kind or parameter, or a parameter out of its range
+            (a probability outside 0..1, a negative spread, a temperature that is not positive).
+        NotConverged: the world's optimal plan did not converge.
+    """
+    if kind not in KINDS:
+        raise ValueError(f"unknown person-like player {kind!r}; the players are {', '.join(KINDS)}")
+    unknown = sorted(set(parameters) - set(KINDS[kind]))
+    if unknown:
+        raise ValueError(f"the {kind} player has no parameter {', '.join(unknown)}; its parameters are "
+                         f"{', '.join(KINDS[kind])}")
+    values = {name: float(parameters.get(name, default)) for name, default in KINDS[kind].items()}
+    _check(values)
+    from irl_core.players.experts import optimal_plan
+
+    plan = optimal_plan(mdp)
+    L = mdp.levels
+    best = plan.greedy
+    d_star, c_star = mdp.direction[best], mdp.carefulness[best]
+    if kind == "loose":
+        choose = _loose(d_star, c_star, L, lapse=values["lapse"], spread=values["spread"])
+    elif kind == "inverted":
+        choose = _loose(d_star, _inverted(c_star, mdp.nonterminal, L), L, lapse=values["lapse"],
+                        spread=values["spread"])
+    elif kind == "reckless":
+        choose = _loose(d_star, np.ones_like(c_star), L, lapse=values["lapse"], spread=0.0)
+    elif kind == "timed":
+        choose = _timed(d_star, c_star, L, lapse=values["lapse"], weber=values["weber"])
+    else:
+        choose = _hasty(plan.Q, L, temperature=values["temperature"], bias=values["bias"], spread=values["spread"])
+    return PersonLike(kind=kind, parameters=values, choose=choose)
+
+
+def _check(values: dict[str, float]) -> None:
+    for name, value in values.items():
+        if name == "lapse" and not 0 <= value <= 1:
+            raise ValueError(f"lapse is a probability, between 0 and 1, not {value:g}")
+        if name in ("spread", "weber") and not 0 <= value < np.inf:
+            raise ValueError(f"{name} must be zero or more, not {value:g}")
+        if name == "temperature" and not 0 < value < np.inf:
+            raise ValueError(f"temperature must be positive, not {value:g}")
+        if name == "bias" and not abs(value) < np.inf:
+            raise ValueError(f"bias must be a finite number of levels, not {value:g}")
+
+
+def intended_hold_ms(level: np.ndarray) -> np.ndarray:
+    """(n,) the hold a player aims at for each level (n,): the middle of its window, half the delay for level 1."""
+    level = np.asarray(level, dtype=float)
+    return np.where(level <= 1, DELAY_MS / 2, DELAY_MS + (level - 1.5) * MS_PER_LEVEL)
+
+
+def level_of_hold(hold_ms: np.ndarray, levels: int) -> np.ndarray:
+    """(n,) the level each hold (n,) gives: 1 below the delay, then one more per MS_PER_LEVEL, up to `levels`."""
+    hold_ms = np.asarray(hold_ms, dtype=float)
+    # The epsilon keeps a hold of exactly a level's start at that level, as HoldProfile.level_for does.
+    steps = np.floor((hold_ms - DELAY_MS) / MS_PER_LEVEL + 1e-9)
+    return np.where(hold_ms < DELAY_MS, 1, np.minimum(levels, 2 + steps)).astype(np.int64)
+
+
+def _inverted(c_star: np.ndarray, acting: np.ndarray, levels: int) -> np.ndarray:
+    """(S,) c* mapped backwards onto 1..L over the states where the player acts: the plan's most careful
+    cells get level 1, its least careful ones level L."""
+    low, high = c_star[acting].min(), c_star[acting].max()
+    if high == low:
+        return np.full_like(c_star, levels)
+    return np.rint(levels - (levels - 1) * (c_star - low) / (high - low)).astype(np.int64)
+
+
+def _lapsed(d_star: np.ndarray, lapse: float, rng: np.random.Generator) -> np.ndarray:
+    """(n,) d* (n,) with each entry replaced, with probability `lapse`, by a uniformly random direction."""
+    lapses = rng.random(d_star.size) < lapse
+    return np.where(lapses, rng.integers(4, size=d_star.size), d_star)
+
+
+def _noisy_level(level: np.ndarray, spread: float, levels: int, rng: np.random.Generator, *,
+                 bias: float = 0.0) -> np.ndarray:
+    """(n,) level (n,) minus `bias` plus N(0, spread), rounded and clipped to 1..levels."""
+    noise = rng.normal(0.0, spread, level.size) if spread > 0 else 0.0
+    return np.clip(np.rint(level - bias + noise), 1, levels).astype(np.int64)
+
+
+def _loose(d_star: np.ndarray, c: np.ndarray, levels: int, *, lapse: float, spread: float) -> Chooser:
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        d = _lapsed(d_star[s], lapse, rng)
+        return d * levels + _noisy_level(c[s], spread, levels, rng) - 1
+
+    return choose
+
+
+def _timed(d_star: np.ndarray, c_star: np.ndarray, levels: int, *, lapse: float, weber: float) -> Chooser:
+    hold = intended_hold_ms(c_star)
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        lapses = rng.random(s.size) < lapse
+        again = np.where(previous >= 0, previous // levels, rng.integers(4, size=s.size))
+        d = np.where(lapses, again, d_star[s])
+        held = hold[s] * np.exp(rng.normal(0.0, weber, s.size))
+        return d * levels + level_of_hold(held, levels) - 1
+
+    return choose
+
+
+def _hasty(Q: np.ndarray, levels: int, *, temperature: float, bias: float, spread: float) -> Chooser:
+    by_direction = Q.reshape(Q.shape[0], 4, levels)
+    q = by_direction.max(axis=2)  # (S, 4)
+    weights = np.exp((q - q.max(axis=1, keepdims=True)) / temperature)
+    cdf = np.cumsum(weights / weights.sum(axis=1, keepdims=True), axis=1)
+    best_level = by_direction.argmax(axis=2) + 1  # (S, 4)
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        d = np.minimum((cdf[s] < rng.random((s.size, 1))).sum(axis=1), 3)
+        return d * levels + _noisy_level(best_level[s, d], spread, levels, rng, bias=bias) - 1
+
+    return choose

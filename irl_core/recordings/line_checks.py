@@ -1,0 +1,101 @@
+"""What makes a recording's lines agree with its world and with each other (recordings/README.md).
+
+A step must be a move the header's world can make (a level it has, cells that are states, a
+next cell the move can reach, a `realised` direction that leads there), and the lines must tell
+one story: episodes in increasing order; within one, `t` counting 0, 1, 2, ...; each step
+starting where the previous one ended; nothing of an episode after its `episode_end`. The
+reader (`irl_core.recordings.demonstrations`) feeds every line to a `LineChecker` and turns a `Mismatch`
+into `file:line: field: problem`.
+"""
+
+from __future__ import annotations
+
+from irl_core.recordings.lines import EpisodeEnd, Step
+from irl_core.support.words import plural
+from irl_core.worlds.mdp import DIRECTIONS, MDP
+
+
+class Mismatch(ValueError):
+    """A line that disagrees with the world or the lines before it: its number, field and problem."""
+
+    def __init__(self, line: int, field: str, problem: str):
+        super().__init__(f"{line}: {field}: {problem}")
+        self.line, self.field, self.problem = line, field, problem
+
+
+class LineChecker:
+    """Checks that a step is a move the header's world can make, and that lines agree.
+
+    Episodes come in increasing order; within one, `t` counts 0, 1, 2, ...; each step starts
+    where the previous one ended; nothing of an episode follows its `episode_end`.
+    """
+
+    def __init__(self, mdp: MDP):
+        self.mdp = mdp
+        self._neighbours = mdp.neighbour.tolist()
+        self._episode: int | None = None
+        self._next_t = 0
+        self._cell: tuple[int, int] | None = None
+        self._ended_on: int | None = None
+
+    @staticmethod
+    def _error(number: int, field: str, problem: str) -> Mismatch:
+        return Mismatch(number, field, problem)
+
+    def _enter(self, episode: int, number: int) -> None:
+        """Move on to `episode` if it is a new one; refuse one that comes back or has ended."""
+        if episode == self._episode:
+            if self._ended_on is not None:
+                raise self._error(number, "episode", f"episode {episode} already ended on line {self._ended_on}")
+            return
+        if self._episode is not None and episode < self._episode:
+            raise self._error(number, "episode", f"episode {episode} comes after episode {self._episode}: "
+                              "episodes must be in order")
+        self._episode, self._next_t, self._cell, self._ended_on = episode, 0, None, None
+
+    def step(self, step: Step, number: int) -> None:
+        self._check_move(step, number)
+        self._enter(step.episode, number)
+        if step.t != self._next_t:
+            what = "repeats" if step.t < self._next_t else "skips"
+            raise self._error(number, "t", f"{step.t} {what} a step: episode {step.episode}'s next step is "
+                              f"t = {self._next_t}")
+        if self._cell is not None and step.state != self._cell:
+            raise self._error(number, "state", f"{list(step.state)} is not where the previous step ended "
+                              f"({list(self._cell)})")
+        self._next_t += 1
+        self._cell = step.next_state
+
+    def end(self, end: EpisodeEnd, number: int) -> None:
+        self._enter(end.episode, number)
+        self._ended_on = number
+
+    def _check_move(self, step: Step, number: int) -> None:
+        world, mdp = self.mdp.world, self.mdp
+        if step.carefulness > world.levels:
+            raise self._error(number, "carefulness", f"{step.carefulness} is above the world's {plural(world.levels, 'level')}")
+        for name in ("state", "next_state"):
+            cell = getattr(step, name)
+            if cell not in mdp.state_of:
+                what = "a wall" if 0 <= cell[0] < world.rows and 0 <= cell[1] < world.cols else "outside the grid"
+                raise self._error(number, name, f"{list(cell)} is {what} ({world.rows}x{world.cols})")
+        s = mdp.state_of[step.state]
+        if not mdp.nonterminal[s]:
+            raise self._error(number, "state", f"{list(step.state)} is a terminal cell: no move starts there")
+        # A halving world may slip in any direction; a world without slip only goes the chosen way.
+        reachable = self._neighbours[s]
+        if world.slip == "none":
+            reachable = [reachable[DIRECTIONS.index(step.direction)]]
+        if mdp.state_of[step.next_state] not in reachable:
+            raise self._error(number, "next_state", f"the world cannot move from {list(step.state)} to "
+                              f"{list(step.next_state)} going {step.direction} in one step")
+        if step.realised is not None:
+            if world.slip == "none" and step.realised != step.direction:
+                raise self._error(number, "realised", f"{step.realised}, but this world never slips "
+                                  f"(the move was {step.direction})")
+            if mdp.state_of[step.next_state] != self._neighbours[s][DIRECTIONS.index(step.realised)]:
+                raise self._error(number, "next_state", f"{list(step.next_state)} is not where going "
+                                  f"{step.realised} from {list(step.state)} leads")
+            if step.slipped != (step.realised != step.direction):
+                raise self._error(number, "slipped", f"{str(step.slipped).lower()}, but the move went "
+                                  f"{step.realised} for {step.direction}")

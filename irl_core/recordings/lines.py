@@ -1,0 +1,87 @@
+"""The three kinds of line in a recording (recordings/README.md), as pydantic models: the ``session``
+header, a ``step`` and an ``episode_end``. `irl_core.recordings.writer` writes them,
+`irl_core.recordings.demonstrations` reads them; `irl_core.recordings.step_table` builds `Step`s from its columns.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from irl_core.worlds.world import Direction, World
+
+SCHEMA_VERSION = 1
+# Episode numbers and counts are at most 2^53: every JSON reader holds them exactly, and the
+# 64-bit columns they are stored in (`irl_core.recordings.step_table`) hold them and the next number too.
+MAX_COUNT = 2**53
+
+
+class _Line(BaseModel):
+    # Every number must be one JSON can hold: NaN and Infinity are refused when read and never written.
+    model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=True, allow_inf_nan=False)
+
+
+class StudyTag(_Line):
+    """A study session's place in its study (README "Studies"): the header's optional ``study`` field.
+
+    `world_index` is the world's index in the study file's ``worlds`` list (not its place in a
+    participant's shuffled order), so that a world is the same index for every participant.
+    """
+
+    name: str
+    participant: str
+    phase: Literal["practice", "main"]
+    world_index: int = Field(ge=0, le=MAX_COUNT)
+
+
+class ProlificTag(_Line):
+    """Prolific's ids of a browser participant who came from a Prolific link (`careful serve`):
+    the header's optional ``prolific`` field (the participant id is ``PROLIFIC_PID``)."""
+
+    study_id: str
+    session_id: str
+
+
+class SessionHeader(_Line):
+    kind: Literal["session"] = "session"
+    schema_version: int = Field(SCHEMA_VERSION, alias="schema")
+    world: World
+    player: str
+    created: datetime = Field(strict=False)
+    seed: int | None = None
+    input: dict[str, Any] = Field(default_factory=lambda: {"mode": "hold"})
+    app_version: str = ""
+    # Only in a study's recordings; a header without it reads (and is written) as before.
+    study: StudyTag | None = None
+    # Only for a participant who came from a Prolific link to `careful serve`.
+    prolific: ProlificTag | None = None
+
+
+class Step(_Line):
+    kind: Literal["step"] = "step"
+    episode: int = Field(ge=0, le=MAX_COUNT)
+    t: int = Field(ge=0, le=MAX_COUNT)
+    # JSON has no tuples: a cell arrives as a 2-element array.
+    state: tuple[int, int] = Field(strict=False)
+    direction: Direction
+    carefulness: int = Field(ge=1)
+    hold_ms: float | None = Field(default=None, ge=0)
+    hold_exact: bool = False
+    next_state: tuple[int, int] = Field(strict=False)
+    slipped: bool
+    reward: float
+    score: float
+    # The direction the move really went (differs from `direction` on a slip); optional, newer files have it.
+    realised: Direction | None = None
+
+
+class EpisodeEnd(_Line):
+    kind: Literal["episode_end"] = "episode_end"
+    episode: int = Field(ge=0, le=MAX_COUNT)
+    outcome: Literal["terminal", "quit", "step_limit"]
+    terminal_symbol: str | None = None
+    steps: int = Field(ge=0, le=MAX_COUNT)
+    return_: float = Field(alias="return")
+    score: float

@@ -1,0 +1,129 @@
+"""A participant's way through a study, for any front end: instructions, blocks, between, end.
+
+The flow shows the study's instructions first (or the end, for a participant who has finished).
+Then, for the next block of the participant's protocol (a world's practice or main episodes,
+`irl_core.studies.study.read_protocol`), `next_block` makes a `PlaySession` that plays the block's
+remaining episodes into a new file of the participant's folder, the file's header carrying the
+block's `study` tag and its episode numbers continuing the block's. When the front end says the
+block is over (`block_ended`), the protocol is read again from the folder, so what comes next is
+always what the files say: a note when practice ends and the main episodes begin, a screen
+between worlds, and the end when nothing is left. Resuming is the same: a participant run again
+goes on where the files say, and an interrupted episode is played again. A calibration made in
+a block carries over to the next blocks, on each block's world's levels.
+"""
+
+from __future__ import annotations
+
+import secrets
+import time
+from dataclasses import replace
+from typing import Literal
+
+from irl_core.play.hold import Clock, HoldProfile
+from irl_core.play.session import PlayOptions, PlaySession, new_session
+from irl_core.studies.study import Block, LoadedStudy, Protocol, read_protocol
+from irl_core.support.safe_text import cut, printable
+
+Stage = Literal["instructions", "practice_over", "next_world", "end"]
+# A block's heading is shown in this much; the study's name takes at most STUDY_NAME_LIMIT of it.
+HEADING_LIMIT, STUDY_NAME_LIMIT = 60, 20
+STUDY_COMMAND = "careful study run"
+
+
+def block_heading(protocol: Protocol, block: Block) -> str:
+    """ "pilot · world 1 of 2 (paper) · practice", at most `HEADING_LIMIT` characters: a long
+    study or world name is cut, never the place and the phase."""
+    name = cut(printable(protocol.study.study.name), STUDY_NAME_LIMIT, say_length=False)
+    place = f" · world {block.position + 1} of {len(protocol.order)} ("
+    phase = f") · {block.phase}"
+    room = max(8, HEADING_LIMIT - len(name) - len(place) - len(phase))
+    world = cut(printable(protocol.world(block).name), room, say_length=False)
+    return f"{name}{place}{world}{phase}"
+
+
+def block_options(protocol: Protocol, block: Block, participant: str, profile: HoldProfile | None) -> PlayOptions:
+    """How a block plays: the study's input mode, `profile` (a calibration carried over) on the
+    block's world's levels, its title, its remaining episodes and how they are counted."""
+    world = protocol.world(block)
+    return PlayOptions(
+        input_mode=protocol.study.study.input,
+        profile=None if profile is None else replace(profile, levels=world.levels),
+        player=participant,
+        heading=block_heading(protocol, block),
+        command=STUDY_COMMAND,
+        episodes=block.remaining,
+        episodes_done=block.done,
+        episode_word="Practice episode" if block.phase == "practice" else "Episode",
+    )
+
+
+class StudyFlow:
+    """`participant` through `study`, from where their folder stands.
+
+    Args:
+        clock: the sessions' clock.
+        seed: every block's seed (a test's); None draws one per block.
+        app_version: the version recorded in each file's header.
+
+    Attributes:
+        stage: what shows now: ``instructions``, ``practice_over``, ``next_world`` or ``end``.
+        protocol: where the participant stands, as the folder says (read again after each block).
+        finished: the block played last (None before any).
+        sessions: every block's session, in order (what was recorded, any write error).
+    """
+
+    def __init__(self, study: LoadedStudy, participant: str, *, clock: Clock = time.monotonic,
+                 seed: int | None = None, app_version: str) -> None:
+        self.study = study
+        self.participant = participant
+        self.clock = clock
+        self.seed = seed
+        self.app_version = app_version
+        self.protocol = read_protocol(study, participant)
+        self.stage: Stage = "end" if self.protocol.finished else "instructions"
+        self.finished: Block | None = None
+        self.sessions: list[PlaySession] = []
+        self.profile: HoldProfile | None = None
+        self._playing: Block | None = None
+
+    def next_block(self) -> PlaySession | None:
+        """The next block's session, for the front end to play (`start` it); None when nothing is
+        left, and the stage is then ``end``."""
+        block = self.protocol.next
+        if block is None:
+            self.stage = "end"
+            return None
+        seed = secrets.randbelow(2**32) if self.seed is None else self.seed
+        session = new_session(self.protocol.world(block), out=self.protocol.folder, seed=seed,
+                              options=block_options(self.protocol, block, self.participant, self.profile),
+                              clock=self.clock, app_version=self.app_version, study=self.protocol.tag(block),
+                              first_episode=block.next_episode)
+        self.sessions.append(session)
+        self._playing = block
+        return session
+
+    def block_ended(self) -> Stage:
+        """The block's session played its episodes: read where the participant stands now."""
+        block, self._playing = self._playing, None
+        assert block is not None, "block_ended without next_block"
+        self.profile = self.sessions[-1].profile
+        self.protocol = read_protocol(self.study, self.participant)
+        self.finished = block
+        if self.protocol.finished:
+            self.stage = "end"
+        else:
+            following = self.protocol.next
+            practice_over = (following is not None and following.world_index == block.world_index
+                             and following.phase == "main")
+            self.stage = "practice_over" if practice_over else "next_world"
+        return self.stage
+
+    def quit(self) -> None:
+        """End the running block's episode as ``quit`` and close its file (safe to call more than once)."""
+        for session in self.sessions:
+            session.quit()
+
+    @property
+    def write_error(self) -> OSError | ValueError | None:
+        """The first block's write failure, if any stopped one."""
+        return next((s.write_error for s in self.sessions if s.write_error is not None), None)

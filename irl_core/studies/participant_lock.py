@@ -1,0 +1,95 @@
+"""One session at a time per participant: a lock that `careful study run` and a web server both take.
+
+Two sessions of one participant at once would play the same block under the same episode
+numbers (each number twice, all of them fitted). `participant_lock` holds an exclusive
+`flock` on ``<out>/.<ID>.lock`` for as long as the session runs; a second session, in this
+process or another, gets `ParticipantBusy` at once, saying who holds it (the holder's words,
+its process, host and start time, which the lock file keeps). The kernel drops the lock when
+the holder's process ends however it ends, so a crash never leaves a participant locked out.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import socket
+from collections.abc import Iterator
+from datetime import UTC, datetime
+from pathlib import Path
+
+from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+from irl_core.support.safe_text import printable
+
+_HOLDER_BYTES = 1000
+
+
+class ParticipantBusy(StudyError):
+    """Another session holds this participant; `holder` says who ("careful study run (process 41 on lab-3, since ...)")."""
+
+    def __init__(self, participant: str, holder: str):
+        self.participant, self.holder = participant, holder
+        super().__init__(f"participant {participant} is in another session already: {holder}; "
+                         "let that one finish (or quit it) first")
+
+
+def lock_path(study: LoadedStudy, participant: str) -> Path:
+    """``<out>/.<ID>.lock``: beside the participant's folder, never counted as one."""
+    return study.out / f".{check_participant(participant)}.lock"
+
+
+@contextlib.contextmanager
+def participant_lock(study: LoadedStudy, participant: str, *, holder: str) -> Iterator[Path]:
+    """Hold `participant` of `study` for the block; yields the lock file's path.
+
+    Args:
+        holder: who is asking, in words a second session is shown ("careful study run", "the
+            web server, browser session 3f2a").
+
+    Raises:
+        ParticipantBusy: another session holds the participant (at once, never waits).
+        StudyError: the participant id is not valid, or the lock cannot be made in ``out``.
+    """
+    path = lock_path(study, participant)
+    if study.out.exists() and not study.out.is_dir():
+        raise StudyError(f"{printable(str(study.out))} is a file, not the study's out folder; move it away")
+    try:
+        study.out.mkdir(parents=True, exist_ok=True)
+        fd = _locked(path, participant)
+    except OSError as exc:
+        raise StudyError(f"cannot lock participant {participant} in {printable(str(study.out), limit=160)} "
+                         f"({exc.strerror or exc}); check the study's out folder") from None
+    try:
+        since = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+        host = printable(socket.gethostname(), limit=80)
+        text = f"{printable(holder, limit=200)} (process {os.getpid()} on {host}, since {since})"
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, text.encode("utf-8"), 0)
+        yield path
+    finally:
+        # Removed while still held, so no one can lock the old file after it is gone (see `_locked`).
+        with contextlib.suppress(OSError):
+            os.unlink(path)
+        os.close(fd)
+
+
+def _locked(path: Path, participant: str) -> int:
+    """An open, exclusively locked descriptor of the lock file at `path` (the file that is there now)."""
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, _HOLDER_BYTES, 0).decode("utf-8", "replace").strip() or "a session that is starting"
+            os.close(fd)
+            raise ParticipantBusy(participant, holder) from None
+        except BaseException:
+            os.close(fd)
+            raise
+        try:
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            return fd
+        os.close(fd)  # the holder removed it between our open and our lock: lock the new one

@@ -1,0 +1,406 @@
+"""Studies (README "Studies"): one protocol for many participants, and where each one stands.
+
+A study file (TOML, validated with pydantic like a world file) names the worlds, their order,
+the practice and main episodes per world, the input mode and the output folder. Each
+participant's recordings go to ``<out>/<ID>/``, each file's header carrying a ``study`` field
+(`irl_core.recordings.demonstrations.StudyTag`) that says which world and phase it belongs to.
+
+`read_protocol` reads what a participant's folder already holds and says what comes next, so
+resuming after a crash or ``q`` neither loses nor repeats an episode:
+
+- The participant's sequence is, for each world in their order, a practice block
+  (``practice_episodes``, left out when 0) then a main block (``episodes``).
+- An episode is *done* when its ``episode_end`` says ``terminal`` or ``step_limit``.
+- An *interrupted* episode (``q`` mid-way: ``episode_end`` with ``quit``; a crash: no
+  ``episode_end`` at all) stays in its file but is not done: that episode is played again.
+  The report leaves interrupted episodes out of every fit and counts them in its table.
+- The next block is the first one, in the sequence, with fewer done episodes than it asks for.
+  Episode numbers continue across a block's files, so no number is used twice.
+
+``order = "shuffled"`` permutes the worlds per participant, reproducibly: a Fisher-Yates
+shuffle whose draws are SHA-256 digests of the participant id, so the same id gets the same
+order on every machine and Python version (never Python's salted ``hash()``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from irl_core.recordings.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
+from irl_core.recordings.lines import StudyTag
+from irl_core.recordings.writer import slug
+from irl_core.support.safe_files import InputError, read_toml, reference_problem
+from irl_core.support.safe_text import VALUE_LIMIT, printable
+from irl_core.support.words import plural
+from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world
+
+Phase = Literal["practice", "main"]
+# A participant id is a folder name as it stands: no slug can map two ids to one folder.
+_PARTICIPANT_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=-]{0,79}")
+# `<out>/report/` holds the report, so no participant may be called that.
+REPORT_FOLDER = "report"
+# The report's rows of every participant together carry this id (`irl_core.studies.report.POOLED`).
+POOLED = "pooled"
+_MAX_STUDY_FILE_BYTES = 1 << 20
+# A study names at most this many worlds (each one a block per participant), checked before any is read.
+MAX_WORLDS = 1000
+FINISHED_OUTCOMES = ("terminal", "step_limit")
+
+
+class StudyError(InputError):
+    """A study file or participant id that cannot be used; the message is one line for the user."""
+
+
+class Study(BaseModel):
+    """A study file's fields, as README "Studies" names them."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+    name: str = Field(min_length=1)
+    instructions: str = Field("", max_length=20_000)
+    worlds: tuple[Annotated[str, Field(max_length=4096)], ...] = Field(min_length=1, max_length=MAX_WORLDS,
+                                                                        strict=False)
+    order: Literal["fixed", "shuffled"] = "fixed"
+    practice_episodes: int = Field(1, ge=0, le=1000)
+    episodes: int = Field(5, ge=1, le=100_000)
+    input: Literal["hold", "tap", "digits"] = "hold"
+    out: str = Field("data", min_length=1)
+
+
+@dataclass(frozen=True)
+class LoadedStudy:
+    """A study file read and checked: its fields, its worlds (read), and its output folder.
+
+    Attributes:
+        path: the study file.
+        study: its fields.
+        worlds: the world of each entry of ``study.worlds``, in the file's order.
+        out: the output folder, relative to the study file's folder.
+    """
+
+    path: Path
+    study: Study
+    worlds: tuple[World, ...]
+    out: Path
+
+    def participant_folder(self, participant: str) -> Path:
+        """``<out>/<ID>/`` for a valid participant id (`check_participant`)."""
+        return self.out / participant_folder_name(participant)
+
+    @property
+    def report_folder(self) -> Path:
+        return self.out / REPORT_FOLDER
+
+
+def load_study(path: str | Path) -> LoadedStudy:
+    """Read a study file; its worlds are built-in names or world files relative to it.
+
+    Raises:
+        StudyError: one line naming the file and the field (``worlds[1]: ...``).
+    """
+    path = Path(path)
+    try:
+        data = read_toml(path, what="study", limit=_MAX_STUDY_FILE_BYTES, too_big="")
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
+    data.setdefault("name", path.stem)
+    try:
+        study = Study.model_validate(data)
+    except ValidationError as exc:
+        raise StudyError(f"{path}: {describe_validation_error(exc)}") from None
+    worlds: list[World] = []
+    read: dict[str, World] = {}
+    for i, entry in enumerate(study.worlds):
+        source = _world_source(entry, path.parent)
+        shown = printable(entry, limit=VALUE_LIMIT)
+        if not isinstance(source, str) and (problem := reference_problem(str(source))):
+            raise StudyError(f"{path}: worlds[{i}]: {shown!r} is not a built-in world and cannot be a file: {problem}")
+        if not isinstance(source, str) and not source.exists():
+            raise StudyError(f"{path}: worlds[{i}]: {shown!r} is neither a built-in world "
+                             f"({', '.join(BUILTIN_WORLDS)}) nor a world file (looked for {source})")
+        try:
+            # A world named twice is read once.
+            worlds.append(read[entry] if entry in read else read.setdefault(entry, load_world(source)))
+        except WorldError as exc:
+            raise StudyError(f"{path}: worlds[{i}]: {exc}") from None
+    return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)
+
+
+def world_files(study: LoadedStudy) -> list[Path]:
+    """The world files the study reads (not its built-in worlds): inputs no output may replace."""
+    return [source for entry in study.study.worlds
+            if not isinstance(source := _world_source(entry, study.path.parent), str)]
+
+
+def _world_source(entry: str, folder: Path) -> str | Path:
+    """A built-in world's name as it is; anything else is a file relative to the study file."""
+    return entry if entry in BUILTIN_WORLDS else folder / entry
+
+
+def check_participant(participant: str) -> str:
+    """A participant id usable as its own folder name; returns it.
+
+    Raises:
+        StudyError: the id is empty, too long, holds other characters than letters, digits
+            and ``_ . = -``, starts with another, or is ``report`` (the report's folder) or
+            ``pooled`` (the report's rows of everyone together).
+    """
+    if not _PARTICIPANT_ID.fullmatch(participant):
+        raise StudyError(
+            f"participant id {printable(participant, limit=VALUE_LIMIT)!r} cannot name a folder: use 1 to 80 "
+            "letters, digits and _ . = -, starting with a letter or digit"
+        )
+    if participant.lower() == REPORT_FOLDER:
+        raise StudyError(f"participant id {participant!r} is taken: <out>/{REPORT_FOLDER}/ holds the study's report")
+    if participant.lower() == POOLED:
+        raise StudyError(f"participant id {participant!r} is taken: the report's rows of everyone together are "
+                         f"called {POOLED!r}")
+    return participant
+
+
+def participant_folder_name(participant: str) -> str:
+    """The folder of a participant: the id itself (checked, so the slug leaves it whole)."""
+    name = slug(check_participant(participant))
+    assert name == participant
+    return name
+
+
+def world_order(study: Study, participant: str) -> list[int]:
+    """The indices into ``study.worlds`` in the order this participant plays them.
+
+    ``fixed``: the file's order. ``shuffled``: a Fisher-Yates shuffle, its i-th draw the
+    SHA-256 digest of ``"<participant>:<i>"`` (a 256-bit integer) modulo i + 1.
+    """
+    order = list(range(len(study.worlds)))
+    if study.order == "shuffled":
+        for i in range(len(order) - 1, 0, -1):
+            digest = hashlib.sha256(f"{participant}:{i}".encode()).digest()
+            j = int.from_bytes(digest, "big") % (i + 1)
+            order[i], order[j] = order[j], order[i]
+    return order
+
+
+# ---------------------------------------------------------------------------- a participant's folder
+
+
+@dataclass(frozen=True)
+class ParticipantRecordings:
+    """The study recordings in a participant's folder; `problems` names each file left out (and
+    each reader warning of a file that is counted) in one line, `left_out` counts the files left out."""
+
+    participant: str
+    folder: Path
+    recordings: tuple[tuple[StudyTag, Recording], ...]
+    problems: tuple[str, ...]
+    left_out: int = 0
+
+
+def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordings:
+    """Read every ``*.jsonl`` in the participant's folder (a missing folder holds nothing).
+
+    A file that cannot be read, is not a study recording, belongs to another study or
+    participant, or was recorded in another world than the study's (the study file was
+    changed) is left out with one line naming it; the others are read.
+    """
+    folder = study.participant_folder(participant)
+    found: list[tuple[StudyTag, Recording]] = []
+    problems: list[str] = []
+    paths = sorted(folder.glob("*.jsonl")) if folder.is_dir() else []
+    for path in paths:
+        try:
+            recording = read_recording(path)
+        except EmptyRecording:
+            problems.append(f"{path}: the file is empty (no session header); left out")
+            continue
+        except RecordingError as exc:
+            problems.append(f"{exc}; left out")
+            continue
+        problem = _foreign(study, participant, recording)
+        if problem:
+            problems.append(f"{path}: {problem}; left out")
+            continue
+        problems.extend(f"{warning}; the rest of the file is counted" for warning in recording.warnings)
+        tag = recording.header.study
+        assert tag is not None, "_foreign refuses a recording without a study tag"
+        found.append((tag, recording))
+    found, copies = _one_per_session(found)
+    problems.extend(copies)
+    return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
+
+
+def _one_per_session(found: list[tuple[StudyTag, Recording]]) -> tuple[list[tuple[StudyTag, Recording]], list[str]]:
+    """Each session once: a file whose header equals another's and whose lines all begin that
+    other file (a backup copy, taken then or later, which has its own inode) is a copy; the file
+    that holds the most is kept and each copy is named. Files of equal headers whose lines differ
+    are different sessions, and both count."""
+    sessions: dict[str, list[tuple[StudyTag, Recording]]] = {}
+    for entry in found:
+        sessions.setdefault(entry[1].header.model_dump_json(), []).append(entry)
+    kept, problems = [], []
+    for entries in sessions.values():
+        mine: list[tuple[StudyTag, Recording]] = []
+        for entry in sorted(entries, key=lambda entry: -_lines(entry[1])):  # stable: name order among equals
+            original = next((k for _, k in mine if _prefix(entry[1], k)), None)
+            if original is None:
+                mine.append(entry)
+                continue
+            problems.append(f"{entry[1].path}: a copy of the session in {original.path.name} (the same header, and "
+                            f"all its lines are in {original.path.name}); left out, so the session counts once")
+        kept.extend(mine)
+    position = {id(recording): i for i, (_, recording) in enumerate(found)}
+    kept.sort(key=lambda entry: position[id(entry[1])])
+    return kept, problems
+
+
+def _lines(recording: Recording) -> int:
+    return len(recording.steps) + len(recording.episode_ends)
+
+
+def _prefix(short: Recording, long: Recording) -> bool:
+    """Whether every step and episode end of `short` is the start of `long`'s."""
+    n = len(short.steps)
+    if n > len(long.steps) or len(short.episode_ends) > len(long.episode_ends):
+        return False
+    same_steps = all(np.array_equal(short.steps.column(name), long.steps.column(name)[:n], equal_nan=True)
+                     for name in ("episode", "t", "row", "col", "direction", "carefulness", "hold_ms"))
+    return same_steps and short.episode_ends == long.episode_ends[: len(short.episode_ends)]
+
+
+def _foreign(study: LoadedStudy, participant: str, recording: Recording) -> str | None:
+    """Why a recording is not one of this participant's in this study, or None."""
+    tag = recording.header.study
+    if tag is None:
+        return "not a study recording (its header has no study field)"
+    if tag.name != study.study.name:
+        return f"recorded for study {printable(tag.name, limit=VALUE_LIMIT)!r}, not {study.study.name!r}"
+    if tag.participant != participant:
+        return f"recorded for participant {printable(tag.participant, limit=VALUE_LIMIT)!r}, not {participant!r}"
+    if tag.world_index >= len(study.worlds):
+        return f"study.world_index {tag.world_index} is beyond the study's {plural(len(study.worlds), 'world')}"
+    if recording.world != study.worlds[tag.world_index]:
+        return f"recorded in another world than the study's worlds[{tag.world_index}] (was the study file changed?)"
+    return None
+
+
+def finished_episodes(recording: Recording) -> set[int]:
+    """Episodes whose ``episode_end`` says they ended in a terminal cell or at the step limit."""
+    return {end.episode for end in recording.episode_ends if end.outcome in FINISHED_OUTCOMES}
+
+
+def interrupted_episodes(recording: Recording) -> set[int]:
+    """Episodes with steps that did not finish: quit mid-way, or cut off without an ``episode_end``."""
+    stepped = set(recording.steps.column("episode").tolist())
+    return stepped - finished_episodes(recording)
+
+
+# ---------------------------------------------------------------------------- the protocol
+
+
+@dataclass(frozen=True)
+class Block:
+    """One world's practice or main episodes in a participant's sequence, and how far they got.
+
+    Attributes:
+        position: the block's world's place in the participant's order (0 first).
+        world_index: the world's index in the study file's ``worlds``.
+        phase: ``practice`` or ``main``.
+        target: the episodes the study asks for.
+        done: the finished episodes recorded.
+        interrupted: the episodes recorded but not finished (each is played again).
+        next_episode: the episode number the next one gets (numbers continue across files).
+        files: the recordings of this block, in name order.
+    """
+
+    position: int
+    world_index: int
+    phase: Phase
+    target: int
+    done: int
+    interrupted: int
+    next_episode: int
+    files: tuple[Path, ...]
+
+    @property
+    def remaining(self) -> int:
+        return max(0, self.target - self.done)
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """Where a participant stands in a study: every block, and what comes next."""
+
+    study: LoadedStudy
+    participant: str
+    folder: Path
+    order: tuple[int, ...]
+    blocks: tuple[Block, ...]
+    problems: tuple[str, ...]
+
+    @property
+    def next(self) -> Block | None:
+        """The first block with episodes still to play, or None when the participant has finished."""
+        return next((block for block in self.blocks if block.remaining), None)
+
+    @property
+    def finished(self) -> bool:
+        return self.next is None
+
+    @property
+    def progress(self) -> tuple[int, int]:
+        """(finished episodes that count, episodes the protocol asks for), practice included."""
+        return (sum(min(block.done, block.target) for block in self.blocks),
+                sum(block.target for block in self.blocks))
+
+    @property
+    def started(self) -> bool:
+        return any(block.done or block.interrupted for block in self.blocks)
+
+    def world(self, block: Block) -> World:
+        return self.study.worlds[block.world_index]
+
+    def tag(self, block: Block) -> StudyTag:
+        """The ``study`` header field of a new recording of `block`."""
+        return StudyTag(name=self.study.study.name, participant=self.participant, phase=block.phase,
+                        world_index=block.world_index)
+
+
+def read_protocol(study: LoadedStudy, participant: str) -> Protocol:
+    """What `participant` has done so far (from their folder) and the blocks of their sequence.
+
+    Raises:
+        StudyError: the participant id cannot name a folder.
+    """
+    check_participant(participant)
+    found = read_participant(study, participant)
+    order = world_order(study.study, participant)
+    by_block: dict[tuple[int, str], list[Recording]] = {}
+    for tag, recording in found.recordings:
+        by_block.setdefault((tag.world_index, tag.phase), []).append(recording)
+    problems = list(found.problems)
+    blocks = []
+    phases: list[tuple[Phase, int]] = [("practice", study.study.practice_episodes), ("main", study.study.episodes)]
+    for position, world_index in enumerate(order):
+        for phase, target in phases:
+            recordings = by_block.pop((world_index, phase), [])
+            if target == 0:
+                if recordings:
+                    problems.append(f"{len(recordings)} practice recording(s) of worlds[{world_index}] are not "
+                                    "counted: the study has no practice episodes now")
+                continue
+            numbers = [n for r in recordings for n in r.episodes]
+            blocks.append(Block(
+                position=position, world_index=world_index, phase=phase, target=target,
+                done=sum(len(finished_episodes(r)) for r in recordings),
+                interrupted=sum(len(interrupted_episodes(r)) for r in recordings),
+                next_episode=max(numbers, default=-1) + 1,
+                files=tuple(r.path for r in recordings),
+            ))
+    return Protocol(study=study, participant=participant, folder=found.folder, order=tuple(order),
+                    blocks=tuple(blocks), problems=tuple(problems))

@@ -1,0 +1,215 @@
+"""A Gymnasium environment over a careful world's MDP (docs/environment.md).
+
+``import irl_core.worlds.env`` registers ``careful/Careful-v0``::
+
+    import gymnasium as gym
+    import irl_core.worlds.env  # noqa: F401  (registers careful/Careful-v0)
+
+    env = gym.make("careful/Careful-v0", world="paper")
+
+``gym.make("irl_core.worlds.env:careful/Careful-v0", world=...)`` imports this module itself. The
+dynamics are the MDP's own (`irl_core.worlds.mdp.MDP.move`, the sampler `careful play` uses), so an
+agent here lives in exactly the world a player or a fitted reward sees.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+
+from irl_core.worlds.mdp import DIRECTIONS, build_mdp
+from irl_core.worlds.world import Cell, World, load_world, world_from_dict
+
+ENV_ID = "careful/Careful-v0"
+
+
+
+def resolve_world(world: str | Path | World | Mapping[str, Any]) -> World:
+    """A built-in name, a world file, a `World`, or a world as a mapping (its TOML fields).
+
+    Raises `irl_core.worlds.world.WorldError` (a one-line message) for anything else that is not a world.
+    """
+    if isinstance(world, World):
+        return world
+    if isinstance(world, Mapping):
+        return world_from_dict(dict(world))
+    return load_world(world)
+
+
+def cell_observation(cell: Cell, cols: int) -> int:
+    """The observation of a cell: row * cols + col."""
+    return int(cell[0]) * cols + int(cell[1])
+
+
+class CarefulEnv(gym.Env):
+    """
+    The careful cliff gridworlds: move on a grid, choosing how careful each move is.
+
+    ## Description
+    A grid world from `careful` (a built-in world such as the paper's `paper`, or a world file).
+    Each move has a direction and a carefulness c = 1..L: a careful move costs more and slips
+    less. With `slip = "halving"` the move goes the chosen way with probability 1 - 2^-c and
+    slips to each other direction with 2^-c / 3; moving off the grid or into a wall `#` stays.
+    Entering a terminal cell (`C` cliff, `G` goal by default) ends the episode.
+
+    ## Action Space
+    `Discrete(4 * L)`: action a = d * L + (c - 1), direction d in 0 up, 1 right, 2 down,
+    3 left, carefulness c in 1..L. With `action_space="multidiscrete"`: `MultiDiscrete([4, L])`,
+    an action [d, c - 1].
+
+    ## Observation Space
+    `Discrete(rows * cols)`: the agent's cell as row * cols + col (an `int`). Walls are never
+    observed; terminal cells are observed only as the last observation of an episode.
+
+    ## Rewards
+    Leaving cell s with carefulness c gives R_S(s) - cost_per_level * c. The step that enters
+    a terminal cell also gives that cell's R_S (`paper`: cliff -1000, goal +100). An episode's
+    return is the game's score change, and equals the `return` that `careful play` records.
+
+    ## Starting State
+    The world's start: a uniformly random non-terminal cell (`start = "random"`, the default),
+    or its fixed cell. `reset(options={"start": [row, col]})` starts at a given cell.
+
+    ## Episode End
+    - Termination: the agent enters a terminal cell.
+    - Truncation: the world's step limit (`max_steps`, 200 in the built-in worlds).
+    Calling `step` after either raises `gymnasium.error.ResetNeeded`.
+
+    ## Information
+    `reset` and `step` return `cell` (np.array([row, col])), `carefulness` (the move's c, 0 at
+    reset) and `slipped` (the move went another way than chosen, also when that way was blocked;
+    False at reset). Reset and step infos share keys so Minari's DataCollector can record them.
+
+    ## Arguments
+    ```python
+    gym.make("careful/Careful-v0", world="paper", action_space="discrete", render_mode=None)
+    ```
+    `world`: a built-in name, a world TOML file, a `World`, or a world's fields as a dict.
+    `render_mode="ansi"`: `render()` returns the board as text, `@` for the agent.
+    `env.unwrapped.mdp` is the world's MDP: its sparse transitions `P` and rewards.
+
+    ## Version History
+    - v0: Initial version.
+    """
+
+    metadata = {"render_modes": ["ansi"], "render_fps": 4}
+
+    def __init__(
+        self,
+        world: str | Path | World | Mapping[str, Any] = "paper",
+        *,
+        action_space: str = "discrete",
+        render_mode: str | None = None,
+    ) -> None:
+        if action_space not in ("discrete", "multidiscrete"):
+            raise ValueError(f'action_space must be "discrete" or "multidiscrete", got {action_space!r}')
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+        self.world = resolve_world(world)
+        self.mdp = build_mdp(self.world)
+        self.render_mode = render_mode
+        levels = self.world.levels
+        self.observation_space = spaces.Discrete(self.world.rows * self.world.cols)
+        self.action_space = (
+            spaces.Discrete(4 * levels) if action_space == "discrete" else spaces.MultiDiscrete([4, levels])
+        )
+        self._reward = self.mdp.reward_matrix()
+        self._starts = [self.mdp.state_of[cell] for cell in self.world.start_cells]
+        self._state: int | None = None
+        self._t = 0
+        self._done = False
+        self._return = 0.0
+        self._last_move: tuple[int, int, int] | None = None
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[int, dict[str, Any]]:
+        super().reset(seed=seed)
+        start = None if options is None else options.get("start")
+        if start is None:
+            self._state = self._starts[int(self.np_random.integers(len(self._starts)))]
+        else:
+            self._state = self._start_state(start)
+        self._t, self._done, self._return, self._last_move = 0, False, 0.0, None
+        return self._observation(), self._info(carefulness=0, slipped=False)
+
+    def step(self, action: Any) -> tuple[int, float, bool, bool, dict[str, Any]]:
+        if self._state is None or self._done:
+            raise ResetNeeded("the episode has ended (or never began): call reset() first")
+        a = self._action_index(action)
+        s = self._state
+        s_next, realised = self.mdp.move(s, a, self.np_random)
+        d, c = divmod(a, self.world.levels)
+        reward = float(self._reward[s, a])
+        terminated = bool(self.mdp.terminal[s_next])
+        if terminated:
+            reward += float(self.mdp.R_S[s_next])
+        self._state = s_next
+        self._t += 1
+        self._return += reward
+        self._done = terminated or self._t >= self.world.max_steps
+        self._last_move = (d, c + 1, realised)
+        truncated = self._done and not terminated
+        return self._observation(), reward, terminated, truncated, self._info(carefulness=c + 1, slipped=realised != d)
+
+    def render(self) -> str | None:
+        if self.render_mode != "ansi":
+            return None
+        agent = None if self._state is None else self.mdp.cells[self._state]
+        lines = [
+            "".join(
+                "@" if (r, c) == agent else (ch if ch.isprintable() else "?")
+                for c, ch in enumerate(row)
+            )
+            for r, row in enumerate(self.world.grid)
+        ]
+        status = f"step {self._t} of {self.world.max_steps}, return {self._return:g}"
+        if self._last_move is not None:
+            chosen, carefulness, realised = self._last_move
+            status += f"; last move {DIRECTIONS[chosen]} at carefulness {carefulness}"
+            if realised != chosen:
+                status += f", slipped {DIRECTIONS[realised]}"
+        return "\n".join([*lines, status]) + "\n"
+
+    def _action_index(self, action: Any) -> int:
+        if not self.action_space.contains(action):
+            raise ValueError(f"{action!r} is not an action of {self.action_space}")
+        if isinstance(self.action_space, spaces.MultiDiscrete):
+            d, c0 = (int(x) for x in np.asarray(action))
+            return d * self.world.levels + c0
+        return int(action)
+
+    def _start_state(self, start: Any) -> int:
+        try:
+            cell = (int(start[0]), int(start[1]))
+            if len(start) != 2:
+                raise ValueError
+        except (TypeError, ValueError, IndexError, KeyError):
+            raise ValueError(f"options['start'] must be a cell [row, col], got {start!r}") from None
+        state = self.mdp.state_of.get(cell)
+        if state is None or not self.mdp.nonterminal[state]:
+            raise ValueError(f"options['start'] {list(cell)} is not a non-terminal cell of world {self.world.name!r}")
+        return state
+
+    def _cell(self) -> Cell:
+        # Only called after reset() has placed the agent.
+        assert self._state is not None
+        return self.mdp.cells[self._state]
+
+    def _observation(self) -> int:
+        return cell_observation(self._cell(), self.world.cols)
+
+    def _info(self, *, carefulness: int, slipped: bool) -> dict[str, Any]:
+        return {
+            "cell": np.array(self._cell(), dtype=np.int64),
+            "carefulness": carefulness,
+            "slipped": bool(slipped),
+        }
+
+
+if ENV_ID not in gym.registry:
+    gym.register(id=ENV_ID, entry_point="irl_core.worlds.env:CarefulEnv")

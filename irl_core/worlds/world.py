@@ -1,0 +1,324 @@
+"""Worlds: the cliff gridworlds of the paper as validated data (docs/worlds.md).
+
+A world is a layout string plus the numbers that turn it into an MDP. It is read from
+TOML with the standard library and validated with pydantic; seven worlds are built in, six
+defined below and `walls` read from ``irl_core/worlds/walls.toml``.
+
+====================  =====================================================
+field                 meaning
+====================  =====================================================
+``layout``            rows of symbols, row 0 at the top: ``.`` ground,
+                      ``C`` cliff, ``G`` goal, ``U`` undesirable, ``#`` wall
+``levels``            L, the number of carefulness levels (c = 1..L, L <= 53)
+``cost_per_level``    action cost R_A(a) = -cost_per_level * c
+``gamma``             discount for planning and IRL, in [0, 1)
+``slip``              ``halving``: P(chosen direction) = 1 - 2^-c, ``none``
+``terminal``          symbols whose cell ends the episode when entered
+``start``             ``random`` (uniform non-terminal cell) or ``[row, col]``
+``initial_score``     the game's starting score (undiscounted)
+``max_steps``         step limit that truncates an episode
+``rewards``           R_S per symbol; unlisted symbols have R_S = 0
+====================  =====================================================
+"""
+
+from __future__ import annotations
+
+import tomllib
+from functools import cached_property
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from irl_core.support.safe_files import InputError, read_toml, reference_problem
+from irl_core.support.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
+from irl_core.support.words import plural
+
+# A cell of the grid, (row, column) from the top left; a move's direction as recordings spell it.
+Cell = tuple[int, int]
+Direction = Literal["up", "right", "down", "left"]
+
+WALL = "#"
+GROUND = "."
+# With halving slip, 1 - 2^-c rounds to exactly 1 in double precision above c = 53, so more
+# levels add nothing but cost; the bound also keeps a typo from building an MDP with 4e9 actions.
+MAX_LEVELS = 53
+# The largest world careful builds: its arrays grow with cells x actions, and a 2000x2000 layout
+# in a 4 MB recording header would otherwise ask for tens of gigabytes. Checked on the layout,
+# before anything is allocated. 128x128 with 14 levels fits (917,504 state-actions, a few
+# hundred MB at most for a fit).
+MAX_CELLS = 16_384
+MAX_STATE_ACTIONS = 1_000_000
+# Rewards, the cost of the most careful move and the initial score are at most this large, and an
+# episode at most MAX_STEPS long, so every score, return and value stays a finite number JSON holds.
+MAX_MAGNITUDE = 1e12
+MAX_STEPS = 1_000_000
+
+
+class WorldError(InputError):
+    """A world file or name that cannot be used; the message is one sentence for the user."""
+
+
+class World(BaseModel):
+    """One gridworld, exactly as docs/worlds.md and the recordings' headers describe it."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    # Numbers are strict: `levels = true` or `gamma = "0.9"` is a mistake to report, not to guess.
+    name: str = Field("custom", strict=True)
+    layout: str = Field(strict=True)
+    levels: int = Field(14, ge=1, le=MAX_LEVELS, strict=True)
+    cost_per_level: float = Field(1.0, ge=0, strict=True)
+    gamma: float = Field(0.95, ge=0, lt=1, strict=True)
+    slip: Literal["halving", "none"] = "halving"
+    terminal: tuple[str, ...] = ("C", "G")
+    start: Literal["random"] | tuple[int, int] = "random"
+    initial_score: float = Field(200.0, strict=True, ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE)
+    max_steps: int = Field(200, ge=1, le=MAX_STEPS, strict=True)
+    rewards: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("layout")
+    @classmethod
+    def _layout_is_rectangular(cls, layout: str) -> str:
+        rows = _layout_rows(layout)
+        if not rows:
+            raise ValueError("the layout has no rows")
+        if len(rows) * len(rows[0]) > MAX_CELLS:
+            raise ValueError(
+                f"the layout has {len(rows)}x{len(rows[0])} = {len(rows) * len(rows[0]):,} cells; careful handles "
+                f"at most {MAX_CELLS:,} (128x128)"
+            )
+        widths = {len(row) for row in rows}
+        if len(widths) != 1:
+            ragged = next(i for i, row in enumerate(rows) if len(row) != len(rows[0]))
+            raise ValueError(
+                f"the layout is ragged: row 0 has {plural(len(rows[0]), 'cell')} but row {ragged} has {len(rows[ragged])}"
+            )
+        if any(ch.isspace() for row in rows for ch in row):
+            raise ValueError("the layout contains a space inside a row; use '.' for ground")
+        if not all(row.isprintable() for row in rows):
+            raise ValueError("the layout contains a control or invisible character; cells are printable symbols")
+        return "\n".join(rows) + "\n"
+
+    @field_validator("start", mode="before")
+    @classmethod
+    def _start_is_random_or_a_cell(cls, start: object) -> object:
+        # Without this the union reports its first branch: "start.literal['random']: Input should be 'random'".
+        if (isinstance(start, str) and start == "random") or (
+            isinstance(start, list | tuple)
+            and len(start) == 2
+            and all(isinstance(x, int) and not isinstance(x, bool) for x in start)
+        ):
+            return start
+        raise ValueError('must be "random" or a cell [row, col] of two integers')
+
+    @field_validator("terminal")
+    @classmethod
+    def _terminal_symbols_are_single(cls, terminal: tuple[str, ...]) -> tuple[str, ...]:
+        for symbol in terminal:
+            if len(symbol) != 1:
+                raise ValueError(f"terminal symbol {symbol!r} is not one character")
+        return terminal
+
+    @field_validator("rewards")
+    @classmethod
+    def _rewards_are_bounded(cls, rewards: dict[str, float]) -> dict[str, float]:
+        for symbol, reward in rewards.items():
+            if not abs(reward) <= MAX_MAGNITUDE:
+                raise ValueError(f"the reward of {symbol!r} is {reward:g}; rewards are at most {MAX_MAGNITUDE:g} in size")
+        return rewards
+
+    @model_validator(mode="after")
+    def _consistent(self) -> World:
+        state_actions = (self.rows * self.cols + 1) * 4 * self.levels
+        if state_actions > MAX_STATE_ACTIONS:
+            raise ValueError(
+                f"{self.rows}x{self.cols} cells with {self.levels} levels make {state_actions:,} state-actions; "
+                f"careful handles at most {MAX_STATE_ACTIONS:,} (fewer cells or fewer levels)"
+            )
+        if not self.cost_per_level * self.levels <= MAX_MAGNITUDE:
+            raise ValueError(
+                f"cost_per_level {self.cost_per_level:g} x {plural(self.levels, 'level')} is "
+                f"{self.cost_per_level * self.levels:g}; "
+                f"the most careful move may cost at most {MAX_MAGNITUDE:g}"
+            )
+        symbols = {ch for row in self.grid for ch in row}
+        for symbol in self.rewards:
+            if len(symbol) != 1:
+                raise ValueError(f"reward symbol {symbol!r} is not one character")
+            if symbol not in symbols:
+                raise ValueError(f"a reward is given for {printable(symbol)!r}, which the layout does not use")
+            if symbol == WALL:
+                raise ValueError("a wall '#' is not a state and cannot have a reward")
+        if self.start == "random" and not any(ch != WALL and ch not in self.terminal for row in self.grid for ch in row):
+            raise ValueError("there is no cell to start from: every cell is a wall or terminal")
+        if self.start != "random":
+            r, c = self.start
+            if not (0 <= r < self.rows and 0 <= c < self.cols):
+                raise ValueError(f"start {list(self.start)} is outside the {self.rows}x{self.cols} grid")
+            symbol = self.grid[r][c]
+            if symbol == WALL:
+                raise ValueError(f"start {list(self.start)} is a wall")
+            if symbol in self.terminal:
+                raise ValueError(f"start {list(self.start)} is a terminal cell {symbol!r}")
+        return self
+
+    @cached_property
+    def grid(self) -> list[str]:
+        """The layout's rows, top to bottom."""
+        return _layout_rows(self.layout)
+
+    @property
+    def rows(self) -> int:
+        return len(self.grid)
+
+    @property
+    def cols(self) -> int:
+        return len(self.grid[0])
+
+    def symbol(self, cell: tuple[int, int]) -> str:
+        return self.grid[cell[0]][cell[1]]
+
+    def reward_of(self, symbol: str) -> float:
+        """R_S for a symbol (0 when the world lists none)."""
+        return float(self.rewards.get(symbol, 0.0))
+
+    @cached_property
+    def cells(self) -> list[tuple[int, int]]:
+        """Every cell that is a state (not a wall), in row-major order."""
+        return [(r, c) for r, row in enumerate(self.grid) for c, ch in enumerate(row) if ch != WALL]
+
+    @property
+    def start_cells(self) -> list[tuple[int, int]]:
+        """Cells an episode may start from: a fixed start, or every non-terminal state."""
+        if self.start != "random":
+            row, col = self.start
+            return [(row, col)]
+        return [cell for cell in self.cells if self.symbol(cell) not in self.terminal]
+
+    def to_toml(self) -> str:
+        """The world as a TOML file that `load_world` reads back to an equal world."""
+        start = '"random"' if self.start == "random" else f"[{self.start[0]}, {self.start[1]}]"
+        lines = [
+            f"name = {_toml_str(self.name)}",
+            f'layout = """\n{_toml_escape(self.layout, keep_newlines=True)}"""',
+            f"levels = {self.levels}",
+            f"cost_per_level = {self.cost_per_level!r}",
+            f"gamma = {self.gamma!r}",
+            f"slip = {_toml_str(self.slip)}",
+            "terminal = [" + ", ".join(_toml_str(t) for t in self.terminal) + "]",
+            f"start = {start}",
+            f"initial_score = {self.initial_score!r}",
+            f"max_steps = {self.max_steps}",
+            "[rewards]",
+            *(f"{_toml_str(k)} = {v!r}" for k, v in self.rewards.items()),
+        ]
+        return "\n".join(lines) + "\n"
+
+
+def _toml_str(value: str) -> str:
+    return '"' + _toml_escape(value) + '"'
+
+
+def _toml_escape(value: str, *, keep_newlines: bool = False) -> str:
+    """`value` for a TOML basic string: backslash, quote and control characters escaped."""
+    out = []
+    for ch in value:
+        if ch in '\\"':
+            out.append("\\" + ch)
+        elif ch == "\n" and keep_newlines:
+            out.append(ch)
+        elif is_unsafe(ch):  # controls (C0, DEL, C1) and bidi or invisible marks: never raw in a file shown
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
+def _layout_rows(layout: str) -> list[str]:
+    return [row.strip() for row in layout.strip("\n").splitlines() if row.strip()]
+
+
+_PAPER_LAYOUT = "......\n......\n......\n.CCCCG\n"
+_MUD_LAYOUT = "......\n.UU...\n......\n.CCCCG\n"
+_PAPER_REWARDS = {"C": -1000.0, "G": 100.0}
+_MUD_REWARDS = {"C": -1000.0, "G": 100.0, "U": -30.0}
+# Gymnasium's CliffWalking-v1 (gymnasium/envs/toy_text/cliffwalking.py): 4x12, start bottom-left, the
+# cliff along the bottom between it and the goal. Its -1 a step is carefulness 1's cost and its cliff's
+# -100 the cliff's reward; the differences (the cliff ends the episode, moves slip, levels) are in
+# docs/environment.md.
+_CLIFFWALKING_LAYOUT = "............\n............\n............\n.CCCCCCCCCCG\n"
+
+BUILTIN_WORLDS: dict[str, World] = {
+    "paper": World(name="paper", layout=_PAPER_LAYOUT, levels=14, rewards=_PAPER_REWARDS),
+    "paper-simple": World(name="paper-simple", layout=_PAPER_LAYOUT, levels=1, rewards=_PAPER_REWARDS),
+    "paper-maxent": World(
+        name="paper-maxent", layout=_PAPER_LAYOUT, levels=1, slip="none", rewards=_PAPER_REWARDS
+    ),
+    "mud": World(name="mud", layout=_MUD_LAYOUT, levels=14, rewards=_MUD_REWARDS),
+    "mud-simple": World(name="mud-simple", layout=_MUD_LAYOUT, levels=1, rewards=_MUD_REWARDS),
+    "cliffwalking": World(
+        name="cliffwalking", layout=_CLIFFWALKING_LAYOUT, levels=14, start=(3, 0), rewards={"C": -100.0, "G": 0.0}
+    ),
+    "walls": World.model_validate(tomllib.loads((Path(__file__).parent / "walls.toml").read_text("utf-8"))),
+}
+
+WORLD_PURPOSES: dict[str, str] = {
+    "paper": "the paper's careful setting",
+    "paper-simple": "four actions, no carefulness choice",
+    "paper-maxent": "the MaxEnt baseline's deterministic world",
+    "mud": "catastrophic vs merely undesirable",
+    "mud-simple": "the same without carefulness",
+    "cliffwalking": "Gymnasium's CliffWalking layout, for code written for it",
+    "walls": "walls, mud, a corridor beside the cliff",
+}
+
+
+def world_from_dict(data: dict, *, source: str = "world") -> World:
+    """Validate a world given as a mapping (a TOML table or a recording's header)."""
+    try:
+        return World.model_validate(data)
+    except ValidationError as exc:
+        raise WorldError(f"{source}: {describe_validation_error(exc)}") from None
+
+
+def load_world(name_or_path: str | Path) -> World:
+    """A built-in world by name, or a world read from a TOML file.
+
+    Raises `WorldError` with a one-line message for an unknown name, an unreadable
+    file, bad TOML or a world that fails validation.
+    """
+    key = str(name_or_path)
+    if key in BUILTIN_WORLDS:
+        return BUILTIN_WORLDS[key]
+    path = Path(key)
+    if problem := reference_problem(key):
+        raise WorldError(f"no world named {printable(key, limit=VALUE_LIMIT)!r}, and it cannot be a file: {problem}")
+    if not path.exists():
+        known = ", ".join(BUILTIN_WORLDS)
+        raise WorldError(f"no world named {printable(key, limit=VALUE_LIMIT)!r} and no such file (built-in worlds: {known})")
+    try:
+        # A world file bigger than this cannot hold a world within MAX_CELLS.
+        data = read_toml(path, what="world", limit=_MAX_WORLD_FILE_BYTES, too_big=f"a world has at most {MAX_CELLS:,} cells")
+    except ValueError as exc:
+        raise WorldError(str(exc)) from None
+    data.setdefault("name", path.stem)
+    return world_from_dict(data, source=str(path))
+
+
+_MAX_WORLD_FILE_BYTES = 16 << 20
+
+
+def describe_validation_error(exc: ValidationError) -> str:
+    """The first problem in a pydantic error as `field: problem` (or `problem` for the whole), readable by a user."""
+    first = exc.errors()[0]
+    where = field_path(first["loc"])
+    message = first["msg"].removeprefix("Value error, ")
+    # A check of the whole world (a start in a wall, say) has no field: its message names one.
+    return f"{where}: {message}" if where else message
+
+
+def field_path(loc: tuple[str | int, ...] | list[str | int]) -> str:
+    """A pydantic error location as `world.rewards.C`; a key that would break the line is quoted."""
+    return ".".join(cut(str(part), VALUE_LIMIT) if str(part).isprintable() else cut(repr(part), VALUE_LIMIT)
+                    for part in loc)
