@@ -29,17 +29,10 @@ from irl_core.irl.margin import lp_constraints
 from irl_core.irl.maxent import MaxEntSolution, curvature_scale, fit_maxent, identification, soft_bellman
 from irl_core.irl.notes import Note
 from irl_core.irl.options import FitOptions
-from irl_core.irl.people import (
-    FLAT_DROP,
-    ModelChoice,
-    PlayerFit,
-    PlayerRefit,
-    choose_player_model,
-    fit_given_model,
-    flat_toward_bound,
-    significantly_better,
-)
-from irl_core.irl.people import curvature_scale as people_curvature_scale
+from irl_core.irl.people_choice import ModelChoice, choose_player_model, fit_given_model, significantly_better
+from irl_core.irl.people_fit import PlayerFit, PlayerRefit
+from irl_core.irl.people_fit import curvature_scale as people_curvature_scale
+from irl_core.irl.people_flat import FLAT_DROP, flat_toward_bound
 from irl_core.irl.player_models import AUTO as PLAYER_AUTO
 from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -250,7 +243,7 @@ def _fit_loss(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progres
 
 def _fit_maxent(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
     """Maximum-entropy IRL: the paper's Boltzmann expert with beta given or estimated (`FitOptions.maxent_beta`),
-    or a model of people (`FitOptions.player_model`, `irl_core.irl.people`)."""
+    or a model of people (`FitOptions.player_model`, `irl_core.irl.people_fit`)."""
     chosen_by_auto = options.method == "auto"
     model = options.maxent_player_model(chosen_by_auto=chosen_by_auto)
     if model != "boltzmann":

@@ -115,12 +115,12 @@ def _soft_bellman(mdp: MDP, R: np.ndarray, *, beta: float, V0: np.ndarray | None
     of the fixed point. (Checking the change between two solves instead costs one more solve.)
     """
     V = np.zeros(mdp.n_states) if V0 is None else np.asarray(V0, dtype=float)
-    Q = R + mdp.gamma * _expected_next(mdp, V)
+    Q = R + mdp.gamma * expected_next(mdp, V)
     pi, log_pi, _ = _soft_policy(beta * Q)
     for iteration in range(1, max_iter + 1):
         stop_if_asked()
-        V = _solve(policy_system(mdp, pi), (pi * R).sum(axis=1) - (pi * log_pi).sum(axis=1) / beta)
-        Q = R + mdp.gamma * _expected_next(mdp, V)
+        V = solve_system(policy_system(mdp, pi), (pi * R).sum(axis=1) - (pi * log_pi).sum(axis=1) / beta)
+        Q = R + mdp.gamma * expected_next(mdp, V)
         pi, log_pi, soft_max = _soft_policy(beta * Q)
         residual = float(np.abs(soft_max / beta - V).max())
         if residual <= tol * max(1.0, float(np.abs(V).max())):
@@ -185,7 +185,7 @@ def _likelihood(
     ll = float((counts[acting] * plan.log_policy[acting]).sum())
     if drive is None:
         drive = demonstration_drive(mdp, counts)
-    y = _solve(policy_system(mdp, plan.policy).T, drive)
+    y = solve_system(policy_system(mdp, plan.policy).T, drive)
     return ll, counts + y[:, None] * plan.policy, plan, R
 
 
@@ -205,8 +205,9 @@ def _dense_P(mdp: MDP) -> np.ndarray:
     return P
 
 
-def _expected_next(mdp: MDP, V: np.ndarray) -> np.ndarray:
-    """(S, A) sum_s' P(s' | s, a) V(s'), as `MDP.expected_next`."""
+def expected_next(mdp: MDP, V: np.ndarray) -> np.ndarray:
+    """(S, A) sum_s' P(s' | s, a) V(s'), as `MDP.expected_next` (dense P in small worlds; the models of
+    people share it)."""
     if mdp.n_states > DENSE_STATES:
         return mdp.expected_next(V)
     return _dense_P(mdp) @ V
@@ -224,7 +225,8 @@ def policy_system(mdp: MDP, pi: np.ndarray) -> np.ndarray | sp.csc_matrix:
     return system
 
 
-def _solve(system: np.ndarray | sp.spmatrix, b: np.ndarray) -> np.ndarray:
+def solve_system(system: np.ndarray | sp.spmatrix, b: np.ndarray) -> np.ndarray:
+    """x (S,) with system x = b for a `policy_system` (or its transpose): LAPACK when dense, SuperLU when sparse."""
     if isinstance(system, np.ndarray):
         _, _, x, info = dgesv(system, b)
         if info != 0:

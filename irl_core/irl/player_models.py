@@ -1,7 +1,7 @@
 """The player models a maxent fit knows (`irl_core.irl.people`), one entry each.
 
 `FitOptions` checks a name here and ``careful fit --player-model`` offers these choices; the
-model itself is `irl_core.irl.people`. This module imports nothing heavy, so the command line
+model itself is `irl_core.irl.people_likelihood`. This module imports nothing heavy, so the command line
 can read it before it needs numpy's solvers.
 """
 

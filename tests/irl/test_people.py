@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from irl_core.irl import maxent
-from irl_core.irl.people import PLAYER_MODELS, Player, level_kernel, log_likelihood, player_model
+from irl_core.irl.people_likelihood import level_kernel, log_likelihood
+from irl_core.irl.player_models import PLAYER_MODELS, Player, player_model
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import World
 
@@ -85,3 +86,16 @@ def test_the_level_kernel_is_a_distribution_centred_on_the_intended_level():
 def test_an_unknown_player_model_is_refused_by_name():
     with pytest.raises(ValueError, match="player_model must be one of"):
         player_model("robot")
+
+
+def test_every_name_the_people_module_had_before_its_split_still_imports_from_it():
+    import irl_core.irl.people as people
+    from irl_core.irl import people_choice, people_fit, people_flat
+
+    before_split = {"choose_player_model", "fit_player", "log_likelihood", "PlayerFit", "PlayerRefit", "ModelChoice",
+                    "flat_toward_bound", "curvature_scale", "fit_given_model", "significantly_better", "level_kernel",
+                    "FLAT_DROP", "PLAYER_MODELS", "Player", "player_model", "beta_bounds", "PlayerPlan"}
+    assert before_split <= set(people.__all__)
+    assert all(hasattr(people, name) for name in people.__all__)
+    assert people.fit_player is people_fit.fit_player and people.flat_toward_bound is people_flat.flat_toward_bound
+    assert people.choose_player_model is people_choice.choose_player_model

@@ -7,7 +7,9 @@ import pytest
 
 from irl_core.irl import fit
 from irl_core.irl.fit_check import fit_check, terminal_distance
-from irl_core.irl.people import choose_player_model, fit_player, log_likelihood
+from irl_core.irl.people_choice import choose_player_model
+from irl_core.irl.people_fit import fit_player
+from irl_core.irl.people_likelihood import log_likelihood
 from irl_core.irl.player_models import PLAYER_MODELS, Player
 from irl_core.irl.qmap import build_unknowns
 from irl_core.irl.result import InfeasibleError

@@ -1,0 +1,138 @@
+"""Choosing a model of people: each candidate fitted, and the one held-out episodes explain best (the
+fewest parameters among those that tie)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from irl_core.irl.people_fit import REFIT_MAX_ITER, PlayerFit, fit_player
+from irl_core.irl.people_likelihood import START_LAPSE, START_SIGMA
+from irl_core.irl.player_models import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
+from irl_core.irl.qmap import Unknowns
+from irl_core.worlds.mdp import MDP
+
+FOLDS = 5
+# A fold's refit starts at the full fit and stops sooner: its error is far below the held-out noise.
+FOLD_VALUE_TOLERANCE = 1e-6
+# With fewer episodes than this there is no held-out choice.
+MIN_EPISODES_TO_CHOOSE = 3
+
+
+@dataclass(frozen=True)
+class ModelChoice:
+    """Which player model explains the recordings best on held-out episodes, and by how much.
+
+    Attributes:
+        name: the chosen model.
+        held_out: per candidate, the log likelihood of each episode under the model fitted without
+            its fold, summed over episodes (None where the choice was not made on held-out data).
+        folds: how many folds the episodes were split into (0: no held-out choice).
+        fits: per candidate, its fit to every episode.
+        reason: one sentence for the reader.
+        per_episode: per candidate, each episode's held-out log likelihood (E,) (None as held_out).
+    """
+
+    name: str
+    held_out: dict[str, float] | None
+    folds: int
+    fits: dict[str, PlayerFit]
+    reason: str
+    per_episode: dict[str, np.ndarray] | None = None
+
+
+def choose_player_model(
+    mdp: MDP,
+    unknowns: Unknowns,
+    by_episode: sp.csr_matrix,
+    *,
+    rmax: float,
+    candidates: tuple[str, ...] = CANDIDATES,
+    folds: int = FOLDS,
+    seed: int = 0,
+) -> ModelChoice:
+    """Fit each candidate model to the episodes (rows of `by_episode`, (E, S * A)) and choose by
+    `folds`-fold held-out log likelihood of whole episodes: of the models within `SIMPLER_MARGIN` of
+    the best, the one with the fewest parameters, the likeliest among those. With fewer than
+    `MIN_EPISODES_TO_CHOOSE` episodes the choice is the ``ends`` model (the simplest with a person's
+    episode end), said so."""
+    by_episode = sp.csr_matrix(by_episode)
+    counts = _counts_of(by_episode, mdp)
+    E = by_episode.shape[0]
+    models = [player_model(name) for name in candidates]
+    if E < MIN_EPISODES_TO_CHOOSE:
+        fit = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=rmax)
+        return ModelChoice("ends", None, 0, {"ends": fit},
+                           f"player model ends, without a held-out choice: {E} episode{'s' if E != 1 else ''} "
+                           f"cannot be split into folds (a choice needs {MIN_EPISODES_TO_CHOOSE})")
+    fits: dict[str, PlayerFit] = {}
+    for model in models:
+        # From the default start, and for a richer model also from where the one before it ended: the
+        # likelihood is not concave, and either start alone can stop in a poorer optimum.
+        tries = [fit_player(mdp, unknowns, counts, model=model, rmax=rmax)]
+        previous = fits[models[models.index(model) - 1].name] if fits else None
+        if previous is not None:
+            start = (previous.theta, Player(previous.player.beta, previous.player.sigma or START_SIGMA,
+                                            previous.player.lapse or START_LAPSE))
+            tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
+        fits[model.name] = max(tries, key=lambda fit: fit.mean_log_likelihood)
+    k = min(folds, E)
+    fold_of = np.random.default_rng(seed).permutation(np.arange(E) % k)
+    per_episode = {model.name: np.zeros(E) for model in models}
+    for f in range(k):
+        test = np.flatnonzero(fold_of == f)
+        train = _counts_of(by_episode[fold_of != f], mdp)
+        for model in models:
+            full = fits[model.name]
+            part = fit_player(mdp, unknowns, train, model=model, rmax=rmax, start=(full.theta, full.player),
+                              start_V=full.V1, value_tolerance=FOLD_VALUE_TOLERANCE, max_iter=REFIT_MAX_ITER)
+            per_episode[model.name][test] = by_episode[test] @ part.plan.log_observed.ravel()
+    held_out = {name: float(values.sum()) for name, values in per_episode.items()}
+    best = max(held_out, key=held_out.__getitem__)
+    standing = [m for m in models if held_out[best] - held_out[m.name] <= SIMPLER_MARGIN]
+    fewest = min(m.extra_parameters for m in standing)
+    chosen = max((m.name for m in standing if m.extra_parameters == fewest), key=held_out.__getitem__)
+    steps = int(counts.sum())
+    scores = ", ".join(f"{name} {held_out[name] / steps:.4f}" for name in candidates)
+    why = (f"player model {chosen} chosen by {k}-fold held-out log likelihood of whole episodes, per step: "
+           f"{scores}")
+    if chosen != best:
+        why += f" ({best} is no better by more than {SIMPLER_MARGIN:g} nats in all, so the simpler model stands)"
+    return ModelChoice(chosen, held_out, k, fits, why, per_episode)
+
+
+# A model with more parameters is chosen only if its held-out log likelihood beats the simpler one's by
+# more than this (nats over all held-out episodes; cross-validation already charges for overfitting).
+SIMPLER_MARGIN = 2.0
+# Two models of equal size are told apart on held-out episodes when the mean of their paired per-episode log likelihood
+# differences is this many standard errors above zero.
+SIGNIFICANT_Z = 2.0
+
+
+def significantly_better(first: np.ndarray, second: np.ndarray) -> bool:
+    """Whether per-episode held-out log likelihoods `first` (E,) beat `second` (E,) beyond their noise."""
+    difference = np.asarray(first) - np.asarray(second)
+    spread = difference.std(ddof=1) if difference.size > 1 else 0.0
+    if spread == 0:
+        return bool(difference.sum() > 0)
+    return bool(difference.mean() / (spread / np.sqrt(difference.size)) > SIGNIFICANT_Z)
+
+
+def fit_given_model(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, model: PlayerModel, rmax: float) -> PlayerFit:
+    """`fit_player` for one model named in advance, from the starts `choose_player_model` tries: the default,
+    and for a model with a hand, where the simpler ``ends`` model ends (the likelier answer is kept), so that a
+    model given by name finds the optimum the choice would have found."""
+    tries = [fit_player(mdp, unknowns, counts, model=model, rmax=rmax)]
+    if model.hand:
+        simpler = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=rmax)
+        tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax,
+                                start=(simpler.theta, Player(simpler.player.beta, START_SIGMA, START_LAPSE))))
+    return max(tries, key=lambda fit: fit.mean_log_likelihood)
+
+
+def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
+    """(S, A) counts summed over episode rows (n, S * A)."""
+    return np.asarray(rows.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
+

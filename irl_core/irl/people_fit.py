@@ -1,0 +1,212 @@
+"""Fitting a model of people: the rewards and the player by maximum likelihood (L-BFGS-B over the exact
+gradient of `people_likelihood`), the curvature that scales a refit, and the bootstrap's refit."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize
+
+from irl_core.irl.maxent import one_blas_thread
+from irl_core.irl.people_likelihood import (
+    LAPSE_BOUNDS,
+    SIGMA_BOUNDS,
+    START_LAPSE,
+    START_SIGMA,
+    PlayerPlan,
+    beta_bounds,
+    log_likelihood,
+)
+from irl_core.irl.player_models import Player, PlayerModel
+from irl_core.irl.qmap import Unknowns
+from irl_core.worlds.mdp import MDP
+
+# L-BFGS-B stops when an iteration improves the mean log likelihood by less than this, relative.
+# A reward the data do not pin (a cliff nobody steps into) only walks on along a flat direction past
+# this point, so its value is the optimiser's patience, not the data's: the fit reads such rewards as
+# one-sided ("at most X", `flat_toward_bound`), bench/bench_people.py measures both speed and answers.
+VALUE_TOLERANCE = 1e-10
+GRADIENT_TOLERANCE = 1e-7
+MAX_ITER = 1000
+# A resample's refit runs over variables scaled to unit curvature (`curvature_scale`) and stops at this
+# projected gradient, as maxent's does (`bootstrap.RESAMPLE_GRADIENT_TOLERANCE`).
+RESAMPLE_GRADIENT_TOLERANCE = 1e-5
+RESAMPLE_VALUE_TOLERANCE = 1e-12
+REFIT_MAX_ITER = 200
+
+
+@dataclass(frozen=True)
+class PlayerFit:
+    """The rewards theta (k,) and the player that maximise the likelihood, V (S,) at beta 1 there,
+    the mean log likelihood per recorded step, and L-BFGS-B's report."""
+
+    model: PlayerModel
+    theta: np.ndarray
+    player: Player
+    V1: np.ndarray
+    mean_log_likelihood: float
+    converged: bool
+    iterations: int
+    message: str
+    plan: PlayerPlan = field(repr=False)
+
+    @property
+    def beta_at_bound(self) -> bool:
+        return min(abs(np.log(self.player.beta) - end) for end in beta_bounds(self.model)) < 1e-6
+
+    def parameters(self) -> np.ndarray:
+        """(p,) theta, then beta, then sigma and the lapse where the model has them (the bootstrap's vector)."""
+        extra = [self.player.beta]
+        if self.model.hand:
+            extra.append(self.player.sigma)
+        if self.model.lapses:
+            extra.append(self.player.lapse)
+        return np.append(self.theta, extra)
+
+
+def _logit(p: float) -> float:
+    return float(np.log(p) - np.log1p(-p))
+
+
+def fit_player(
+    mdp: MDP,
+    unknowns: Unknowns,
+    counts: np.ndarray,
+    *,
+    model: PlayerModel,
+    rmax: float,
+    start: tuple[np.ndarray, Player] | None = None,
+    start_V: np.ndarray | None = None,
+    scale: np.ndarray | None = None,
+    value_tolerance: float = VALUE_TOLERANCE,
+    gradient_tolerance: float = GRADIENT_TOLERANCE,
+    max_iter: int = MAX_ITER,
+) -> PlayerFit:
+    """Maximise the mean log likelihood of counts N (S, A) over the unknowns (|theta| <= rmax), log beta,
+    and, where `model` has them, log sigma and logit lapse, from `start` = (theta, player) (else theta 0,
+    beta 1, sigma 1, lapse 0.02) and the soft values from `start_V` (S,, at beta 1).
+
+    `scale` (p,): the variables' natural sizes (`curvature_scale`), over which the search runs (a warm
+    start then converges in a few steps); without it the rewards move in units of rmax / 100.
+
+    Raises ValueError without a recorded step, `Stopped` once the fit's stop check says so."""
+    counts = np.asarray(counts, dtype=float)
+    if counts.sum() <= 0:
+        raise ValueError("the player model needs at least one recorded step")
+    theta0, player0 = start if start is not None else (np.zeros(unknowns.k), Player(1.0, START_SIGMA, START_LAPSE))
+    z0, bounds = _variables(model, theta0, player0, rmax=rmax)
+    negative = _Objective(mdp, unknowns, counts, model, start_V)
+    if scale is None:
+        # Rewards run in hundreds, the other variables near 1: rewards in units of rmax / 100, so that
+        # L-BFGS-B's first steps are of a sensible size in every direction.
+        scale = np.ones(z0.size)
+        scale[: unknowns.k] = max(rmax / 100.0, 1.0)
+    scaled_bounds = [(low / u, high / u) for (low, high), u in zip(bounds, scale)]
+    with one_blas_thread():
+        result = minimize(lambda z: _scaled(negative, z, scale), z0 / scale, jac=True, method="L-BFGS-B",
+                          bounds=scaled_bounds,
+                          options={"maxiter": max_iter, "ftol": value_tolerance, "gtol": gradient_tolerance})
+        theta, player = _unpack(model, unknowns.k, result.x * scale)
+        final = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player,
+                               V0=negative.V, gradient=False)
+    return PlayerFit(model=model, theta=np.asarray(theta, dtype=float), player=player, V1=final.plan.V,
+                     mean_log_likelihood=final.value / counts.sum(), converged=bool(result.success),
+                     iterations=int(result.nit), message=str(result.message), plan=final.plan)
+
+
+def _variables(model: PlayerModel, theta: np.ndarray, player: Player, *,
+               rmax: float) -> tuple[np.ndarray, list[tuple[float, float]]]:
+    """The search's variables z (p,) = theta, log beta, then log sigma and logit lapse where the model has
+    them, and their bounds."""
+    z = list(np.asarray(theta, dtype=float)) + [float(np.clip(np.log(player.beta), *beta_bounds(model)))]
+    bounds = [(-rmax, rmax)] * len(theta) + [beta_bounds(model)]
+    if model.hand:
+        z.append(float(np.log(np.clip(player.sigma or START_SIGMA, *SIGMA_BOUNDS))))
+        bounds.append((float(np.log(SIGMA_BOUNDS[0])), float(np.log(SIGMA_BOUNDS[1]))))
+    if model.lapses:
+        z.append(_logit(float(np.clip(player.lapse or START_LAPSE, *LAPSE_BOUNDS))))
+        bounds.append((_logit(LAPSE_BOUNDS[0]), _logit(LAPSE_BOUNDS[1])))
+    return np.asarray(z), bounds
+
+
+def _unpack(model: PlayerModel, k: int, z: np.ndarray) -> tuple[np.ndarray, Player]:
+    """(theta, player) from the search's variables (`_variables`)."""
+    i = k + 1
+    sigma = lapse = 0.0
+    if model.hand:
+        sigma, i = float(np.exp(z[i])), i + 1
+    if model.lapses:
+        lapse = float(1 / (1 + np.exp(-z[i])))
+    return z[:k], Player(float(np.exp(z[k])), sigma, lapse)
+
+
+class _Objective:
+    """The mean negative log likelihood and its gradient over the search's variables, warm-starting each
+    soft Bellman fixed point from the last (`V`)."""
+
+    def __init__(self, mdp: MDP, unknowns: Unknowns, counts: np.ndarray, model: PlayerModel,
+                 V: np.ndarray | None) -> None:
+        self.mdp, self.unknowns, self.counts, self.model, self.V = mdp, unknowns, counts, model, V
+        self.total = counts.sum()
+        self.basis_T = unknowns.basis.T.tocsr()
+
+    def __call__(self, z: np.ndarray) -> tuple[float, np.ndarray]:
+        theta, player = _unpack(self.model, self.unknowns.k, z)
+        got = log_likelihood(self.mdp, self.counts, self.unknowns.state_rewards(theta), model=self.model,
+                             player=player, V0=self.V)
+        self.V = got.plan.V
+        grad = [self.basis_T @ got.R_S, [got.log_beta]]
+        if self.model.hand:
+            grad.append([got.log_sigma])
+        if self.model.lapses:
+            grad.append([got.lapse * player.lapse * (1 - player.lapse)])
+        return -got.value / self.total, -np.concatenate(grad) / self.total
+
+
+def _scaled(negative, z: np.ndarray, unit: np.ndarray) -> tuple[float, np.ndarray]:
+    value, gradient = negative(z * unit)
+    return value, gradient * unit
+
+
+def curvature_scale(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, *, rmax: float) -> np.ndarray:
+    """(p,) 1 / sqrt of the mean negative log likelihood's curvature along each search variable at `fit`,
+    from central differences of the exact gradient; capped at rmax where it is (nearly) flat (a cliff
+    nobody steps into), as `maxent.curvature_scale`."""
+    z, bounds = _variables(fit.model, fit.theta, fit.player, rmax=rmax)
+    negative = _Objective(mdp, unknowns, np.asarray(counts, dtype=float), fit.model, fit.V1)
+    curvature = np.empty(z.size)
+    with one_blas_thread():
+        for j in range(z.size):
+            h = 1e-4 * max(1.0, abs(z[j]))
+            up, down = z.copy(), z.copy()
+            up[j], down[j] = min(z[j] + h, bounds[j][1]), max(z[j] - h, bounds[j][0])
+            curvature[j] = (negative(up)[1][j] - negative(down)[1][j]) / (up[j] - down[j])
+    return np.minimum(1.0 / np.sqrt(np.maximum(curvature, 1.0 / rmax**2)), rmax)
+
+
+
+@dataclass(frozen=True, eq=False)
+class PlayerRefit:
+    """How the bootstrap refits one resample's counts (S, A) with a player model: from the full fit's answer,
+    over the variables' `scale` there (`curvature_scale`). Returns `PlayerFit.parameters()` (p,)."""
+
+    mdp: MDP
+    unknowns: Unknowns
+    model: PlayerModel
+    rmax: float
+    start: tuple[np.ndarray, Player]
+    start_V: np.ndarray | None = None
+    scale: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        """p: the unknowns, beta, and sigma and the lapse where the model has them."""
+        return self.unknowns.k + 1 + self.model.extra_parameters
+
+    def __call__(self, counts: np.ndarray) -> np.ndarray:
+        return fit_player(self.mdp, self.unknowns, counts, model=self.model, rmax=self.rmax, start=self.start,
+                          start_V=self.start_V, scale=self.scale, value_tolerance=RESAMPLE_VALUE_TOLERANCE,
+                          gradient_tolerance=RESAMPLE_GRADIENT_TOLERANCE, max_iter=REFIT_MAX_ITER).parameters()
+
+
