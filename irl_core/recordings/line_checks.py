@@ -86,7 +86,8 @@ class LineChecker:
         where = "no step" if cell is None else f"the last step entered {list(cell)}"
         if end.outcome == "terminal":
             if symbol is None:
-                ended = "there was no step" if cell is None else f"the last step ended on {list(cell)}, which is not a terminal cell"
+                ended = ("there was no step" if cell is None
+                         else f"the last step ended on {list(cell)}, which is not a terminal cell")
                 raise self._error(number, "outcome", f"terminal, but {ended}")
             if end.terminal_symbol != symbol:
                 shown = printable(str(end.terminal_symbol), limit=20)
