@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-from careful_tui.render.figures.style import INK, OKABE_ITO, PAGE_WIDTH, figure_style, new_figure, plain, symbol_label
+from careful_tui.render.figures.style import INK, OKABE_ITO, PAGE_WIDTH, QUIET, figure_style, new_figure, plain, symbol_label
 from irl_core.studies.plan import PlanPoint
 from irl_core.worlds.world import World
 
@@ -22,19 +22,20 @@ def plan_figure(points: list[PlanPoint], worlds: tuple[World, ...]) -> Figure:
         for row, name in enumerate(names):
             mine = [p for p in points if p.world == name]
             world = next(w for w in worlds if w.name == name)
-            _row(axes[row], mine, world, last=row == len(names) - 1)
+            _row(axes[row], mine, world, first=row == 0, last=row == len(names) - 1)
         studies = points[0].studies if points else 0
         figure.suptitle(f"Simulated studies ({studies} per point): what a study of this size would show", color=INK)
     return figure
 
 
-def _row(axes, points: list[PlanPoint], world: World, *, last: bool) -> None:
+def _row(axes, points: list[PlanPoint], world: World, *, first: bool, last: bool) -> None:
     episodes = sorted({p.episodes for p in points})
     sizes = sorted({p.participants for p in points})
     hazard = _hazard(points[0], world)
+    pair = [p for p in points if p.separated is not None]
     panels = [("separates hazard from nuisance", lambda p: p.separated, True),
-              ("every interval covers the truth", lambda p: p.covered, True),
-              (f"median width of the {symbol_label(hazard)} interval" if hazard else "median width",
+              ("every interval holds the truth", lambda p: p.covered, True),
+              (f"median width ({symbol_label(hazard)})" if hazard else "median width",
                lambda p: p.width.get(hazard, float("nan")) if hazard else float("nan"), False)]
     for ax, (title, value, share) in zip(axes, panels):
         for colour, n in zip(OKABE_ITO, sizes):
@@ -43,18 +44,23 @@ def _row(axes, points: list[PlanPoint], world: World, *, last: bool) -> None:
                 continue
             ax.plot(episodes, [float("nan") if y is None else y for y in ys], marker="o", markersize=2.5,
                     color=colour, label=f"{n} participants")
-        ax.set_title(f"{plain(world.name, limit=20)}: {title}", loc="left")
+        if first:
+            ax.set_title(title, loc="left")
         ax.set_xticks(episodes)
+        ax.set_xlim(episodes[0] - 0.05 * (episodes[-1] - episodes[0] + 1), episodes[-1] + 0.05 * (episodes[-1] - episodes[0] + 1))
         if share:
             ax.set_ylim(-0.03, 1.03)
             ax.set_yticks([0, 0.5, 1])
             ax.set_yticklabels(["0%", "50%", "100%"])
             ax.axhline(0.8, color="#bbbbbb", linewidth=0.5, linestyle=":", zorder=0)
-        if last:
-            ax.set_xlabel("main episodes per participant")
-        if world.name and points[0].separated is None and share and title.startswith("separates"):
-            ax.text(0.5, 0.5, "no nuisance in this world", transform=ax.transAxes, ha="center", color="#7a7a7a")
-    axes[0].legend(loc="lower right")
+        if last and title.startswith("every"):
+            ax.set_xlabel("main episodes per participant and world")
+        if not pair and title.startswith("separates"):
+            ax.text(0.5, 0.5, "no nuisance\nin this world", transform=ax.transAxes, ha="center", color=QUIET)
+    axes[0].set_ylabel(f"{plain(world.name, limit=20)}\nshare of studies")
+    axes[2].set_ylabel("reward units")
+    if first:
+        axes[1].legend(loc="best")
 
 
 def _hazard(point: PlanPoint, world: World) -> str | None:
