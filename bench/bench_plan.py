@@ -33,7 +33,7 @@ from irl_core.studies.study import load_study
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS
 
-POINTS = ((5, 10), (10, 5))
+POINTS = ((5, 5), (5, 10))
 TARGET_S = 600.0
 
 

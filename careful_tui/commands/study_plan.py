@@ -161,7 +161,7 @@ def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: f
         best = max(p.covered for p in mine)
         cover = (f"every pooled interval held the hypothesised rewards in {worst:.0%} to {best:.0%} of studies"
                  + ("" if worst >= target else f": the pooled intervals miss the truth more often than "
-                    f"their {confidence:.0%} says (read them with care)"))
+                    f"their {confidence:.0%} says{_most_missed(mine)}"))
         if mine[0].separated is None:
             lines.append(f"{name}: no hazard and nuisance to separate; {cover}.")
             continue
@@ -177,3 +177,12 @@ def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: f
                          f"simulated studies (the most: {top.separated:.0%}, {top.participants} participants of "
                          f"{top.episodes} episodes); {cover}.")
     return lines
+
+
+def _most_missed(points: list[PlanPoint]) -> str:
+    """" (the most: the cliff's held -1000 in 5% at 10 participants of 10 episodes)": the symbol and grid point
+    whose pooled interval held its reward least often."""
+    share, symbol, p = min(((p.covered_each[s], s, p) for p in points for s in p.symbols), key=lambda t: t[:2])
+    truth = dict(zip(p.symbols, p.truth))[symbol]
+    return (f" (the least: the {SYMBOL_NAMES.get(symbol, printable(symbol))}'s held {truth:g} in {share:.0%}, at "
+            f"{p.participants} participants of {p.episodes} episodes)")

@@ -53,6 +53,8 @@ def _row(axes, points: list[PlanPoint], world: World, *, first: bool, last: bool
             ax.set_yticks([0, 0.5, 1])
             ax.set_yticklabels(["0%", "50%", "100%"])
             ax.axhline(0.8, color="#bbbbbb", linewidth=0.5, linestyle=":", zorder=0)
+        else:
+            ax.set_ylim(bottom=0)
         if last and title.startswith("every"):
             ax.set_xlabel("main episodes per participant and world")
         if not pair and title.startswith("separates"):
