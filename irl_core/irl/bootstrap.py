@@ -224,7 +224,9 @@ def bootstrap(
     else:
         chunks = _chunks(refit, by_episode, weights, executor, returned)
         executor.run(_refit_rows, [(weights[chunk],) for chunk in chunks], shared=(refit, by_episode),
-                     on_result=lambda i, refits: returned(chunks[i], refits))
+                     on_result=lambda i, refits: returned(chunks[i], refits),
+                     # A batch lost with its worker stays NaN: counted in `failed`, as a refit that raised.
+                     on_lost=lambda i, reason: returned(chunks[i], np.full((chunks[i].size, full.size), np.nan)))
     ok = ~np.isnan(estimates).any(axis=1)
     intervals = interval(estimates[ok], full, confidence=confidence, variant=variant)
     if bounds is not None:
