@@ -236,6 +236,10 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the resampling (default 0)")
     report.add_argument("--workers", type=positive_int, default=None, metavar="N",
                         help="processes for the fits (default: every core)")
+    report.add_argument("--scheduler", default=None, metavar="ADDRESS", type=text_argument,
+                        help="fit on a Dask cluster instead of this machine's process pool: a scheduler's address "
+                             "(tcp://HOST:8786), or local:N for a cluster of N processes started here; needs "
+                             "careful[cluster] (docs/studies.md, \"On a cluster\"); the numbers are the same")
     report.add_argument("--rmax", type=positive_float, default=5000.0, metavar="X",
                         help="bound |R_S| <= rmax for every fit (default 5000, so a cliff at -1000 lies well inside)")
 

@@ -24,6 +24,7 @@ from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
 from irl_core.irl import at_bound
+from irl_core.irl.options import FitOptions
 from irl_core.studies.report import (
     POOLED,
     CellFit,
@@ -36,8 +37,9 @@ from irl_core.studies.report import (
     report_rows,
     report_symbols,
 )
-from irl_core.studies.study import StudyError, load_study, world_files
+from irl_core.studies.study import LoadedStudy, StudyError, load_study, world_files
 from irl_core.support.csv_cells import csv_text
+from irl_core.support.executor import Executor, SchedulerError, close, scheduler
 from irl_core.support.safe_files import check_output_folder, write_output
 from irl_core.support.safe_text import printable
 from irl_core.support.words import plural
@@ -70,6 +72,19 @@ def run_study_report(args: argparse.Namespace) -> int:
     except StudyError as exc:
         raise UsageError(str(exc)) from None
     out = check_output_folder(args.out if args.out is not None else study.report_folder, option="--out")
+    try:
+        executor = scheduler(args.scheduler, workers=args.workers)
+    except SchedulerError as exc:
+        raise UsageError(f"--scheduler {printable(str(exc), limit=300)}") from None
+    try:
+        return _report(args, study, out, options, executor, err)
+    finally:
+        close(executor)
+
+
+def _report(args: argparse.Namespace, study: LoadedStudy, out: Path, options: FitOptions, executor: Executor,
+            err: Console) -> int:
+    """The report of `study` into `out`, its fits on `executor`."""
     timings = Timings()
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TimeElapsedColumn(), console=err, transient=True) as progress:
@@ -85,7 +100,7 @@ def run_study_report(args: argparse.Namespace) -> int:
         progress.update(task, description="fitting (per participant, pooled with intervals, and each pool without "
                         "each participant)", completed=0, total=None)
         start = time.perf_counter()
-        fits = fit_report(data, options, workers=args.workers,
+        fits = fit_report(data, options, workers=args.workers, executor=executor,
                           progress=lambda done, total: progress.update(task, completed=done, total=total))
         timings.fits = time.perf_counter() - start
         progress.update(task, description="drawing figures", completed=0, total=None)

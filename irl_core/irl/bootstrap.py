@@ -19,7 +19,7 @@ the refits at (1 - confidence)/2 and (1 + confidence)/2):
 better calibrated one (`INTERVAL_VARIANT`, chosen from that measurement: see the README).
 
 Resamples run in parallel across cores in `irl_core.support.pool.run_in_pool` (its workers die with this
-process). The multiplicities are drawn in the parent from
+process), or on a Dask cluster (`irl_core.support.executor`). The multiplicities are drawn in the parent from
 `seed`, so the same seed gives the same interval whatever the number of workers. A fit told to
 stop tells its workers too (`stopping.stop_when` on their side): queued resamples are dropped
 and running maxent refits stop at their next soft Bellman solve.
@@ -32,6 +32,7 @@ episodes with replacement, so the interval covers differences between the groups
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
@@ -44,7 +45,7 @@ from irl_core.irl.loss import fit_loss
 from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
-from irl_core.support.pool import run_in_pool
+from irl_core.support.executor import Executor, LocalPool
 from irl_core.support.stopping import Stopped
 from irl_core.worlds.mdp import MDP
 
@@ -189,6 +190,7 @@ def bootstrap(
     progress: Progress | None = None,
     workers: int | None = None,
     groups: np.ndarray | None = None,
+    executor: Executor | None = None,
 ) -> BootstrapResult:
     """Refit `resamples` resamples of the episodes (rows of `by_episode`, (E, S * A)) and bound every parameter.
 
@@ -197,32 +199,34 @@ def bootstrap(
         bounds: clip the intervals to these (the fit's ±rmax: a reflected end may not pass them).
         progress: called as progress("resamples", done, resamples) while the refits come back.
         workers: processes (default: the cores; 1 runs in this process).
+        executor: where the refits run instead (`irl_core.support.executor`: a Dask cluster), in batches
+            of at least `MIN_TASK_S` each; the same seed gives the same intervals anywhere.
         groups: (E,) the group of each episode (a participant): resample groups, then episodes
             within them (`two_level_weights`); None resamples the episodes alone.
     """
     weights = (resample_weights(by_episode.shape[0], resamples, seed) if groups is None
                else two_level_weights(groups, resamples, seed))
-    workers = min(workers or os.cpu_count() or 1, resamples)
+    if executor is None:
+        executor = LocalPool(min(workers or os.cpu_count() or 1, resamples))
     estimates = np.full((resamples, full.size), np.nan)
     done = 0
-    if workers <= 1:
+
+    def returned(rows: np.ndarray, refits: np.ndarray) -> None:
+        nonlocal done
+        estimates[rows] = refits
+        done += rows.size
+        if progress:
+            progress("resamples", done, resamples)
+
+    if executor.workers <= 1 and not executor.remote:
         for i in range(resamples):
-            estimates[i] = _refit_rows(refit, by_episode, weights[i : i + 1])[0]
-            done += 1
-            if progress:
-                progress("resamples", done, resamples)
+            returned(np.array([i]), _refit_rows(refit, by_episode, weights[i : i + 1]))
     else:
-        chunks = np.array_split(np.arange(resamples), min(resamples, workers * 8))
-
-        def returned(i: int, refits: np.ndarray) -> None:
-            nonlocal done
-            estimates[chunks[i]] = refits
-            done += chunks[i].size
-            if progress:
-                progress("resamples", done, resamples)
-
-        run_in_pool(_refit_chunk, [(weights[chunk],) for chunk in chunks], workers=workers, on_result=returned,
-                    initializer=_install, initargs=(refit, by_episode))
+        chunks = _chunks(refit, by_episode, weights, executor, returned)
+        executor.run(_refit_rows, [(weights[chunk],) for chunk in chunks], shared=(refit, by_episode),
+                     on_result=lambda i, refits: returned(chunks[i], refits),
+                     # A batch lost with its worker stays NaN: counted in `failed`, as a refit that raised.
+                     on_lost=lambda i, reason: returned(chunks[i], np.full((chunks[i].size, full.size), np.nan)))
     ok = ~np.isnan(estimates).any(axis=1)
     intervals = interval(estimates[ok], full, confidence=confidence, variant=variant)
     if bounds is not None:
@@ -247,15 +251,23 @@ def _refit_rows(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray)
     return out
 
 
-_WORKER: tuple[Refitter, sp.csr_matrix] | None = None
+# A batch of refits sent to a remote executor takes at least this long (seconds), so that its message
+# costs little beside its work.
+MIN_TASK_S = 0.1
+# Batches per worker: enough that a slow batch does not leave the others idle at the end.
+BATCHES_PER_WORKER = 8
 
 
-def _install(refit: Refitter, by_episode: sp.csr_matrix) -> None:
-    """Worker initialiser: keep the refit (world, warm start) and the episodes, sent once per worker."""
-    global _WORKER
-    _WORKER = (refit, by_episode)
-
-
-def _refit_chunk(weights: np.ndarray) -> np.ndarray:
-    assert _WORKER is not None
-    return _refit_rows(*_WORKER, weights)
+def _chunks(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray, executor: Executor,
+            returned: Callable[[np.ndarray, np.ndarray], None]) -> list[np.ndarray]:
+    """The resamples' rows in batches for `executor`: `BATCHES_PER_WORKER` per worker, and for a remote one
+    each of at least `MIN_TASK_S`, sized by timing the first refit here (handed to `returned`)."""
+    rows = np.arange(len(weights))
+    size = 1
+    if executor.remote:
+        start = time.perf_counter()
+        returned(rows[:1], _refit_rows(refit, by_episode, weights[:1]))
+        size = int(np.ceil(MIN_TASK_S / max(time.perf_counter() - start, 1e-6)))
+        rows = rows[1:]
+    count = max(1, min(rows.size // max(size, 1), executor.workers * BATCHES_PER_WORKER))
+    return [chunk for chunk in np.array_split(rows, count) if chunk.size]

@@ -38,6 +38,7 @@ from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bound
 from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
 from irl_core.worlds.mdp import MDP
 
@@ -73,6 +74,7 @@ def fit(
     progress: Progress | None = None,
     workers: int | None = None,
     stop: Callable[[], bool] | None = None,
+    executor: Executor | None = None,
     **settings,
 ) -> FitResult:
     """Fit the state rewards that explain `demos` with `options` (or `FitOptions(**settings)`).
@@ -81,6 +83,8 @@ def fit(
         progress: called as progress(stage, done, total) as long work goes on: the lp's
             ``rounds`` (total None), the ``intervals`` LPs done, the bootstrap's ``resamples``.
         workers: processes for the bootstrap (default: the cores).
+        executor: where the bootstrap's refits run instead (`irl_core.support.executor`, e.g. a Dask
+            cluster); the answer is the same.
         stop: asked at every LP iteration, every solve of maxent's soft Bellman equations
             and every progress report; once it says True the fit raises `Stopped` (a
             fitting thread whose answer is no longer wanted).
@@ -91,7 +95,7 @@ def fit(
     options = dataclasses.replace(options or FitOptions(), **settings) if settings else (options or FitOptions())
     if stop is not None:
         with stop_when(stop):
-            return fit(demos, options, progress=_stopping(progress, stop), workers=workers)
+            return fit(demos, options, progress=_stopping(progress, stop), workers=workers, executor=executor)
     if demos.counts.sum() <= 0:
         raise BadInputError("the recordings contain no steps: there is nothing to fit", code="no_steps")
     start = time.perf_counter()
@@ -110,7 +114,8 @@ def fit(
 
     bounds, kind = None, None
     if options.intervals and unknowns.k:
-        bounds, kind = _intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers)
+        bounds, kind = _intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers,
+                                  executor=executor)
 
     check = _fit_check(fitted, demos, options, notes)
     bounded = [label for label, value in zip(unknowns.labels, fitted.theta) if at_bound(value, options.rmax)]
@@ -342,13 +347,15 @@ fit_methods.check_covers(FITTERS, fit_methods.NAMES, "irl_core.irl.fit.FITTERS")
 
 
 def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptions, notes: list[Note], *,
-               progress: Progress | None, workers: int | None) -> tuple[np.ndarray | None, str | None]:
+               progress: Progress | None, workers: int | None,
+               executor: Executor | None) -> tuple[np.ndarray | None, str | None]:
     """(k, 2) intervals and their kind (the method's), or (None, None) with a note why not."""
     kind = fit_methods.method(fitted.method).interval_kind
     if kind == "identified":
         bounds = _identified(fitted, qmap, demos, options, notes, progress=progress)
     else:
-        bounds = _confidence(fitted, qmap, demos, options, notes, progress=progress, workers=workers)
+        bounds = _confidence(fitted, qmap, demos, options, notes, progress=progress, workers=workers,
+                             executor=executor)
     return (None, None) if bounds is None else (bounds, kind)
 
 
@@ -372,8 +379,9 @@ def _identified(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
 
 
 def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptions, notes: list[Note], *,
-                progress: Progress | None, workers: int | None) -> np.ndarray | None:
-    """(k, 2) bootstrap confidence intervals over episodes, or None with a note why not."""
+                progress: Progress | None, workers: int | None, executor: Executor | None) -> np.ndarray | None:
+    """(k, 2) bootstrap confidence intervals over episodes, or None with a note why not (the refits on
+    `workers` processes, or on `executor`)."""
     if fitted.unique is False:
         # Resampling would move only the pick among equally good rewards: no interval for the reward.
         notes.append(Note("intervals_not_computed", "intervals not computed: many rewards minimise the loss equally, "
@@ -399,7 +407,7 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
         full = fitted.theta
     result = bootstrap(_refit(fitted, qmap, demos, options), demos.by_episode, full, confidence=options.confidence,
                        resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
-                       progress=progress, workers=workers, groups=demos.episode_groups)
+                       progress=progress, workers=workers, groups=demos.episode_groups, executor=executor)
     if result.failed:
         notes.append(Note("resamples_failed", f"{result.failed} of {options.resamples} resamples failed to fit and "
                                               "were left out"))

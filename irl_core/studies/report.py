@@ -40,7 +40,7 @@ from irl_core.studies.study import (
     read_participant,
 )
 from irl_core.support.csv_cells import text_cell
-from irl_core.support.pool import run_in_pool
+from irl_core.support.executor import Executor, LocalPool
 from irl_core.support.stopping import stop_check
 
 
@@ -288,7 +288,7 @@ class Influence:
 
 
 def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None = None,
-             workers: int = 1) -> CellFit:
+             workers: int = 1, executor: Executor | None = None) -> CellFit:
     """Fit one cell (its bootstrap on `workers` processes; a pool without a participant, `Cell.without`, is
     fitted without intervals); a cell without steps or a failed fit gives an error.
 
@@ -302,7 +302,7 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
     if cell.player_model is not None:
         options = dataclasses.replace(options, player_model=cell.player_model)
     try:
-        result = fit(cell.demos, options, workers=workers, stop=stop)
+        result = fit(cell.demos, options, workers=workers, stop=stop, executor=executor)
     except FitError as exc:
         return CellFit(error=str(exc))
     return CellFit(method=result.method, beta=result.beta, beta_auto=result.beta_auto,
@@ -315,15 +315,16 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
 
 
 def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = None,
-             progress: Callable[[int, int], None] | None = None) -> list[CellFit]:
-    """Fit every cell, in a process pool of `workers` (default: the cores); results in `cells`' order.
+             progress: Callable[[int, int], None] | None = None, executor: Executor | None = None) -> list[CellFit]:
+    """Fit every cell, on `executor` (default: a process pool of `workers`, default the cores); results in
+    `cells`' order. A cell whose worker died and could not be rerun comes back with the error saying so.
 
     The biggest cells (the pools) are sent first, so the last fits to finish are small ones.
     """
     fits: list[CellFit | None] = [None] * len(cells)
     order = sorted(range(len(cells)), key=lambda i: -cells[i].steps)
-    cores = workers or os.cpu_count() or 1
-    workers = max(1, min(cores, len(cells)))
+    if executor is None:
+        executor = LocalPool(max(1, min(workers or os.cpu_count() or 1, len(cells))))
     done = 0
 
     def returned(k: int, fitted: CellFit) -> None:
@@ -333,12 +334,14 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
         if progress:
             progress(done, len(cells))
 
-    if workers == 1:
-        # One cell at a time (a world's pool, fitted first): its bootstrap takes the cores instead.
+    if len(cells) == 1 or executor.workers == 1 and not executor.remote:
+        # One cell at a time (a world's pool, fitted first): its bootstrap takes the cores (or the cluster) instead.
+        inside = executor if executor.remote else None
         for k, i in enumerate(order):
-            returned(k, fit_cell(cells[i], options, workers=cores))
+            returned(k, fit_cell(cells[i], options, workers=workers or os.cpu_count() or 1, executor=inside))
     else:
-        run_in_pool(_fit_in_worker, [(cells[i], options) for i in order], workers=workers, on_result=returned)
+        executor.run(_fit_in_worker, [(cells[i], options) for i in order], on_result=returned,
+                     on_lost=lambda k, reason: returned(k, CellFit(error=f"not fitted: {reason}")))
     fitted = [fit for fit in fits if fit is not None]
     assert len(fitted) == len(cells), "every cell came back fitted"
     return fitted
@@ -350,7 +353,7 @@ def _fit_in_worker(cell: Cell, options: FitOptions) -> CellFit:
 
 
 def fit_report(data: StudyData, options: FitOptions, *, workers: int | None = None,
-               progress: Callable[[int, int], None] | None = None) -> list[CellFit]:
+               progress: Callable[[int, int], None] | None = None, executor: Executor | None = None) -> list[CellFit]:
     """Every cell's fit (in `data.cells`' order), with each pool's participants marked by their influence.
 
     Each world's pool is fitted first: where it chooses a model of the player (`FitOptions.player_model`
@@ -360,6 +363,8 @@ def fit_report(data: StudyData, options: FitOptions, *, workers: int | None = No
 
     Args:
         progress: called as progress(fits done, fits) as each comes back.
+        executor: where the fits run (`irl_core.support.executor`: a Dask cluster); default this machine's
+            process pool of `workers`. The numbers are the same either way.
     """
     without = influence_cells(data)
     cells = [*data.cells, *without]
@@ -372,11 +377,12 @@ def fit_report(data: StudyData, options: FitOptions, *, workers: int | None = No
     fitted: dict[int, CellFit] = {}
     chosen: dict[int, str | None] = {}
     for i, fit_of_pool in zip(first, run_fits([cells[i] for i in first], options, workers=workers,
-                                              progress=counted(0))):
+                                              progress=counted(0), executor=executor)):
         fitted[i] = fit_of_pool
         chosen[cells[i].world_index] = fit_of_pool.player_model
     later = [dataclasses.replace(cells[i], player_model=chosen.get(cells[i].world_index)) for i in rest]
-    fitted.update(zip(rest, run_fits(later, options, workers=workers, progress=counted(len(first)))))
+    fitted.update(zip(rest, run_fits(later, options, workers=workers, progress=counted(len(first)),
+                                          executor=executor)))
     fits = [fitted[i] for i in range(len(cells))]
     return with_influence(data, fits[: len(data.cells)], dict(zip(((c.world_index, c.without) for c in without),
                                                                   fits[len(data.cells):])))

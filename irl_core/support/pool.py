@@ -46,9 +46,10 @@ T = TypeVar("T")
 
 def run_in_pool(function: Callable[..., T], calls: list[tuple], *, workers: int,
                 on_result: Callable[[int, T], None], initializer: Callable[..., None] | None = None,
-                initargs: tuple = ()) -> None:
+                initargs: tuple = (), preload: tuple[str, ...] = ()) -> None:
     """`function(*calls[i])` for every i in a pool of `workers` processes (each first running
-    `initializer(*initargs)`); `on_result(i, result)` in this process as each comes back.
+    `initializer(*initargs)`); `on_result(i, result)` in this process as each comes back. `preload`:
+    modules a fork server imports once besides `function`'s (where `function` is a wrapper).
 
     The workers hear this process's stop: while waiting it asks this thread's stop check every
     STOP_POLL_S, and leaving early (`Stopped`, Ctrl+C, an error, also from `on_result`) drops the
@@ -58,7 +59,7 @@ def run_in_pool(function: Callable[..., T], calls: list[tuple], *, workers: int,
     """
     context = process_context()
     if context.get_start_method() == "forkserver":
-        context.set_forkserver_preload([__name__, function.__module__])
+        context.set_forkserver_preload([__name__, function.__module__, *preload])
     with contextlib.ExitStack() as stack:
         with _stderr_with_a_descriptor():  # the pool (and the stop signal's semaphore) start their helpers here
             stopping = context.Event()

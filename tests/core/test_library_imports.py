@@ -1,11 +1,11 @@
-"""`import irl_core` is the library: its public API, none of it from an extra (TUI, figures, export)."""
+"""`import irl_core` is the library: its public API, none of it from an extra (TUI, figures, export, cluster)."""
 
 import subprocess
 import sys
 
 import irl_core
 
-EXTRAS = ("textual", "rich", "matplotlib", "minari", "PIL", "h5py")
+EXTRAS = ("textual", "rich", "matplotlib", "minari", "PIL", "h5py", "dask", "distributed")
 
 
 def test_every_public_name_resolves_and_is_documented():

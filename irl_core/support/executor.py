@@ -1,0 +1,212 @@
+"""Where many fits run: one interface over this machine's process pool and a Dask cluster.
+
+An `Executor` runs `function(*shared, *call)` for every call and hands each result back in this process
+as it comes (`run`). Two kinds, one a line of `scheduler`:
+
+=================  ==========================================================================
+``None``           `LocalPool`: the process pool of `irl_core.support.pool` on this machine's
+                   cores (its workers die with this process, and stop when it is left)
+``local:N``        `DaskExecutor` on a Dask `LocalCluster` of N worker processes, started here
+``tcp://HOST:P``   `DaskExecutor` on the Dask scheduler at that address (a running cluster:
+                   ``dask scheduler`` and ``dask worker`` processes, or an existing deployment)
+=================  ==========================================================================
+
+`shared` is data every call needs (a world, the episodes): sent once per worker, not once per call.
+Results do not depend on the executor: the work is the same calls with the same arguments, so the
+same seeds give the same numbers to the last digit (tests/study/test_executor.py holds it).
+
+A Dask worker that dies takes its running tasks with it; the scheduler reruns them on the workers
+left (up to `distributed.scheduler.allowed-failures` times). A call that cannot be rerun is handed to
+`on_lost` with the reason, so that the caller can say which answers are missing; without `on_lost`
+it raises `LostCall`. Dask is the optional extra ``careful[cluster]``: it is imported only here, and
+only when a scheduler is named.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import socket
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol, TypeVar
+
+from irl_core.support.pool import STOP_POLL_S, run_in_pool
+from irl_core.support.stopping import stop_if_asked
+
+T = TypeVar("T")
+# An address that does not answer is given up after this many seconds (the command line's promise is 10).
+CONNECT_TIMEOUT_S = 5.0
+LOCAL = re.compile(r"local:(\d+)")
+MAX_LOCAL_WORKERS = 256
+
+
+class SchedulerError(ValueError):
+    """A scheduler that cannot be used: the address and the reason, in one line."""
+
+
+class LostCall(RuntimeError):
+    """A call whose worker died, and which the cluster could not rerun."""
+
+
+class Executor(Protocol):
+    """Runs calls somewhere and hands their results back here (see the module's docstring)."""
+
+    @property
+    def workers(self) -> int:
+        """How many calls run at once."""
+        ...
+
+    @property
+    def remote(self) -> bool:
+        """Whether a call costs a message to another process's scheduler (batch small calls)."""
+        ...
+
+    def run(self, function: Callable[..., T], calls: Sequence[tuple], *, on_result: Callable[[int, T], None],
+            shared: tuple = (), on_lost: Callable[[int, str], None] | None = None) -> None:
+        """`function(*shared, *calls[i])` for every i; `on_result(i, result)` here as each comes back."""
+        ...
+
+
+class LocalPool:
+    """This machine's process pool (`irl_core.support.pool.run_in_pool`) as an `Executor`."""
+
+    remote = False
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = max(1, workers or os.cpu_count() or 1)
+
+    def run(self, function: Callable[..., T], calls: Sequence[tuple], *, on_result: Callable[[int, T], None],
+            shared: tuple = (), on_lost: Callable[[int, str], None] | None = None) -> None:
+        """See `Executor.run`; a worker process that dies breaks the pool, which raises (no rerun here)."""
+        run_in_pool(_with_shared, [(function, call) for call in calls], workers=self.workers, on_result=on_result,
+                    initializer=_install_shared, initargs=(shared,), preload=(function.__module__,))
+
+
+_SHARED: tuple = ()  # in a worker of `LocalPool`: the run's shared data
+
+
+def _install_shared(shared: tuple) -> None:
+    global _SHARED
+    _SHARED = shared
+
+
+def _with_shared(function: Callable[..., T], call: tuple) -> T:
+    return function(*_SHARED, *call)
+
+
+class DaskExecutor:
+    """A Dask distributed client as an `Executor` (`scheduler` opens one)."""
+
+    remote = True
+
+    def __init__(self, client: Any, *, cluster: Any = None, address: str = "") -> None:
+        self.client, self.cluster, self.address = client, cluster, address
+
+    @property
+    def workers(self) -> int:
+        """The cluster's worker threads now (at least 1)."""
+        threads = self.client.nthreads()
+        return max(1, sum(threads.values()))
+
+    def run(self, function: Callable[..., T], calls: Sequence[tuple], *, on_result: Callable[[int, T], None],
+            shared: tuple = (), on_lost: Callable[[int, str], None] | None = None) -> None:
+        """See `Executor.run`. Leaving early (`Stopped`, Ctrl+C, an error) cancels the calls not yet done."""
+        import distributed
+
+        scattered = [self.client.scatter(item, broadcast=True, hash=False) for item in shared]
+        futures = [self.client.submit(function, *scattered, *call, pure=False) for call in calls]
+        index = {future.key: i for i, future in enumerate(futures)}
+        pending = set(futures)
+        try:
+            while pending:
+                with contextlib.suppress(TimeoutError):
+                    distributed.wait(list(pending), timeout=STOP_POLL_S, return_when="FIRST_COMPLETED")
+                stop_if_asked()
+                for future in [f for f in pending if f.done()]:
+                    pending.discard(future)
+                    _hand_back(future, index[future.key], on_result, on_lost)
+        except BaseException:
+            self.client.cancel(list(pending))
+            raise
+        finally:
+            for item in scattered:
+                self.client.cancel(item)
+
+    def close(self) -> None:
+        """Close the client, and the cluster where this process started it."""
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def _hand_back(future: Any, i: int, on_result: Callable[[int, Any], None],
+               on_lost: Callable[[int, str], None] | None) -> None:
+    """The result of a finished Dask future to `on_result`; a call lost with its workers to `on_lost`."""
+    from distributed import KilledWorker
+
+    if future.status != "error":
+        on_result(i, future.result())
+        return
+    error = future.exception()
+    if not isinstance(error, KilledWorker):
+        raise error
+    reason = f"its worker died and the cluster gave up rerunning it ({error})"
+    if on_lost is None:
+        raise LostCall(reason)
+    on_lost(i, reason)
+
+
+def scheduler(address: str | None, *, workers: int | None = None) -> Executor:
+    """The executor for `address`: None, this machine's pool of `workers`; ``local:N``, a Dask LocalCluster
+    of N processes; else a Dask scheduler's address (``tcp://HOST:8786``).
+
+    Raises `SchedulerError` (address and reason) when Dask is missing, the form is unknown, or the scheduler
+    does not answer within `CONNECT_TIMEOUT_S`."""
+    if address is None:
+        return LocalPool(workers)
+    try:
+        import distributed
+    except ImportError:
+        raise SchedulerError(f"{address}: Dask is not installed; install careful[cluster]") from None
+    if match := LOCAL.fullmatch(address):
+        n = int(match.group(1))
+        if not 1 <= n <= MAX_LOCAL_WORKERS:
+            raise SchedulerError(f"{address}: a local cluster needs 1 to {MAX_LOCAL_WORKERS} workers, not {n}")
+        # On this machine only, and its status page on a free port (8787 may be another cluster's).
+        cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                           dashboard_address="127.0.0.1:0", silence_logs=50)
+        return DaskExecutor(distributed.Client(cluster), cluster=cluster, address=address)
+    if "://" not in address:
+        raise SchedulerError(f"{address}: not local:N nor a scheduler address such as tcp://HOST:8786")
+    _listening(address)
+    try:
+        client = distributed.Client(address, timeout=CONNECT_TIMEOUT_S)
+    except (OSError, TimeoutError) as exc:
+        raise SchedulerError(f"{address}: no Dask scheduler answered ({_first_line(exc)})") from None
+    except Exception as exc:  # noqa: BLE001 - whatever answered there is not a Dask scheduler, a user's error
+        raise SchedulerError(f"{address}: what answered is not a Dask scheduler ({_first_line(exc)})") from None
+    return DaskExecutor(client, address=address)
+
+
+def _listening(address: str) -> None:
+    """Raise `SchedulerError` when nothing listens at a tcp:// address. Asked with a plain socket first: a Dask
+    client that cannot connect leaves its event loop's thread running in this process."""
+    match = re.fullmatch(r"tcp://\[?([^\]]+?)\]?:(\d+)/?", address)
+    if match is None:
+        return
+    try:
+        socket.create_connection((match.group(1), int(match.group(2))), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        raise SchedulerError(f"{address}: no Dask scheduler answered ({_first_line(exc)})") from None
+
+
+def _first_line(error: BaseException) -> str:
+    text = str(error).strip()
+    return f"{type(error).__name__}: {text.splitlines()[0][:200]}" if text else type(error).__name__
+
+
+def close(executor: Executor) -> None:
+    """Close what `scheduler` opened (nothing for a local pool)."""
+    if isinstance(executor, DaskExecutor):
+        executor.close()
