@@ -8,17 +8,21 @@ build step and nothing from elsewhere.
 request                answer
 =====================  ================================================================
 GET /p/<token>         the page, for a token in ``<out>/links.csv``; any other: 404
-GET /?PROLIFIC_PID=..  the page, for a Prolific id that passes the study's id rules
-                       (with STUDY_ID and SESSION_ID); else a page that says why: 400
+GET /?PROLIFIC_PID=..  when Prolific links are on (``--prolific``, or no links): the page,
+                       for a Prolific id that passes the study's id rules (with STUDY_ID
+                       and SESSION_ID), else a page that says why: 400; when off: 404
 POST /api/start        the page claims its participant: its page id and the first view;
-                       409 while another page of theirs plays
+                       409 while another page of theirs plays, 429 beyond the address's
+                       budget of new pages, 503 when every seat is taken
 POST /api/key          a key (press, release, cancel, space, quit): the new view;
                        410 for a page that no longer plays, 429 beyond the key budget
 POST /api/alive        the page's heartbeat: 204, or 410
 POST /api/leave        the page closes (sent as a beacon): 204
 =====================  ================================================================
 
-Every request body is JSON of at most `MAX_BODY` bytes (413 beyond). Nothing the page sends
+Every request body is JSON of at most `MAX_BODY` bytes (413 beyond), sent within `BODY_TIMEOUT_S`
+(408 beyond); every refusal is the one JSON shape ``{"error": sentence}``, worded for the
+participant (the console gets the reasons: who holds a lock, a full disk). Nothing the page sends
 names a file or chooses an outcome: a participant id comes from the links file or a checked
 Prolific id, and the session draws every start cell and slip. Every answer carries a
 Content-Security-Policy that lets the page load only this server's script and stylesheet; every
@@ -39,6 +43,7 @@ from urllib.parse import quote
 import anyio
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, Response
@@ -46,7 +51,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from careful_tui.web.links import prolific_ids
-from careful_tui.web.seats import Seat, Seats
+from careful_tui.web.seats import Seat, SeatRefused, Seats
 from careful_tui.web.session_adapter import KeyRefused, WebSession
 from irl_core.recordings.lines import ProlificTag
 from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
@@ -54,6 +59,7 @@ from irl_core.studies.study import LoadedStudy, StudyError
 from irl_core.support.safe_text import printable
 
 MAX_BODY = 2048
+BODY_TIMEOUT_S = 10.0
 COMPLETION_ADDRESS = "https://app.prolific.com/submissions/complete?cc="
 SWEEP_S = 5.0
 SECURITY_HEADERS = {
@@ -68,6 +74,10 @@ KEY_TYPES = ("press", "release", "cancel", "space", "quit")
 
 
 class BodyTooLarge(Exception):
+    pass
+
+
+class BodyTooSlow(Exception):
     pass
 
 
@@ -116,10 +126,14 @@ async def read_json(request: Request) -> dict[str, Any]:
     if declared is not None and (not declared.isdigit() or int(declared) > MAX_BODY):
         raise BodyTooLarge
     body = bytearray()
-    async for chunk in request.stream():
-        body += chunk
-        if len(body) > MAX_BODY:
-            raise BodyTooLarge
+    try:
+        with anyio.fail_after(BODY_TIMEOUT_S):
+            async for chunk in request.stream():
+                body += chunk
+                if len(body) > MAX_BODY:
+                    raise BodyTooLarge
+    except TimeoutError:
+        raise BodyTooSlow from None
     try:
         data = json.loads(body.decode("utf-8"), parse_constant=lambda name: math.nan)
     except RecursionError:
@@ -133,6 +147,19 @@ def refuse(status: int, why: str) -> JSONResponse:
     return JSONResponse({"error": why}, status_code=status)
 
 
+async def http_refusal(request: Request, exc: Exception) -> Response:
+    """Starlette's own refusals (404, 405) in the one error shape."""
+    status = exc.status_code if isinstance(exc, HTTPException) else 500
+    return refuse(status, {404: "There is nothing here.", 405: "This address does not take that request."}
+                  .get(status, "The request cannot be served."))
+
+
+async def server_error(request: Request, exc: Exception) -> Response:
+    """An unexpected error: the one error shape, no traceback (uvicorn's log has it)."""
+    return refuse(500, "Something went wrong on the server. Please reload the page; if this comes back, "
+                       "write to the experimenter.")
+
+
 def json_endpoint(handle: Callable[[Request, dict[str, Any]], Awaitable[Response]]):
     """An endpoint that takes `read_json`'s object: 413 for a body over the limit, 400 for one not JSON."""
 
@@ -141,6 +168,8 @@ def json_endpoint(handle: Callable[[Request, dict[str, Any]], Awaitable[Response
             data = await read_json(request)
         except BodyTooLarge:
             return refuse(413, "The request is too large.")
+        except BodyTooSlow:
+            return refuse(408, "The request took too long to arrive. Please reload the page.")
         except ValueError:
             return refuse(400, "The request is not JSON.")
         return await handle(request, data)
@@ -149,9 +178,12 @@ def json_endpoint(handle: Callable[[Request, dict[str, Any]], Awaitable[Response
 
 
 def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str | None = None,
-             say: Callable[[str], None] = print, seed: int | None = None, seats: Seats | None = None) -> Starlette:
-    """The server's ASGI app for `study`, its participants from `links` (token -> id) and Prolific links."""
+             say: Callable[[str], None] = print, seed: int | None = None, seats: Seats | None = None,
+             prolific: bool | None = None) -> Starlette:
+    """The server's ASGI app for `study`, its participants from `links` (token -> id) and, when
+    `prolific` (default: only when there are no links), Prolific links."""
     seats = Seats() if seats is None else seats
+    prolific_on = not links if prolific is None else prolific
     page_html = resources.files("careful_tui.web").joinpath("static/page.html").read_text(encoding="utf-8")
     unknown = ("This link is not valid", "Check that you copied the whole link you were given; if it still "
                "does not open, write to the experimenter.")
@@ -164,7 +196,7 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
 
     def home(request: Request) -> Response:
         query = request.query_params
-        if "PROLIFIC_PID" not in query:
+        if "PROLIFIC_PID" not in query or not prolific_on:
             return notice_page("This study opens from your link", "Open the link you were given to take part.",
                                status=404)
         try:
@@ -174,13 +206,15 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
                                "page comes back, write to the experimenter.", status=400)
         return HTMLResponse(page_html)
 
-    def arrive(data: dict[str, Any], user_agent: str) -> Response:
+    def arrive(data: dict[str, Any], user_agent: str, address: str) -> Response:
         prolific: ProlificTag | None = None
         if "token" in data:
             participant = links.get(data["token"]) if isinstance(data["token"], str) else None
             if participant is None:
                 return refuse(404, "This link is not valid.")
             came = "link"
+        elif not prolific_on:
+            return refuse(404, "This link is not valid.")
         else:
             ids = data.get("prolific")
             if not isinstance(ids, dict) or not all(isinstance(ids.get(k), str) for k in ("pid", "study_id", "session_id")):
@@ -198,15 +232,12 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
                               say=say, seed=seed)
 
         try:
-            seat = seats.claim(participant, make_session,
+            seat = seats.claim(participant, make_session, address=address,
                                hold=lambda: participant_lock(study, participant, holder="careful serve (a browser page)"))
-        except ParticipantBusy as exc:
-            return refuse(409, "This study is already open for you elsewhere (" + printable(exc.holder, limit=200)
-                          + "). Go on there, or finish it first.")
-        except (StudyError, OSError) as exc:  # a full disk, the out folder gone: the experimenter's to mend
-            say(f"{participant}: cannot open a session: {printable(str(exc), limit=300)}")
-            return refuse(503, "The study cannot save anything just now. Please try again in a few minutes; "
-                               "if this comes back, write to the experimenter.")
+        except SeatRefused as exc:
+            return refuse(exc.status, exc.why)
+        except (StudyError, OSError) as exc:
+            return lock_refusal(participant, exc)
         if seat is None:
             return refuse(409, "This study is already open for you in another tab, window or device. Go on "
                                "there; or close it, wait a few seconds, and reload this page.")
@@ -215,47 +246,75 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
         with seat.lock:
             return JSONResponse({"page": seat.page, "view": seat.session.view()})
 
+    def lock_refusal(participant: str, exc: Exception) -> JSONResponse:
+        """409 when another session holds the participant, else 503 (a full disk, the out folder
+        gone: the experimenter's to mend); the participant is told what to do, the console why."""
+        if isinstance(exc, ParticipantBusy):
+            say(f"{participant}: refused a page: open in another session ({printable(exc.holder, limit=200)})")
+            return refuse(409, "This study is already open for you elsewhere. Go on there, or finish it first.")
+        say(f"{participant}: cannot open a session: {printable(str(exc), limit=300)}")
+        return refuse(503, "The study cannot save anything just now. Please try again in a few minutes; "
+                           "if this comes back, write to the experimenter.")
+
     @json_endpoint
     async def start(request: Request, data: dict[str, Any]) -> Response:
         user_agent = printable(request.headers.get("user-agent", ""), limit=400)
-        return await run_in_threadpool(arrive, data, user_agent)
+        address = request.client.host if request.client is not None else ""
+        return await run_in_threadpool(arrive, data, user_agent, address)
+
+    def take_lock(seat: Seat) -> Response | None:
+        """The participant's lock for the seat at its first key (under `seat.lock`); a refusal if
+        another session took it meanwhile or it cannot be made (the page then plays no more)."""
+        try:
+            seat.take_lock()
+            return None
+        except (StudyError, OSError) as exc:
+            seat.session.left = True  # nothing of this page was played or written: it only stops
+            return lock_refusal(seat.participant, exc)
 
     def play_key(seat: Seat, data: dict[str, Any]) -> Response:
         kind = data.get("type")
         if kind not in KEY_TYPES:
             return refuse(400, "Unknown key event.")
         with seat.lock:
-            if seat.session.left:
-                return refuse(410, "This page has left the study.")
-            session = seat.session
-            if not seat.budget.spend():
-                session.cancel()
-                why = "Too many keys at once: nothing was played. Slow down."
-                session.tell(why)
-                return refuse(429, why)
-            try:
-                if kind == "press":
-                    session.press(data.get("key"), data.get("t"))
-                elif kind == "release":
-                    session.release(data.get("key"), data.get("t"))
-                elif kind == "cancel":
-                    session.cancel()
-                elif kind == "space":
-                    session.space()
-                else:
-                    session.leave()
-            except KeyRefused as exc:
-                return refuse(400, str(exc))
-            except (OSError, ValueError) as exc:
-                say(f"{seat.participant}: cannot write the recording ({printable(str(exc), limit=200)}); "
-                    "the participant was stopped")
-                session.leave("stopped: the recording cannot be written")
-                return refuse(503, "The study cannot save your moves just now; nothing more can be played. "
-                                   "Please write to the experimenter.")
-            view = session.view()
-        if kind == "quit":
+            answer = play_locked(seat, kind, data)
+        if seat.session.left:  # q, a recording that cannot be written, a lock refused: the seat is free
             seats.release(seat)
-        return JSONResponse({"view": view})
+        return answer
+
+    def play_locked(seat: Seat, kind: str, data: dict[str, Any]) -> Response:
+        """The key `kind` on `seat`'s session (under `seat.lock`): the new view, or a refusal."""
+        session = seat.session
+        if session.left:
+            return refuse(410, "This page has left the study.")
+        if not seat.budget.spend():
+            session.cancel()
+            why = "Too many keys at once: nothing was played. Slow down."
+            session.tell(why)
+            return refuse(429, why)
+        refused = take_lock(seat) if kind not in ("cancel", "quit") else None
+        if refused is not None:
+            return refused
+        try:
+            if kind == "press":
+                session.press(data.get("key"), data.get("t"))
+            elif kind == "release":
+                session.release(data.get("key"), data.get("t"))
+            elif kind == "cancel":
+                session.cancel()
+            elif kind == "space":
+                session.space()
+            else:
+                session.leave()
+        except KeyRefused as exc:
+            return refuse(400, str(exc))
+        except (OSError, ValueError) as exc:
+            say(f"{seat.participant}: cannot write the recording ({printable(str(exc), limit=200)}); "
+                "the participant was stopped")
+            session.leave("stopped: the recording cannot be written")
+            return refuse(503, "The study cannot save your moves just now; nothing more can be played. "
+                               "Please write to the experimenter.")
+        return JSONResponse({"view": session.view()})
 
     @json_endpoint
     async def key(request: Request, data: dict[str, Any]) -> Response:
@@ -290,7 +349,7 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
                 tasks.cancel_scope.cancel()
                 seats.release_all("left (the server stopped)")
 
-    app = Starlette(routes=[
+    app = Starlette(exception_handlers={HTTPException: http_refusal, Exception: server_error}, routes=[
         Route("/", home),
         Route("/favicon.ico", lambda request: Response(status_code=204)),
         Route("/p/{token}", page),
@@ -300,5 +359,6 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
         Route("/api/leave", leave, methods=["POST"]),
         Mount("/static", StaticFiles(packages=[("careful_tui.web", "static")]), name="static"),
     ], middleware=[Middleware(SecurityHeaders)], lifespan=lifespan)
+    app.router.redirect_slashes = False  # its redirect would go to whatever host the Host header names
     app.state.seats = seats
     return app
