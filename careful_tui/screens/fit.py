@@ -42,6 +42,7 @@ from careful_tui.render.fit_printout import (
     FIT_CHECK_CODES,
     evaluation_line,
     fit_check_text,
+    fit_page_svg,
     policy_labels,
     progress_phrase,
     reward_scale,
@@ -338,7 +339,10 @@ class FitScreen(Screen[None]):
 
     def _save(self, path: Path) -> None:
         try:
-            write_output(path, self.app.export_screenshot(title=self._svg_title()), option="--svg", inputs=self.sources)
+            # The whole fit, as `careful fit --svg` writes it: the screen shows only what is scrolled into sight.
+            svg = (self.app.export_screenshot(title=self._svg_title()) if self.result is None else
+                   fit_page_svg(self.demos, self.result, width=max(80, self.app.size.width), title=self._svg_title()))
+            write_output(path, svg, option="--svg", inputs=self.sources)
         except OutputError as exc:
             self.notify(printable(str(exc)), title="save SVG", severity="error", markup=False)
             return
@@ -396,6 +400,7 @@ class FitScreen(Screen[None]):
         fitted.border_subtitle = scale_legend(scale)
         fitted.values, fitted.scale = result.reward_grid, scale
         true.values, true.scale = result.true_reward_grid, scale
+        true.border_subtitle = legend(self.world, scale=scale)  # its swatches in the colours its cells have
         for board in self.query(Board):
             board.redraw()
         self.query_one("#notes", Static).update(self._notes(result))
