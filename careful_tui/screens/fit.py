@@ -87,6 +87,9 @@ def error_message(error: Exception) -> str:
     return f"unexpected error: {type(error).__name__}: {error} (please report it)"
 
 
+SCROLL = Binding.Group("scroll")
+
+
 def method_bindings(group: Binding.Group) -> list[Binding]:
     """A key per method (`irl_core.irl.fit_methods`), in its order."""
     return [Binding(m.key, f"method('{m.name}')", m.name, priority=True, group=group) for m in METHODS.values()]
@@ -156,6 +159,9 @@ class FitScreen(Screen[None]):
         Binding("tab", "next_method", "next method", priority=True, show=False),
         Binding("i", "toggle_intervals", "intervals", priority=True),
         Binding("s", "save_svg", "save SVG", priority=True),
+        # The body scrolls with PageUp/PageDown (Textual's own); listed so the key bar says so.
+        Binding("pageup", "scroll_body('up')", "scroll", key_display="PgUp", priority=True, group=SCROLL),
+        Binding("pagedown", "scroll_body('down')", "scroll", key_display="PgDn", priority=True, group=SCROLL),
     ]
 
     def __init__(
@@ -303,6 +309,10 @@ class FitScreen(Screen[None]):
         """The next method in the keys' order (`irl_core.irl.fit_methods.METHODS`), after the one asked for."""
         cycle = tuple(METHODS)
         self.action_method(cycle[(cycle.index(self._wanted().method) + 1) % len(cycle)])
+
+    def action_scroll_body(self, direction: str) -> None:
+        body = self.query_one("#body", VerticalScroll)
+        body.scroll_page_up() if direction == "up" else body.scroll_page_down()
 
     def action_toggle_intervals(self) -> None:
         """Show the intervals (computing them if the shown fit has none) or hide them."""
