@@ -1,4 +1,4 @@
-"""The `careful` command line (README "What it does").
+"""The `careful` command line (docs/index.md).
 
 Exit status: 0 success; 2 bad usage or bad input (one message on stderr, no traceback);
 1 anything else. Heavy modules (Textual, cvxpy) are imported only by the commands that

@@ -1,4 +1,4 @@
-"""The fit view: a fitted reward as a picture, refitted with a key (README "Fitting a reward" and "What it does").
+"""The fit view: a fitted reward as a picture, refitted with a key (docs/fitting.md and docs/index.md).
 
 `careful fit FILE...` in a terminal opens it on the first fit (`careful_tui.commands.fit.run_fit`,
 through `careful_tui.app.make_fit_app`).
