@@ -118,6 +118,7 @@ def main() -> None:
             rows.append(row)
             print(json.dumps(row), flush=True)
     n = len(rows)
+    summary: dict[str, object]
     if args.part == "reckless":
         summary = {s: f"{sum(r['covered'][s] for r in rows)}/{n}" for s in SYMBOLS}
         summary["reckless_outlier"] = f"{sum(r['reckless_outlier'] for r in rows)}/{n}"

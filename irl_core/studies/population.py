@@ -255,8 +255,10 @@ def pool_participants(intervals: np.ndarray, *, rmax: float, confidence: float =
             both and the intervals joined.
 
     A participant is an `outlier` when, on some reward, their answer lies outside the prediction interval
-    of the others (pooled without them), and `influential` when the centre with them lies outside the
-    centre's interval without them or the other way round.
+    of the others (pooled without them), each reward's test at (1 - confidence) / k (Bonferroni: with three
+    rewards at 95% each, one careful participant in seven would be an outlier somewhere by chance), and
+    `influential` when the centre with them lies outside the centre's interval without them or the other
+    way round.
     """
     intervals = np.asarray(intervals, dtype=float)
     n, k = intervals.shape[:2]
@@ -278,7 +280,7 @@ def pool_participants(intervals: np.ndarray, *, rmax: float, confidence: float =
                 continue
             others = pool_reward(intervals[keep, j], rmax=rmax, confidence=confidence, scale=scales[j])
             mine = answers(intervals[i:i + 1, j], rmax=rmax, confidence=confidence, scale=scales[j])
-            if _outside(mine, others, confidence=confidence):
+            if _outside(mine, others, confidence=1 - (1 - confidence) / k):
                 outside.append(j)
             if _moves(rewards[j], others):
                 moved.append(j)
