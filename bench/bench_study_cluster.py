@@ -85,7 +85,8 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="also write the row as a JSON line here")
     args = parser.parse_args()
     row = run(args.participants, args.resamples)
-    print(f"{row['participants']} participants x 10 episodes, {row['resamples']} resamples, {row["fits"]} rows (each pool without each participant besides) "
+    print(f"{row['participants']} participants x 10 episodes, {row['resamples']} resamples, {row['fits']} rows "
+          "(and each pool without each participant) "
           f"(load {row['load_before']:.1f} before, {row['load_after']:.1f} after): local pool of 2 "
           f"{row['local_s']:.1f} s, local:2 cluster {row['cluster_s']:.1f} s (+ {row['cluster_start_s']:.1f} s to "
           f"start it) = {row['ratio']:.2f}x ({'meets' if row['ratio'] <= TARGET_RATIO else 'misses'} "
