@@ -243,6 +243,38 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("--rmax", type=positive_float, default=5000.0, metavar="X",
                         help="bound |R_S| <= rmax for every fit (default 5000, so a cliff at -1000 lies well inside)")
 
+    plan = study_commands.add_parser("plan", help="simulate whole studies: how many participants and episodes?",
+                                     description=(
+        "Simulate whole studies before running one: for each world of the study, with the hypothesised rewards "
+        "(--truth), and each grid point (--participants x --episodes), --repeats studies of person-like "
+        "participants (--players in turn, each with their own parameters, spread by --spread), each participant "
+        "fitted with a model of people and a Laplace interval, then pooled. Prints, per grid point, the share of "
+        "studies whose pooled cliff interval lies below the nuisance's (the report's 'separates catastrophe from "
+        "nuisance'), the share whose pooled intervals hold the hypothesised rewards, and the median interval "
+        "widths; writes plan.csv and plan.pdf/plan.png to <out>/plan/."),
+        epilog="Example: careful study plan pilot.toml --participants 5,10 --episodes 5,10 --repeats 20; the default "
+        "grid (3 x 3, 20 studies each) takes a few minutes on two cores.")
+    plan.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
+    plan.add_argument("--truth", default=None, metavar="C=-1000,U=-30,G=100",
+                      help="the hypothesised reward per symbol (default: the worlds' own)")
+    plan.add_argument("--participants", default="5,10,20", metavar="N,N,...",
+                      help="participants per study, the grid's rows (default 5,10,20)")
+    plan.add_argument("--episodes", default="5,10,20", metavar="N,N,...",
+                      help="main episodes per participant and world, the grid's columns (default 5,10,20)")
+    plan.add_argument("--players", default="loose,timed,hasty", metavar="KIND,...",
+                      help="person-like players drawn in turn (loose, timed, hasty, inverted, reckless; "
+                           "default loose,timed,hasty)")
+    plan.add_argument("--spread", type=non_negative_float, default=0.3, metavar="S",
+                      help="between participants, each player parameter is its default times exp(N(0, S)) "
+                           "(default 0.3)")
+    plan.add_argument("--repeats", type=positive_int, default=20, metavar="N",
+                      help="simulated studies per grid point (default 20)")
+    plan.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the simulations (default 0)")
+    plan.add_argument("--workers", type=positive_int, default=None, metavar="N",
+                      help="processes (default: every core)")
+    plan.add_argument("--out", type=Path, default=None, metavar="DIR",
+                      help="the files go to DIR/plan/ (default: the study's out folder)")
+
     serve = commands.add_parser("serve", help="serve a study to participants in a web browser", description=(
         "Serve the study to participants in a web browser: the same screens, blocks, files and resume rules as "
         "'careful study run', with every hold timed from key down to key up. Participants arrive by a link "
@@ -254,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     serve.add_argument("--port", type=port_number, default=8000, help="port to listen on (default 8000; 0: any free port)")
     serve.add_argument("--links", type=positive_int, default=0, metavar="N",
-                       help="append N new participant links to <out>/links.csv (never rewritten)")
+                       help="add N new participant links to <out>/links.csv (the old ones kept, the file written whole)")
     serve.add_argument("--completion-code", default=None, metavar="CODE",
                        help="Prolific's completion code: a Prolific participant who finishes is sent to Prolific's "
                        "completion address with it, once every episode is on disk")
@@ -322,6 +354,7 @@ COMMANDS = {
 STUDY_COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "run": _lazy("careful_tui.commands.study_run", "run_study_run"),
     "report": _lazy("careful_tui.commands.study_report", "run_study_report"),
+    "plan": _lazy("careful_tui.commands.study_plan", "run_study_plan"),
 }
 
 

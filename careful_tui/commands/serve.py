@@ -9,6 +9,7 @@ import socket
 from careful_tui.errors import UsageError
 from irl_core.recordings.writer import check_writable
 from irl_core.studies.study import StudyError, load_study
+from irl_core.support.safe_files import write_problem
 from irl_core.support.safe_text import printable
 
 _COMPLETION_CODE = re.compile(r"[A-Za-z0-9_-]{1,40}")
@@ -35,7 +36,7 @@ def run_serve(args: argparse.Namespace) -> int:
     try:
         check_writable(study.out)
     except OSError as exc:
-        raise UsageError(f"cannot write recordings to {printable(str(study.out))} ({exc.strerror or exc}); "
+        raise UsageError(f"cannot write recordings to {printable(str(study.out))} ({write_problem(exc)}); "
                          "check the study's out folder") from None
     sock = bind(args.host, args.port)
     try:

@@ -94,7 +94,7 @@ class CalibrationScreen(TickBehindInput, ModalScreen[HoldProfile | None]):
             p = calibrating.result
             text.append("Measured.\n\n", style=f"bold {GOOD}")
             text.append(f"Autorepeat starts after {p.initial_delay_ms:.0f} ms and repeats every "
-                        f"{p.repeat_period_ms:.0f} ms.\nHolds under {p.initial_delay_ms:.0f} ms are level 1; "
+                        f"{p.repeat_period_ms:.0f} ms.\nHolds under {p.tap_ms:.0f} ms (or not repeated) are level 1; "
                         f"every {p.ms_per_level:.0f} ms more adds a level.\nA tap (no autorepeat) is a move "
                         f"{p.first_repeat_timeout_ms:.0f} ms after the press.\n\n")
             text.append(" enter ", style=KEY_CHIP)

@@ -3,9 +3,11 @@
 
 ``links.csv`` has the columns ``participant,token,path``; the path is the link without its host
 (``/p/<token>``), as the server may sit behind a proxy whose address only the experimenter knows.
-The file is never rewritten: new links are appended after the ones it holds, their ids continuing
-the numbering (``p001``, ``p002``, ...) and skipping any id that already has a folder. It is
-created readable by its owner only, as its tokens let anyone play as the participant.
+New links come after the ones the file holds, their ids continuing the numbering (``p001``,
+``p002``, ...) and skipping any id that already has a folder; the old rows are kept as they are.
+The file is written whole beside itself and renamed into place (`built_beside`), so a full disk or
+a kill leaves the old file (or none), never a row cut short. It is readable by its owner only, as
+its tokens let anyone play as the participant.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import re
 import secrets
 
 from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+from irl_core.support.safe_files import built_beside, write_problem
 from irl_core.support.safe_text import printable
 
 LINKS_FILE = "links.csv"
@@ -64,7 +67,7 @@ def read_links(study: LoadedStudy) -> dict[str, str]:
 
 
 def add_links(study: LoadedStudy, count: int) -> list[tuple[str, str]]:
-    """Append `count` new links to ``<out>/links.csv`` (creating it); returns them as (participant, token).
+    """Add `count` new links to ``<out>/links.csv`` (creating it), written whole; returns them as (participant, token).
 
     Raises:
         LinksError: the file cannot be read or written.
@@ -82,21 +85,27 @@ def add_links(study: LoadedStudy, count: int) -> list[tuple[str, str]]:
         if participant in taken or study.participant_folder(participant).exists():
             continue
         new.append((participant, secrets.token_urlsafe(16)))
+    try:
+        old = path.read_bytes() if existing else b""
+    except FileNotFoundError:
+        old = b""
+    except OSError as exc:
+        raise LinksError(f"{path}: cannot read the links file ({exc.strerror or exc})") from None
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    if not path.exists():
+    if not old:
         writer.writerow(FIELDS)
+    elif not old.endswith(b"\n"):
+        out.write("\n")
     writer.writerows((participant, token, link_path(token)) for participant, token in new)
     try:
         study.out.mkdir(parents=True, exist_ok=True)
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | getattr(os, "O_CLOEXEC", 0), 0o600)
-        try:
-            os.write(fd, out.getvalue().encode("utf-8"))
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+        with built_beside(path, replace=True) as temporary:
+            fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o600)
+            with os.fdopen(fd, "wb") as file:  # a buffered file writes all or raises (os.write may write part)
+                file.write(old + out.getvalue().encode("utf-8"))
     except OSError as exc:
-        raise LinksError(f"{path}: cannot write the links file ({exc.strerror or exc})") from None
+        raise LinksError(f"{path}: cannot write the links file ({write_problem(exc)})") from None
     return new
 
 

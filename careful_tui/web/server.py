@@ -203,6 +203,10 @@ def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str 
         except ParticipantBusy as exc:
             return refuse(409, "This study is already open for you elsewhere (" + printable(exc.holder, limit=200)
                           + "). Go on there, or finish it first.")
+        except (StudyError, OSError) as exc:  # a full disk, the out folder gone: the experimenter's to mend
+            say(f"{participant}: cannot open a session: {printable(str(exc), limit=300)}")
+            return refuse(503, "The study cannot save anything just now. Please try again in a few minutes; "
+                               "if this comes back, write to the experimenter.")
         if seat is None:
             return refuse(409, "This study is already open for you in another tab, window or device. Go on "
                                "there; or close it, wait a few seconds, and reload this page.")

@@ -21,8 +21,8 @@ left            the participant left with q, or the page closed: what was played
 
 A hold is timed on the page from keydown to keyup and fed to the session as a press and an exact
 release, so every step is ``hold_exact``; its level is `HoldProfile.level_for`, the game's own
-timing function, on `browser_profile`. A browser has no autorepeat delay to wait for, so level 1
-is a hold shorter than 150 ms (a tap), and each further 150 ms adds a level. A press of another
+timing function, on `browser_profile`: the terminal's scale (level 1 below 500 ms, and each
+further 150 ms adds a level; a study file may choose another), so the two front ends pool. A press of another
 arrow while one is held is ignored, and `cancel` (the window lost focus) drops the hold: no move.
 
 This module is the one place the web server meets the play session: it turns the page's
@@ -57,23 +57,21 @@ from irl_core.support.safe_text import printable
 from irl_core.support.words import plural
 from irl_core.worlds.mdp import DIRECTIONS
 
-# Level 1 below 150 ms (a tap), then a level per 150 ms: level 14 from 1.95 s.
-BROWSER_TAP_MS = 150.0
-BROWSER_MS_PER_LEVEL = 150.0
 # A hold longer than this is a key left down, not a choice; it is refused (no move).
 LONGEST_HOLD_MS = 600_000.0
 USER_AGENT_LIMIT = 400
 
 
 def browser_profile(levels: int) -> HoldProfile:
-    """The timing of a browser hold for a world of `levels` levels (the header records it)."""
-    return HoldProfile(initial_delay_ms=BROWSER_TAP_MS, ms_per_level=BROWSER_MS_PER_LEVEL, levels=levels)
+    """The timing of a browser hold for a world of `levels` levels (the header records it): the
+    terminal's level scale (`irl_core.play.hold.TAP_MS`), unless the study chooses another."""
+    return HoldProfile(levels=levels)
 
 
 def input_header(profile: HoldProfile, user_agent: str) -> dict[str, object]:
     """The session header's ``input``: hold mode, timed exactly in a browser, and its level scale."""
     return {"mode": "hold", "front_end": "browser", "user_agent": user_agent[:USER_AGENT_LIMIT],
-            "initial_delay_ms": profile.initial_delay_ms, "ms_per_level": profile.ms_per_level,
+            "tap_ms": profile.tap_ms, "ms_per_level": profile.ms_per_level,
             "timing": "keydown to keyup, performance.now()"}
 
 
@@ -286,7 +284,7 @@ class WebSession:
             "legend": [[symbol, SYMBOL_NAMES.get(symbol, printable(symbol))] for symbol in _symbols(world.layout)],
             "levels": [{"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
                        for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],
-            "timing": {"tap_ms": profile.initial_delay_ms, "ms_per_level": profile.ms_per_level,
+            "timing": {"tap_ms": profile.tap_ms, "ms_per_level": profile.ms_per_level,
                        "levels": profile.levels},
             "player": list(now.cell) if now.cell is not None else None,
             "live": now.live,

@@ -37,6 +37,15 @@ DIRECTIONS: tuple[str, ...] = ("up", "right", "down", "left")
 
 DIGITS: tuple[str, ...] = tuple("0123456789")
 
+TAP_MS = 500.0
+"""Holds shorter than this are level 1, in the terminal and the browser alike (`HoldProfile.tap_ms`):
+a legacy terminal cannot see a hold shorter than its keyboard's autorepeat delay (500 ms is the
+common default), so the browser, which times any hold, uses the scale the terminal can measure,
+and a study that has both pools one measure of care."""
+
+MS_PER_LEVEL = 150.0
+"""Each further 150 ms of hold is one level more, in both front ends (`HoldProfile.ms_per_level`)."""
+
 SHORTEST_AUTOREPEAT_DELAY_MS = 150.0
 """No keyboard starts repeating sooner after a press (the calibration accepts no shorter delay)."""
 
@@ -46,11 +55,13 @@ Clock = Callable[[], float]
 
 @dataclass(frozen=True)
 class HoldProfile:
-    """The keyboard's autorepeat timing and the level scale built on it.
+    """The keyboard's autorepeat timing and the level scale.
 
-    Levels count from the autorepeat initial delay D, one level per `ms_per_level` m, up to
-    `levels` L: level = 1 when hold_ms < D (it looks like a tap), else
-    min(L, 2 + floor((hold_ms - D) / m)). With the defaults (D = 500, m = 150, L = 14):
+    Levels count from `tap_ms` T, one level per `ms_per_level` m, up to `levels` L: level = 1
+    when hold_ms < T (it looks like a tap), else min(L, 2 + floor((hold_ms - T) / m)). The scale
+    is the same in both front ends whatever the keyboard (`TAP_MS`, `MS_PER_LEVEL`; a study file
+    may choose another); calibration changes only the timing of the inference (D, the period).
+    With the defaults (T = 500, m = 150, L = 14):
 
     | hold_ms          | level            |
     |------------------|------------------|
@@ -80,7 +91,8 @@ class HoldProfile:
 
     initial_delay_ms: float = 500.0
     repeat_period_ms: float = 33.0
-    ms_per_level: float = 150.0
+    ms_per_level: float = MS_PER_LEVEL
+    tap_ms: float = TAP_MS
     levels: int = 14
     calibrated: bool = False
     first_repeat_margin_ms: float = 200.0
@@ -91,7 +103,7 @@ class HoldProfile:
     def __post_init__(self) -> None:
         if self.levels < 1:
             raise ValueError(f"levels must be at least 1, got {self.levels}")
-        for name in ("initial_delay_ms", "repeat_period_ms", "ms_per_level"):
+        for name in ("initial_delay_ms", "repeat_period_ms", "ms_per_level", "tap_ms"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
 
@@ -107,10 +119,10 @@ class HoldProfile:
 
     def level_for(self, hold_ms: float) -> int:
         """The carefulness level a hold of `hold_ms` milliseconds gives (see the class table)."""
-        if hold_ms < self.initial_delay_ms:
+        if hold_ms < self.tap_ms:
             return 1
-        # The epsilon keeps level_for(hold_ms_for(k)) == k when D and m are not integers.
-        steps = math.floor((hold_ms - self.initial_delay_ms) / self.ms_per_level + 1e-9)
+        # The epsilon keeps level_for(hold_ms_for(k)) == k when T and m are not integers.
+        steps = math.floor((hold_ms - self.tap_ms) / self.ms_per_level + 1e-9)
         return min(self.levels, 2 + steps)
 
     def hold_ms_for(self, level: int) -> float:
@@ -119,7 +131,7 @@ class HoldProfile:
             raise ValueError(f"level must be in 1..{self.levels}, got {level}")
         if level == 1:
             return 0.0
-        return self.initial_delay_ms + (level - 2) * self.ms_per_level
+        return self.tap_ms + (level - 2) * self.ms_per_level
 
     def to_header(self) -> dict[str, object]:
         """The timing profile for the session header's `"input"` object."""
@@ -127,6 +139,7 @@ class HoldProfile:
             "initial_delay_ms": self.initial_delay_ms,
             "repeat_period_ms": self.repeat_period_ms,
             "ms_per_level": self.ms_per_level,
+            "tap_ms": self.tap_ms,
             "calibrated": self.calibrated,
             "tap_wait_ms": self.first_repeat_timeout_ms,
             "second_press_within_ms": self.earliest_repeat_ms,
@@ -214,6 +227,9 @@ class PendingHold:
     last: float
     repeats: int = 0
     first_repeat: float | None = None
+    tail_pace_ms: float | None = None
+    """Set on a hold that began on the key of a hold just ended by a silence: the same key again
+    sooner than this (autorepeat pace) shows this 'press' was a late repeat of that hold."""
 
 
 class SilenceEnded:
@@ -275,6 +291,16 @@ class HoldDetector(SilenceEnded):
     further repeat would have come), so the midpoint is off by at most half a period. The period
     is the hold's own mean repeat gap once two repeats were seen, else the profile's. A hold
     with no repeat is a tap: its length cannot be inferred and is reported as 0.0 (level 1).
+
+    A delivery gap (a loaded machine, an SSH hop, tmux holding keys back for 100-400 ms) ends a
+    hold by the silence while the key is still down, and its repeats then arrive again. They are
+    the tail of the hold already played, never moves: after a hold ended by a silence, a 'press'
+    of the same key followed by the same key at autorepeat pace (sooner than the hold's repeat
+    timeout and `earliest_repeat_ms`, faster than a person taps) was a late repeat, so it and
+    every repeat after it are dropped as after `cancel`, until the key has been silent again (and
+    after a further gap, the same again). A press of the same key then held (its first repeat
+    after the keyboard's delay) or tapped is a move of its own; so is a lone late repeat with
+    nothing after it, which cannot be told from a tap.
     """
 
     mode = "hold"
@@ -285,6 +311,7 @@ class HoldDetector(SilenceEnded):
         self._clock = clock
         self._pending: PendingHold | None = None
         self._cancelled: PendingHold | None = None
+        self._tail: PendingHold | None = None
 
     def press(self, key: str, *, repeat: bool | None = None, at: float | None = None) -> list[Hold]:
         """A key press or autorepeat of `key` at time `at` (default: now); returns the hold it ended, if any."""
@@ -295,8 +322,13 @@ class HoldDetector(SilenceEnded):
             self._extend(cancelled, now)
             self._cancelled = cancelled
             return []
+        if cancelled is not None:
+            self._tail = cancelled
         done: list[Hold] = []
         pending = self._pending
+        if pending is not None and self._is_late_repeat(pending, key, repeat, now):
+            self._drop_tail(pending, now)
+            return done
         if pending is not None and self._continues(pending, key, repeat, now):
             self._extend(pending, now)
             return done
@@ -304,8 +336,28 @@ class HoldDetector(SilenceEnded):
             done.append(self._infer(pending))
             self._pending = None
         if not repeat:
-            self._pending = PendingHold(key=key, started=now, last=now)
+            self._pending = PendingHold(key=key, started=now, last=now, tail_pace_ms=self._tail_pace_ms(key, repeat))
+        self._tail = None
         return done
+
+    def _tail_pace_ms(self, key: str, repeat: bool | None) -> float | None:
+        """The autorepeat pace of the hold a silence just ended on `key` (None: no such hold)."""
+        tail = self._tail
+        if tail is None or tail.key != key or repeat is not None:
+            return None
+        return min(self.profile.repeat_timeout_ms(self._period_ms(tail)), self.profile.earliest_repeat_ms)
+
+    def _is_late_repeat(self, pending: PendingHold, key: str, repeat: bool | None, now: float) -> bool:
+        """Whether `key` at `now` shows the `pending` 'press' was a repeat held back by a delivery gap."""
+        pace = pending.tail_pace_ms
+        return (pace is not None and repeat is None and pending.key == key and pending.repeats == 0
+                and (now - pending.last) * 1000.0 < pace)
+
+    def _drop_tail(self, pending: PendingHold, now: float) -> None:
+        """Drop the late repeats of a hold already played, as `cancel` drops a held key's repeats."""
+        self._pending = None
+        self._extend(pending, now)
+        self._cancelled = pending
 
     def release(self, key: str, *, at: float | None = None) -> list[Hold]:
         """A key-release event at time `at` (default: now): ends the hold on `key` exactly
@@ -316,6 +368,8 @@ class HoldDetector(SilenceEnded):
         """
         if self._cancelled is not None and self._cancelled.key == key:
             self._cancelled = None
+        if self._tail is not None and self._tail.key == key:
+            self._tail = None
         pending = self._pending
         if pending is None or pending.key != key:
             return []
@@ -340,6 +394,7 @@ class HoldDetector(SilenceEnded):
         """Drop the hold in progress without committing it."""
         self._pending = None
         self._cancelled = None
+        self._tail = None
 
     def cancel(self) -> None:
         """Drop the hold in progress, and ignore its key until the player lets go of it.
@@ -387,8 +442,9 @@ class HoldDetector(SilenceEnded):
         return pending.last + timeout_ms / 1000.0
 
     def _end(self, pending: PendingHold) -> Hold:
-        """The hold ended by the release timeout, its length inferred."""
+        """The hold ended by the release timeout, its length inferred (its key may still be down)."""
         self._pending = None
+        self._tail = pending if pending.repeats > 0 or pending.tail_pace_ms is not None else None
         return self._infer(pending)
 
     def _infer(self, pending: PendingHold) -> Hold:

@@ -353,15 +353,15 @@ class PlaySession:
         shown_ms = current.elapsed_ms
         if not self.releases_seen:
             if current.repeats == 0:
-                return HoldView(current.key, 1, 1 + 0.9 * min(1.0, shown_ms / p.initial_delay_ms), shown_ms)
+                return HoldView(current.key, 1, 1 + 0.9 * min(1.0, shown_ms / p.tap_ms), shown_ms)
             if self._last_key_at is not None:
                 started = self.clock() - current.elapsed_ms / 1000
                 shown_ms = min(shown_ms, (self._last_key_at - started) * 1000 + p.repeat_period_ms)
         level = p.level_for(shown_ms)
-        if shown_ms < p.initial_delay_ms:
-            fill = 1 + shown_ms / p.initial_delay_ms
+        if shown_ms < p.tap_ms:
+            fill = 1 + shown_ms / p.tap_ms
         else:
-            fill = 2 + (shown_ms - p.initial_delay_ms) / p.ms_per_level
+            fill = 2 + (shown_ms - p.tap_ms) / p.ms_per_level
         return HoldView(current.key, level, min(fill, level + 0.999, float(p.levels)), shown_ms)
 
     # ------------------------------------------------------------------ moves

@@ -58,8 +58,8 @@ KINDS: dict[str, dict[str, float]] = {
 }
 
 # The game's hold timing with its defaults (`irl_core.play.hold.HoldProfile`, whose level_for is per hold,
-# not per array): a hold shorter than the autorepeat delay is level 1, then one level per MS_PER_LEVEL.
-DELAY_MS = HoldProfile().initial_delay_ms
+# not per array): a hold shorter than its tap_ms is level 1, then one level per MS_PER_LEVEL.
+DELAY_MS = HoldProfile().tap_ms
 MS_PER_LEVEL = HoldProfile().ms_per_level
 
 

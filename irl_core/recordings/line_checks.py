@@ -3,7 +3,10 @@
 A step must be a move the header's world can make (a level it has, cells that are states, a
 next cell the move can reach, a `realised` direction that leads there), and the lines must tell
 one story: episodes in increasing order; within one, `t` counting 0, 1, 2, ...; each step
-starting where the previous one ended; nothing of an episode after its `episode_end`. The
+starting where the previous one ended; nothing of an episode after its `episode_end`; and each
+`episode_end` agreeing with its steps: `steps` is how many there were, a `terminal` end's last step
+entered a terminal cell whose symbol is `terminal_symbol`, a `quit` or `step_limit` end's did not
+(and names no symbol). The
 reader (`irl_core.recordings.demonstrations`) feeds every line to a `LineChecker` and turns a `Mismatch`
 into `file:line: field: problem`.
 """
@@ -11,6 +14,7 @@ into `file:line: field: problem`.
 from __future__ import annotations
 
 from irl_core.recordings.lines import EpisodeEnd, Step
+from irl_core.support.safe_text import printable
 from irl_core.support.words import plural
 from irl_core.worlds.mdp import DIRECTIONS, MDP
 
@@ -69,6 +73,31 @@ class LineChecker:
     def end(self, end: EpisodeEnd, number: int) -> None:
         self._enter(end.episode, number)
         self._ended_on = number
+        if end.steps != self._next_t:
+            raise self._error(number, "steps", f"{end.steps}, but episode {end.episode} has "
+                              f"{plural(self._next_t, 'step')} in the file")
+        self._check_outcome(end, number)
+
+    def _check_outcome(self, end: EpisodeEnd, number: int) -> None:
+        """A terminal end entered the terminal cell it names; any other entered none."""
+        mdp, cell = self.mdp, self._cell
+        s = None if cell is None else mdp.state_of[cell]
+        symbol = None if s is None or not mdp.terminal[s] else str(mdp.symbols[s])
+        where = "no step" if cell is None else f"the last step entered {list(cell)}"
+        if end.outcome == "terminal":
+            if symbol is None:
+                ended = ("there was no step" if cell is None
+                         else f"the last step ended on {list(cell)}, which is not a terminal cell")
+                raise self._error(number, "outcome", f"terminal, but {ended}")
+            if end.terminal_symbol != symbol:
+                shown = printable(str(end.terminal_symbol), limit=20)
+                raise self._error(number, "terminal_symbol", f"{shown!r}, but {where}, which is {symbol}")
+            return
+        if symbol is not None:
+            raise self._error(number, "outcome", f"{end.outcome}, but {where}, which is {symbol}, a terminal cell")
+        if end.terminal_symbol is not None:
+            raise self._error(number, "terminal_symbol", f"{printable(end.terminal_symbol, limit=20)!r}, but the "
+                              f"episode ended as {end.outcome}, in no terminal cell")
 
     def _check_move(self, step: Step, number: int) -> None:
         world, mdp = self.mdp.world, self.mdp

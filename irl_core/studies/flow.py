@@ -43,11 +43,14 @@ def block_heading(protocol: Protocol, block: Block) -> str:
 
 def block_options(protocol: Protocol, block: Block, participant: str, profile: HoldProfile | None) -> PlayOptions:
     """How a block plays: the study's input mode, `profile` (a calibration carried over) on the
-    block's world's levels, its title, its remaining episodes and how they are counted."""
+    block's world's levels and the study's level scale, its title, its remaining episodes and how
+    they are counted."""
     world = protocol.world(block)
+    study = protocol.study.study
     return PlayOptions(
-        input_mode=protocol.study.study.input,
-        profile=None if profile is None else replace(profile, levels=world.levels),
+        input_mode=study.input,
+        profile=replace(profile or HoldProfile(), levels=world.levels, tap_ms=study.tap_ms,
+                        ms_per_level=study.ms_per_level),
         player=participant,
         heading=block_heading(protocol, block),
         command=STUDY_COMMAND,

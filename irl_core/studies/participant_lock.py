@@ -19,6 +19,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+from irl_core.support.safe_files import write_problem
 from irl_core.support.safe_text import printable
 
 _HOLDER_BYTES = 1000
@@ -58,13 +59,17 @@ def participant_lock(study: LoadedStudy, participant: str, *, holder: str) -> It
         fd = _locked(path, participant)
     except OSError as exc:
         raise StudyError(f"cannot lock participant {participant} in {printable(str(study.out), limit=160)} "
-                         f"({exc.strerror or exc}); check the study's out folder") from None
+                         f"({write_problem(exc)}); check the study's out folder") from None
     try:
         since = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
         host = printable(socket.gethostname(), limit=80)
         text = f"{printable(holder, limit=200)} (process {os.getpid()} on {host}, since {since})"
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, text.encode("utf-8"), 0)
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, text.encode("utf-8"), 0)
+        except OSError as exc:
+            raise StudyError(f"cannot lock participant {participant} in {printable(str(study.out), limit=160)} "
+                             f"({write_problem(exc)})") from None
         yield path
     finally:
         # Removed while still held, so no one can lock the old file after it is gone (see `_locked`).

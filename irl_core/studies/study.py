@@ -33,6 +33,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from irl_core.play.hold import MS_PER_LEVEL, TAP_MS
 from irl_core.recordings.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
 from irl_core.recordings.lines import StudyTag
 from irl_core.recordings.writer import slug
@@ -71,6 +72,8 @@ class Study(BaseModel):
     practice_episodes: int = Field(1, ge=0, le=1000)
     episodes: int = Field(5, ge=1, le=100_000)
     input: Literal["hold", "tap", "digits"] = "hold"
+    tap_ms: float = Field(TAP_MS, ge=50.0, le=5_000.0)
+    ms_per_level: float = Field(MS_PER_LEVEL, ge=20.0, le=5_000.0)
     out: str = Field("data", min_length=1)
 
 

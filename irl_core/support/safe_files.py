@@ -101,6 +101,12 @@ def read_problem(exc: OSError) -> str:
     return exc.strerror or str(exc)
 
 
+def write_problem(exc: OSError) -> str:
+    """Why a write failed, for a message: a full disk (or quota) says "disk full" first."""
+    reason = exc.strerror or str(exc)
+    return f"disk full: {reason}" if exc.errno in (errno.ENOSPC, errno.EDQUOT) else reason
+
+
 def reference_problem(name: str) -> str | None:
     """Why `name` cannot be a path on this system (a NUL, a name or path over the system's limits), or None."""
     if "\0" in name:

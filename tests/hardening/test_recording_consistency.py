@@ -93,6 +93,19 @@ MUTATIONS = {
     "a slip not marked as one": (lambda o: [o[0]["world"].update(slip="halving"),
                                             o[1].update(realised="down", next_state=[1, 0])], 2, "slipped",
                                  "went down for right"),
+    # Episode ends that disagree with their steps (issue 31): a report counted these as goals reached.
+    "terminal_symbol not in the world": (lambda o: o[4].update(terminal_symbol="Z"), 5, "terminal_symbol",
+                                         "'Z', but the last step entered [1, 2], which is G"),
+    "cliff for an episode that reached the goal": (lambda o: o[4].update(terminal_symbol="C"), 5,
+                                                   "terminal_symbol", "'C', but the last step entered [1, 2], which is G"),
+    "terminal after a last step on ground": (
+        lambda o: o[6].update(direction="right", realised="right", next_state=[0, 2]), 8, "outcome",
+        "terminal, but the last step ended on [0, 2], which is not a terminal cell"),
+    "steps that were not played": (lambda o: o[4].update(steps=999), 5, "steps", "999, but episode 0 has 3 steps"),
+    "quit after entering the goal": (lambda o: o[4].update(outcome="quit", terminal_symbol=None), 5, "outcome",
+                                     "quit, but the last step entered [1, 2], which is G, a terminal cell"),
+    "a symbol on an end that is no terminal": (lambda o: o[7].update(outcome="quit", terminal_symbol="G",
+                                                                    steps=1), 8, "steps", "1, but episode 1 has 2"),
 }
 
 

@@ -111,6 +111,7 @@ def test_header_gives_the_timing_profile() -> None:
         "initial_delay_ms": 500.0,
         "repeat_period_ms": 33.0,
         "ms_per_level": 150.0,
+        "tap_ms": 500.0,
         "calibrated": False,
         "tap_wait_ms": 700.0,
         "second_press_within_ms": 150.0,

@@ -1,0 +1,128 @@
+"""`careful study plan`: the default grid's time, and its predicted separation against full reports.
+
+1. ``time``: the default grid (participants 5,10,20 x episodes 5,10,20, 20 studies each; players
+   loose, timed, hasty, spread 0.3) on the README's study (one world, mud), on every core; the
+   seconds go beside the target (600 s on this 2-core machine). A baseline in the same process, one
+   participant's fit and Laplace interval, gives the ratio to compare across machines.
+2. ``check``: at two grid points, the plan's predicted separation rate (the share of simulated
+   studies whose pooled cliff interval lies below the mud's) against the rate measured by running
+   the full `study report` pipeline (`gather`, `fit_report`: the auto model choice, bootstrap
+   intervals, the report's pool) on N simulated studies whose participants are drawn as the plan
+   draws them, written to disk as recordings. Target: within 15 points.
+
+Run: .venv/bin/python -m bench bench_plan [--part time|check|both] [--studies N] [--resamples R]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from irl_core.experiment.claims import order_words
+from irl_core.irl.qmap import build_unknowns
+from irl_core.players.experts import rollouts, session_header, write_rollouts
+from irl_core.recordings.lines import StudyTag
+from irl_core.studies.plan import PlanGrid, _drawn_player, fit_participant, plan_study
+from irl_core.studies.report import POOLED, fit_report, gather, report_options
+from irl_core.studies.study import load_study
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
+
+POINTS = ((5, 5), (5, 10))
+TARGET_S = 600.0
+
+
+def time_default_grid(workers: int) -> None:
+    world = BUILTIN_WORLDS["mud"]
+    mdp = build_mdp(world)
+    unknowns = build_unknowns(mdp, tie=True)
+    grid = PlanGrid()
+    started = time.perf_counter()
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        fit_participant(mdp, unknowns, rollouts(mdp, _drawn_player(mdp, "loose", 0.3, rng).choose, episodes=10,
+                                                rng=rng), grid)
+    baseline = (time.perf_counter() - started) / 3
+    started = time.perf_counter()
+    points = plan_study((world,), grid, workers=workers)
+    seconds = time.perf_counter() - started
+    print(f"default grid on mud, {grid.repeats} studies per point, {workers} workers: {seconds:.0f} s "
+          f"(target {TARGET_S:.0f} s); one participant's fit and interval (10 episodes): {baseline:.2f} s, "
+          f"ratio {seconds / baseline:.0f}")
+    for p in points:
+        print(f"  {p.participants:>3} participants x {p.episodes:>3} episodes: separated {p.separated:.0%}, "
+              f"covered {p.covered:.0%}, widths " + ", ".join(f"{s} {w:.0f}" for s, w in p.width.items()))
+
+
+def write_study(folder: Path, participants: int, episodes: int, seed: int, grid: PlanGrid) -> Path:
+    """A study file of mud and `participants` drawn as the plan draws them, `episodes` main episodes each."""
+    path = folder / "study.toml"
+    path.write_text(f'name = "bench"\nworlds = ["mud"]\npractice_episodes = 0\nepisodes = {episodes}\nout = "data"\n')
+    study = load_study(path)
+    mdp = build_mdp(study.worlds[0])
+    for i in range(participants):
+        rng = np.random.default_rng([seed, i, 7])
+        player = _drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
+        who = f"p{i + 1:02d}"
+        out = study.participant_folder(who)
+        out.mkdir(parents=True)
+        tag = StudyTag(name="bench", participant=who, phase="main", world_index=0)
+        header = session_header(mdp, player=player.player, seed=seed).model_copy(update={"player": who, "study": tag})
+        write_rollouts(out / f"{who}-0-w0-main.jsonl", mdp, rollouts(mdp, player.choose, episodes=episodes, rng=rng),
+                       player=player.player, seed=seed, header=header)
+    return path
+
+
+def reported_separation(participants: int, episodes: int, studies: int, resamples: int, workers: int) -> float:
+    grid = PlanGrid()
+    separated = []
+    for s in range(studies):
+        with tempfile.TemporaryDirectory() as folder:
+            data = gather(load_study(write_study(Path(folder), participants, episodes, 1000 + s, grid)))
+            fits = fit_report(data, report_options(resamples=resamples, seed=s), workers=workers)
+        pooled = next(f for c, f in zip(data.cells, fits) if c.participant == POOLED)
+        if pooled.intervals is None:
+            separated.append(False)
+            continue
+        cliff, mud = pooled.symbols.index("C"), pooled.symbols.index("U")
+        separated.append(order_words(tuple(pooled.intervals[cliff]), tuple(pooled.intervals[mud])) == "below")
+        print(f"    study {s}: pooled cliff {pooled.intervals[cliff].round(0).tolist()}, mud "
+              f"{pooled.intervals[mud].round(1).tolist()} ({pooled.player_model}): "
+              f"{'separated' if separated[-1] else 'not separated'}", flush=True)
+    return float(np.mean(separated))
+
+
+def check(studies: int, resamples: int, workers: int) -> None:
+    world = BUILTIN_WORLDS["mud"]
+    for n, e in POINTS:
+        grid = PlanGrid(participants=(n,), episodes=(e,))
+        predicted = plan_study((world,), grid, workers=workers)[0].separated
+        assert predicted is not None
+        print(f"{n} participants x {e} episodes: the plan predicts separation in {predicted:.0%} "
+              f"({grid.repeats} simulated studies)", flush=True)
+        measured = reported_separation(n, e, studies, resamples, workers)
+        print(f"{n} participants x {e} episodes: predicted {predicted:.0%}, measured by {studies} full reports "
+              f"(--resamples {resamples}) {measured:.0%}: {abs(predicted - measured) * 100:.0f} points apart "
+              "(target 15)", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--part", choices=("time", "check", "both"), default="both")
+    parser.add_argument("--studies", type=int, default=20)
+    parser.add_argument("--resamples", type=int, default=200)
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    args = parser.parse_args()
+    if args.part in ("time", "both"):
+        time_default_grid(args.workers)
+    if args.part in ("check", "both"):
+        check(args.studies, args.resamples, args.workers)
+
+
+if __name__ == "__main__":
+    main()

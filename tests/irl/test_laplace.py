@@ -1,0 +1,81 @@
+"""Laplace intervals for a model of people: the curvature against second differences of the likelihood
+itself (an independent route), and intervals that hold what the curvature says."""
+
+import numpy as np
+import pytest
+
+from irl_core.irl.laplace import covariance, hessian, laplace_intervals, variables
+from irl_core.irl.people_choice import fit_given_model
+from irl_core.irl.people_likelihood import log_likelihood
+from irl_core.irl.player_models import Player, player_model
+from irl_core.irl.qmap import build_unknowns
+from irl_core.players.experts import demonstrations_of, rollouts
+from irl_core.players.person_like import person_like
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
+
+RMAX = 5000.0
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    unknowns = build_unknowns(mdp, tie=True)
+    counts = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, "loose").choose, episodes=10, seed=0)).counts
+    fit = fit_given_model(mdp, unknowns, counts, model=player_model("person"), rmax=RMAX)
+    return mdp, unknowns, counts, fit
+
+
+def _ll(mdp, unknowns, counts, fit, z):
+    k = unknowns.k
+    player = Player(float(np.exp(z[k])), float(np.exp(z[k + 1])), float(1 / (1 + np.exp(-z[k + 2]))))
+    return log_likelihood(mdp, counts, unknowns.state_rewards(z[:k]), model=fit.model, player=player, V0=fit.V1,
+                          gradient=False).value
+
+
+def test_the_hessian_of_the_exact_gradient_matches_second_differences_of_the_likelihood(fitted):
+    mdp, unknowns, counts, fit = fitted
+    z, free = variables(fit)
+    H = hessian(mdp, unknowns, counts, fit, free=free)
+    for j in np.flatnonzero(free):
+        h = 1e-3 * max(1.0, abs(z[j]))
+        up, down = z.copy(), z.copy()
+        up[j] += h
+        down[j] -= h
+        second = (_ll(mdp, unknowns, counts, fit, up) - 2 * _ll(mdp, unknowns, counts, fit, z)
+                  + _ll(mdp, unknowns, counts, fit, down)) / h**2
+        assert H[j, j] == pytest.approx(second, rel=2e-3, abs=1e-6)
+
+
+def test_the_hessian_is_symmetric_and_the_fit_a_maximum(fitted):
+    mdp, unknowns, counts, fit = fitted
+    _, free = variables(fit)
+    H = hessian(mdp, unknowns, counts, fit, free=free)[np.ix_(free, free)]
+    assert np.allclose(H, H.T, rtol=1e-3, atol=1e-6 * np.abs(H).max())
+    assert np.linalg.eigvalsh((H + H.T) / 2).max() < 0
+
+
+def test_the_reward_scale_interval_is_the_estimate_plus_or_minus_z_standard_errors(fitted):
+    mdp, unknowns, counts, fit = fitted
+    se = np.sqrt(np.diag(covariance(mdp, unknowns, counts, fit))[: unknowns.k])
+    intervals = laplace_intervals(mdp, unknowns, counts, fit, rmax=RMAX, scale="reward")
+    inside = np.isfinite(se) & (np.abs(fit.theta) + 2 * se < RMAX)
+    assert inside.any()
+    assert np.allclose(intervals[inside, 0], fit.theta[inside] - 1.959964 * se[inside], rtol=1e-5)
+    assert np.allclose(intervals[inside, 1], fit.theta[inside] + 1.959964 * se[inside], rtol=1e-5)
+
+
+def test_the_log_scale_interval_holds_the_estimate_and_keeps_its_sign(fitted):
+    mdp, unknowns, counts, fit = fitted
+    intervals = laplace_intervals(mdp, unknowns, counts, fit, rmax=RMAX)
+    assert np.all(intervals[:, 0] <= fit.theta) and np.all(fit.theta <= intervals[:, 1])
+    cliff = unknowns.symbols.index("C")
+    assert intervals[cliff, 1] < 0  # the cliff is bad, and the interval says so
+    # It stretches toward the bound: further below the estimate than above it.
+    assert fit.theta[cliff] - intervals[cliff, 0] > intervals[cliff, 1] - fit.theta[cliff]
+
+
+def test_an_unknown_scale_is_refused(fitted):
+    mdp, unknowns, counts, fit = fitted
+    with pytest.raises(ValueError, match="scale"):
+        laplace_intervals(mdp, unknowns, counts, fit, rmax=RMAX, scale="logit")
