@@ -43,7 +43,22 @@ def target_words(target: int, *, times_holds: bool) -> str:
     """The instruction for one target, the same in every front end."""
     if times_holds:
         return f"Hold an arrow key until the gauge shows {target}, then let go."
-    return f"Enter level {target} with an arrow key, as you would for a move."
+    return f"Make a level {target} move with an arrow key, as in play (nothing moves here)."
+
+
+# The block's words, the same in the terminal and the browser.
+MOTOR_TITLE = "Calibration"
+MOTOR_INTRO = ("Before practice: a few holds with no board. Each time, hold an arrow key until the gauge "
+               "shows the level asked for, then let go. This measures your hand, not your play: "
+               "do your best, no answer is wrong.")
+MOTOR_DONE = "Calibration done. Practice comes next."
+
+
+def result_words(trial: CalibrationTrial) -> str:
+    """What the participant is told after a trial: the level asked for and the level they made."""
+    if trial.produced == trial.target:
+        return f"You made {trial.produced}, as asked."
+    return f"You made {trial.produced}; {trial.target} was asked."
 
 
 @dataclass(frozen=True)
@@ -126,7 +141,7 @@ class MotorBlock:
         hold = None if self.done else entering_view(self.input, self.mode, self.profile,
                                                     releases_seen=self.releases_seen,
                                                     last_key_at=self._last_key_at, now=self.clock())
-        instruction = ("Calibration done." if target is None
+        instruction = (MOTOR_DONE if target is None
                        else target_words(target, times_holds=self.mode.times_holds))
         return MotorView(target=target, number=self.done_before + min(len(self.trials), len(self.targets)) + 1,
                          count=self.done_before + len(self.targets), hold=hold,
