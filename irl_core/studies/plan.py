@@ -24,6 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydantic import ValidationError
 from scipy.stats import norm
 from scipy.stats import t as student
 
@@ -90,17 +91,26 @@ class PlanGrid:
             raise PlanError("model", str(exc)) from None
 
 
-def planned_worlds(worlds: tuple[World, ...], truth: dict[str, float]) -> tuple[World, ...]:
+def planned_worlds(worlds: tuple[World, ...], truth: dict[str, float], *,
+                   rmax: float = PlanGrid.rmax) -> tuple[World, ...]:
     """The study's worlds with the hypothesised rewards `truth` (symbol -> reward) in place of their own.
 
-    Raises PlanError("truth", ...) for a symbol no world of the study has."""
-    for symbol in truth:
+    Raises PlanError("truth", ...) for a symbol no world of the study has, a reward beyond the fits'
+    bound `rmax` (no interval could hold it), or one a world refuses (a wall's)."""
+    for symbol, reward in truth.items():
+        if not abs(reward) < rmax:
+            raise PlanError("truth", f"{symbol}={reward:g} is beyond the fits' bound of {rmax:g}")
         if not any(symbol in world.layout for world in worlds):
             names = ", ".join(world.name for world in worlds)
             raise PlanError("truth", f"no world of the study ({names}) has the symbol {symbol!r}")
-    return tuple(world.model_copy(update={"rewards": {**world.rewards, **{s: r for s, r in truth.items()
-                                                                         if s in world.layout}}})
-                 for world in worlds)
+    out = []
+    for world in worlds:
+        rewards = {**world.rewards, **{s: r for s, r in truth.items() if s in world.layout}}
+        try:
+            out.append(World.model_validate({**world.model_dump(), "rewards": rewards}))
+        except ValidationError as exc:
+            raise PlanError("truth", exc.errors()[0]["msg"].removeprefix("Value error, ")) from None
+    return tuple(out)
 
 
 @dataclass(frozen=True)

@@ -88,6 +88,8 @@ def test_careful_study_plan_writes_csv_and_figures(tmp_path, capsys):
     (["--episodes", "0"], "--episodes"),
     (["--truth", "X=-5"], "--truth"),
     (["--truth", "C=-inf"], "--truth"),
+    (["--truth", "C=-6000"], "--truth"),
+    (["--truth", "#=5"], "--truth"),
     (["--players", "loose,brave"], "--players"),
 ])
 def test_bad_input_is_one_line_naming_the_field(tmp_path, capsys, argv, field):
