@@ -13,6 +13,7 @@ from __future__ import annotations
 from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
+from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.screen import Screen
 from textual.widgets import Static
@@ -21,7 +22,7 @@ from careful_tui.keys.arrival import KeyArrival
 from careful_tui.keys.kitty import KeyRelease, key_repeat
 from careful_tui.render.palette import GOOD, NOTE
 from careful_tui.screens.behind_input import TickBehindInput
-from careful_tui.widgets import Gauge
+from careful_tui.widgets import Gauge, KeyBar
 from irl_core.play.game import level_costs
 from irl_core.play.motor_block import MOTOR_INTRO, MOTOR_TITLE, MotorBlock, result_words
 from irl_core.worlds.world import World
@@ -30,6 +31,8 @@ from irl_core.worlds.world import World
 class MotorScreen(TickBehindInput, Screen[bool]):
     """The calibration block's targets, one at a time; dismissed with True when all are done, False
     when the participant leaves (q) or a trial cannot be written."""
+
+    BINDINGS = [Binding("space,enter", "go_on", "begin practice", key_display="space")]
 
     def __init__(self, block: MotorBlock, world: World, *, event_times: bool | None = None) -> None:
         super().__init__()
@@ -43,8 +46,11 @@ class MotorScreen(TickBehindInput, Screen[bool]):
             box.border_title = MOTOR_TITLE.lower()
             yield Static(Text(MOTOR_INTRO, style="dim"), id="motor-intro")
             with Horizontal(id="motor-row"):
-                yield Gauge(level_costs(self.world), id="motor-gauge")
+                gauge = Gauge(level_costs(self.world), id="motor-gauge")
+                gauge.border_title = "level · cost"
+                yield gauge
                 yield Static(id="motor-text")
+        yield KeyBar(id="keys")
 
     def on_mount(self) -> None:
         self._ticker = self.set_interval(1 / 30, self._tick_behind_input)
@@ -56,17 +62,22 @@ class MotorScreen(TickBehindInput, Screen[bool]):
             event.stop()
             event.prevent_default()
             block.press(key, repeat=key_repeat(event), at=self.arrival(event))
-        elif key in ("space", "enter") and block.done:
-            event.stop()
-            event.prevent_default()
-            self.dismiss(block.write_error is None)
-            return
         elif key == "q":
             event.stop()
             event.prevent_default()
             self.dismiss(False)
             return
         self._show()
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        if action == "go_on":
+            return self.block.done
+        return super().check_action(action, parameters)
+
+    def action_go_on(self) -> None:
+        """Space once every target has a trial: on to practice (or out, when a trial could not be written)."""
+        if self.block.done:
+            self.dismiss(self.block.write_error is None)
 
     def on_key_release(self, event: KeyRelease) -> None:
         if event.key in self.block.keys:
@@ -81,6 +92,9 @@ class MotorScreen(TickBehindInput, Screen[bool]):
 
     def _show(self) -> None:
         view = self.block.view()
+        if view.done != getattr(self, "_done_shown", None):
+            self._done_shown = view.done
+            self.refresh_bindings()
         gauge = self.query_one("#motor-gauge", Gauge)
         gauge.fill = view.hold.fill if view.hold is not None else 0.0
         gauge.level = view.hold.level if view.hold is not None else None
