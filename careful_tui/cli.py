@@ -19,7 +19,7 @@ from rich.text import Text
 
 import irl_core.irl.fit_methods as fit_methods
 import irl_core.irl.player_models as player_models
-from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError, missing_extra, missing_extra_line
 from careful_tui.version import app_version
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
@@ -346,7 +346,15 @@ def _lazy(module: str, function: str) -> Callable[[argparse.Namespace], int]:
     for the commands that need them, so `careful --help` and `careful worlds` answer at once."""
 
     def run(args: argparse.Namespace) -> int:
-        return getattr(importlib.import_module(module), function)(args)
+        try:
+            command = getattr(importlib.import_module(module), function)
+            return command(args)
+        except ModuleNotFoundError as exc:
+            # An extra's module, missing here or mid-command (matplotlib for a figure): what to install.
+            if (extra := missing_extra(exc)) is None:
+                raise
+            print(missing_extra_line(exc, extra), file=sys.stderr)
+            return EXIT_FAILURE
 
     return run
 
