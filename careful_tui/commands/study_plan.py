@@ -1,4 +1,4 @@
-"""`careful study plan STUDY.toml`: simulate whole studies before running one (README "Studies").
+"""`careful study plan STUDY.toml`: simulate whole studies before running one (docs/studies.md#planning-a-study).
 
 The computation is `irl_core.studies.plan`; this module parses the grid and the hypothesised
 rewards, shows a progress bar on stderr, prints the table on stdout and writes ``plan.csv`` and the
