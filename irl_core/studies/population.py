@@ -89,14 +89,6 @@ def pooling_scale(intervals: np.ndarray, *, rmax: float) -> Scale:
     return "linear"
 
 
-def _to_scale(values: np.ndarray, scale: Scale) -> np.ndarray:
-    if scale == "log_negative":
-        return np.log(-values)
-    if scale == "log_positive":
-        return np.log(values)
-    return values
-
-
 def from_scale(values: np.ndarray, scale: Scale) -> np.ndarray:
     """Pooling-scale values back to rewards (order kept: the first of a low-high pair stays the lower reward)."""
     values = np.asarray(values, dtype=float)
