@@ -66,7 +66,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
                         episodes=parse_sizes(args.episodes, option="--episodes"),
                         players=tuple(p.strip() for p in args.players.split(",")), repeats=args.repeats,
                         spread=args.spread, seed=args.seed)
-        worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {})
+        worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
         raise UsageError(f"--{exc.field}: {exc.reason}") from None
     out = check_output_folder((args.out if args.out is not None else study.out) / PLAN_FOLDER, option="--out")
