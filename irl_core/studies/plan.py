@@ -5,7 +5,7 @@ For each world of the study, with the hypothesised rewards (`planned_worlds`), a
 participants (`irl_core.players.person_like`, the kinds `PlanGrid.players` in turn, each of their
 parameters scaled by exp(N(0, `PlanGrid.spread`)): people differ), each playing e episodes; it fits
 each participant with a model of people (`PlanGrid.model`) and the cheap Laplace interval
-(`irl_core.irl.laplace`), pools them (`pool_participants`), and counts
+(`irl_core.irl.laplace`), pools them as `careful study report` does (`irl_core.studies.population`), and counts
 
 - **separated**: the pooled hazard interval lies below the nuisance's (the report's finding
   "carefulness separates catastrophe from nuisance", `experiment.claims.order_words`);
@@ -25,8 +25,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydantic import ValidationError
-from scipy.stats import norm
-from scipy.stats import t as student
 
 from irl_core.experiment.claims import order_words
 from irl_core.irl.laplace import laplace_intervals
@@ -35,6 +33,7 @@ from irl_core.irl.player_models import player_model
 from irl_core.irl.qmap import Unknowns, build_unknowns
 from irl_core.players.experts import Rollouts, demonstrations_of, rollouts
 from irl_core.players.person_like import KINDS, PersonLike, person_like
+from irl_core.studies.population import pool_participants
 from irl_core.support.pool import run_in_pool
 from irl_core.worlds.mdp import MDP, build_mdp
 from irl_core.worlds.world import World
@@ -138,41 +137,6 @@ class PlanPoint:
 
 
 @dataclass(frozen=True)
-class Pooled:
-    """A population pool of per-participant fits, per reward (k,): the centre, its interval (k, 2), the
-    spread between participants (tau) and a prediction interval (k, 2) for a new participant."""
-
-    centre: np.ndarray
-    interval: np.ndarray
-    spread: np.ndarray
-    prediction: np.ndarray
-
-
-def pool_participants(estimates: np.ndarray, intervals: np.ndarray, *, confidence: float = 0.95,
-                      rmax: float = 5000.0) -> Pooled:
-    """A random-effects pool (DerSimonian-Laird, with Student's t on n - 1 degrees of freedom for the centre
-    and n - 2 for a new participant, as Higgins et al. 2009) of estimates (n, k) with intervals (n, k, 2):
-    each participant's standard error is their interval's width over 2 z, so a reward bounded on one side
-    (an interval to the bound) weighs little. Intervals are clipped to [-rmax, rmax]."""
-    estimates, intervals = np.asarray(estimates, dtype=float), np.asarray(intervals, dtype=float)
-    n = estimates.shape[0]
-    z = float(norm.ppf(0.5 + confidence / 2))
-    se = np.maximum((intervals[:, :, 1] - intervals[:, :, 0]) / (2 * z), 1e-9 * max(rmax, 1.0))
-    w = 1 / se**2
-    fixed = (w * estimates).sum(axis=0) / w.sum(axis=0)
-    q = (w * (estimates - fixed) ** 2).sum(axis=0)
-    tau2 = np.maximum(0.0, (q - (n - 1)) / np.maximum(w.sum(axis=0) - (w**2).sum(axis=0) / w.sum(axis=0), 1e-300))
-    w_star = 1 / (se**2 + tau2)
-    centre = (w_star * estimates).sum(axis=0) / w_star.sum(axis=0)
-    centre_se = np.sqrt(1 / w_star.sum(axis=0))
-    half = (float(student.ppf(0.5 + confidence / 2, n - 1)) if n > 1 else z) * centre_se
-    new_half = (float(student.ppf(0.5 + confidence / 2, n - 2)) if n > 2 else np.inf) * np.sqrt(tau2 + centre_se**2)
-    clip = lambda low, high: np.clip(np.stack([low, high], axis=1), -rmax, rmax)  # noqa: E731
-    return Pooled(centre=centre, interval=clip(centre - half, centre + half), spread=np.sqrt(tau2),
-                  prediction=clip(centre - new_half, centre + new_half))
-
-
-@dataclass(frozen=True)
 class _Study:
     """One simulated study's pooled answer: intervals (k, 2)."""
 
@@ -253,10 +217,9 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     out = {}
     for n in sorted(set(grid.participants)):
         for e in episodes:
-            estimates = np.stack([f[0] for f in fits[e][:n]])
             intervals = np.stack([f[1] for f in fits[e][:n]])
-            pooled = pool_participants(estimates, intervals, confidence=grid.confidence, rmax=grid.rmax)
-            out[(n, e)] = _Study(pooled.interval)
+            pooled = pool_participants(intervals, confidence=grid.confidence, rmax=grid.rmax, marks=False)
+            out[(n, e)] = _Study(pooled.intervals)
     return out
 
 

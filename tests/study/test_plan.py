@@ -2,34 +2,14 @@
 
 import csv
 
-import numpy as np
 import pytest
 from study.conftest import write_study
 
 from careful_tui.cli import main
-from irl_core.studies.plan import PlanError, PlanGrid, plan_study, planned_worlds, pool_participants
+from irl_core.studies.plan import PlanError, PlanGrid, plan_study, planned_worlds
 from irl_core.worlds.world import BUILTIN_WORLDS
 
 TINY = PlanGrid(participants=(2, 3), episodes=(3,), repeats=2)
-
-
-def test_equal_errors_pool_to_the_mean_with_the_sample_spread_beyond_them():
-    # With every participant's standard error s, DerSimonian-Laird's tau^2 is the sample variance less s^2.
-    estimates = np.array([[-900.0], [-1100.0], [-1000.0], [-1300.0], [-700.0]])
-    s = 50.0
-    intervals = np.stack([estimates - 1.959964 * s, estimates + 1.959964 * s], axis=2)
-    pooled = pool_participants(estimates, intervals)
-    assert pooled.centre[0] == pytest.approx(estimates.mean())
-    assert pooled.spread[0] ** 2 == pytest.approx(estimates.var(ddof=1) - s**2, rel=1e-6)
-    half = 2.776445 * np.sqrt((s**2 + pooled.spread[0] ** 2) / 5)  # Student's t, 4 degrees of freedom
-    assert pooled.interval[0] == pytest.approx([estimates.mean() - half, estimates.mean() + half], rel=1e-6)
-    assert pooled.prediction[0, 0] < pooled.interval[0, 0]
-
-
-def test_participants_who_agree_pool_without_spread():
-    estimates = np.array([[-1000.0], [-1000.0], [-1000.0]])
-    intervals = np.stack([estimates - 100, estimates + 100], axis=2)
-    assert pool_participants(estimates, intervals).spread[0] == 0
 
 
 @pytest.fixture(scope="module")
