@@ -65,7 +65,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
         grid = PlanGrid(participants=parse_sizes(args.participants, option="--participants"),
                         episodes=parse_sizes(args.episodes, option="--episodes"),
                         players=tuple(p.strip() for p in args.players.split(",")), repeats=args.repeats,
-                        spread=args.spread, seed=args.seed)
+                        spread=args.spread, seed=args.seed, pool=args.pool)
         worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
         raise UsageError(f"--{exc.field}: {exc.reason}") from None
@@ -133,8 +133,8 @@ def plan_table(points: list[PlanPoint], grid: PlanGrid) -> Table:
     """A row per world and grid point: the shares and the median width of each pooled interval."""
     symbols = list(dict.fromkeys(s for p in points for s in p.symbols))
     table = Table(title=Text(f"study plan: {grid.repeats} simulated studies per row (players "
-                             f"{', '.join(grid.players)}, spread {grid.spread:g}; person model, Laplace intervals, "
-                             "population pool)"),
+                             f"{', '.join(grid.players)}, spread {grid.spread:g}; {grid.model} model, Laplace intervals, "
+                             f"{grid.pool} pool)"),
                   caption=Text("separated: the pooled hazard interval lies below the nuisance's; covered: every "
                                "pooled interval holds its hypothesised reward; width: the median width of the pooled "
                                f"{grid.confidence:.0%} interval"),
