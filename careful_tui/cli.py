@@ -1,4 +1,4 @@
-"""The `careful` command line (README "What it does").
+"""The `careful` command line (docs/index.md).
 
 Exit status: 0 success; 2 bad usage or bad input (one message on stderr, no traceback);
 1 anything else. Heavy modules (Textual, cvxpy) are imported only by the commands that
@@ -290,6 +290,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--port", type=port_number, default=8000, help="port to listen on (default 8000; 0: any free port)")
     serve.add_argument("--links", type=positive_int, default=0, metavar="N",
                        help="add N new participant links to <out>/links.csv (the old ones kept, the file written whole)")
+    serve.add_argument("--prolific", action="store_true",
+                       help="also take Prolific links when there are --links (without links they are on): each "
+                       "Prolific id is a participant of its own (prolific-<PROLIFIC_PID>), never a link's")
     serve.add_argument("--completion-code", default=None, metavar="CODE",
                        help="Prolific's completion code: a Prolific participant who finishes is sent to Prolific's "
                        "completion address with it, once every episode is on disk")

@@ -1,4 +1,4 @@
-"""`careful export FILE... --format csv|minari --out PATH|DATASET_ID` (README "Use careful worlds in your RL code").
+"""`careful export FILE... --format csv|minari --out PATH|DATASET_ID` (docs/environment.md).
 
 The files are read and checked with the recording reader before anything is written, so a
 bad file ends the command (exit 2, one line) with no output left behind. Gymnasium and

@@ -12,7 +12,6 @@ exit 1 and one line, with or without a terminal.
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import sys
 from pathlib import Path
@@ -28,7 +27,7 @@ from careful_tui.commands.reading import read_with_progress
 from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
 from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
-from careful_tui.render.fit_printout import print_fit
+from careful_tui.render.fit_printout import fit_page_svg, print_fit
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.safe_files import check_output, write_output
@@ -178,9 +177,7 @@ def run_fit(args: argparse.Namespace) -> int:
     console = Console(highlight=False)
     print_fit(console, demos, result)
     if args.svg is not None:
-        # The SVG is a page, not a terminal: its sentences wrap at its width instead of being cut there.
-        page = Console(record=True, file=io.StringIO(), width=console.width, highlight=False)
-        print_fit(page, demos, result, soft_wrap=False)
         title = f"careful fit: {result.method} on {printable(result.world.name, limit=80)}"
-        write_output(args.svg, page.export_svg(title=title), option="--svg", inputs=args.files)
+        write_output(args.svg, fit_page_svg(demos, result, width=console.width, title=title), option="--svg",
+                     inputs=args.files)
     return EXIT_OK

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import signal
 import socket
 
 from careful_tui.errors import UsageError
@@ -22,8 +23,13 @@ def say(line: str) -> None:
 
 def run_serve(args: argparse.Namespace) -> int:
     """`careful serve STUDY.toml [--host H] [--port N] [--links N] [--completion-code CODE]`."""
-    from careful_tui.web.links import LINKS_FILE, LinksError, add_links, link_path, read_links
+    from careful_tui.web.links import LINKS_FILE, MOST_LINKS, LinksError, add_links, link_path, read_links
     from careful_tui.web.server import make_app
+
+    if not args.host.strip():
+        raise UsageError("--host needs an address: 127.0.0.1 (this machine only) or 0.0.0.0 (every interface)")
+    if args.links > MOST_LINKS:
+        raise UsageError(f"--links {args.links:,} is more than one start may add ({MOST_LINKS:,}); add them in parts")
 
     try:
         study = load_study(args.study)
@@ -45,24 +51,35 @@ def run_serve(args: argparse.Namespace) -> int:
     except LinksError as exc:
         sock.close()
         raise UsageError(str(exc)) from None
-    base = f"http://{args.host if ':' not in args.host else f'[{args.host}]'}:{sock.getsockname()[1]}"
-    say(f"careful serve: study {study.study.name!r} at {base}/ (Ctrl+C stops)")
-    if new:
-        say(f"links: {len(new)} new appended to {study.out / LINKS_FILE}, {len(links)} in all")
-    elif links:
-        say(f"links: {len(links)} in {study.out / LINKS_FILE}")
-    for participant, token in new[:3]:
-        say(f"  {participant}: {base}{link_path(token)}")
-    say(f"Prolific: {base}/?PROLIFIC_PID={{{{%PROLIFIC_PID%}}}}&STUDY_ID={{{{%STUDY_ID%}}}}&SESSION_ID={{{{%SESSION_ID%}}}}"
-        + (f" (completion code {args.completion_code})" if args.completion_code else " (no --completion-code: no redirect)"))
-    say(f"recordings: {study.out}/<participant>/")
-    app = make_app(study, links=links, completion_code=args.completion_code, say=say)
+    prolific = args.prolific or not links
+    server = make_server(make_app(study, links=links, completion_code=args.completion_code, say=say, prolific=prolific))
+    # From the first line on, Ctrl+C or SIGTERM is a stop (before uvicorn runs, and while it runs).
+    stopping = {sig: signal.signal(sig, lambda *_: setattr(server, "should_exit", True))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        make_server(app).run(sockets=[sock])
-    except KeyboardInterrupt:
-        pass  # uvicorn raises Ctrl+C again once it has shut down, every participant's file closed
+        base = f"http://{args.host if ':' not in args.host else f'[{args.host}]'}:{sock.getsockname()[1]}"
+        say(f"careful serve: study {study.study.name!r} at {base}/ (Ctrl+C stops)")
+        if new:
+            say(f"links: {len(new)} new appended to {study.out / LINKS_FILE}, {len(links)} in all")
+        elif links:
+            say(f"links: {len(links)} in {study.out / LINKS_FILE}")
+        for participant, token in new[:3]:
+            say(f"  {participant}: {base}{link_path(token)}")
+        say(prolific_line(base, args.completion_code) if prolific else
+            "Prolific: off (links only; --prolific also takes Prolific links, as participants of their own)")
+        say(f"recordings: {study.out}/<participant>/")
+        server.run(sockets=[sock])
+    finally:
+        for sig, handler in stopping.items():
+            signal.signal(sig, handler)
     say("careful serve: stopped; every recording is closed")
     return 0
+
+
+def prolific_line(base: str, code: str | None) -> str:
+    """The Prolific study's address for the experimenter to paste, with Prolific's placeholders."""
+    return (f"Prolific: {base}/?PROLIFIC_PID={{{{%PROLIFIC_PID%}}}}&STUDY_ID={{{{%STUDY_ID%}}}}&SESSION_ID={{{{%SESSION_ID%}}}}"
+            + (f" (completion code {code})" if code else " (no --completion-code: no redirect)"))
 
 
 def bind(host: str, port: int) -> socket.socket:
@@ -83,11 +100,41 @@ def bind(host: str, port: int) -> socket.socket:
     return sock
 
 
-def make_server(app):
+def make_server(app, *, header_timeout_s: float | None = None):
     """The uvicorn server for `app`: Ctrl+C (or SIGTERM) stops it taking requests, then the app's
-    shutdown closes every participant's file. Run it with ``.run(sockets=[bind(...)])``."""
+    shutdown closes every participant's file. Run it with ``.run(sockets=[bind(...)])``; it
+    returns once stopped.
+
+    Connections are bounded (`connection_limit`: 503 beyond), and each request head must arrive
+    within `header_timeout_s` (`careful_tui.web.guarded_http`)."""
     import uvicorn
 
+    from careful_tui.web.guarded_http import GuardedH11Protocol
+
+    class Protocol(GuardedH11Protocol):
+        pass
+
+    if header_timeout_s is not None:
+        Protocol.header_timeout_s = header_timeout_s
+
+    class Server(uvicorn.Server):
+        def handle_exit(self, sig: int, frame: object) -> None:
+            # One stop, however many signals: uvicorn forces a second Ctrl+C through the app's
+            # shutdown (tracebacks, files left open) and raises SIGTERM again once stopped, which
+            # ended the process before its "stopped" line. The shutdown is bounded anyway.
+            self.should_exit = True
+
     config = uvicorn.Config(app, log_level="warning", access_log=False, lifespan="on", timeout_graceful_shutdown=3,
-                            server_header=False)
-    return uvicorn.Server(config)
+                            server_header=False, http=Protocol, limit_concurrency=connection_limit())
+    return Server(config)
+
+
+def connection_limit() -> int:
+    """Connections served at once: half of what the open-file limit leaves (seats take the rest)."""
+    import resource
+
+    from careful_tui.web.seats import FILES_KEPT, MOST_SEATS
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    room = 4 * MOST_SEATS if soft == resource.RLIM_INFINITY else (soft - FILES_KEPT) // 2
+    return max(16, min(4 * MOST_SEATS, room))

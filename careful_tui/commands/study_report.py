@@ -1,4 +1,4 @@
-"""`careful study report STUDY.toml`: per participant and pooled fits per world (README "Studies").
+"""`careful study report STUDY.toml`: per participant and pooled fits per world (docs/studies.md).
 
 The computation is `irl_core.studies.report`; this module prints it with Rich (a progress bar
 on stderr, the table on stdout) and writes the CSV and the figures under ``<out>/report/``

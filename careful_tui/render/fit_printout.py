@@ -8,6 +8,8 @@ the status.
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 from rich.console import Console, Group
 from rich.table import Table
@@ -50,6 +52,15 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult, *, sof
     if result.fit_check is not None:
         console.print(fit_check_text(result), soft_wrap=soft_wrap)
     console.print(status_text(result), soft_wrap=soft_wrap)
+
+
+def fit_page_svg(demos: Demonstrations, result: FitResult, *, width: int, title: str) -> str:
+    """The whole fit as an SVG page, `width` columns wide: `careful fit --svg`, and the fit view's
+    `s` (the view's screen shows only the part scrolled into sight)."""
+    # A page, not a terminal: its sentences wrap at its width instead of being cut there.
+    page = Console(record=True, file=io.StringIO(), width=width, highlight=False)
+    print_fit(page, demos, result, soft_wrap=False)
+    return page.export_svg(title=title)
 
 
 def reward_scale(result: FitResult) -> float:

@@ -31,9 +31,11 @@ SYMBOL_COLOURS: dict[str, str] = {
 SYMBOL_NAMES: dict[str, str] = {".": "ground", "C": "cliff", "G": "goal", "U": "mud", WALL: "wall"}
 ARROWS: dict[str, str] = {"up": "↑", "right": "→", "down": "↓", "left": "←"}
 OTHER_SYMBOL_COLOUR = "#4a4a6a"
-NEGATIVE = (178, 34, 34)  # firebrick
-POSITIVE = (34, 139, 34)  # forest green
-NEUTRAL = (72, 72, 72)
+# ColorBrewer's RdBu (11 classes), as the figures draw rewards (`render.figures.heatmap`): red below
+# zero, blue above, near white at zero. Red and blue, not red and green, so the one in twelve men
+# who cannot tell red from green still can.
+RDBU = ("#67001f", "#b2182b", "#d6604d", "#f4a582", "#fddbc7", "#f7f7f7", "#d1e5f0", "#92c5de", "#4393c3",
+        "#2166ac", "#053061")
 # Values below this magnitude are drawn almost neutral; above it the colour grows with log|v|.
 LINEAR_THRESHOLD = 1.0
 
@@ -47,10 +49,11 @@ def signed_log_fraction(value: float, scale: float) -> float:
 
 
 def diverging_colour(value: float, scale: float) -> str:
-    """A hex colour: red below zero, green above, grey at zero; intensity on a log scale."""
-    f = signed_log_fraction(value, scale)
-    end = NEGATIVE if f < 0 else POSITIVE
-    mix = [round(n + (e - n) * abs(f)) for n, e in zip(NEUTRAL, end)]
+    """A hex colour on RdBu: red below zero, blue above, near white at zero; intensity on a log scale."""
+    position = (1 + signed_log_fraction(value, scale)) / 2 * (len(RDBU) - 1)  # RDBU[0] is the most negative
+    low = min(int(position), len(RDBU) - 2)
+    a, b = (tuple(int(RDBU[i][k:k + 2], 16) for k in (1, 3, 5)) for i in (low, low + 1))
+    mix = [round(x + (y - x) * (position - low)) for x, y in zip(a, b)]
     return "#{:02x}{:02x}{:02x}".format(*mix)
 
 

@@ -9,7 +9,7 @@ from rich.console import Group, RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from careful_tui.render.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, format_value
+from careful_tui.render.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, SYMBOL_NAMES, diverging_colour, format_value
 from careful_tui.render.palette import BAD, GOOD, HERE, NOTE, SLIP, WARN, level_colour
 from irl_core.recordings.demonstrations import Recording
 from irl_core.recordings.lines import EpisodeEnd
@@ -41,13 +41,17 @@ def outcome_colour(code: str) -> str:
     return NOTE if code in ("quit", "step_limit", "unfinished") else BAD
 
 
-def legend(world: World) -> Text:
-    """One line naming the world's rewarded symbols: "■ cliff -1000 · ■ goal 100 (ends)"."""
+def legend(world: World, *, scale: float | None = None) -> Text:
+    """One line naming the world's rewarded symbols: "■ cliff -1000 · ■ goal 100 (ends)", each
+    swatch the colour of its cells: the symbol's, or its reward's on `scale` when the board is
+    coloured by value (`grid.diverging_colour`)."""
     text = Text()
     for symbol, reward in world.rewards.items():
         if text:
             text.append(" · ")
-        text.append("■ ", style=SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR))
+        colour = (SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR) if scale is None
+                  else diverging_colour(reward, scale))
+        text.append("■ ", style=colour)
         text.append(f"{SYMBOL_NAMES.get(symbol, symbol)} {format_value(reward)}")
         if symbol in world.terminal:
             text.append(" (ends)", style="dim")

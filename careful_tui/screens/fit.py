@@ -1,4 +1,4 @@
-"""The fit view: a fitted reward as a picture, refitted with a key (README "Fitting a reward" and "What it does").
+"""The fit view: a fitted reward as a picture, refitted with a key (docs/fitting.md and docs/index.md).
 
 `careful fit FILE...` in a terminal opens it on the first fit (`careful_tui.commands.fit.run_fit`,
 through `careful_tui.app.make_fit_app`).
@@ -42,6 +42,7 @@ from careful_tui.render.fit_printout import (
     FIT_CHECK_CODES,
     evaluation_line,
     fit_check_text,
+    fit_page_svg,
     policy_labels,
     progress_phrase,
     reward_scale,
@@ -84,6 +85,9 @@ def error_message(error: Exception) -> str:
     if isinstance(error, FitError):
         return said(error)
     return f"unexpected error: {type(error).__name__}: {error} (please report it)"
+
+
+SCROLL = Binding.Group("scroll")
 
 
 def method_bindings(group: Binding.Group) -> list[Binding]:
@@ -155,6 +159,9 @@ class FitScreen(Screen[None]):
         Binding("tab", "next_method", "next method", priority=True, show=False),
         Binding("i", "toggle_intervals", "intervals", priority=True),
         Binding("s", "save_svg", "save SVG", priority=True),
+        # The body scrolls with PageUp/PageDown (Textual's own); listed so the key bar says so.
+        Binding("pageup", "scroll_body('up')", "scroll", key_display="PgUp", priority=True, group=SCROLL),
+        Binding("pagedown", "scroll_body('down')", "scroll", key_display="PgDn", priority=True, group=SCROLL),
     ]
 
     def __init__(
@@ -303,6 +310,10 @@ class FitScreen(Screen[None]):
         cycle = tuple(METHODS)
         self.action_method(cycle[(cycle.index(self._wanted().method) + 1) % len(cycle)])
 
+    def action_scroll_body(self, direction: str) -> None:
+        body = self.query_one("#body", VerticalScroll)
+        body.scroll_page_up() if direction == "up" else body.scroll_page_down()
+
     def action_toggle_intervals(self) -> None:
         """Show the intervals (computing them if the shown fit has none) or hide them."""
         wanted = dataclasses.replace(self._wanted(), intervals=not self._wanted().intervals)
@@ -338,7 +349,10 @@ class FitScreen(Screen[None]):
 
     def _save(self, path: Path) -> None:
         try:
-            write_output(path, self.app.export_screenshot(title=self._svg_title()), option="--svg", inputs=self.sources)
+            # The whole fit, as `careful fit --svg` writes it: the screen shows only what is scrolled into sight.
+            svg = (self.app.export_screenshot(title=self._svg_title()) if self.result is None else
+                   fit_page_svg(self.demos, self.result, width=max(80, self.app.size.width), title=self._svg_title()))
+            write_output(path, svg, option="--svg", inputs=self.sources)
         except OutputError as exc:
             self.notify(printable(str(exc)), title="save SVG", severity="error", markup=False)
             return
@@ -396,6 +410,7 @@ class FitScreen(Screen[None]):
         fitted.border_subtitle = scale_legend(scale)
         fitted.values, fitted.scale = result.reward_grid, scale
         true.values, true.scale = result.true_reward_grid, scale
+        true.border_subtitle = legend(self.world, scale=scale)  # its swatches in the colours its cells have
         for board in self.query(Board):
             board.redraw()
         self.query_one("#notes", Static).update(self._notes(result))

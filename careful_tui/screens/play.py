@@ -1,4 +1,4 @@
-"""`careful play`'s screen: the play session (`irl_core.play.session`) in a terminal (README "Playing").
+"""`careful play`'s screen: the play session (`irl_core.play.session`) in a terminal (docs/playing.md).
 
 The player moves with the arrow keys and holds a key longer to be more careful. While a key is
 held the gauge fills and the arrow on the player grows; the move is made when the hold ends

@@ -1,4 +1,4 @@
-"""`careful replay FILE...`: watch recorded sessions, step by step or animated (recordings/README.md and README "What it does").
+"""`careful replay FILE...`: watch recorded sessions, step by step or animated (recordings/README.md and docs/index.md).
 
 The screen is the play screen's, reused: the board shows the player where the step starts
 with the arrow of the recorded direction and carefulness, then where the move went (a slip

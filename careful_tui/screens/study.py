@@ -1,4 +1,4 @@
-"""`careful study run`'s screen: the study's flow (`irl_core.studies.flow`) in a terminal (README "Studies").
+"""`careful study run`'s screen: the study's flow (`irl_core.studies.flow`) in a terminal (docs/studies.md).
 
 The flow keeps the stages (instructions, each block, between blocks, the end) and where the
 participant stands; this screen draws the stage's text and, when space asks for the next block,

@@ -1,6 +1,10 @@
 """Participant links (`careful serve --links N`): unguessable tokens bound to participant ids in
 ``<out>/links.csv``, and the ids a Prolific link brings.
 
+The two never meet: a Prolific participant's id is ``prolific-<PROLIFIC_PID>`` (`PROLIFIC_PREFIX`),
+and no link's id may start so, so a Prolific link can never name (play as, or end as) a link
+participant, whose ids are guessable; only a link's token reaches its participant.
+
 ``links.csv`` has the columns ``participant,token,path``; the path is the link without its host
 (``/p/<token>``), as the server may sit behind a proxy whose address only the experimenter knows.
 New links come after the ones the file holds, their ids continuing the numbering (``p001``,
@@ -23,6 +27,9 @@ from irl_core.support.safe_files import built_beside, write_problem
 from irl_core.support.safe_text import printable
 
 LINKS_FILE = "links.csv"
+PROLIFIC_PREFIX = "prolific-"
+# The most links one start may add: each is a row and a check of the folders (a billion ran out of memory).
+MOST_LINKS = 100_000
 FIELDS = ("participant", "token", "path")
 _NUMBERED = re.compile(r"p(\d+)")
 _TOKEN = re.compile(r"[A-Za-z0-9_-]{16,64}")
@@ -60,6 +67,9 @@ def read_links(study: LoadedStudy) -> dict[str, str]:
             check_participant(participant)
         except StudyError as exc:
             raise LinksError(f"{path}: line {number}: participant: {exc}") from None
+        if participant.startswith(PROLIFIC_PREFIX):
+            raise LinksError(f"{path}: line {number}: participant: {participant!r} starts with {PROLIFIC_PREFIX!r}, "
+                             "which only Prolific participants' ids do")
         if not _TOKEN.fullmatch(token):
             raise LinksError(f"{path}: line {number}: token: {printable(token, limit=40)!r} is not a link token")
         links[token] = participant
@@ -110,13 +120,17 @@ def add_links(study: LoadedStudy, count: int) -> list[tuple[str, str]]:
 
 
 def prolific_ids(pid: str, study_id: str, session_id: str) -> tuple[str, str, str]:
-    """A Prolific link's ``PROLIFIC_PID``, ``STUDY_ID`` and ``SESSION_ID``, checked; returns them.
+    """A Prolific link's ``PROLIFIC_PID``, ``STUDY_ID`` and ``SESSION_ID``, checked; returns the
+    participant's id (``prolific-<PROLIFIC_PID>``) and the other two.
 
     Raises:
         StudyError: the participant id fails the study's id rules, or another id is not a plain name.
     """
     check_participant(pid)
+    participant = check_participant(PROLIFIC_PREFIX + pid) if len(pid) <= 80 - len(PROLIFIC_PREFIX) else None
+    if participant is None:
+        raise StudyError(f"PROLIFIC_PID {printable(pid, limit=40)!r} is too long: Prolific's are 24 letters and digits")
     for name, value in (("STUDY_ID", study_id), ("SESSION_ID", session_id)):
         if not _PROLIFIC_ID.fullmatch(value):
             raise StudyError(f"{name} {printable(value, limit=40)!r} is not an id: Prolific's are letters and digits")
-    return pid, study_id, session_id
+    return participant, study_id, session_id

@@ -4,17 +4,27 @@ A participant plays on one page at a time: a second tab or device that opens the
 first is open is refused (never interleaved into the same file). A page holds its seat while it
 is heard from (every key, and a heartbeat every few seconds); one that closes says so
 (`navigator.sendBeacon`), and one silent for `SILENT_S` has left: its seat goes to the next page
-that asks. A seat also holds the participant's lock (`irl_core.studies.participant_lock`, the one
-`careful study run` takes), so a terminal session and a page never play one participant at once,
-in this process or another.
+that asks. From its first key a seat holds the participant's lock (`irl_core.studies.participant_lock`,
+the one `careful study run` takes), so a terminal session and a page never play one participant
+at once, in this process or another; before it, a seat holds no file (a page that is opened and
+never played costs no file descriptor), and the lock is only tried, to say at once when another
+session holds it.
 
-`KeyBudget` is a token bucket per participant: `KEY_BURST` key events at once, then `KEY_RATE`
-a second (four moves a second sustained is more than a person makes, holding a key for each).
+Bounds, so no one page, participant or address can take the server for itself:
+
+- `KeyBudget`, a token bucket per participant (not per page: a new page does not refill it):
+  `KEY_BURST` key events at once, then `KEY_RATE` a second (four moves a second sustained is
+  more than a person makes, holding a key for each);
+- new seats per client address: `ADDRESS_SEATS` (a burst, then a rate: a lab behind one address
+  starts its participants at once, an invented id a second is all one address gets beyond);
+- seats at once: `limit` (`seat_limit`: a share of the process's open-file limit, as a playing
+  seat holds two files, its lock and its recording).
 """
 
 from __future__ import annotations
 
 import contextlib
+import resource
 import secrets
 import threading
 import time
@@ -28,6 +38,26 @@ from careful_tui.web.session_adapter import WebSession
 SILENT_S = 90.0
 KEY_BURST = 24
 KEY_RATE = 12.0
+ADDRESS_SEATS = (120, 1.0)
+MOST_SEATS = 1000
+FILES_PER_SEAT = 2
+FILES_KEPT = 64  # the server's own: its sockets, the package's files, the log
+
+
+def seat_limit() -> int:
+    """How many seats may play at once: what the open-file limit leaves, at most `MOST_SEATS`."""
+    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    # Half the room for seats, half for connections (`careful_tui.commands.serve.connection_limit`).
+    room = MOST_SEATS if soft == resource.RLIM_INFINITY else (soft - FILES_KEPT) // (2 * FILES_PER_SEAT)
+    return max(1, min(MOST_SEATS, room))
+
+
+class SeatRefused(Exception):
+    """No seat for this page: `status` and a sentence for the participant."""
+
+    def __init__(self, status: int, why: str) -> None:
+        super().__init__(why)
+        self.status, self.why = status, why
 
 
 class KeyBudget:
@@ -39,45 +69,74 @@ class KeyBudget:
         self.at = clock()
 
     def spend(self) -> bool:
-        now = self.clock()
-        self.tokens = min(self.burst, self.tokens + (now - self.at) * self.rate)
-        self.at = now
+        self._refill()
         if self.tokens < 1:
             return False
         self.tokens -= 1
         return True
 
+    def full(self) -> bool:
+        """Whether the bucket is back to its burst (it can be forgotten: a new one is the same)."""
+        self._refill()
+        return self.tokens >= self.burst
+
+    def _refill(self) -> None:
+        now = self.clock()
+        self.tokens = min(self.burst, self.tokens + (now - self.at) * self.rate)
+        self.at = now
+
 
 @dataclass
 class Seat:
-    """A participant's page: its unguessable id, its session, when it was last heard from."""
+    """A participant's page: its unguessable id, its session, when it was last heard from, and
+    `hold`, which makes the participant's lock (taken by `take_lock` at the first key)."""
 
     participant: str
     page: str
     session: WebSession
     seen: float
     budget: KeyBudget
-    held: contextlib.ExitStack
+    hold: Callable[[], AbstractContextManager[object]]
+    held: contextlib.ExitStack = field(default_factory=contextlib.ExitStack)
+    locked: bool = False
     lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def take_lock(self) -> None:
+        """Hold the participant's lock from now until the seat is released (once; call under `lock`).
+
+        Raises:
+            irl_core.studies.participant_lock.ParticipantBusy: another session took it meanwhile.
+            irl_core.studies.study.StudyError: it cannot be made (a full disk).
+        """
+        if not self.locked:
+            self.held.enter_context(self.hold())
+            self.locked = True
 
 
 class Seats:
     """The pages playing now, one per participant."""
 
-    def __init__(self, *, clock: Callable[[], float] = time.monotonic, silent_s: float = SILENT_S) -> None:
+    def __init__(self, *, clock: Callable[[], float] = time.monotonic, silent_s: float = SILENT_S,
+                 limit: int | None = None, address_seats: tuple[int, float] = ADDRESS_SEATS) -> None:
         self.clock = clock
         self.silent_s = silent_s
+        self.limit = seat_limit() if limit is None else limit
+        self.address_seats = address_seats
         self._lock = threading.Lock()
         self._pages: dict[str, Seat] = {}
         self._participants: dict[str, Seat] = {}
+        self._budgets: dict[str, KeyBudget] = {}
+        self._addresses: dict[str, KeyBudget] = {}
 
-    def claim(self, participant: str, make_session: Callable[[], WebSession], *,
+    def claim(self, participant: str, make_session: Callable[[], WebSession], *, address: str = "",
               hold: Callable[[], AbstractContextManager[object]] = contextlib.nullcontext) -> Seat | None:
-        """A seat for a new page of `participant`, or None while another page of theirs plays.
+        """A seat for a new page of `participant` from client `address`, or None while another page
+        of theirs plays.
 
-        `hold` makes the participant's lock, held as long as the seat.
+        `hold` makes the participant's lock: tried now (and let go), held from the seat's first key.
 
         Raises:
+            SeatRefused: the address opened too many seats of late (429), or every seat is taken (503).
             irl_core.studies.participant_lock.ParticipantBusy: another process plays the participant.
         """
         with self._lock:
@@ -86,11 +145,16 @@ class Seats:
                 if self.clock() - held.seen < self.silent_s:
                     return None
                 self._release(held, "left (the page went silent)")
-            with contextlib.ExitStack() as stack:
-                stack.enter_context(hold())
-                session = make_session()
-                kept = stack.pop_all()
-            seat = Seat(participant, secrets.token_urlsafe(18), session, self.clock(), KeyBudget(clock=self.clock), kept)
+            if len(self._pages) >= self.limit:
+                raise SeatRefused(503, "The study is full just now. Please try again in a few minutes.")
+            burst, rate = self.address_seats
+            if not self._addresses.setdefault(address, KeyBudget(burst=burst, rate=rate, clock=self.clock)).spend():
+                raise SeatRefused(429, "Too many pages opened from your network just now. Please try again in a minute.")
+            with hold():
+                pass
+            session = make_session()
+            budget = self._budgets.setdefault(participant, KeyBudget(clock=self.clock))
+            seat = Seat(participant, secrets.token_urlsafe(18), session, self.clock(), budget, hold)
             self._pages[seat.page] = seat
             self._participants[participant] = seat
             return seat
@@ -116,6 +180,11 @@ class Seats:
         with self._lock:
             for seat in [s for s in self._pages.values() if self.clock() - s.seen >= self.silent_s]:
                 self._release(seat, "left (the page went silent)")
+            # Full buckets are what a new one would be: forgetting them keeps invented ids from piling up.
+            for budgets in (self._budgets, self._addresses):
+                for name in [name for name, budget in budgets.items() if budget.full()]:
+                    if name not in self._participants:
+                        del budgets[name]
 
     def release_all(self, why: str) -> None:
         with self._lock:

@@ -32,7 +32,6 @@ is not a hold, and words the views for the page.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -195,9 +194,11 @@ class WebSession:
         """The page's key and time, as they came, once they are an arrow and a time (else KeyRefused)."""
         if not (isinstance(key, str) and key in DIRECTIONS):
             raise KeyRefused(f"not an arrow: {printable(str(key), limit=20)!r}")
-        if not (isinstance(at_ms, (int, float)) and math.isfinite(at_ms) and 0 <= at_ms < 1e12):
+        # bool is an int to Python (true was taken as 1 ms), and a 1,900-digit int overflows a float:
+        # the type first, then the range (int and float compare exactly), only then arithmetic.
+        if type(at_ms) not in (int, float) or not 0 <= at_ms < 1e12:  # type: ignore[operator]
             raise KeyRefused("a key's time must be a number of milliseconds")
-        return key, at_ms
+        return key, float(at_ms)  # type: ignore[arg-type]
 
     def _played(self, played: Played) -> None:
         assert self.session is not None

@@ -16,6 +16,7 @@ from __future__ import annotations
 from rich.cells import cell_len
 from rich.text import Text
 from textual.binding import Binding
+from textual.screen import ActiveBinding
 from textual.widget import Widget
 
 from careful_tui.render.palette import NOTE, ON_NOTE
@@ -45,7 +46,7 @@ class KeyBar(Widget):
         too_small = self.screen.has_class("-too-small")
         # Several keys of one binding (or one action and text) make one chip.
         first_of_action: dict[tuple[str, str], Binding] = {}
-        for active in self.screen.active_bindings.values():
+        for active in self._in_declared_order():
             binding = active.binding
             if binding.show and active.enabled and (binding.action == "quit" or not too_small):
                 first_of_action.setdefault((binding.action, binding.description), binding)
@@ -57,6 +58,19 @@ class KeyBar(Widget):
             else:
                 chips.setdefault(binding.group, ([], binding.group.description, False))[0].append(shown)
         return [(joined(keys), what, quits) for keys, what, quits in chips.values()]
+
+    def _in_declared_order(self) -> list[ActiveBinding]:
+        """The active bindings, the screen's then the app's then the rest, each node's in the order of
+        its `BINDINGS`. Textual orders them by the focused widget's keys first, so a screen's
+        priority binding for a key the focused widget also binds (PageDown on a scroll) jumped ahead."""
+        nodes: list[object] = [self.screen, self.app]
+
+        def place(active: ActiveBinding) -> tuple[int, int]:
+            rank = nodes.index(active.node) if active.node in nodes else len(nodes)
+            declared = [binding for _, binding in active.node._bindings]
+            return rank, declared.index(active.binding) if active.binding in declared else len(declared)
+
+        return sorted(self.screen.active_bindings.values(), key=place)
 
     def render(self) -> Text:
         chips, width = self._chips(), self.size.width

@@ -1,4 +1,4 @@
-"""Inverse RL for careful experts (README "Fitting a reward"; the paper's "Simple IRL agent",
+"""Inverse RL for careful experts (docs/fitting.md; the paper's "Simple IRL agent",
 "Game and Loss IRL agent" and MaxEnt baseline).
 
 Every method shares one affine Q map (`qmap`), returns one `FitResult` (`result`) and is

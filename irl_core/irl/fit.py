@@ -1,4 +1,4 @@
-"""`fit`: one entry point for the inverse-RL methods in README "Fitting a reward" and docs/answers.md.
+"""`fit`: one entry point for the inverse-RL methods in docs/fitting.md and docs/answers.md.
 
 It builds the unknowns and the Q map once, runs the method's fitter (`FITTERS`, one per entry
 of `irl_core.irl.fit_methods`; ``auto``'s chooses lp for a deterministic expert whose lp is

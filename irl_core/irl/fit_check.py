@@ -19,6 +19,11 @@ Each statistic's band is the replicates' central interval at 1 - 0.05 / m (m sta
 well-specified player fails any of them in about 5% of recordings); the check passes when every
 recorded value lies in its band. Only finished episodes take part (a quit or a cut-short episode
 says nothing about how episodes end).
+
+Memory: the replicates are simulated a chunk at a time, as many as keep a chunk near
+`CHUNK_STEPS` simulated steps (each replicate about as many steps as were recorded), from one
+random stream; a small recording is one chunk, so its check is what one simulation of all
+replicates gives. A 200 MB recording's fit had simulated all 200 replicates at once (14 GB).
 """
 
 from __future__ import annotations
@@ -38,6 +43,8 @@ FAMILY_LEVEL = 0.05
 # A distance's mean carefulness is compared only with at least this many recorded steps there.
 MIN_STEPS_AT_DISTANCE = 10
 FARTHEST_DISTANCE = 4  # distances of 4 or more share one statistic
+# Simulated steps per chunk of replicates: a few hundred bytes each while a chunk is simulated.
+CHUNK_STEPS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -122,30 +129,24 @@ def fit_check(
     if not finished.any():
         return FitCheck(None, (), 0, "no recorded episode ran to its end (every one was quit or cut short)")
     rows = sp.csr_matrix(by_episode)[np.flatnonzero(finished)]
-    starts, n = facts.start[finished], int(finished.sum())
+    starts = facts.start[finished]
     recorded = _statistics_of_counts(mdp, observed_policy, np.asarray(rows.sum(axis=0)).ravel())
     recorded_ends = [facts.end[e] for e in np.flatnonzero(finished)]
     recorded.update(_ending_statistics(mdp, recorded_ends, facts.length[finished]))
 
-    simulated = rollouts(mdp, observed_policy, starts=np.tile(starts, replicates), episodes=n * replicates,
-                         seed=seed)
-    replicate_of_step = simulated.episode // n
-    pairs = simulated.state * mdp.n_actions + simulated.action
-    per_replicate = sp.csr_matrix((np.ones(pairs.size), (replicate_of_step, pairs)),
-                                  shape=(replicates, mdp.n_states * mdp.n_actions)).toarray()
-    symbols = mdp.symbols + ("",)
-    ends = np.array(["step_limit" if cut else symbols[s] for s, cut in zip(simulated.final_state, simulated.truncated)])
     names = [name for name in recorded if name.startswith(("mean carefulness", "share"))]
     distance_steps = _steps_by_distance(mdp, np.asarray(rows.sum(axis=0)).ravel())
     names = [name for name in names if not name.startswith("mean carefulness") or
              distance_steps.get(name, 0) >= MIN_STEPS_AT_DISTANCE]
     names += [name for name in recorded if name.startswith(("episodes ending", "mean episode length"))]
+    per_chunk = max(1, min(replicates, CHUNK_STEPS // max(1, int(facts.length[finished].sum()))))
     values = {name: np.empty(replicates) for name in names}
-    for r in range(replicates):
-        these = _statistics_of_counts(mdp, observed_policy, per_replicate[r])
-        these.update(_ending_statistics(mdp, list(ends[r * n:(r + 1) * n]), simulated.length[r * n:(r + 1) * n]))
+    rng = np.random.default_rng(seed)
+    for first in range(0, replicates, per_chunk):
+        count = min(per_chunk, replicates - first)
+        chunk = _replicate_statistics(mdp, observed_policy, starts, count, names, rng)
         for name in names:
-            values[name][r] = these.get(name, np.nan)
+            values[name][first:first + count] = chunk[name]
     tail = FAMILY_LEVEL / (2 * len(names))
     statistics = []
     for name in names:
@@ -155,6 +156,25 @@ def fit_check(
         low, high = np.quantile(sample, [tail, 1 - tail])
         statistics.append(Statistic(name, float(recorded[name]), float(low), float(high)))
     return FitCheck(all(s.ok for s in statistics), tuple(statistics), replicates)
+
+
+def _replicate_statistics(mdp: MDP, policy: np.ndarray, starts: np.ndarray, count: int, names: list[str],
+                          rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Each statistic in `names` for `count` replicates of the episodes from `starts` (n,): (count,) each."""
+    n = len(starts)
+    simulated = rollouts(mdp, policy, starts=np.tile(starts, count), episodes=n * count, rng=rng)
+    pairs = simulated.state * mdp.n_actions + simulated.action
+    per_replicate = sp.csr_matrix((np.ones(pairs.size), (simulated.episode // n, pairs)),
+                                  shape=(count, mdp.n_states * mdp.n_actions)).toarray()
+    symbols = mdp.symbols + ("",)
+    ends = ["step_limit" if cut else symbols[s] for s, cut in zip(simulated.final_state.tolist(), simulated.truncated.tolist())]
+    values = {name: np.empty(count) for name in names}
+    for r in range(count):
+        these = _statistics_of_counts(mdp, policy, per_replicate[r])
+        these.update(_ending_statistics(mdp, ends[r * n:(r + 1) * n], simulated.length[r * n:(r + 1) * n]))
+        for name in names:
+            values[name][r] = these.get(name, np.nan)
+    return values
 
 
 def _distance_label(d: int) -> str:

@@ -6,7 +6,7 @@ Bellman equations
     Q(s, a) = R_S(s) + R_A(a) + gamma sum_s' P(s' | s, a) V(s'),
     V(s)    = (1/beta) log sum_a exp(beta Q(s, a))      (in every state, as planning.soft_value_iteration),
 
-in the world's own transitions and with the known action cost (README "Fitting a reward"). The fit
+in the world's own transitions and with the known action cost (docs/fitting.md). The fit
 maximises the log likelihood of the demonstrated actions,
 
     LL(R_S) = sum_{s, a} N(s, a) log pi(a | s) = beta sum_{s, a} N(s, a) (Q(s, a) - V(s)),

@@ -1,4 +1,4 @@
-"""The cliff game's rules, without a screen: what `careful play` runs (README "Worlds" and recordings/README.md).
+"""The cliff game's rules, without a screen: what `careful play` runs (docs/worlds.md and recordings/README.md).
 
 A `Game` takes move intents (direction, carefulness, how long the key was held) and plays
 them in the world's MDP with one seeded numpy Generator. It keeps the score and writes every

@@ -1,6 +1,6 @@
 """Turn key events into move intents: a direction and a carefulness level.
 
-A terminal reports key presses and autorepeats, not releases (README "Playing"), so the length of
+A terminal reports key presses and autorepeats, not releases (docs/playing.md), so the length of
 a hold is inferred from the autorepeat rhythm: a press starts a hold, autorepeats of the same key
 extend it, silence longer than the release timeout ends it and another key ends it at once. Where
 the front end does report releases (a terminal speaking kitty's keyboard protocol, a browser's

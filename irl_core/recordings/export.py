@@ -1,4 +1,4 @@
-"""Recordings as a CSV table or a Minari dataset (README "Use careful worlds in your RL code").
+"""Recordings as a CSV table or a Minari dataset (docs/environment.md).
 
 CSV: one row per step line, in file order, with the columns of `csv_columns`.
 
@@ -49,7 +49,7 @@ CSV_COLUMNS = (
     "file", "player", "episode", "t", "row", "col", "direction", "carefulness", "hold_ms",
     "hold_exact", "next_row", "next_col", "slipped", "reward", "score",
 )
-# A study session's header (README "Studies") adds these, from its `study` field.
+# A study session's header (docs/studies.md) adds these, from its `study` field.
 STUDY_COLUMNS = ("study", "participant", "phase", "world_index")
 STUDY_FIELDS = ("name", "participant", "phase", "world_index")
 # Episodes written to a Minari dataset per storage update (and per progress report).

@@ -24,7 +24,7 @@ class _Line(BaseModel):
 
 
 class StudyTag(_Line):
-    """A study session's place in its study (README "Studies"): the header's optional ``study`` field.
+    """A study session's place in its study (docs/studies.md): the header's optional ``study`` field.
 
     `world_index` is the world's index in the study file's ``worlds`` list (not its place in a
     participant's shuffled order), so that a world is the same index for every participant.

@@ -1,4 +1,4 @@
-"""A study's report (README "Studies"), as plain data: per participant and pooled fits per world.
+"""A study's report (docs/studies.md), as plain data: per participant and pooled fits per world.
 
 `gather` reads every participant folder under the study's ``out`` and keeps each one's
 finished main-phase episodes per world (practice never enters a fit; an interrupted episode

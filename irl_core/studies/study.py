@@ -1,4 +1,4 @@
-"""Studies (README "Studies"): one protocol for many participants, and where each one stands.
+"""Studies (docs/studies.md): one protocol for many participants, and where each one stands.
 
 A study file (TOML, validated with pydantic like a world file) names the worlds, their order,
 the practice and main episodes per world, the input mode and the output folder. Each
@@ -60,7 +60,7 @@ class StudyError(InputError):
 
 
 class Study(BaseModel):
-    """A study file's fields, as README "Studies" names them."""
+    """A study file's fields, as docs/studies.md names them."""
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 

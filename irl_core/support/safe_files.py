@@ -1,4 +1,4 @@
-"""Reading only regular files, and one guard for every file a command writes (README "Limits and safety").
+"""Reading only regular files, and one guard for every file a command writes (docs/safety.md).
 
 Reading: a FIFO, a device or a folder given as a world or a recording would block or never
 end, so `open_regular` opens without blocking and refuses anything that is not a regular file;

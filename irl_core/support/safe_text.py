@@ -1,4 +1,4 @@
-"""Text from a file or a flag, made safe to show in a terminal (README "Limits and safety").
+"""Text from a file or a flag, made safe to show in a terminal (docs/safety.md).
 
 A player name, a world name or a path can hold anything: `ESC ] 2 ; ... BEL` retitles a
 terminal, `ESC [ 2 J` clears it, a right-to-left override turns the rest of a line around.

@@ -36,6 +36,7 @@ def bar_at(size: tuple[int, int]) -> tuple[str, bool]:
 
 
 @pytest.mark.parametrize(("size", "chips"), [
+    ((130, 30), ["a/l/o/m  auto/lp/loss/maxent", "i  intervals", "s  save SVG", "PgUp PgDn  scroll", "q  quit"]),
     ((100, 30), ["a/l/o/m  auto/lp/loss/maxent", "i  intervals", "s  save SVG", "q  quit"]),  # roomy
     ((60, 20), ["a/l/o/m auto/lp/loss/maxent", "i intervals", "s save SVG", "q quit"]),  # closed up
     (MINIMUM, ["a/l/o/m auto/lp/loss/maxent", "i intervals", "q quit"]),  # save SVG gives way

@@ -72,12 +72,13 @@ class LiveServer:
         return self.links[participant]
 
 
-def start_server(study: LoadedStudy, *, links: int = 2,
-                 completion_code: str | None = None) -> tuple[LiveServer, object, threading.Thread]:
+def start_server(study: LoadedStudy, *, links: int = 2, completion_code: str | None = None,
+                 prolific: bool | None = True) -> tuple[LiveServer, object, threading.Thread]:
     add_links(study, links)
     tokens = read_links(study)
     seats = Seats()
-    app = make_app(study, links=tokens, completion_code=completion_code, say=lambda line: None, seed=0, seats=seats)
+    app = make_app(study, links=tokens, completion_code=completion_code, say=lambda line: None, seed=0, seats=seats,
+                   prolific=prolific)
     sock = bind("127.0.0.1", 0)
     url = f"http://127.0.0.1:{sock.getsockname()[1]}"
     server = make_server(app)

@@ -123,23 +123,23 @@ def test_a_prolific_participant_reaches_the_completion_address_only_after_the_la
 
     def completion(route):
         # What the files say at the moment the page navigates away.
-        reached.append((route.request.url, read_protocol(live_server.study, "PPX1").finished))
+        reached.append((route.request.url, read_protocol(live_server.study, "prolific-PPX1").finished))
         route.fulfill(status=200, content_type="text/html", body="<p>Prolific</p>")
 
     page.route("https://app.prolific.com/**", completion)
     open_and_begin(page, f"{live_server.url}/?PROLIFIC_PID=PPX1&STUDY_ID=st1&SESSION_ID=se1")
-    tap_to_goal(page, live_server, "PPX1")
+    tap_to_goal(page, live_server, "prolific-PPX1")
     page.keyboard.press(" ")
     page.wait_for_selector("text=Practice is over.")
     assert reached == []
     page.keyboard.press(" ")
     page.locator("#status strong", has_text=MAIN_EPISODE).wait_for()
-    tap_to_goal(page, live_server, "PPX1")
+    tap_to_goal(page, live_server, "prolific-PPX1")
     assert reached == []
     page.keyboard.press(" ")
     page.wait_for_url("https://app.prolific.com/**", timeout=TIMEOUT_S * 1000)
     assert reached == [("https://app.prolific.com/submissions/complete?cc=C0DE-42", True)]
-    header = recorded_lines(live_server.study.participant_folder("PPX1"))[0]
+    header = recorded_lines(live_server.study.participant_folder("prolific-PPX1"))[0]
     assert header["prolific"] == {"study_id": "st1", "session_id": "se1"}
     assert "Chrome" in header["input"]["user_agent"]
 

@@ -20,7 +20,7 @@ from irl_core.studies.study import read_protocol
 
 @pytest.fixture
 def served(web_study):
-    app, tokens = web_app(web_study, completion_code="C0DE-42")
+    app, tokens = web_app(web_study, completion_code="C0DE-42", prolific=True)
     with TestClient(app) as client:
         yield client, tokens
 
@@ -66,14 +66,15 @@ def test_a_prolific_participant_is_recorded_with_the_studys_and_sessions_ids(ser
     ids = {"pid": "5f0c0ffee0123456789abcde", "study_id": "65aa11", "session_id": "sess-77"}
     assert client.get("/", params={"PROLIFIC_PID": ids["pid"], "STUDY_ID": "65aa11", "SESSION_ID": "sess-77"}).status_code == 200
     api = Api(client, prolific=ids, user_agent="Mozilla/5.0 (test)")
-    assert api.view["participant"] == ids["pid"]
+    participant = "prolific-" + ids["pid"]  # Prolific's ids in their own namespace
+    assert api.view["participant"] == participant
     api.key("space")
     api.walk_to_goal()
-    header = recorded_lines(web_study.participant_folder(ids["pid"]))[0]
+    header = recorded_lines(web_study.participant_folder(participant))[0]
     assert header["prolific"] == {"study_id": "65aa11", "session_id": "sess-77"}
     assert header["input"]["mode"] == "hold" and header["input"]["front_end"] == "browser"
     assert header["input"]["user_agent"] == "Mozilla/5.0 (test)"
-    assert header["player"] == ids["pid"] and header["study"]["phase"] == "practice"
+    assert header["player"] == participant and header["study"]["phase"] == "practice"
 
 
 def test_a_body_over_the_limit_gets_413_and_plays_nothing(served, web_study):
@@ -208,7 +209,7 @@ def test_the_completion_address_comes_only_at_the_end_for_a_prolific_participant
     api.key("space")
     assert api.view["stage"] == "end"
     assert api.view["complete_url"] == "https://app.prolific.com/submissions/complete?cc=C0DE-42"
-    assert read_protocol(web_study, "PP1").finished
+    assert read_protocol(web_study, "prolific-PP1").finished
     linked = Api(client, token=tokens["p002"])  # a link participant is not sent to Prolific
     linked.key("space")
     linked.walk_to_goal()
@@ -293,15 +294,19 @@ def test_a_recording_that_cannot_be_written_stops_the_participant_with_a_sentenc
     assert len(steps) == 1
 
 
-def test_a_participant_held_by_another_session_is_refused_and_a_page_holds_the_lock(served, web_study):
+def test_a_participant_held_by_another_session_is_refused_and_a_page_holds_the_lock_from_its_first_key(
+        served, web_study):
     from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
 
     client, tokens = served
     with participant_lock(web_study, "p001", holder="careful study run"):
         refused = Api(client, token=tokens["p001"])
-        assert refused.answer.status_code == 409 and "careful study run" in refused.answer.json()["error"]
+        assert refused.answer.status_code == 409 and "open for you elsewhere" in refused.answer.json()["error"]
     page = Api(client, token=tokens["p001"])
     assert page.answer.status_code == 200
+    with participant_lock(web_study, "p001", holder="careful study run"):
+        pass  # a page that has not played holds no file
+    page.key("space")
     with pytest.raises(ParticipantBusy, match="careful serve"):
         with participant_lock(web_study, "p001", holder="careful study run"):
             pass

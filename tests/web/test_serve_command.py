@@ -106,7 +106,7 @@ def test_sigkill_mid_study_keeps_every_finished_step_and_the_participant_resumes
 
 def test_it_prints_where_it_listens_the_links_and_each_participant_and_ctrl_c_closes_every_file(tmp_path):
     study_path = write_web_study(tmp_path)
-    served = Served(study_path, "--links", "2", "--completion-code", "ABC123")
+    served = Served(study_path, "--links", "2", "--completion-code", "ABC123", "--prolific")
     try:
         assert served.url.startswith("http://127.0.0.1:")
         assert any(line.startswith("links: 2 new appended to ") and line.endswith("links.csv, 2 in all")

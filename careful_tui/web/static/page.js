@@ -190,14 +190,7 @@
     const rows = play.rows.map((row) => Array.from(row));
     state.cols = rows[0].length;
     const board = $("board");
-    const largest = parseFloat(getComputedStyle(document.documentElement).getPropertyValue("--cell-max")) || 64;
-    const room = Math.max(160, $("right").clientWidth || window.innerWidth - 40);
-    // Cells as large as the room allows (down to 6 px, so a 128-column world still fits a phone's width).
-    const gap = room / state.cols >= 26 ? 2 : 1;
-    const cell = Math.max(6, Math.min(largest, Math.floor((room - gap * (state.cols - 1)) / state.cols)));
-    board.style.setProperty("--cell", cell + "px");
-    board.style.gap = gap + "px";
-    board.style.gridTemplateColumns = "repeat(" + state.cols + ", var(--cell))";
+    sizeBoard();
     board.replaceChildren(...rows.flat().map((symbol) => {
       const node = el("div", "cell " + (SYMBOL_CLASS[symbol] || "sym-other"), symbol === "." ? "" : symbol);
       node.title = symbol;
@@ -221,6 +214,21 @@
     }
     state.drawnRows = JSON.stringify(play.rows);
   }
+
+  // Cells as large as the room allows (down to 6 px, so a 128-column world still fits a phone's
+  // width); again whenever the window changes size.
+  function sizeBoard() {
+    if (!state.cols) return;
+    const board = $("board");
+    const largest = parseFloat(getComputedStyle(document.documentElement).getPropertyValue("--cell-max")) || 64;
+    const room = Math.max(160, $("right").clientWidth || window.innerWidth - 40);
+    const gap = room / state.cols >= 26 ? 2 : 1;
+    const cell = Math.max(6, Math.min(largest, Math.floor((room - gap * (state.cols - 1)) / state.cols)));
+    board.style.setProperty("--cell", cell + "px");
+    board.style.gap = gap + "px";
+    board.style.gridTemplateColumns = "repeat(" + state.cols + ", var(--cell))";
+  }
+  window.addEventListener("resize", sizeBoard);
 
   function drawStatus(play) {
     const status = $("status");
