@@ -159,7 +159,8 @@ def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: f
         name = printable(world, limit=30)
         worst = min(p.covered for p in mine)
         best = max(p.covered for p in mine)
-        cover = (f"every pooled interval held the hypothesised rewards in {worst:.0%} to {best:.0%} of studies"
+        shares = f"{worst:.0%}" if f"{worst:.0%}" == f"{best:.0%}" else f"{worst:.0%} to {best:.0%}"
+        cover = (f"every pooled interval held the hypothesised rewards in {shares} of studies"
                  + ("" if worst >= target else f": the pooled intervals miss the truth more often than "
                     f"their {confidence:.0%} says{_most_missed(mine)}"))
         if mine[0].separated is None:
