@@ -224,10 +224,13 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--participant", required=True, metavar="ID", type=text_argument,
                      help="the participant's id, their folder's name: 1 to 80 letters, digits and _ . = -")
     report = study_commands.add_parser("report", help="fit every participant and the pool, per world", description=(
-        "Fit the main-phase episodes of every participant folder under the study's out folder, per world, and "
-        "every world's pool of them, with 95% confidence intervals (maxent, beta estimated, one reward per symbol; "
-        "lp with its identified set for a deterministic player). Prints a table, and writes report.csv and the "
-        "figures (PNG and PDF) to <out>/report/. A file that cannot be used is named and left out."))
+        "Fit the main-phase episodes of every participant folder under the study's out folder, per world, with 95% "
+        "confidence intervals (maxent, beta estimated, one reward per symbol; lp with its identified set for a "
+        "deterministic player), and pool them: by default as the population of participants, each with their own "
+        "player (the centre, the spread between people and a prediction interval for a new participant; outliers "
+        "and influential participants marked), after the study file's [exclusions]. Prints a table, and writes "
+        "report.csv and the figures (PNG and PDF) to <out>/report/. A file that cannot be used is named and left "
+        "out."))
     report.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
     report.add_argument("--out", type=Path, default=None, metavar="DIR",
                         help="folder for report.csv and the figures (default: <the study's out>/report/)")
@@ -242,6 +245,11 @@ def build_parser() -> argparse.ArgumentParser:
                              "careful[cluster] (docs/studies.md, \"On a cluster\"); the numbers are the same")
     report.add_argument("--rmax", type=positive_float, default=5000.0, metavar="X",
                         help="bound |R_S| <= rmax for every fit (default 5000, so a cliff at -1000 lies well inside)")
+    report.add_argument("--pool-model", choices=("population", "shared"), default="population",
+                        help="population (default): each participant with their own player, pooled as a population "
+                             "of people; shared: one fit of everyone's episodes, rewards and player shared")
+    report.add_argument("--no-exclusions", action="store_true",
+                        help="pool every participant, ignoring the study file's [exclusions] (to show what they change)")
 
     plan = study_commands.add_parser("plan", help="simulate whole studies: how many participants and episodes?",
                                      description=(

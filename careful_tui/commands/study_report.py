@@ -29,15 +29,15 @@ from irl_core.studies.report import (
     POOLED,
     CellFit,
     StudyData,
+    check_pool_model,
     fit_report,
     gather,
-    influence_cells,
     pooled_finding,
     report_options,
     report_rows,
     report_symbols,
 )
-from irl_core.studies.study import LoadedStudy, StudyError, load_study, world_files
+from irl_core.studies.study import Exclusions, LoadedStudy, StudyError, load_study, world_files
 from irl_core.support.csv_cells import csv_text
 from irl_core.support.executor import Executor, SchedulerError, close, scheduler
 from irl_core.support.safe_files import check_output_folder, write_output
@@ -50,6 +50,9 @@ TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval", "playe
                          "fit_check_passed"})
 TABLE_WIDTH = 200
 INFLUENTIAL_MARK = "†"
+OUTLIER_MARK = "‡"
+CHECK_FAILED_MARK = "✗"
+EXCLUDED_MARK = "(excluded)"
 
 
 @dataclass
@@ -65,6 +68,7 @@ class Timings:
 def run_study_report(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     options = report_options(resamples=args.resamples, seed=args.seed, rmax=args.rmax)
+    pool_model = check_pool_model(args.pool_model)
     if problem := options.problem():
         raise UsageError(said(problem))
     try:
@@ -77,13 +81,13 @@ def run_study_report(args: argparse.Namespace) -> int:
     except SchedulerError as exc:
         raise UsageError(f"--scheduler {printable(str(exc), limit=300)}") from None
     try:
-        return _report(args, study, out, options, executor, err)
+        return _report(args, study, out, options, executor, err, pool_model=pool_model)
     finally:
         close(executor)
 
 
 def _report(args: argparse.Namespace, study: LoadedStudy, out: Path, options: FitOptions, executor: Executor,
-            err: Console) -> int:
+            err: Console, *, pool_model: str) -> int:
     """The report of `study` into `out`, its fits on `executor`."""
     timings = Timings()
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
@@ -97,10 +101,12 @@ def _report(args: argparse.Namespace, study: LoadedStudy, out: Path, options: Fi
                              "simulated participants, first)")
         for warning in data.problems:
             err.print(Text(f"warning: {printable(warning, limit=400)}", style="yellow"), soft_wrap=True)
-        progress.update(task, description="fitting (per participant, pooled with intervals, and each pool without "
-                        "each participant)", completed=0, total=None)
+        progress.update(task, description=f"fitting (each world's pool, then its participants; pooled as "
+                        f"{pool_model})", completed=0, total=None)
         start = time.perf_counter()
-        fits = fit_report(data, options, workers=args.workers, executor=executor,
+        exclusions = Exclusions() if args.no_exclusions else None
+        fits = fit_report(data, options, pool_model=pool_model, exclusions=exclusions, workers=args.workers,
+                          executor=executor,
                           progress=lambda done, total: progress.update(task, completed=done, total=total))
         timings.fits = time.perf_counter() - start
         progress.update(task, description="drawing figures", completed=0, total=None)
@@ -116,16 +122,17 @@ def _report(args: argparse.Namespace, study: LoadedStudy, out: Path, options: Fi
     if not out_console.is_terminal:
         out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
     out_console.print(report_table(data, fits))
-    if legend := influence_legend(fits):
+    for legend in mark_legends(fits):
         out_console.print(Text(legend), soft_wrap=True)
+    for line in exclusion_lines(data, fits, ignored=args.no_exclusions and study.study.exclusions.any):
+        out_console.print(Text(line), soft_wrap=True)
     for finding in findings(data, fits):
         out_console.print(Text(finding), soft_wrap=True)
     for note in fit_notes(data, fits):
         out_console.print(Text(f"note: {note}"), soft_wrap=True)
     err.print(Text(
         f"wrote {len(timings.written)} files to {printable(str(out), limit=160)} (report.csv and figures); "
-        f"{plural(len(data.participants), 'participant')}, {plural(len(fits), 'fit')} (and "
-        f"{len(influence_cells(data))} of a pool without one of its participants); reading {timings.reading:.1f} s, "
+        f"{plural(len(data.participants), 'participant')}, pooled as {pool_model}; reading {timings.reading:.1f} s, "
         f"fits {timings.fits:.1f} s, figures {timings.figures:.1f} s" + left_out_text(data)),
         soft_wrap=True)
     return EXIT_OK
@@ -164,8 +171,11 @@ def interval_caption(fits: list[CellFit]) -> str:
     kinds = []
     if any(f.interval_kind == "confidence" for f in fits):
         confidence = next(f.confidence for f in fits if f.interval_kind == "confidence")
-        kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes; a pool's resamples "
-                     "participants, then their episodes) for maxent and loss fits")
+        pooled = ("a population's row: its centre's interval from the participants' fits, each with their own "
+                  "player" if any(f.pool_model == "population" for f in fits) else
+                  "a pool's resamples participants, then their episodes")
+        kinds.append(f"{confidence:.0%} confidence interval (bootstrap over episodes; {pooled}) for maxent and "
+                     "loss fits")
     if any(f.interval_kind == "identified" for f in fits):
         kinds.append("identified set for lp fits")
     return "[low, high]: " + "; ".join(kinds) if kinds else "No intervals could be computed"
@@ -202,28 +212,66 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
             table.add_section()
         previous_world = cell.world_index
         pooled = cell.participant == POOLED
-        who = f"pooled ({cell.participants})" if pooled else cell.participant
+        who = (f"population ({result.pooled})" if result.pooled is not None else f"pooled ({cell.participants})") \
+            if pooled else cell.participant
         if not pooled and data.left_out.get(cell.participant):
             who += " *"
         if result.influential:
             who += f" {INFLUENTIAL_MARK}"
+        if result.outlier:
+            who += f" {OUTLIER_MARK}"
+        if result.fit_check_passed is False:
+            who += f" {CHECK_FAILED_MARK}"
+        if result.excluded_why:
+            who += f" {EXCLUDED_MARK}"
         table.add_row(
             Text(who, style="bold" if pooled else ""), Text(printable(world.name, limit=40)),
             str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted_outcomes)),
             "" if cell.careful_next_to_terminal is None else f"{cell.careful_next_to_terminal:.1f}",
             Text(fit_text(result), style="red" if result.error else ""),
             *(Text(reward_text(result, symbol)) for symbol in symbols),
-            style="bold" if pooled else None,
+            style="bold" if pooled else ("dim" if result.excluded_why else None),
         )
+        if pooled and result.prediction is not None:
+            table.add_row(Text("  a new participant"), "", "", "", Text("95% prediction interval"), "", "",
+                          *(Text(prediction_text(result, symbol)) for symbol in symbols))
     return table
 
 
-def influence_legend(fits: list[CellFit]) -> str:
-    """The mark's legend line under the table, or "" when no participant is marked."""
-    if not any(f.influential for f in fits):
+def prediction_text(result: CellFit, symbol: str) -> str:
+    """A population's prediction interval for a new participant's `symbol`: "[-2900, -310]"."""
+    if result.prediction is None or symbol not in result.symbols:
         return ""
-    return (f"{INFLUENTIAL_MARK} influential: without this participant a pooled reward would leave its interval "
-            "(the pool's line below says which, and where it would go)")
+    low, high = result.prediction[result.symbols.index(symbol)]
+    return f"[{format_value(float(low))}, {format_value(float(high))}]"
+
+
+def mark_legends(fits: list[CellFit]) -> list[str]:
+    """The marks' legend lines under the table, one for each mark some row has."""
+    legends = []
+    if any(f.influential for f in fits):
+        legends.append(f"{INFLUENTIAL_MARK} influential: the pooled centre with this participant lies outside the "
+                       "pool's interval without them, or the other way round")
+    if any(f.outlier for f in fits):
+        legends.append(f"{OUTLIER_MARK} outlier: this participant's fit lies outside where the other participants say "
+                       "a participant's fit would lie (their population's prediction, this fit's own noise included)")
+    if any(f.fit_check_passed is False for f in fits):
+        legends.append(f"{CHECK_FAILED_MARK} fit check failed: the fitted player does not reproduce this participant's "
+                       "recordings, so their numbers are not explained by the model")
+    return legends
+
+
+def exclusion_lines(data: StudyData, fits: list[CellFit], *, ignored: bool) -> list[str]:
+    """Who the study's exclusions left out of the pools and why, or that --no-exclusions ignored them."""
+    if ignored:
+        return ["The study file's [exclusions] were not applied (--no-exclusions): every participant is pooled."]
+    lines = []
+    for cell, result in zip(data.cells, fits):
+        if result.excluded_why:
+            world = printable(data.study.worlds[cell.world_index].name, limit=40)
+            lines.append(f"excluded from the {world} pool by the study's [exclusions]: {cell.participant} "
+                         f"({printable(result.excluded_why, limit=200)})")
+    return lines
 
 
 def findings(data: StudyData, fits: list[CellFit]) -> list[str]:

@@ -142,6 +142,8 @@ def fit(
         player_model=fitted.player_model,
         player=fitted.player,
         fit_check=check,
+        rival_model=None if fitted.rival is None else fitted.rival.model.name,
+        rival_theta=None if fitted.rival is None else np.asarray(fitted.rival.theta, dtype=float),
     )
 
 

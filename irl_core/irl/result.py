@@ -120,6 +120,9 @@ class FitResult:
         player: that model's parameters besides the rewards (beta, the hand's sigma, the lapse rate).
         fit_check: whether the fitted player reproduces the recordings (`irl_core.irl.fit_check`),
             None where no check was made (lp and loss, whose answers are not a model of play).
+        rival_model: where held-out episodes cannot tell whether the player plans for the hand, the other
+            planning model (``person`` or ``naive``), whose rewards the intervals also cover; else None.
+        rival_theta: (k,) that model's fitted unknowns, or None.
     """
 
     method: str
@@ -140,6 +143,8 @@ class FitResult:
     player_model: str | None = None
     player: Player | None = None
     fit_check: FitCheck | None = None
+    rival_model: str | None = None
+    rival_theta: np.ndarray | None = None
 
     @property
     def mdp(self) -> MDP:

@@ -59,6 +59,26 @@ class StudyError(InputError):
     """A study file or participant id that cannot be used; the message is one line for the user."""
 
 
+class Exclusions(BaseModel):
+    """A study file's ``[exclusions]``: who `careful study report` leaves out of the pool, fixed before the data.
+
+    Attributes:
+        fit_check_failed: leave out a participant whose fit of a world fails its fit check (on that world).
+        min_main_episodes: leave out a participant with fewer finished main episodes of a world (on that world).
+        max_quit_share: leave out a participant who quit more than this share of their main episodes of a world.
+    """
+
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+    fit_check_failed: bool = False
+    min_main_episodes: int = Field(0, ge=0, le=100_000)
+    max_quit_share: float = Field(1.0, ge=0.0, le=1.0, strict=False)
+
+    @property
+    def any(self) -> bool:
+        return self != Exclusions()
+
+
 class Study(BaseModel):
     """A study file's fields, as docs/studies.md names them."""
 
@@ -75,6 +95,7 @@ class Study(BaseModel):
     tap_ms: float = Field(TAP_MS, ge=50.0, le=5_000.0)
     ms_per_level: float = Field(MS_PER_LEVEL, ge=20.0, le=5_000.0)
     out: str = Field("data", min_length=1)
+    exclusions: Exclusions = Field(default_factory=Exclusions)
 
 
 @dataclass(frozen=True)

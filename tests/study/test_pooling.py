@@ -13,7 +13,7 @@ from rich.console import Console
 from study.conftest import write_block, write_study
 
 from careful_tui.cli import main
-from careful_tui.commands.study_report import INFLUENTIAL_MARK, influence_legend, report_table
+from careful_tui.commands.study_report import INFLUENTIAL_MARK, OUTLIER_MARK, mark_legends, report_table
 from irl_core.irl.bootstrap import bootstrap, two_level_weights
 from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts, session_header, write_rollouts
 from irl_core.recordings.lines import StudyTag
@@ -102,11 +102,12 @@ def write_participant(study, participant, policy, *, seed):
                    header=header)
 
 
-def test_a_reckless_participant_is_covered_or_marked_influential(tmp_path, capsys):
+def test_a_reckless_participant_is_marked_an_outlier_of_the_population(tmp_path, capsys):
     """Four participants on mud whom the default fit models (Boltzmann experts) and one reckless one
-    (level 1 everywhere, a quarter of moves random): the pooled row either still covers every true
-    reward, or names the reckless participant (without whom it would) as influential; the CSV says
-    which, row by row."""
+    (level 1 everywhere, a quarter of moves random). The population row (the default) marks the reckless
+    participant an outlier and influential (the CSV's columns, the table's marks, the finding), and nobody
+    else an outlier; every participant's row says true or false; the pooled row names the pool model and
+    gives each reward's spread and prediction interval around its centre's interval."""
     study = load_study(write_study(tmp_path, worlds='["mud"]', practice=0, episodes=10))
     mdp = build_mdp(study.worlds[0])
     for i, beta in enumerate((0.5, 0.8, 1.2, 2.0)):
@@ -116,19 +117,37 @@ def test_a_reckless_participant_is_covered_or_marked_influential(tmp_path, capsy
     out = capsys.readouterr().out
     rows = {row["participant"]: row for row in csv.DictReader((study.report_folder / "report.csv").open())}
     pooled = rows[POOLED]
-    covered = all(float(pooled[f"reward_{s}_low"]) <= study.worlds[0].reward_of(s) <= float(pooled[f"reward_{s}_high"])
-                  for s in ("C", "U", "G"))
-    assert covered or rows["reckless"]["influential"] == "true"
-    assert covered or "reckless" in pooled["influential"].split()
-    for who in ("p1", "p2", "p3", "p4", "reckless"):
-        assert rows[who]["influential"] in ("true", "false")
-    marked = {who for who in rows if who != POOLED and rows[who]["influential"] == "true"}
-    assert set(pooled["influential"].split()) == marked or (pooled["influential"] == "none" and not marked)
-    assert pooled["finding"].startswith("mud: the pooled cliff interval")
+    assert pooled["pool_model"] == "population"
+    assert rows["reckless"]["outlier"] == "true" and pooled["outlier"].split() == ["reckless"]
+    assert rows["reckless"]["influential"] == "true" and "reckless" in pooled["influential"].split()
+    for who in ("p1", "p2", "p3", "p4"):
+        assert rows[who]["outlier"] == "false" and rows[who]["influential"] in ("true", "false")
+        assert rows[who]["excluded"] == "false" and rows[who]["excluded_why"] == ""
+    for s in ("C", "U", "G"):
+        low, centre, high = (float(pooled[f"reward_{s}{end}"]) for end in ("_low", "", "_high"))
+        pred_low, pred_high = float(pooled[f"reward_{s}_pred_low"]), float(pooled[f"reward_{s}_pred_high"])
+        assert pred_low <= low <= centre <= high <= pred_high and float(pooled[f"reward_{s}_spread"]) >= 0
+    assert pooled["finding"].startswith("mud: the population's cliff interval")
+    assert "reckless is outside where the others say a participant's fit would lie (outlier)" in pooled["finding"]
     assert pooled["finding"] in out.splitlines()
-    for who in marked:
-        assert any(line.strip().startswith(f"{who} {INFLUENTIAL_MARK}") for line in out.splitlines())
-    assert any(line.startswith(f"{INFLUENTIAL_MARK} influential: ") for line in out.splitlines()) == bool(marked)
+    assert any(line.strip().startswith(f"reckless {INFLUENTIAL_MARK} {OUTLIER_MARK}") for line in out.splitlines())
+    assert any(line.startswith(f"{OUTLIER_MARK} outlier: ") for line in out.splitlines())
+
+
+def test_the_shared_pool_is_still_there_by_name(tmp_path, capsys):
+    """--pool-model shared fits everyone's episodes as one (the fixed-effect pool): its row says so and has no
+    spread or prediction interval; influence is measured by refitting without each participant."""
+    study = load_study(write_study(tmp_path, worlds='["mud"]', practice=0, episodes=6))
+    mdp = build_mdp(study.worlds[0])
+    for i, beta in enumerate((0.8, 2.0)):
+        write_participant(study, f"p{i + 1}", boltzmann_policy(mdp, beta=beta), seed=i)
+    assert main(["study", "report", str(study.path), "--resamples", "20", "--workers", "2",
+                 "--pool-model", "shared"]) == 0
+    rows = {row["participant"]: row for row in csv.DictReader((study.report_folder / "report.csv").open())}
+    assert rows[POOLED]["pool_model"] == "shared" and rows[POOLED]["reward_C_spread"] == ""
+    assert rows[POOLED]["finding"].startswith("mud: the pooled cliff interval")
+    assert rows["p1"]["influential"] in ("true", "false") and rows["p1"]["outlier"] == ""
+    assert "pooled (2)" in capsys.readouterr().out
 
 
 def test_the_influential_column_mark_and_sentence_follow_the_leave_one_out_fits(study):
@@ -161,8 +180,8 @@ def test_the_influential_column_mark_and_sentence_follow_the_leave_one_out_fits(
     lines = [line.strip() for line in text.splitlines()]
     assert any(line.startswith(f"p2 {INFLUENTIAL_MARK}") for line in lines)
     assert not any(line.startswith(f"p1 {INFLUENTIAL_MARK}") for line in lines)
-    assert influence_legend(marked).startswith(
-        f"{INFLUENTIAL_MARK} influential: without this participant a pooled reward would leave its interval")
+    assert mark_legends(marked)[0].startswith(f"{INFLUENTIAL_MARK} influential: the pooled centre with this "
+                                              "participant lies outside the pool's interval without them")
     # Nobody moves the pool: the column says so on the pooled row, and so does the sentence.
     calm = with_influence(data, fits, {**without, (0, "p2"): CellFit(symbols=("C", "G"),
                                                                       estimate=np.array([-1100.0, 80.0]))})
@@ -171,7 +190,7 @@ def test_the_influential_column_mark_and_sentence_follow_the_leave_one_out_fits(
     # ... and names who moves it most, in widths of the interval (p2's cliff by 100 of 400).
     assert ("no participant alone moves a pooled reward out of its interval (the most: without p2 the cliff -1100 "
             "against -1000)") in pooled_finding(data, data.cell(POOLED, 0), calm[data.cells.index(data.cell(POOLED, 0))])
-    assert influence_legend(calm) == ""
+    assert mark_legends(calm) == []
 
 
 def test_the_pooled_sentence_says_whether_carefulness_separates_cliff_and_mud(tmp_path):

@@ -118,9 +118,10 @@ def test_study_report_prints_a_row_per_participant_and_world_and_writes_csv_and_
     assert code == 0
     report = study_path.parent / "data" / "report"
     # The table: each participant in each world, and each world's pool.
-    table = [line for line in out.splitlines() if line.strip().startswith(("sim0", "pooled"))]
-    assert len(table) == 8
-    assert sum("pooled (3)" in line for line in table) == 2
+    table = [line for line in out.splitlines() if line.strip().startswith(("sim0", "population", "a new"))]
+    assert len(table) == 10
+    assert sum("population (3)" in line for line in table) == 2
+    assert sum("95% prediction interval" in line for line in table) == 2
     assert "95% confidence interval" in out
     assert "corrupt.jsonl:2: direction:" in err.replace("\n", "")
     rows = list(csv.DictReader((report / "report.csv").open()))
@@ -129,6 +130,7 @@ def test_study_report_prints_a_row_per_participant_and_world_and_writes_csv_and_
         ("sim01", "mud"), ("sim02", "mud"), ("sim03", "mud"), ("pooled", "mud")]
     for row in rows:
         assert row["study"] == "pilot" and row["method"] == "maxent" and row["interval_kind"] == "confidence"
+        assert row["pool_model"] == ("population" if row["participant"] == "pooled" else "")
         assert float(row["reward_C_low"]) <= float(row["reward_C"]) <= float(row["reward_C_high"])
         assert (row["reward_U"] != "") == (row["world"] == "mud")
         assert int(row["ended_C"]) + int(row["ended_G"]) + int(row["step_limit"]) == int(row["episodes"])
@@ -161,7 +163,7 @@ def test_ctrl_c_during_the_fits_stops_the_running_ones_and_drops_the_rest(tmp_pa
     its end while the user waits (a 26-fit report went on for 24 s)."""
     from types import SimpleNamespace
 
-    from irl_core.studies import report as study_report
+    from irl_core.studies import report_fits as study_report
 
     marks = tmp_path / "marks"
     monkeypatch.setattr(study_report, "fit_cell", _stand_in_fit)
