@@ -275,9 +275,10 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--spread", type=non_negative_float, default=0.3, metavar="S",
                       help="between participants, each player parameter is its default times exp(N(0, S)) "
                            "(default 0.3)")
-    plan.add_argument("--pool", choices=["shared", "population"], default="shared",
-                      help="shared (default, as study report pools today): one fit of everyone's episodes with an "
-                           "interval over participants; population: a random-effects pool of each participant's fit")
+    plan.add_argument("--pool", choices=["population", "shared"], default="population",
+                      help="population (default, as study report pools): each participant's fit, pooled as a "
+                           "population of participants; shared: one fit of everyone's episodes with an interval "
+                           "over participants (study report --pool-model shared)")
     plan.add_argument("--repeats", type=positive_int, default=20, metavar="N",
                       help="simulated studies per grid point (default 20)")
     plan.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the simulations (default 0)")

@@ -5,9 +5,9 @@ For each world of the study, with the hypothesised rewards (`planned_worlds`), a
 participants (`irl_core.players.person_like`, the kinds `PlanGrid.players` in turn, each of their
 parameters scaled by exp(N(0, `PlanGrid.spread`)): people differ), each playing e episodes; it fits
 each participant's episodes with a model of people (`PlanGrid.model`) and the cheap Laplace interval
-(`irl_core.irl.laplace`), pooled as the study report pools (`POOLS`: by default one shared fit of
-everyone's episodes with the cluster-robust interval over participants; or a random-effects pool of
-each participant's fit, `pool_participants`), and counts
+(`irl_core.irl.laplace`), pooled as the study report pools (`POOLS`: by default the population of
+participants, `irl_core.studies.population`, over each participant's fit; or one shared fit of
+everyone's episodes with the cluster-robust interval over participants), and counts
 
 - **separated**: the pooled hazard interval lies below the nuisance's (the report's finding
   "carefulness separates catastrophe from nuisance", `experiment.claims.order_words`);
@@ -27,8 +27,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydantic import ValidationError
-from scipy.stats import norm
-from scipy.stats import t as student
 
 from irl_core.experiment.claims import order_words
 from irl_core.irl.laplace import laplace_intervals
@@ -37,6 +35,7 @@ from irl_core.irl.player_models import player_model
 from irl_core.irl.qmap import Unknowns, build_unknowns
 from irl_core.players.experts import Rollouts, demonstrations_of, rollouts
 from irl_core.players.person_like import KINDS, PersonLike, person_like
+from irl_core.studies.population import pool_participants
 from irl_core.support.pool import run_in_pool
 from irl_core.worlds.mdp import MDP, build_mdp
 from irl_core.worlds.world import World
@@ -47,9 +46,10 @@ MAX_EPISODES = 500
 MAX_REPEATS = 10_000
 # How a simulated study's participants are pooled, as `study report` pools them:
 POOLS = {
+    "population": "each participant's own fit and Laplace interval, pooled as the report's population "
+                  "(`irl_core.studies.population`, random effects over participants)",
     "shared": "one fit of everyone's episodes (the rewards and the player shared), its interval the cluster-robust "
-              "Laplace interval over participants (as the report's bootstrap resamples participants)",
-    "population": "a random-effects pool of each participant's own fit and Laplace interval",
+              "Laplace interval over participants (as the report's shared pool resamples participants)",
 }
 
 
@@ -74,7 +74,7 @@ class PlanGrid:
     spread: float = 0.3
     seed: int = 0
     model: str = "person"
-    pool: str = "shared"
+    pool: str = "population"
     confidence: float = 0.95
     rmax: float = 5000.0
 
@@ -146,41 +146,6 @@ class PlanPoint:
     covered: float
     covered_each: dict[str, float] = field(default_factory=dict)
     width: dict[str, float] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class Pooled:
-    """A population pool of per-participant fits, per reward (k,): the centre, its interval (k, 2), the
-    spread between participants (tau) and a prediction interval (k, 2) for a new participant."""
-
-    centre: np.ndarray
-    interval: np.ndarray
-    spread: np.ndarray
-    prediction: np.ndarray
-
-
-def pool_participants(estimates: np.ndarray, intervals: np.ndarray, *, confidence: float = 0.95,
-                      rmax: float = 5000.0) -> Pooled:
-    """A random-effects pool (DerSimonian-Laird, with Student's t on n - 1 degrees of freedom for the centre
-    and n - 2 for a new participant, as Higgins et al. 2009) of estimates (n, k) with intervals (n, k, 2):
-    each participant's standard error is their interval's width over 2 z, so a reward bounded on one side
-    (an interval to the bound) weighs little. Intervals are clipped to [-rmax, rmax]."""
-    estimates, intervals = np.asarray(estimates, dtype=float), np.asarray(intervals, dtype=float)
-    n = estimates.shape[0]
-    z = float(norm.ppf(0.5 + confidence / 2))
-    se = np.maximum((intervals[:, :, 1] - intervals[:, :, 0]) / (2 * z), 1e-9 * max(rmax, 1.0))
-    w = 1 / se**2
-    fixed = (w * estimates).sum(axis=0) / w.sum(axis=0)
-    q = (w * (estimates - fixed) ** 2).sum(axis=0)
-    tau2 = np.maximum(0.0, (q - (n - 1)) / np.maximum(w.sum(axis=0) - (w**2).sum(axis=0) / w.sum(axis=0), 1e-300))
-    w_star = 1 / (se**2 + tau2)
-    centre = (w_star * estimates).sum(axis=0) / w_star.sum(axis=0)
-    centre_se = np.sqrt(1 / w_star.sum(axis=0))
-    half = (float(student.ppf(0.5 + confidence / 2, n - 1)) if n > 1 else z) * centre_se
-    new_half = (float(student.ppf(0.5 + confidence / 2, n - 2)) if n > 2 else np.inf) * np.sqrt(tau2 + centre_se**2)
-    clip = lambda low, high: np.clip(np.stack([low, high], axis=1), -rmax, rmax)  # noqa: E731
-    return Pooled(centre=centre, interval=clip(centre - half, centre + half), spread=np.sqrt(tau2),
-                  prediction=clip(centre - new_half, centre + new_half))
 
 
 @dataclass(frozen=True)
@@ -270,10 +235,8 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     fits = {e: [fit_participant(mdp, unknowns, c, grid) for c in counts[e]] for e in episodes}
     for n in sizes:
         for e in episodes:
-            estimates = np.stack([f[0] for f in fits[e][:n]])
             intervals = np.stack([f[1] for f in fits[e][:n]])
-            out[(n, e)] = _Study(pool_participants(estimates, intervals, confidence=grid.confidence,
-                                                   rmax=grid.rmax).interval)
+            out[(n, e)] = _Study(pool_participants(intervals, confidence=grid.confidence, rmax=grid.rmax).intervals)
     return out
 
 

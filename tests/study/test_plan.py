@@ -7,29 +7,11 @@ import pytest
 from study.conftest import write_study
 
 from careful_tui.cli import main
-from irl_core.studies.plan import PlanError, PlanGrid, plan_study, planned_worlds, pool_participants
+from irl_core.studies.plan import PlanError, PlanGrid, plan_study, planned_worlds
 from irl_core.worlds.world import BUILTIN_WORLDS
 
 TINY = PlanGrid(participants=(2, 3), episodes=(3,), repeats=2)
-
-
-def test_equal_errors_pool_to_the_mean_with_the_sample_spread_beyond_them():
-    # With every participant's standard error s, DerSimonian-Laird's tau^2 is the sample variance less s^2.
-    estimates = np.array([[-900.0], [-1100.0], [-1000.0], [-1300.0], [-700.0]])
-    s = 50.0
-    intervals = np.stack([estimates - 1.959964 * s, estimates + 1.959964 * s], axis=2)
-    pooled = pool_participants(estimates, intervals)
-    assert pooled.centre[0] == pytest.approx(estimates.mean())
-    assert pooled.spread[0] ** 2 == pytest.approx(estimates.var(ddof=1) - s**2, rel=1e-6)
-    half = 2.776445 * np.sqrt((s**2 + pooled.spread[0] ** 2) / 5)  # Student's t, 4 degrees of freedom
-    assert pooled.interval[0] == pytest.approx([estimates.mean() - half, estimates.mean() + half], rel=1e-6)
-    assert pooled.prediction[0, 0] < pooled.interval[0, 0]
-
-
-def test_participants_who_agree_pool_without_spread():
-    estimates = np.array([[-1000.0], [-1000.0], [-1000.0]])
-    intervals = np.stack([estimates - 100, estimates + 100], axis=2)
-    assert pool_participants(estimates, intervals).spread[0] == 0
+TINY_SHARED = PlanGrid(participants=(2, 3), episodes=(3,), repeats=2, pool="shared")
 
 
 @pytest.fixture(scope="module")
@@ -49,6 +31,13 @@ def test_every_world_and_grid_point_gets_shares_of_its_simulated_studies(tiny_pl
         assert all(w >= 0 for w in p.width.values())
     # paper has no nuisance to separate from the cliff
     assert [p.separated is None for p in points] == [False, False, True, True]
+
+
+def test_the_shared_pool_plans_the_same_points():
+    worlds = planned_worlds((BUILTIN_WORLDS["mud"],), {})
+    points = plan_study(worlds, TINY_SHARED)
+    assert [(p.participants, p.studies) for p in points] == [(2, 2), (3, 2)]
+    assert all(0 <= p.covered <= 1 and p.separated is not None for p in points)
 
 
 def test_the_same_seed_plans_the_same(tiny_plan):
