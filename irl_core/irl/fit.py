@@ -32,7 +32,8 @@ from irl_core.irl.options import FitOptions
 from irl_core.irl.people_choice import ModelChoice, choose_player_model, fit_given_model, significantly_better
 from irl_core.irl.people_fit import PlayerFit, PlayerRefit
 from irl_core.irl.people_fit import curvature_scale as people_curvature_scale
-from irl_core.irl.people_flat import FLAT_DROP, flat_toward_bound
+from irl_core.irl.people_flat import flat_toward_bound
+from irl_core.irl.people_held import FLAT_DROP, held_upper_bounds, jointly
 from irl_core.irl.player_models import AUTO as PLAYER_AUTO
 from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -40,6 +41,7 @@ from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bo
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
+from irl_core.support.words import plural
 from irl_core.worlds.mdp import MDP
 
 METHODS = fit_methods.FITTED
@@ -64,6 +66,7 @@ class _Fitted:
     observed_policy: np.ndarray | None = None
     people: PlayerFit | None = None
     rival: PlayerFit | None = None
+    held_upper: np.ndarray | None = None  # (k,) a held reward's upper bound (`people_flat.held_upper_bounds`)
 
 
 def fit(
@@ -298,6 +301,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         notes.append(Note("not_identified", f"beta ran to the end of its range ({player.beta:.3g}): the intended "
                                             "choices look deterministic, so the data bound the rewards rather than "
                                             "pin them; read the intervals, not the points"))
+    held_upper = _held_note(qmap, demos, solution, options, notes)
     flat = flat_toward_bound(mdp, unknowns, demos.counts, solution, rmax=options.rmax)
     if flat.any():
         sides = [f"{label} {'at most' if side < 0 else 'at least'} {value:.3g}"
@@ -308,7 +312,26 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     return _Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
-                   people=solution, rival=rival)
+                   people=solution, rival=rival, held_upper=held_upper)
+
+
+def _held_note(qmap: QMap, demos: Demonstrations, solution: PlayerFit, options: FitOptions,
+               notes: list[Note]) -> np.ndarray | None:
+    """(k,) the upper bounds of the rewards the fit held at -rmax (NaN elsewhere), with a note naming them; None
+    when none was held."""
+    held = solution.held
+    if not held.any():
+        return None
+    upper = held_upper_bounds(qmap.mdp, qmap.unknowns, demos.counts, theta=solution.theta, model=solution.model,
+                              player=solution.player, held=held, rmax=options.rmax, V0=solution.V1)
+    named = "; ".join(f"{label} at most {value:.3g}" for label, value, on in zip(qmap.unknowns.labels, upper, held) if on)
+    how = "all raised together" if jointly(held) else "each raised alone"
+    notes.append(Note("unreached", f"not bounded below by the data: no recorded action can lead into "
+                                   f"{plural(int(held.sum()), 'rewarded cell')}, so lowering their rewards only makes "
+                                   "unrecorded actions less likely; the fit holds them at -{rmax}, where the "
+                                   "likelihood is highest, and the data say only how high they may be before the "
+                                   f"likelihood falls by {FLAT_DROP:g} ({how}): {named}"))
+    return upper
 
 
 def _planning_rival(choice: ModelChoice) -> PlayerFit | None:
@@ -421,6 +444,9 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
         bounds = np.clip(np.stack([np.minimum(bounds[:, 0], bounds[:, 0] + shift),
                                    np.maximum(bounds[:, 1], bounds[:, 1] + shift)], axis=1),
                          -options.rmax, options.rmax)
+    if fitted.held_upper is not None:
+        held = ~np.isnan(fitted.held_upper)
+        bounds[held] = np.column_stack([np.full(held.sum(), -options.rmax), fitted.held_upper[held]])
     if not _moved(bounds, fitted, qmap, options, notes):
         return None
     if fitted.beta_auto and fitted.people is None:

@@ -61,7 +61,6 @@ from irl_core.irl.qmap import Unknowns
 from irl_core.irl.result import SolverError
 from irl_core.support.stopping import stop_if_asked
 from irl_core.worlds.mdp import MDP
-from irl_core.worlds.planning import policy_matrix
 
 SOFT_TOLERANCE = 1e-13
 SOFT_MAX_ITER = 200
@@ -217,12 +216,48 @@ def policy_system(mdp: MDP, pi: np.ndarray) -> np.ndarray | sp.csc_matrix:
     """(S, S) I - gamma P^pi for the policy pi (S, A): dense in small worlds, sparse in large ones."""
     S = mdp.n_states
     if S > DENSE_STATES:
-        P_pi, _ = policy_matrix(mdp, pi)
-        return (sp.identity(S, format="csc") - mdp.gamma * P_pi).tocsc()
+        pattern = _system_pattern(mdp)
+        data = np.bincount(pattern.place, weights=-mdp.gamma * np.asarray(pi).ravel()[pattern.pair] * pattern.p,
+                           minlength=pattern.indices.size)
+        data[pattern.diagonal] += 1.0
+        return sp.csc_matrix((data, pattern.indices, pattern.indptr), shape=(S, S))
     system = np.matmul(pi[:, None, :], _dense_P(mdp))[:, 0, :]  # row s: sum_a pi(s, a) P(. | s, a)
     system *= -mdp.gamma
     system[np.diag_indices(S)] += 1.0
     return system
+
+
+@dataclass(frozen=True)
+class _SystemPattern:
+    """Where each nonzero of P (S * A, S) lands in the CSC data of I - gamma P^pi (`place`), the pair (s, a) it
+    belongs to (`pair`), its probability (`p`), and the diagonal's places: the pattern is the world's, only the
+    policy's weights change, so a system is one weighted count instead of a sparse product (5x faster at 64x64)."""
+
+    place: np.ndarray
+    pair: np.ndarray
+    p: np.ndarray
+    diagonal: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+
+
+_PATTERNS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _system_pattern(mdp: MDP) -> _SystemPattern:
+    pattern = _PATTERNS.get(mdp)
+    if pattern is None:
+        P = mdp.P.tocoo()
+        S, A = mdp.n_states, mdp.n_actions
+        rows = np.concatenate([P.row // A, np.arange(S)])
+        cols = np.concatenate([P.col, np.arange(S)])
+        # Column-major order of the (row, col) pairs, each once: the CSC matrix's data order.
+        keys, where = np.unique(cols.astype(np.int64) * S + rows, return_inverse=True)
+        indptr = np.searchsorted(keys // S, np.arange(S + 1)).astype(np.int32)
+        pattern = _PATTERNS[mdp] = _SystemPattern(
+            place=where[: P.nnz], pair=P.row.astype(np.int64), p=P.data.astype(float), diagonal=where[P.nnz :],
+            indices=(keys % S).astype(np.int32), indptr=indptr)
+    return pattern
 
 
 def solve_system(system: np.ndarray | sp.spmatrix, b: np.ndarray) -> np.ndarray:

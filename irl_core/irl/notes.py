@@ -36,6 +36,7 @@ CODES: dict[str, str] = {
     "player_estimated": "the player model's parameters as estimated",
     "planning_not_identified": "whether the player plans for the hand's noise is not identified",
     "one_sided": "rewards the data bound on one side only",
+    "unreached": "rewards no recorded action can lead into: held at -rmax, bounded above only",
     "fit_check_failed": "the fitted player does not reproduce the recordings",
     "fit_check_passed": "the fitted player reproduces the recordings",
     "fit_check_not_run": "the fit check could not run",

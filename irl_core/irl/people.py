@@ -13,6 +13,7 @@ nested so that maxent's expert is their special case. Each job has its module:
 `people_fit`          the fit by maximum likelihood, the curvature that scales a refit, and the
                       bootstrap's refit (`PlayerRefit`)
 `people_choice`       choosing a model on held-out episodes
+`people_held`         the rewards no recorded action can lead into, held at -rmax, and their upper bounds
 `people_flat`         the rewards the data bound on one side only
 ====================  ========================================================================
 
@@ -45,7 +46,8 @@ from irl_core.irl.people_fit import (
     curvature_scale,
     fit_player,
 )
-from irl_core.irl.people_flat import FLAT_DROP, MAX_ONE_BY_ONE, flat_toward_bound
+from irl_core.irl.people_flat import flat_toward_bound
+from irl_core.irl.people_held import BOUND_STEPS, FLAT_DROP, MAX_ONE_BY_ONE, held_upper_bounds, jointly, unreached
 from irl_core.irl.people_likelihood import (
     IDENTITY,
     LAPSE_BOUNDS,
@@ -65,11 +67,12 @@ from irl_core.irl.people_likelihood import (
 from irl_core.irl.player_models import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
 
 __all__ = [
-    "CANDIDATES", "FLAT_DROP", "FOLDS", "FOLD_VALUE_TOLERANCE", "GRADIENT_TOLERANCE", "IDENTITY", "LAPSE_BOUNDS",
-    "MAX_ITER", "MAX_LOG_RATIO", "MAX_ONE_BY_ONE", "MAX_PERSON_BETA", "MIN_EPISODES_TO_CHOOSE", "PLAYER_MODELS",
-    "REFIT_MAX_ITER", "RESAMPLE_GRADIENT_TOLERANCE", "RESAMPLE_VALUE_TOLERANCE", "SIGMA_BOUNDS", "SIGNIFICANT_Z",
-    "SIMPLER_MARGIN", "SOFT_MAX_ITER", "SOFT_TOLERANCE", "START_LAPSE", "START_SIGMA", "VALUE_TOLERANCE",
-    "Likelihood", "ModelChoice", "Player", "PlayerFit", "PlayerModel", "PlayerPlan", "PlayerRefit", "beta_bounds",
-    "choose_player_model", "curvature_scale", "fit_given_model", "fit_player", "flat_toward_bound", "level_kernel",
-    "log_likelihood", "player_model", "significantly_better",
+    "BOUND_STEPS", "CANDIDATES", "FLAT_DROP", "FOLDS", "FOLD_VALUE_TOLERANCE", "GRADIENT_TOLERANCE", "IDENTITY",
+    "LAPSE_BOUNDS", "MAX_ITER", "MAX_LOG_RATIO", "MAX_ONE_BY_ONE", "MAX_PERSON_BETA", "MIN_EPISODES_TO_CHOOSE",
+    "PLAYER_MODELS", "REFIT_MAX_ITER", "RESAMPLE_GRADIENT_TOLERANCE", "RESAMPLE_VALUE_TOLERANCE", "SIGMA_BOUNDS",
+    "SIGNIFICANT_Z", "SIMPLER_MARGIN", "SOFT_MAX_ITER", "SOFT_TOLERANCE", "START_LAPSE", "START_SIGMA",
+    "VALUE_TOLERANCE", "Likelihood", "ModelChoice", "Player", "PlayerFit", "PlayerModel", "PlayerPlan", "PlayerRefit",
+    "beta_bounds", "choose_player_model", "curvature_scale", "fit_given_model", "fit_player", "flat_toward_bound",
+    "held_upper_bounds", "jointly", "level_kernel", "log_likelihood", "player_model", "significantly_better",
+    "unreached",
 ]

@@ -9,6 +9,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from irl_core.irl.maxent import one_blas_thread
+from irl_core.irl.people_held import unreached
 from irl_core.irl.people_likelihood import (
     LAPSE_BOUNDS,
     SIGMA_BOUNDS,
@@ -29,17 +30,24 @@ from irl_core.worlds.mdp import MDP
 VALUE_TOLERANCE = 1e-10
 GRADIENT_TOLERANCE = 1e-7
 MAX_ITER = 1000
+# L-BFGS-B keeps this many steps to model the curvature (scipy's default is 10). On issue 32's walled 24x24 world
+# (45 variables) 10 took 792 iterations for the ends model and ran out of 1000 for hand; 60 took 161 and 196,
+# 6x faster, to a likelihood as high or higher (bench/bench_people_big.py).
+MEMORY = 60
 # A resample's refit runs over variables scaled to unit curvature (`curvature_scale`) and stops at this
 # projected gradient, as maxent's does (`bootstrap.RESAMPLE_GRADIENT_TOLERANCE`).
 RESAMPLE_GRADIENT_TOLERANCE = 1e-5
 RESAMPLE_VALUE_TOLERANCE = 1e-12
 REFIT_MAX_ITER = 200
+# How many times a fit frees held rewards whose gradient points up and searches again.
+RELEASES = 3
 
 
 @dataclass(frozen=True)
 class PlayerFit:
     """The rewards theta (k,) and the player that maximise the likelihood, V (S,) at beta 1 there,
-    the mean log likelihood per recorded step, and L-BFGS-B's report."""
+    the mean log likelihood per recorded step, L-BFGS-B's report, and `held` (k,): the unknowns held at
+    -rmax because no recorded action can lead into them (`people_flat.unreached`)."""
 
     model: PlayerModel
     theta: np.ndarray
@@ -50,6 +58,7 @@ class PlayerFit:
     iterations: int
     message: str
     plan: PlayerPlan = field(repr=False)
+    held: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     @property
     def beta_at_bound(self) -> bool:
@@ -82,6 +91,7 @@ def fit_player(
     value_tolerance: float = VALUE_TOLERANCE,
     gradient_tolerance: float = GRADIENT_TOLERANCE,
     max_iter: int = MAX_ITER,
+    hold: bool = True,
 ) -> PlayerFit:
     """Maximise the mean log likelihood of counts N (S, A) over the unknowns (|theta| <= rmax), log beta,
     and, where `model` has them, log sigma and logit lapse, from `start` = (theta, player) (else theta 0,
@@ -90,29 +100,43 @@ def fit_player(
     `scale` (p,): the variables' natural sizes (`curvature_scale`), over which the search runs (a warm
     start then converges in a few steps); without it the rewards move in units of rmax / 100.
 
+    With `hold`, the unknowns no recorded action can lead into (`people_flat.unreached`) are held at -rmax,
+    where the likelihood's maximum in the box lies for them, and released (up to `RELEASES` times) where the
+    gradient there says the likelihood rises upward; `PlayerFit.held` says which stayed held.
+
     Raises ValueError without a recorded step, `Stopped` once the fit's stop check says so."""
     counts = np.asarray(counts, dtype=float)
     if counts.sum() <= 0:
         raise ValueError("the player model needs at least one recorded step")
     theta0, player0 = start if start is not None else (np.zeros(unknowns.k), Player(1.0, START_SIGMA, START_LAPSE))
     z0, bounds = _variables(model, theta0, player0, rmax=rmax)
+    held = unreached(mdp, unknowns, counts) if hold else np.zeros(unknowns.k, dtype=bool)
     negative = _Objective(mdp, unknowns, counts, model, start_V)
     if scale is None:
         # Rewards run in hundreds, the other variables near 1: rewards in units of rmax / 100, so that
         # L-BFGS-B's first steps are of a sensible size in every direction.
         scale = np.ones(z0.size)
         scale[: unknowns.k] = max(rmax / 100.0, 1.0)
-    scaled_bounds = [(low / u, high / u) for (low, high), u in zip(bounds, scale)]
+    options = {"maxiter": max_iter, "ftol": value_tolerance, "gtol": gradient_tolerance, "maxcor": MEMORY}
     with one_blas_thread():
-        result = minimize(lambda z: _scaled(negative, z, scale), z0 / scale, jac=True, method="L-BFGS-B",
-                          bounds=scaled_bounds,
-                          options={"maxiter": max_iter, "ftol": value_tolerance, "gtol": gradient_tolerance})
-        theta, player = _unpack(model, unknowns.k, result.x * scale)
+        for _ in range(RELEASES + 1):
+            z0[: unknowns.k][held] = -rmax
+            searched = [(-rmax, -rmax) if j < unknowns.k and held[j] else bound for j, bound in enumerate(bounds)]
+            result = minimize(lambda z: _scaled(negative, z, scale), z0 / scale, jac=True, method="L-BFGS-B",
+                              bounds=[(low / u, high / u) for (low, high), u in zip(searched, scale)], options=options)
+            z0 = result.x * scale
+            # A held reward whose likelihood rises upward after all (its cell's neighbours' values matter more
+            # than its risky actions) is searched over like the others.
+            rising = held & (negative(z0)[1][: unknowns.k] < -gradient_tolerance)
+            if not rising.any():
+                break
+            held = held & ~rising
+        theta, player = _unpack(model, unknowns.k, z0)
         final = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player,
                                V0=negative.V, gradient=False)
     return PlayerFit(model=model, theta=np.asarray(theta, dtype=float), player=player, V1=final.plan.V,
                      mean_log_likelihood=final.value / counts.sum(), converged=bool(result.success),
-                     iterations=int(result.nit), message=str(result.message), plan=final.plan)
+                     iterations=int(result.nit), message=str(result.message), plan=final.plan, held=held)
 
 
 def _variables(model: PlayerModel, theta: np.ndarray, player: Player, *,

@@ -236,7 +236,8 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     for n in sizes:
         for e in episodes:
             intervals = np.stack([f[1] for f in fits[e][:n]])
-            out[(n, e)] = _Study(pool_participants(intervals, confidence=grid.confidence, rmax=grid.rmax).intervals)
+            pooled = pool_participants(intervals, confidence=grid.confidence, rmax=grid.rmax, marks=False)
+            out[(n, e)] = _Study(pooled.intervals)
     return out
 
 

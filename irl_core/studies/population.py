@@ -245,7 +245,7 @@ class Population:
 
 
 def pool_participants(intervals: np.ndarray, *, rmax: float, confidence: float = 0.95,
-                      rival_shift: np.ndarray | None = None) -> Population:
+                      rival_shift: np.ndarray | None = None, marks: bool = True) -> Population:
     """The population from n participants' fits of k rewards, with outliers and influence.
 
     Args:
@@ -253,6 +253,8 @@ def pool_participants(intervals: np.ndarray, *, rmax: float, confidence: float =
         rival_shift: (n, k) where planning is not identified: each participant's estimate under the rival
             planning model minus their estimate under the chosen one. The population is then pooled under
             both and the intervals joined.
+        marks: whether to mark outliers and influence (n leave-one-out pools per reward; `careful study plan`
+            needs only the pool).
 
     A participant is an `outlier` when, on some reward, their answer lies outside the prediction interval
     of the others (pooled without them), each reward's test at (1 - confidence) / k (Bonferroni: with three
@@ -272,7 +274,7 @@ def pool_participants(intervals: np.ndarray, *, rmax: float, confidence: float =
         scales.append(pooled.scale)
     outlier_on: list[tuple[int, ...]] = []
     influential_on: list[tuple[int, ...]] = []
-    for i in range(n):
+    for i in range(n if marks else 0):
         keep = np.arange(n) != i
         outside, moved = [], []
         for j in range(k):
@@ -286,8 +288,8 @@ def pool_participants(intervals: np.ndarray, *, rmax: float, confidence: float =
                 moved.append(j)
         outlier_on.append(tuple(outside))
         influential_on.append(tuple(moved))
-    return Population(rewards=tuple(rewards), outlier=np.array([bool(o) for o in outlier_on], dtype=bool),
-                      influential=np.array([bool(m) for m in influential_on], dtype=bool),
+    return Population(rewards=tuple(rewards), outlier=np.array([bool(o) for o in outlier_on] or [False] * n),
+                      influential=np.array([bool(m) for m in influential_on] or [False] * n),
                       outlier_on=tuple(outlier_on), influential_on=tuple(influential_on))
 
 

@@ -161,3 +161,20 @@ def test_the_fast_bootstrap_gives_the_intervals_of_the_reference_route(monkeypat
     np.testing.assert_allclose(fast.intervals, reference.intervals, rtol=0, atol=1e-6 * width.max())
     assert fast.beta == pytest.approx(reference.beta, rel=1e-6)
     np.testing.assert_allclose(fast.theta, reference.theta, rtol=1e-5)
+
+
+def test_a_big_worlds_policy_system_is_i_minus_gamma_p_pi_built_the_slow_way():
+    # policy_system fills a fixed pattern by a weighted count; planning.policy_matrix is the independent route.
+    import scipy.sparse as sp
+
+    from bench.worlds import cliff_world
+    from irl_core.irl.maxent import DENSE_STATES, policy_system
+    from irl_core.worlds.mdp import build_mdp
+    from irl_core.worlds.planning import policy_matrix
+
+    mdp = build_mdp(cliff_world(12, 14))
+    assert mdp.n_states > DENSE_STATES
+    pi = np.random.default_rng(0).dirichlet(np.ones(mdp.n_actions), size=mdp.n_states)
+    pi[3] = np.eye(mdp.n_actions)[2]  # a deterministic row: zeros in the weights
+    expected = sp.identity(mdp.n_states) - mdp.gamma * policy_matrix(mdp, pi)[0]
+    assert abs(policy_system(mdp, pi) - expected).max() < 1e-14

@@ -2,7 +2,6 @@
 
 import csv
 
-import numpy as np
 import pytest
 from study.conftest import write_study
 

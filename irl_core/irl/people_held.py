@@ -1,0 +1,69 @@
+"""Rewards of a model of people that no recorded action can lead into, found before the fit.
+
+Such a reward (`unreached`: every recorded (s, a) has P(cell | s, a) = 0) is not bounded below by the data.
+Lowering it only makes unrecorded actions, those that risk the cell, less likely, so the likelihood rises
+toward a limit as it falls and its maximum within the box is at -rmax: the fit holds it there
+(`people_fit.fit_player`, which frees it again if the gradient there says otherwise) instead of walking
+L-BFGS-B down a flat direction until its iteration limit (issue 32: a 24x24 world's fit "not converged in
+124.9 s", its cliff cells left wherever the walk stopped, an agent falling 11%). `held_upper_bounds` then
+says how high each held reward can be before the data object: its interval is [-rmax, that bound].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from irl_core.irl.people_likelihood import log_likelihood
+from irl_core.irl.player_models import Player, PlayerModel
+from irl_core.irl.qmap import Unknowns
+from irl_core.worlds.mdp import MDP
+
+# A reward moved to its bound whose log likelihood falls by less than this (chi-square(1) at 95%, halved)
+# is not bounded on that side by the data.
+FLAT_DROP = 1.92
+# Beyond this many unknowns on one side, only the joint move is tried (one soft Bellman fixed point each).
+MAX_ONE_BY_ONE = 40
+
+
+def unreached(mdp: MDP, unknowns: Unknowns, counts: np.ndarray) -> np.ndarray:
+    """(k,) True for the unknowns none of whose cells any recorded action (counts N (S, A) > 0) can lead into."""
+    entries = (np.asarray(counts, dtype=float).ravel() > 0).astype(float) @ mdp.P  # (S,) reachable in one step
+    basis = sp.csc_matrix(unknowns.basis)
+    return np.asarray(abs(basis).T @ (entries > 0)).ravel() == 0
+
+
+# Bisection steps for a held reward's upper bound: its resolution is 2 rmax / 2^steps (0.5 at rmax 1000).
+BOUND_STEPS = 12
+
+
+def held_upper_bounds(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, model: PlayerModel,
+                      player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None) -> np.ndarray:
+    """(k,) for each held unknown (`held`, at -rmax in `theta`), the highest value to which it can be raised, the
+    others kept, before the log likelihood falls by `FLAT_DROP` (NaN elsewhere): its interval is [-rmax, that].
+
+    One by one up to `MAX_ONE_BY_ONE` held unknowns; beyond, all together (a common bound, at most as high as each's
+    own: the interval is then narrower than one by one would give, said by `jointly`)."""
+    counts = np.asarray(counts, dtype=float)
+
+    def ll(values: np.ndarray) -> float:
+        return log_likelihood(mdp, counts, unknowns.state_rewards(values), model=model, player=player, V0=V0,
+                              gradient=False).value
+
+    best = ll(theta)
+    out = np.full(unknowns.k, np.nan)
+    groups = [[j] for j in np.flatnonzero(held)] if held.sum() <= MAX_ONE_BY_ONE else [list(np.flatnonzero(held))]
+    for group in groups:
+        low, high = -rmax, rmax
+        for _ in range(BOUND_STEPS):
+            middle = (low + high) / 2
+            moved = theta.copy()
+            moved[group] = middle
+            low, high = (middle, high) if best - ll(moved) < FLAT_DROP else (low, middle)
+        out[group] = low
+    return out
+
+
+def jointly(held: np.ndarray) -> bool:
+    """Whether `held_upper_bounds` bounded the held unknowns together rather than one by one."""
+    return int(np.sum(held)) > MAX_ONE_BY_ONE

@@ -1,0 +1,74 @@
+"""Rewards no recorded action can lead into: held at -rmax by the people fit, released where the likelihood
+rises upward, and reported with the upper bound the data give (checked by evaluating the likelihood)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bench.worlds import cliff_world
+from irl_core.irl.people_fit import fit_player
+from irl_core.irl.people_held import BOUND_STEPS, FLAT_DROP, held_upper_bounds, unreached
+from irl_core.irl.people_likelihood import log_likelihood
+from irl_core.irl.player_models import PLAYER_MODELS
+from irl_core.irl.qmap import build_unknowns
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
+from irl_core.worlds.mdp import build_mdp
+
+RMAX = 1000.0
+
+
+@pytest.fixture(scope="module")
+def top_rows():
+    """A 5x6 cliff world whose recordings keep to its top two rows: no recorded action can reach the cliff."""
+    mdp = build_mdp(cliff_world(5, 6))
+    demos = demonstrations_of(mdp, rollouts(mdp, boltzmann_policy(mdp, beta=1.0), episodes=40, seed=0))
+    rows = np.array([mdp.cells[s][0] if s < len(mdp.cells) else -1 for s in range(mdp.n_states)])
+    counts = demos.counts * ((rows >= 0) & (rows <= 1))[:, None]
+    return mdp, build_unknowns(mdp), counts
+
+
+def test_the_unreached_rewards_are_exactly_those_no_recorded_action_can_step_into(top_rows):
+    mdp, unknowns, counts = top_rows
+    held = unreached(mdp, unknowns, counts)
+    # Independently: a cell one step from a recorded state is in row 2 at most; every special cell is in row 4.
+    assert held.all() and unknowns.k == 5
+    full = unreached(mdp, unknowns, counts + 1.0)  # every action recorded somewhere: every cell can be reached
+    assert not full.any()
+
+
+def test_a_held_reward_stays_at_minus_rmax_and_the_fit_converges(top_rows):
+    mdp, unknowns, counts = top_rows
+    solution = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=RMAX)
+    assert solution.converged
+    held = solution.held
+    assert held.any()
+    np.testing.assert_array_equal(solution.theta[held], -RMAX)
+
+
+def test_a_held_rewards_upper_bound_is_where_the_likelihood_has_fallen_by_the_drop(top_rows):
+    mdp, unknowns, counts = top_rows
+    model = PLAYER_MODELS["ends"]
+    solution = fit_player(mdp, unknowns, counts, model=model, rmax=RMAX)
+    upper = held_upper_bounds(mdp, unknowns, counts, theta=solution.theta, model=model, player=solution.player,
+                              held=solution.held, rmax=RMAX)
+
+    def ll(theta):
+        return log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=solution.player,
+                              gradient=False).value
+
+    best = ll(solution.theta)
+    step = 2 * RMAX / 2**BOUND_STEPS
+    for j in np.flatnonzero(solution.held):
+        at, past = solution.theta.copy(), solution.theta.copy()
+        at[j], past[j] = upper[j], upper[j] + step
+        assert best - ll(at) < FLAT_DROP
+        assert upper[j] >= RMAX - step or best - ll(past) >= FLAT_DROP
+
+
+def test_holding_finds_a_likelihood_at_least_as_high_as_the_free_search(top_rows):
+    # The held value is the box's maximum for those rewards, not a shortcut that costs likelihood.
+    mdp, unknowns, counts = top_rows
+    free = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=RMAX, hold=False)
+    held = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=RMAX)
+    assert held.mean_log_likelihood >= free.mean_log_likelihood - 1e-9
