@@ -261,7 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
         "nuisance'), the share whose pooled intervals hold the hypothesised rewards, and the median interval "
         "widths; writes plan.csv and plan.pdf/plan.png to <out>/plan/."),
         epilog="Example: careful study plan pilot.toml --participants 5,10 --episodes 5,10 --repeats 20; the default "
-        "grid (3 x 3, 20 studies each) takes a few minutes on two cores.")
+        "grid (3 x 3, 20 studies each) took about 10 minutes per world on two busy cores.")
     plan.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
     plan.add_argument("--truth", default=None, metavar="C=-1000,U=-30,G=100",
                       help="the hypothesised reward per symbol (default: the worlds' own)")
