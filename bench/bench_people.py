@@ -20,8 +20,11 @@ fit meant for people (docs/people.md): order and cliff in at least 90% of runs, 
 covered in at least 75%, for `loose`, `timed` and `hasty`; the fit check fails on `inverted`.
 `table(...)` takes any options, so another player model can be measured the same way.
 
+With ``--calibration N`` each player first does a study's motor calibration block of N targets
+(`person_like.motor_trials`), and the fit holds the hand those trials measure.
+
 Run: .venv/bin/python -m bench bench_people [--seeds N] [--quick] [--tie] [--players ...] [--worlds ...]
-     [--option NAME=VALUE ...]
+     [--calibration N] [--option NAME=VALUE ...]
 """
 
 from __future__ import annotations
@@ -39,8 +42,9 @@ import numpy as np
 
 from irl_core.irl import FitOptions, fit
 from irl_core.irl.result import FitError
+from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import demonstrations_of, rollouts
-from irl_core.players.person_like import KINDS, person_like
+from irl_core.players.person_like import KINDS, motor_trials, person_like
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS
 
@@ -79,12 +83,18 @@ class Run:
         return self.error is None and v["C"] < v["U"] < 0 < v["G"]
 
 
-def one_run(player: str, world: str, seed: int, options: FitOptions, episodes: int = EPISODES) -> Run:
-    """Roll out `episodes` of `player` in `world` with `seed` and fit them with `options` on one process."""
+def one_run(player: str, world: str, seed: int, options: FitOptions, episodes: int = EPISODES,
+            calibration: int = 0) -> Run:
+    """Roll out `episodes` of `player` in `world` with `seed` and fit them with `options` on one process;
+    with `calibration` targets, the player first does a study's motor calibration block of that many."""
     mdp = build_mdp(BUILTIN_WORLDS[world])
     stream = np.random.SeedSequence([seed, PLAYERS.index(player), WORLDS.index(world) if world in WORLDS else 9])
-    demos = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, player).choose, episodes=episodes,
-                                            rng=np.random.default_rng(stream)))
+    rng = np.random.default_rng(stream)
+    person = person_like(mdp, player)
+    demos = demonstrations_of(mdp, rollouts(mdp, person.choose, episodes=episodes, rng=rng))
+    if calibration:
+        targets = np.array(calibration_targets(mdp.levels, calibration, seed=seed))
+        demos = dataclasses.replace(demos, calibration=motor_trials(person, targets, mdp.levels, rng))
     started = time.perf_counter()
     try:
         result = fit(demos, options, workers=1)
@@ -112,12 +122,13 @@ def one_run(player: str, world: str, seed: int, options: FitOptions, episodes: i
 
 def runs(players: Iterable[str], worlds: Iterable[str], seeds: Iterable[int], *,
          options: Callable[[int], FitOptions] = default_options, workers: int | None = None,
-         progress: Callable[[int, int, Run], None] | None = None) -> list[Run]:
-    """Every (player, world, seed) fitted with `options(seed)`, `workers` fits at a time (default: the cores)."""
+         progress: Callable[[int, int, Run], None] | None = None, calibration: int = 0) -> list[Run]:
+    """Every (player, world, seed) fitted with `options(seed)`, `workers` fits at a time (default: the cores),
+    each player doing a motor calibration block of `calibration` targets first (0: none)."""
     jobs = [(p, w, s, options(s)) for p in players for w in worlds for s in seeds]
     done: list[Run] = []
     with ProcessPoolExecutor(max_workers=workers or os.cpu_count()) as pool:
-        futures = [pool.submit(one_run, *job) for job in jobs]
+        futures = [pool.submit(one_run, *job, EPISODES, calibration) for job in jobs]
         for future in as_completed(futures):
             done.append(future.result())
             if progress is not None:
@@ -174,6 +185,8 @@ def main() -> None:
     parser.add_argument("--tie", action="store_true", help="one unknown per symbol")
     parser.add_argument("--players", nargs="+", choices=PLAYERS, default=list(PLAYERS))
     parser.add_argument("--worlds", nargs="+", choices=list(BUILTIN_WORLDS), default=list(WORLDS))
+    parser.add_argument("--calibration", type=int, default=0, metavar="N",
+                        help="each player does a motor calibration block of N targets first (default 0: none)")
     parser.add_argument("--workers", type=int, default=None, help="fits at a time (default: the cores)")
     parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE", type=_option,
                         help="a FitOptions field to set in every fit, e.g. --option rmax=5000 (repeatable)")
@@ -189,9 +202,10 @@ def main() -> None:
 
     done = runs(args.players, args.worlds, seeds,
                 options=lambda seed: dataclasses.replace(default_options(seed, tie=args.tie), **changes),
-                workers=args.workers, progress=report)
+                workers=args.workers, progress=report, calibration=args.calibration)
     unknowns = "one per symbol (--tie)" if args.tie else "one per cell, each symbol read as its cells' median"
     changed = "".join(f", {name} {value}" for name, value in changes.items())
+    changed += f", a calibration block of {args.calibration} targets" if args.calibration else ""
     print(f"\n{EPISODES} episodes per run, {len(seeds)} seeds, the default fit with 200 resamples{changed}; unknowns "
           f"{unknowns}; {time.perf_counter() - started:.0f} s on {args.workers or os.cpu_count()} workers\n")
     print(table(done))

@@ -8,7 +8,8 @@ the participant's folder again and says which stage comes next.
 `q` (or SIGTERM) leaves from any screen, keeping what was recorded (the play screen records a running
 episode as ``quit``); running the same participant again resumes where the files say, and an
 interrupted episode is played again. A calibration made in hold mode carries over to the next
-blocks.
+blocks. A study with a motor calibration block shows it (`careful_tui.screens.motor`) after the
+instructions, before the first block.
 
 The study's text (its name, instructions, world names) is shown as text: control characters are
 escaped and nothing is read as markup.
@@ -30,6 +31,7 @@ from textual.screen import Screen
 from textual.widgets import Static
 
 from careful_tui.render.palette import GOOD, NOTE, WARN
+from careful_tui.screens.motor import MotorScreen
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
 from irl_core.play.input_modes import input_mode
@@ -59,6 +61,9 @@ def plan_text(protocol: Protocol) -> Text:
     if study.practice_episodes:
         each = f"{plural(study.practice_episodes, 'practice episode')}, then {each} that count"
     text = Text()
+    if study.calibration_block:
+        text.append(f"First, a short calibration: {plural(study.calibration_block, 'hold')} to a level the gauge "
+                    "shows. ")
     text.append(f"You will play {plural(worlds, 'world')}" + (f". In each: {each}. " if worlds > 1 else f": {each}. "))
     text.append("Every episode ends when you reach a cell that ends it (the goal, or worse) or run out of steps.\n\n")
     if all(world.levels == 1 for world in protocol.study.worlds):
@@ -230,6 +235,24 @@ class StudyScreen(Screen[None]):
         if self.flow.stage == "end":
             self.app.exit()
             return
+        motor = self.flow.calibration()
+        if motor is not None:
+            block = self.flow.protocol.next
+            assert block is not None, "calibration() is None for a finished participant"
+            self.app.push_screen(MotorScreen(motor, self.flow.protocol.world(block), event_times=self.event_times),
+                                 self.calibration_ended)
+            return
+        self._play_next()
+
+    def calibration_ended(self, go_on: bool | None) -> None:
+        """The calibration block's screen closed: practice follows, or the participant left."""
+        self.flow.calibration_ended()
+        if go_on:
+            self._play_next()
+        else:
+            self.app.exit()
+
+    def _play_next(self) -> None:
         session = self.flow.next_block()
         if session is None:
             self.stage = self.flow.stage

@@ -9,7 +9,11 @@ with `view()`, what the page draws. The page sends only key presses and releases
 ==============  ===============================================================
 stage           what the page shows; the keys that act
 ==============  ===============================================================
-instructions    the study's instructions and plan; space begins the next block
+instructions    the study's instructions and plan; space begins the next block (or the
+                calibration block, when the study has one the participant has not done)
+calibration     the motor calibration block: a level to make with the gauge visible
+                ("hold until the gauge shows k, then let go"); arrows hold, space goes
+                on to practice once every target has a trial
 play            the board, the gauge and the score; arrows move (hold longer: more
                 careful), space starts the next episode once one has ended
 between         practice over, or a world done; space goes on
@@ -47,6 +51,7 @@ from careful_tui.version import app_version
 from careful_tui.widgets.gauge import format_chance
 from irl_core.play.game import level_costs, level_slip_chances
 from irl_core.play.hold import HoldProfile
+from irl_core.play.motor_block import MOTOR_INTRO, MOTOR_TITLE, MotorBlock, result_words
 from irl_core.play.session import Played, PlaySession
 from irl_core.recordings.lines import ProlificTag
 from irl_core.recordings.summary import outcome_code
@@ -114,6 +119,7 @@ class WebSession:
         self.flow = StudyFlow(self.study, participant, seed=seed, app_version=app_version())
         self.flow.profile = browser_profile(max(world.levels for world in study.worlds))  # each block's levels
         self.session: PlaySession | None = None
+        self.motor: MotorBlock | None = None
         self.stage = "end" if self.flow.stage == "end" else "instructions"
         self.held: _Held | None = None
         self.note = ""
@@ -134,7 +140,11 @@ class WebSession:
     def press(self, key: object, at_ms: object) -> None:
         """An arrow went down at `at_ms` (the page's clock): a hold starts, unless one is held."""
         key, at_ms = self._check(key, at_ms)
-        if self._live() and self.held is None:
+        if self._calibrating() and self.held is None:
+            assert self.motor is not None
+            self.held = _Held(key, at_ms)
+            self.motor.press(key, at=0.0, repeat=False)
+        elif self._live() and self.held is None:
             assert self.session is not None
             self.held = _Held(key, at_ms)
             self.note = ""
@@ -146,6 +156,9 @@ class WebSession:
         """An arrow came up at `at_ms`: the hold on it ends and its move is played."""
         key, at_ms = self._check(key, at_ms)
         held, session = self.held, self.session
+        if held is not None and held.key == key and self._calibrating():
+            self._release_trial(key, at_ms - held.at_ms)
+            return
         if held is None or held.key != key or session is None:
             return
         self.held = None
@@ -159,14 +172,25 @@ class WebSession:
 
     def cancel(self) -> None:
         """The window lost focus (or the page could not send the release): the hold is dropped."""
-        if self.held is not None and self.session is not None:
+        if self.held is not None and self._calibrating():
+            assert self.motor is not None
+            self.held = None
+            self.motor.cancel_hold()
+        elif self.held is not None and self.session is not None:
             self.held = None
             self.session.cancel_hold("the window lost focus")
 
     def space(self) -> None:
         """Space: begin, go on, or start the next episode."""
         self.note = ""
-        if self.stage in ("instructions", "between"):
+        if self.stage == "instructions" and self._start_calibration():
+            return
+        if self.stage == "calibration":
+            if self.motor is not None and self.motor.done and self.held is None:
+                self.flow.calibration_ended()
+                self.motor = None
+                self._start_block()
+        elif self.stage in ("instructions", "between"):
             self._start_block()
         elif self.stage == "play" and self.session is not None and self.held is None:
             if self.session.next_episode():
@@ -186,6 +210,34 @@ class WebSession:
         self.say(f"{self.participant}: {why} ({done} of {plural(total, 'episode')} done)")
 
     # ------------------------------------------------------------------ the flow
+
+    def _calibrating(self) -> bool:
+        return self.stage == "calibration" and self.motor is not None and not self.motor.done
+
+    def _start_calibration(self) -> bool:
+        """The calibration block, if the study has one not yet done: its trials' file gets the browser's header."""
+        motor = self.flow.calibration()
+        if motor is None:
+            return False
+        recorder = motor.recorder
+        recorder.set_header(recorder.header.model_copy(update={
+            "input": input_header(motor.profile, self.user_agent), "prolific": self.prolific}))
+        self.motor, self.stage = motor, "calibration"
+        self.say(f"{self.participant}: started the calibration block ({plural(len(motor.targets), 'target')})")
+        return True
+
+    def _release_trial(self, key: str, held_ms: float) -> None:
+        """A calibration hold ended after `held_ms`: its trial is written (or it is refused as too long)."""
+        assert self.motor is not None
+        self.held = None
+        if not 0 <= held_ms <= LONGEST_HOLD_MS:
+            self.motor.cancel_hold()
+            return
+        self.motor.release(key, at=held_ms / 1000)
+        if self.motor.write_error is not None:
+            raise self.motor.write_error
+        if self.motor.done:
+            self.say(f"{self.participant}: finished the calibration block")
 
     def _live(self) -> bool:
         return self.stage == "play" and self.session is not None and self.session.game.live
@@ -241,7 +293,11 @@ class WebSession:
         """Everything the page draws now, as JSON-ready data; every text is plain text."""
         view: dict[str, Any] = {"stage": self.stage, "title": printable(self.study.study.name, limit=80),
                                 "participant": self.participant}
-        if self.stage == "play":
+        if self.stage == "calibration":
+            view["calibration"] = self._calibration_view()
+            held = [["←↑→↓", "hold until the gauge shows the level, then let go"]]
+            view["keys"] = ([["space", "begin practice"]] if view["calibration"]["done"] else held) + [["q", "leave"]]
+        elif self.stage == "play":
             view["play"] = self._play_view()
             if self._live():
                 keys = [["←↑→↓", "hold: move, longer is more careful"]]
@@ -272,6 +328,23 @@ class WebSession:
         return Group(Text("You have left the study.", style=f"bold {NOTE}"),
                      Text(f"What you played is kept: {done} of {plural(total, 'episode')} done."),
                      Text("Open your link again to go on where you stopped.", style="dim"))
+
+    def _calibration_view(self) -> dict[str, Any]:
+        motor = self.motor
+        assert motor is not None
+        now = motor.view()
+        block = self.protocol.next
+        assert block is not None, "the calibration block comes before a block"
+        world = self.protocol.world(block)
+        return {
+            "heading": f"{MOTOR_TITLE} · {min(now.number, now.count)} of {now.count}",
+            "intro": MOTOR_INTRO, "instruction": now.instruction, "target": now.target, "done": now.done,
+            "last": None if now.last is None else result_words(now.last),
+            "levels": [{"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
+                       for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],
+            "timing": {"tap_ms": motor.profile.tap_ms, "ms_per_level": motor.profile.ms_per_level,
+                       "levels": motor.profile.levels},
+        }
 
     def _play_view(self) -> dict[str, Any]:
         session = self.session

@@ -22,6 +22,7 @@ import irl_core.irl.fit_methods as fit_methods
 from irl_core.irl.bootstrap import Refit, Refitter, bootstrap
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.fit_check import FitCheck, fit_check
+from irl_core.irl.hand import hand_from_trials
 from irl_core.irl.intervals import reward_intervals
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp import Progress, solve_margin_lp
@@ -274,11 +275,19 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     mdp, unknowns = qmap.mdp, qmap.unknowns
     notes: list[Note] = []
     rival = None
+    hand = None
+    if demos.calibration.shape[0]:
+        measured = hand_from_trials(demos.calibration, mdp.levels)
+        hand = measured.known()
+        notes.append(Note("hand_calibrated", f"the hand from {measured.trials} calibration trials: bias "
+                                             f"{measured.bias:+.2f} levels, sigma {measured.sigma:.2f} levels "
+                                             "(held fixed in every model with a hand)"))
     if model == PLAYER_AUTO:
         if demos.by_episode is None:
             raise BadInputError("player_model auto needs the demonstrations' episodes (held-out episodes choose it); "
                                 "give {player_model=person} instead", code="no_episodes")
-        choice = choose_player_model(mdp, unknowns, demos.by_episode, rmax=options.rmax, seed=options.seed)
+        choice = choose_player_model(mdp, unknowns, demos.by_episode, rmax=options.rmax, seed=options.seed,
+                                     hand=hand)
         solution = choice.fits[choice.name]
         notes.append(Note("player_model", choice.reason))
         rival = _planning_rival(choice)
@@ -288,10 +297,12 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                               f"episodes ({solution.model.name} and {rival.model.name} agree within their "
                               "noise): the reward's size depends on it, so the intervals cover both"))
     else:
-        solution = fit_given_model(mdp, unknowns, demos.counts, model=player_model(model), rmax=options.rmax)
+        solution = fit_given_model(mdp, unknowns, demos.counts, model=player_model(model).with_hand(hand),
+                                   rmax=options.rmax)
         notes.append(Note("player_model", f"player model {model}, as asked: {solution.model.summary}"))
     player = solution.player
-    words = [f"beta {player.beta:.3g}"] + ([f"the hand's sigma {player.sigma:.2g} levels"] if solution.model.hand else []) \
+    words = [f"beta {player.beta:.3g}"] + ([f"the hand's sigma {player.sigma:.2g} levels"]
+                                           if solution.model.searches_hand else []) \
         + ([f"lapses {player.lapse:.2g}"] if solution.model.lapses else [])
     notes.append(Note("player_estimated", "player estimated by maximum likelihood with the rewards: " + ", ".join(words)))
     if not solution.converged:

@@ -122,7 +122,7 @@ def variables(fit: PlayerFit) -> tuple[np.ndarray, np.ndarray]:
     player = fit.player
     z = [*fit.theta, np.log(player.beta)]
     free = [True] * fit.theta.size + [_inside(np.log(player.beta), beta_bounds(fit.model))]
-    if fit.model.hand:
+    if fit.model.searches_hand:
         z.append(np.log(player.sigma))
         free.append(_inside(z[-1], np.log(SIGMA_BOUNDS)))
     if fit.model.lapses:
@@ -154,15 +154,15 @@ def gradient(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, z
     """(p,) dLL/dz at variables z (`variables`) of `fit`'s model (the exact gradient, by the chain rule)."""
     k = unknowns.k
     i = k + 1
-    sigma = lapse = 0.0
-    if fit.model.hand:
+    sigma, lapse, bias = fit.player.sigma, 0.0, fit.player.bias
+    if fit.model.searches_hand:
         sigma, i = float(np.exp(z[i])), i + 1
     if fit.model.lapses:
         lapse = float(1 / (1 + np.exp(-z[i])))
-    player = Player(float(np.exp(z[k])), sigma, lapse)
+    player = Player(float(np.exp(z[k])), sigma, lapse, bias)
     got = log_likelihood(mdp, counts, unknowns.state_rewards(z[:k]), model=fit.model, player=player, V0=fit.V1)
     parts = [unknowns.basis.T @ got.R_S, [got.log_beta]]
-    if fit.model.hand:
+    if fit.model.searches_hand:
         parts.append([got.log_sigma])
     if fit.model.lapses:
         parts.append([got.lapse * lapse * (1 - lapse)])

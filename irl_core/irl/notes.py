@@ -34,6 +34,7 @@ CODES: dict[str, str] = {
     "few_episodes": "too few episodes for a good bootstrap interval",
     "player_model": "maxent's model of the player, and why it was chosen",
     "player_estimated": "the player model's parameters as estimated",
+    "hand_calibrated": "the hand's bias and noise, measured by a study's motor calibration trials",
     "planning_not_identified": "whether the player plans for the hand's noise is not identified",
     "one_sided": "rewards the data bound on one side only",
     "unreached": "rewards no recorded action can lead into: held at -rmax, bounded above only",

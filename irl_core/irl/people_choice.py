@@ -52,16 +52,18 @@ def choose_player_model(
     candidates: tuple[str, ...] = CANDIDATES,
     folds: int = FOLDS,
     seed: int = 0,
+    hand: tuple[float, float] | None = None,
 ) -> ModelChoice:
     """Fit each candidate model to the episodes (rows of `by_episode`, (E, S * A)) and choose by
     `folds`-fold held-out log likelihood of whole episodes: of the models within `SIMPLER_MARGIN` of
     the best, the one with the fewest parameters, the likeliest among those. With fewer than
     `MIN_EPISODES_TO_CHOOSE` episodes the choice is the ``ends`` model (the simplest with a person's
-    episode end), said so."""
+    episode end), said so. `hand` (bias, sigma): the hand measured by calibration trials, held fixed in
+    every model with a hand."""
     by_episode = sp.csr_matrix(by_episode)
     counts = _counts_of(by_episode, mdp)
     E = by_episode.shape[0]
-    models = [player_model(name) for name in candidates]
+    models = [player_model(name).with_hand(hand) for name in candidates]
     if E < MIN_EPISODES_TO_CHOOSE:
         fit = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=rmax)
         return ModelChoice("ends", None, 0, {"ends": fit},

@@ -67,7 +67,7 @@ class PlayerFit:
     def parameters(self) -> np.ndarray:
         """(p,) theta, then beta, then sigma and the lapse where the model has them (the bootstrap's vector)."""
         extra = [self.player.beta]
-        if self.model.hand:
+        if self.model.searches_hand:
             extra.append(self.player.sigma)
         if self.model.lapses:
             extra.append(self.player.lapse)
@@ -145,7 +145,7 @@ def _variables(model: PlayerModel, theta: np.ndarray, player: Player, *,
     them, and their bounds."""
     z = list(np.asarray(theta, dtype=float)) + [float(np.clip(np.log(player.beta), *beta_bounds(model)))]
     bounds = [(-rmax, rmax)] * len(theta) + [beta_bounds(model)]
-    if model.hand:
+    if model.searches_hand:
         z.append(float(np.log(np.clip(player.sigma or START_SIGMA, *SIGMA_BOUNDS))))
         bounds.append((float(np.log(SIGMA_BOUNDS[0])), float(np.log(SIGMA_BOUNDS[1]))))
     if model.lapses:
@@ -157,12 +157,14 @@ def _variables(model: PlayerModel, theta: np.ndarray, player: Player, *,
 def _unpack(model: PlayerModel, k: int, z: np.ndarray) -> tuple[np.ndarray, Player]:
     """(theta, player) from the search's variables (`_variables`)."""
     i = k + 1
-    sigma = lapse = 0.0
-    if model.hand:
+    sigma = lapse = bias = 0.0
+    if model.known_hand is not None and model.hand:
+        bias, sigma = model.known_hand
+    elif model.hand:
         sigma, i = float(np.exp(z[i])), i + 1
     if model.lapses:
         lapse = float(1 / (1 + np.exp(-z[i])))
-    return z[:k], Player(float(np.exp(z[k])), sigma, lapse)
+    return z[:k], Player(float(np.exp(z[k])), sigma, lapse, bias)
 
 
 class _Objective:
@@ -181,7 +183,7 @@ class _Objective:
                              player=player, V0=self.V)
         self.V = got.plan.V
         grad = [self.basis_T @ got.R_S, [got.log_beta]]
-        if self.model.hand:
+        if self.model.searches_hand:
             grad.append([got.log_sigma])
         if self.model.lapses:
             grad.append([got.lapse * player.lapse * (1 - player.lapse)])

@@ -14,7 +14,9 @@ end          ``ends``    the soft backup stops at the episode's end: a terminal 
                          gets nothing after the goal); without it every state gets the soft
                          backup, as maxent's
 hand         sigma       the player intends level c* and the hand realises c with
-                         K(c | c*) ~ exp(-(c - c*)^2 / (2 sigma^2)) on 1..L; the move's slip
+                         K(c | c*) ~ exp(-(c - c* - b)^2 / (2 sigma^2)) on 1..L, b the hand's
+                         bias (0, or known with sigma from a study's calibration trials,
+                         `irl_core.irl.hand`: then neither is searched); the move's slip
                          and cost are the realised level's, and the player plans for the hand:
                          Q_I(s, d, c*) = sum_c K(c | c*) Q(s, d, c)
 lapse        epsilon     with probability epsilon the direction is uniformly random, the level
@@ -87,14 +89,15 @@ def beta_bounds(model: PlayerModel) -> tuple[float, float]:
 IDENTITY: dict[int, np.ndarray] = {}  # the kernel without noise, one per level count (compared by identity)
 
 
-def level_kernel(levels: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-    """K (L, L), K[c* - 1, c - 1] = P(realised c | intended c*), and dK/dlog sigma (L, L).
+def level_kernel(levels: int, sigma: float, bias: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """K (L, L), K[c* - 1, c - 1] = P(realised c | intended c*), and dK/dlog sigma (L, L); the hand's
+    `bias` (levels) shifts every row's centre to c* + bias.
 
     sigma 0 is the identity (no hand noise)."""
     if sigma <= 0:
         identity = IDENTITY.setdefault(levels, np.eye(levels))
         return identity, np.zeros((levels, levels))
-    offset = np.arange(levels)[None, :] - np.arange(levels)[:, None]
+    offset = np.arange(levels)[None, :] - np.arange(levels)[:, None] - bias
     a = offset.astype(float) ** 2 / sigma**2  # -2 dlog w / dlog sigma ... see below
     log_w = -0.5 * a
     log_w -= log_w.max(axis=1, keepdims=True)
@@ -221,7 +224,7 @@ def log_likelihood(
     """LL of recorded counts N (S, A) for state rewards R_S (S,) and the player, with its exact gradient
     (zeros when `gradient` is False). V0 (S,): a start for the soft values at beta 1 (beta V)."""
     beta = player.beta
-    K, dK = level_kernel(mdp.levels, player.sigma if model.hand else 0.0)
+    K, dK = level_kernel(mdp.levels, player.sigma if model.hand else 0.0, player.bias if model.hand else 0.0)
     lapse = player.lapse if model.lapses else 0.0
     R1 = beta * mdp.reward_matrix(R_S)
     plan, system = _forward(mdp, R1, K, ends=model.ends, lapse=lapse, plans=model.plans, V0=V0)

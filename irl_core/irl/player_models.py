@@ -7,7 +7,7 @@ can read it before it needs numpy's solvers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True)
@@ -20,11 +20,23 @@ class PlayerModel:
     lapses: bool
     summary: str
     plans: bool = True
+    # (bias, sigma) in levels when the hand is known (a study's motor calibration trials): then the fit
+    # searches neither; None: sigma is estimated with the rewards and the bias is 0.
+    known_hand: tuple[float, float] | None = None
+
+    @property
+    def searches_hand(self) -> bool:
+        """The hand's sigma is one of the fit's variables (the model has a hand and it is not known)."""
+        return self.hand and self.known_hand is None
 
     @property
     def extra_parameters(self) -> int:
         """Parameters beyond the rewards and beta."""
-        return int(self.hand) + int(self.lapses)
+        return int(self.searches_hand) + int(self.lapses)
+
+    def with_hand(self, hand: tuple[float, float] | None) -> PlayerModel:
+        """This model with the hand (bias, sigma) known, when it has a hand; else itself."""
+        return replace(self, known_hand=hand) if self.hand and hand is not None else self
 
 
 PLAYER_MODELS: dict[str, PlayerModel] = {
@@ -45,14 +57,16 @@ PLAYER_MODELS: dict[str, PlayerModel] = {
 }
 @dataclass(frozen=True)
 class Player:
-    """A player's parameters besides the rewards: beta, the hand's sigma (levels), the lapse probability."""
+    """A player's parameters besides the rewards: beta, the hand's sigma (levels), the lapse probability,
+    and the hand's bias (produced minus intended level; known from calibration trials, else 0)."""
 
     beta: float
     sigma: float = 0.0
     lapse: float = 0.0
+    bias: float = 0.0
 
     def to_json(self) -> dict[str, float]:
-        return {"beta": self.beta, "sigma": self.sigma, "lapse": self.lapse}
+        return {"beta": self.beta, "sigma": self.sigma, "lapse": self.lapse, "bias": self.bias}
 
 
 AUTO = "auto"

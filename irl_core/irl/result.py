@@ -174,6 +174,8 @@ class FitResult:
         if self.player is not None and self.player_model is not None and self.player_model != "boltzmann":
             out["sigma"] = self.player.sigma
             out["lapse"] = self.player.lapse
+            if self.player.bias:
+                out["bias"] = self.player.bias
         return out
 
     @property

@@ -335,34 +335,9 @@ class PlaySession:
         )
 
     def hold_view(self) -> HoldView | None:
-        """The move being entered as shown: its level, gauge fill and hold ms (None: none).
-
-        In a mode that times holds, without release events a hold with no autorepeat yet is a
-        tap (level 1) and a hold shows no more than one repeat period past its last key event,
-        so the gauge never shows a level the move will not get.
-        """
-        current = self.input.current()
-        if current is None:
-            return None
-        if not self.mode.times_holds:
-            return HoldView(current.key, current.level, float(current.level), current.elapsed_ms)
-        return self._timed_view(current)
-
-    def _timed_view(self, current: ActiveHold) -> HoldView:
-        p = self.profile
-        shown_ms = current.elapsed_ms
-        if not self.releases_seen:
-            if current.repeats == 0:
-                return HoldView(current.key, 1, 1 + 0.9 * min(1.0, shown_ms / p.tap_ms), shown_ms)
-            if self._last_key_at is not None:
-                started = self.clock() - current.elapsed_ms / 1000
-                shown_ms = min(shown_ms, (self._last_key_at - started) * 1000 + p.repeat_period_ms)
-        level = p.level_for(shown_ms)
-        if shown_ms < p.tap_ms:
-            fill = 1 + shown_ms / p.tap_ms
-        else:
-            fill = 2 + (shown_ms - p.tap_ms) / p.ms_per_level
-        return HoldView(current.key, level, min(fill, level + 0.999, float(p.levels)), shown_ms)
+        """The move being entered as shown (`entering_view`); None when nothing is being entered."""
+        return entering_view(self.input, self.mode, self.profile, releases_seen=self.releases_seen,
+                             last_key_at=self._last_key_at, now=self.clock())
 
     # ------------------------------------------------------------------ moves
 
@@ -396,20 +371,52 @@ class PlaySession:
         self.game.stop()
 
 
+def entering_view(move_input: MoveInput, mode: InputMode, profile: HoldProfile, *, releases_seen: bool,
+                  last_key_at: float | None, now: float) -> HoldView | None:
+    """The move being entered as shown: its level, gauge fill and hold ms (None: none).
+
+    In a mode that times holds, without release events a hold with no autorepeat yet is a
+    tap (level 1) and a hold shows no more than one repeat period past its last key event
+    (`last_key_at`), so the gauge never shows a level the move will not get.
+    """
+    current = move_input.current()
+    if current is None:
+        return None
+    if not mode.times_holds:
+        return HoldView(current.key, current.level, float(current.level), current.elapsed_ms)
+    return _timed_view(current, profile, releases_seen=releases_seen, last_key_at=last_key_at, now=now)
+
+
+def _timed_view(current: ActiveHold, p: HoldProfile, *, releases_seen: bool, last_key_at: float | None,
+                now: float) -> HoldView:
+    shown_ms = current.elapsed_ms
+    if not releases_seen:
+        if current.repeats == 0:
+            return HoldView(current.key, 1, 1 + 0.9 * min(1.0, shown_ms / p.tap_ms), shown_ms)
+        if last_key_at is not None:
+            started = now - current.elapsed_ms / 1000
+            shown_ms = min(shown_ms, (last_key_at - started) * 1000 + p.repeat_period_ms)
+    level = p.level_for(shown_ms)
+    if shown_ms < p.tap_ms:
+        fill = 1 + shown_ms / p.tap_ms
+    else:
+        fill = 2 + (shown_ms - p.tap_ms) / p.ms_per_level
+    return HoldView(current.key, level, min(fill, level + 0.999, float(p.levels)), shown_ms)
+
+
+def session_header(world: World, *, options: PlayOptions, seed: int, app_version: str,
+                   study: StudyTag | None = None) -> SessionHeader:
+    """The header of a session of `world` played with `options` (its time is set when the file is made)."""
+    profile = options.profile or HoldProfile(levels=world.levels)
+    return SessionHeader(world=world, player=options.player, created=datetime.now().astimezone(), seed=seed,
+                         input=options.mode.header(profile), app_version=app_version, study=study)
+
+
 def new_session(world: World, *, out: str | Path, seed: int, options: PlayOptions = PlayOptions(),
                 clock: Clock = time.monotonic, app_version: str, study: StudyTag | None = None,
                 first_episode: int = 0) -> PlaySession:
     """A session of `world` recording to a new file in `out` (made at the first move; its header
     tagged with `study`, if given), its episodes numbered from `first_episode`."""
-    profile = options.profile or HoldProfile(levels=world.levels)
-    header = SessionHeader(
-        world=world,
-        player=options.player,
-        created=datetime.now().astimezone(),
-        seed=seed,
-        input=options.mode.header(profile),
-        app_version=app_version,
-        study=study,
-    )
+    header = session_header(world, options=options, seed=seed, app_version=app_version, study=study)
     game = Game(world, seed=seed, sink=(recorder := SessionRecorder(out, header)), first_episode=first_episode)
     return PlaySession(game, recorder, options, clock=clock)

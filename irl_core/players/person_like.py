@@ -131,6 +131,20 @@ def _check(values: dict[str, float]) -> None:
             raise ValueError(f"bias must be a finite number of levels, not {value:g}")
 
 
+def motor_trials(person: PersonLike, targets: np.ndarray, levels: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, 2) (target, produced) of `person` asked for each of `targets` (n,) in a study's motor calibration
+    block: their own hand, without the play's choices (``hasty`` under-holds by its `bias`, ``timed`` times
+    the hold with its Weber noise, the others add ``loose``'s `spread`; ``reckless`` holds as asked)."""
+    targets = np.asarray(targets, dtype=np.int64)
+    p = person.parameters
+    if person.kind == "timed":
+        held = intended_hold_ms(targets) * np.exp(rng.normal(0.0, p["weber"], targets.size))
+        produced = level_of_hold(held, levels)
+    else:
+        produced = _noisy_level(targets, p.get("spread", 0.0), levels, rng, bias=p.get("bias", 0.0))
+    return np.column_stack([targets, produced]).astype(np.int64)
+
+
 def intended_hold_ms(level: np.ndarray) -> np.ndarray:
     """(n,) the hold a player aims at for each level (n,): the middle of its window, half the delay for level 1."""
     level = np.asarray(level, dtype=float)

@@ -24,7 +24,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 
 from irl_core.recordings.end_table import EndTable
 from irl_core.recordings.line_checks import LineChecker, Mismatch
-from irl_core.recordings.lines import SCHEMA_VERSION, EpisodeEnd, SessionHeader, Step
+from irl_core.recordings.lines import SCHEMA_VERSION, CalibrationTrial, EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.step_table import StepTable
 from irl_core.support.safe_files import InputError, open_regular, read_problem
 from irl_core.support.safe_text import VALUE_LIMIT, cut, printable
@@ -42,7 +42,7 @@ class RecordingError(InputError):
         super().__init__(f"{where}: {field}: {problem}" if field else f"{where}: {problem}")
 
 
-_BODY = TypeAdapter(Annotated[Step | EpisodeEnd, Field(discriminator="kind")])
+_BODY = TypeAdapter(Annotated[Step | EpisodeEnd | CalibrationTrial, Field(discriminator="kind")])
 
 
 # ---------------------------------------------------------------------------- reading
@@ -69,6 +69,8 @@ class Recording:
     steps: StepTable = field(default_factory=StepTable)
     episode_ends: EndTable = field(default_factory=EndTable)
     warnings: list[str] = field(default_factory=list)
+    # A study's motor calibration block (none in most files): they are no steps and no fit counts them.
+    calibration_trials: list[CalibrationTrial] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if not isinstance(self.episode_ends, EndTable):  # a list of ends, as a test or a caller builds one
@@ -159,6 +161,9 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
             if isinstance(line, Step):
                 checker.step(line, number)
                 recording.steps.append(line)
+            elif isinstance(line, CalibrationTrial):
+                checker.trial(line, number)
+                recording.calibration_trials.append(line)
             else:
                 checker.end(line, number)
                 recording.episode_ends.append(line)
@@ -300,6 +305,8 @@ class Demonstrations:
             independent.
         episode_facts: how each of those episodes began, how long it was and how it ended (the fit
             check compares them with the fitted player's); None when not known.
+        calibration: (n, 2) the motor calibration trials' (target, produced) levels, in file order
+            (n = 0 without any): the people fit estimates the hand from them.
     """
 
     mdp: MDP
@@ -310,6 +317,7 @@ class Demonstrations:
     by_episode: sp.csr_matrix | None = None
     episode_groups: np.ndarray | None = None
     episode_facts: EpisodeFacts | None = None
+    calibration: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
 
     @classmethod
     def from_recordings(cls, recordings: list[Recording]) -> Demonstrations:
@@ -350,6 +358,8 @@ class Demonstrations:
             steps=sum(len(r.steps) for r in recordings),
             by_episode=episode_matrix(episode_keys, states * mdp.n_actions + actions, mdp.n_states * mdp.n_actions),
             episode_facts=EpisodeFacts.of_steps(episode_keys, states, endings),
+            calibration=np.array([(t.target, t.produced) for r in recordings for t in r.calibration_trials],
+                                 dtype=np.int64).reshape(-1, 2),
         )
 
     @classmethod

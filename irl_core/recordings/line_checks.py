@@ -6,14 +6,15 @@ one story: episodes in increasing order; within one, `t` counting 0, 1, 2, ...; 
 starting where the previous one ended; nothing of an episode after its `episode_end`; and each
 `episode_end` agreeing with its steps: `steps` is how many there were, a `terminal` end's last step
 entered a terminal cell whose symbol is `terminal_symbol`, a `quit` or `step_limit` end's did not
-(and names no symbol). The
+(and names no symbol). A ``calibration_trial`` comes before the file's first step, its target and
+produced levels among the world's. The
 reader (`irl_core.recordings.demonstrations`) feeds every line to a `LineChecker` and turns a `Mismatch`
 into `file:line: field: problem`.
 """
 
 from __future__ import annotations
 
-from irl_core.recordings.lines import EpisodeEnd, Step
+from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, Step
 from irl_core.support.safe_text import printable
 from irl_core.support.words import plural
 from irl_core.worlds.mdp import DIRECTIONS, MDP
@@ -69,6 +70,16 @@ class LineChecker:
                               f"({list(self._cell)})")
         self._next_t += 1
         self._cell = step.next_state
+
+    def trial(self, trial: CalibrationTrial, number: int) -> None:
+        """A calibration trial: before any step (the block comes before practice), on the world's levels."""
+        if self._episode is not None:
+            raise self._error(number, "kind", "a calibration_trial after the file's first step: the calibration "
+                              "block comes before play")
+        levels = self.mdp.world.levels
+        for name in ("target", "produced"):
+            if getattr(trial, name) > levels:
+                raise self._error(number, name, f"{getattr(trial, name)} is above the world's {plural(levels, 'level')}")
 
     def end(self, end: EpisodeEnd, number: int) -> None:
         self._enter(end.episode, number)

@@ -1,5 +1,5 @@
-"""The three kinds of line in a recording (recordings/README.md), as pydantic models: the ``session``
-header, a ``step`` and an ``episode_end``. `irl_core.recordings.writer` writes them,
+"""The kinds of line in a recording (recordings/README.md), as pydantic models: the ``session``
+header, a ``step``, an ``episode_end`` and a study's ``calibration_trial``. `irl_core.recordings.writer` writes them,
 `irl_core.recordings.demonstrations` reads them; `irl_core.recordings.step_table` builds `Step`s from its columns.
 """
 
@@ -85,3 +85,15 @@ class EpisodeEnd(_Line):
     steps: int = Field(ge=0, le=MAX_COUNT)
     return_: float = Field(alias="return")
     score: float
+
+
+class CalibrationTrial(_Line):
+    """One target of a study's motor calibration block ("hold until the gauge shows 8, then let go"):
+    the level asked for and the level the hold produced, with the hold's length (exact when the
+    front end timed the release). Written before practice, in the participant's first file of the study."""
+
+    kind: Literal["calibration_trial"] = "calibration_trial"
+    target: int = Field(ge=1)
+    produced: int = Field(ge=1)
+    hold_ms: float | None = Field(default=None, ge=0)
+    hold_exact: bool = False

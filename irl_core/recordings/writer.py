@@ -17,7 +17,9 @@ from collections.abc import Callable, Iterable
 from datetime import datetime
 from pathlib import Path
 
-from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step, _Line
+from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, SessionHeader, Step, _Line
+
+BodyLine = Step | EpisodeEnd | CalibrationTrial
 
 
 def to_json_line(line: _Line) -> str:
@@ -101,7 +103,12 @@ class RecordingWriter:
         if self._sync_episodes:
             self.sync()
 
-    def write_many(self, lines: Iterable[Step | EpisodeEnd]) -> None:
+    def write_trial(self, trial: CalibrationTrial) -> None:
+        """A calibration trial, synced at once: a participant's trial is not asked twice."""
+        self._write_bytes(_encoded(trial))
+        self.sync()
+
+    def write_many(self, lines: Iterable[BodyLine]) -> None:
         """Several lines in one write (bulk output): encoded first, so a bad one writes nothing."""
         self._write_bytes(b"".join(_encoded(line) for line in lines))
 
@@ -173,7 +180,7 @@ class SessionRecorder:
         self.lost: list[Path] = []
         self.notices: list[str] = []
         self._writer: RecordingWriter | None = None
-        self._lines: list[Step | EpisodeEnd] = []
+        self._lines: list[BodyLine] = []
 
     @property
     def path(self) -> Path | None:
@@ -190,6 +197,9 @@ class SessionRecorder:
     def end_episode(self, end: EpisodeEnd) -> None:
         self._record(end, lambda writer: writer.end_episode(end))
 
+    def write_trial(self, trial: CalibrationTrial) -> None:
+        self._record(trial, lambda writer: writer.write_trial(trial))
+
     def close(self) -> None:
         if self._writer is None:
             return
@@ -201,7 +211,7 @@ class SessionRecorder:
         self._writer = None
         self._lines = []
 
-    def _record(self, line: Step | EpisodeEnd, write: Callable[[RecordingWriter], None]) -> None:
+    def _record(self, line: BodyLine, write: Callable[[RecordingWriter], None]) -> None:
         self._lines.append(line)
         try:
             write(self._open())

@@ -10,6 +10,11 @@ always what the files say: a note when practice ends and the main episodes begin
 between worlds, and the end when nothing is left. Resuming is the same: a participant run again
 goes on where the files say, and an interrupted episode is played again. A calibration made in
 a block carries over to the next blocks, on each block's world's levels.
+
+A study with a motor calibration block (``calibration_block = N``) asks its targets after the
+instructions and before the first block: `calibration` makes the `MotorBlock` (its trials go to
+a file of their own, the participant's first of the study, tagged as the first block), and
+`calibration_ended` moves on. A participant who left mid-block is asked the rest.
 """
 
 from __future__ import annotations
@@ -20,11 +25,13 @@ from dataclasses import replace
 from typing import Literal
 
 from irl_core.play.hold import Clock, HoldProfile
-from irl_core.play.session import PlayOptions, PlaySession, new_session
+from irl_core.play.motor_block import MotorBlock, calibration_targets
+from irl_core.play.session import PlayOptions, PlaySession, new_session, session_header
+from irl_core.recordings.writer import SessionRecorder
 from irl_core.studies.study import Block, LoadedStudy, Protocol, read_protocol
 from irl_core.support.safe_text import cut, printable
 
-Stage = Literal["instructions", "practice_over", "next_world", "end"]
+Stage = Literal["instructions", "calibration", "practice_over", "next_world", "end"]
 # A block's heading is shown in this much; the study's name takes at most STUDY_NAME_LIMIT of it.
 HEADING_LIMIT, STUDY_NAME_LIMIT = 60, 20
 STUDY_COMMAND = "careful study run"
@@ -69,7 +76,7 @@ class StudyFlow:
         app_version: the version recorded in each file's header.
 
     Attributes:
-        stage: what shows now: ``instructions``, ``practice_over``, ``next_world`` or ``end``.
+        stage: what shows now: ``instructions``, ``calibration``, ``practice_over``, ``next_world`` or ``end``.
         protocol: where the participant stands, as the folder says (read again after each block).
         finished: the block played last (None before any).
         sessions: every block's session, in order (what was recorded, any write error).
@@ -88,6 +95,33 @@ class StudyFlow:
         self.sessions: list[PlaySession] = []
         self.profile: HoldProfile | None = None
         self._playing: Block | None = None
+        self.motor: MotorBlock | None = None
+
+    def calibration(self) -> MotorBlock | None:
+        """The motor calibration block's remaining targets, for the front end to play before
+        `next_block`; None when the study has none or the participant's files hold them all."""
+        left = self.protocol.calibration_left
+        block = self.protocol.next
+        if left <= 0 or block is None:
+            return None
+        seed = secrets.randbelow(2**32) if self.seed is None else self.seed
+        options = block_options(self.protocol, block, self.participant, self.profile)
+        world = self.protocol.world(block)
+        header = session_header(world, options=options, seed=seed, app_version=self.app_version,
+                                study=self.protocol.tag(block))
+        assert options.profile is not None, "block_options always sets the profile"
+        self.motor = MotorBlock(calibration_targets(world.levels, left, seed=seed),
+                                SessionRecorder(self.protocol.folder, header), input_mode_name=options.input_mode,
+                                profile=options.profile, clock=self.clock,
+                                done_before=self.protocol.calibration_trials)
+        self.stage = "calibration"
+        return self.motor
+
+    def calibration_ended(self) -> None:
+        """The calibration block's targets were played (or it stopped): read the folder again."""
+        if self.motor is not None:
+            self.motor.close()
+        self.protocol = read_protocol(self.study, self.participant)
 
     def next_block(self) -> PlaySession | None:
         """The next block's session, for the front end to play (`start` it); None when nothing is
@@ -125,8 +159,11 @@ class StudyFlow:
         """End the running block's episode as ``quit`` and close its file (safe to call more than once)."""
         for session in self.sessions:
             session.quit()
+        if self.motor is not None:
+            self.motor.close()
 
     @property
     def write_error(self) -> OSError | ValueError | None:
         """The first block's write failure, if any stopped one."""
-        return next((s.write_error for s in self.sessions if s.write_error is not None), None)
+        errors = [s.write_error for s in self.sessions] + [self.motor.write_error if self.motor else None]
+        return next((error for error in errors if error is not None), None)

@@ -8,6 +8,9 @@ participant's recordings go to ``<out>/<ID>/``, each file's header carrying a ``
 `read_protocol` reads what a participant's folder already holds and says what comes next, so
 resuming after a crash or ``q`` neither loses nor repeats an episode:
 
+- A study with ``calibration_block = N`` first asks N motor calibration targets; their
+  ``calibration_trial`` lines are counted across the folder's files, so a participant who left
+  mid-block is asked only the rest.
 - The participant's sequence is, for each world in their order, a practice block
   (``practice_episodes``, left out when 0) then a main block (``episodes``).
 - An episode is *done* when its ``episode_end`` says ``terminal`` or ``step_limit``.
@@ -90,6 +93,8 @@ class Study(BaseModel):
                                                                         strict=False)
     order: Literal["fixed", "shuffled"] = "fixed"
     practice_episodes: int = Field(1, ge=0, le=1000)
+    # Targets of the motor calibration block before practice (0: no block).
+    calibration_block: int = Field(0, ge=0, le=100)
     episodes: int = Field(5, ge=1, le=100_000)
     input: Literal["hold", "tap", "digits"] = "hold"
     tap_ms: float = Field(TAP_MS, ge=50.0, le=5_000.0)
@@ -366,6 +371,12 @@ class Protocol:
     order: tuple[int, ...]
     blocks: tuple[Block, ...]
     problems: tuple[str, ...]
+    calibration_trials: int = 0
+
+    @property
+    def calibration_left(self) -> int:
+        """Targets of the study's calibration block still to ask (0 once done, or for a finished participant)."""
+        return 0 if self.finished else max(0, self.study.study.calibration_block - self.calibration_trials)
 
     @property
     def next(self) -> Block | None:
@@ -426,5 +437,6 @@ def read_protocol(study: LoadedStudy, participant: str) -> Protocol:
                 next_episode=max(numbers, default=-1) + 1,
                 files=tuple(r.path for r in recordings),
             ))
+    trials = sum(len(recording.calibration_trials) for _, recording in found.recordings)
     return Protocol(study=study, participant=participant, folder=found.folder, order=tuple(order),
-                    blocks=tuple(blocks), problems=tuple(problems))
+                    blocks=tuple(blocks), problems=tuple(problems), calibration_trials=trials)

@@ -21,14 +21,16 @@ def _counts(mdp, seed: int) -> np.ndarray:
     return counts
 
 
+@pytest.mark.parametrize("bias", [0.0, -1.3])
 @pytest.mark.parametrize("name", list(PLAYER_MODELS))
-def test_every_gradient_agrees_with_central_differences(name):
+def test_every_gradient_agrees_with_central_differences(name, bias):
+    """Also with a hand that under-holds (a bias known from calibration trials): the gradient is the same formula."""
     mdp = build_mdp(SMALL)
     model = player_model(name)
     counts = _counts(mdp, 1)
     R_S = mdp.R_S + np.random.default_rng(2).normal(0, 2, mdp.n_states)
     R_S[mdp.exit_state] = 0.0
-    player = Player(beta=0.7, sigma=0.8, lapse=0.1)
+    player = Player(beta=0.7, sigma=0.8, lapse=0.1, bias=bias)
     got = log_likelihood(mdp, counts, R_S, model=model, player=player)
 
     def ll(R=R_S, p=player) -> float:
@@ -39,14 +41,14 @@ def test_every_gradient_agrees_with_central_differences(name):
         step = np.zeros(mdp.n_states)
         step[s] = h
         assert got.R_S[s] == pytest.approx((ll(R_S + step) - ll(R_S - step)) / (2 * h), rel=1e-5, abs=1e-6)
-    scaled = [Player(0.7 * np.exp(e), 0.8, 0.1) for e in (h, -h)]
+    scaled = [Player(0.7 * np.exp(e), 0.8, 0.1, bias) for e in (h, -h)]
     assert got.log_beta == pytest.approx((ll(p=scaled[0]) - ll(p=scaled[1])) / (2 * h), rel=1e-5, abs=1e-6)
     if model.hand:
-        wider = [Player(0.7, 0.8 * np.exp(e), 0.1) for e in (h, -h)]
+        wider = [Player(0.7, 0.8 * np.exp(e), 0.1, bias) for e in (h, -h)]
         assert got.log_sigma == pytest.approx((ll(p=wider[0]) - ll(p=wider[1])) / (2 * h), rel=1e-5, abs=1e-6)
         assert got.log_sigma != 0.0
     if model.lapses:
-        more = [Player(0.7, 0.8, 0.1 + e) for e in (h, -h)]
+        more = [Player(0.7, 0.8, 0.1 + e, bias) for e in (h, -h)]
         assert got.lapse == pytest.approx((ll(p=more[0]) - ll(p=more[1])) / (2 * h), rel=1e-5, abs=1e-6)
 
 

@@ -32,15 +32,16 @@ Reach the goal.\"\"\"
 worlds = ["right.toml", "left.toml"]
 order = "fixed"
 practice_episodes = {practice}
+calibration_block = {calibration}
 episodes = 2
 input = "digits"
 out = "data"
 """
 
 
-def write_study(folder: Path, *, practice: int = 1) -> Path:
+def write_study(folder: Path, *, practice: int = 1, calibration: int = 0) -> Path:
     (folder / "right.toml").write_text(RIGHT)
     (folder / "left.toml").write_text(LEFT)
     path = folder / "pilot.toml"
-    path.write_text(STUDY.format(practice=practice))
+    path.write_text(STUDY.format(practice=practice, calibration=calibration))
     return path

@@ -42,31 +42,31 @@ def test_each_rule_says_why(tmp_path):
 
 def test_the_report_excludes_before_pooling_and_no_exclusions_pools_everyone(tmp_path, capsys):
     """A participant with 4 of 8 episodes is excluded by min_main_episodes = 6: their row stays, marked, with
-    the reason; the population pools the others. --no-exclusions pools all four, says so, and the reckless
-    participant is still named an outlier (exit 0)."""
+    the reason; the population pools the others. --no-exclusions pools all five, says so, and the reckless
+    participant is still named an outlier among the four others (exit 0)."""
     path = tmp_path / "s.toml"
     path.write_text(STUDY.format(episodes=8) + "[exclusions]\nmin_main_episodes = 6\n")
     study = load_study(path)
     mdp = build_mdp(study.worlds[0])
-    for i, beta in enumerate((0.8, 1.2, 2.0)):
+    for i, beta in enumerate((0.8, 1.2, 2.0, 1.5)):
         write_participant(study, f"p{i + 1}", boltzmann_policy(mdp, beta=beta), seed=i)
     write_participant(study, "reckless", person_like(mdp, lapse=0.25, level_spread=0, level=1), seed=99)
-    short = study.participant_folder("p3") / "p3-0-w0-main.jsonl"
+    short = study.participant_folder("p4") / "p4-0-w0-main.jsonl"
     lines = short.read_text().splitlines(keepends=True)
     ends = [i for i, line in enumerate(lines) if '"episode_end"' in line]
     short.write_text("".join(lines[: ends[3] + 1]))  # 4 finished episodes of 8
     assert main(["study", "report", str(path), "--resamples", "20", "--workers", "2"]) == 0
     out = capsys.readouterr().out
     rows = {row["participant"]: row for row in csv.DictReader((study.report_folder / "report.csv").open())}
-    assert rows["p3"]["excluded"] == "true" and rows["p3"]["excluded_why"] == (
-        "4 finished main episodes, fewer than 6") and rows["p3"]["outlier"] == ""
+    assert rows["p4"]["excluded"] == "true" and rows["p4"]["excluded_why"] == (
+        "4 finished main episodes, fewer than 6") and rows["p4"]["outlier"] == ""
     assert rows["p1"]["excluded"] == "false"
-    assert "excluded from the mud pool by the study's [exclusions]: p3 (4 finished main episodes, fewer than 6)" in out
-    assert "population (3)" in out
+    assert "excluded from the mud pool by the study's [exclusions]: p4 (4 finished main episodes, fewer than 6)" in out
+    assert "population (4)" in out
     assert main(["study", "report", str(path), "--resamples", "20", "--workers", "2", "--no-exclusions",
                  "--out", str(tmp_path / "all")]) == 0
     out = capsys.readouterr().out
     rows = {row["participant"]: row for row in csv.DictReader((tmp_path / "all" / "report.csv").open())}
-    assert rows["p3"]["excluded"] == "false" and "population (4)" in out
+    assert rows["p4"]["excluded"] == "false" and "population (5)" in out
     assert "were not applied (--no-exclusions)" in out
     assert rows["reckless"]["outlier"] == "true" and "reckless" in rows[POOLED]["finding"]

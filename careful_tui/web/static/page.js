@@ -22,7 +22,7 @@
   }
 
   function show(section) {
-    for (const id of ["notice", "text", "play"]) $(id).hidden = id !== section;
+    for (const id of ["notice", "text", "play", "calib"]) $(id).hidden = id !== section;
   }
 
   function notice(title, text, button) {
@@ -151,6 +151,7 @@
       return chip;
     }));
     if (view.stage === "play") drawPlay(view.play);
+    else if (view.stage === "calibration") drawCalibration(view.calibration);
     else drawText(view);
     if (view.stage === "left") { state.over = true; state.page = null; clearInterval(state.beat); }
     if (view.complete_url && view.complete_url.startsWith(PROLIFIC) && !state.over) {
@@ -201,10 +202,14 @@
       item.append(el("span", "swatch " + (SYMBOL_CLASS[symbol] || "sym-other")), document.createTextNode(symbol + " " + name));
       return item;
     }));
-    const gauge = $("gauge");
+    buildGauge($("gauge"), play.levels);
+    state.drawnRows = JSON.stringify(play.rows);
+  }
+
+  function buildGauge(gauge, rows) {
     gauge.replaceChildren();
-    const levels = play.levels.length;
-    for (const row of [...play.levels].reverse()) {
+    const levels = rows.length;
+    for (const row of [...rows].reverse()) {
       const bar = el("span", "bar");
       const fill = el("span", "fill");
       fill.style.background = levelColour(row.level, levels);
@@ -212,7 +217,42 @@
       gauge.append(el("span", "num", String(row.level)), bar, el("span", "cost", row.cost), el("span", "slip", row.slip),
         el("span", "mark", ""));
     }
-    state.drawnRows = JSON.stringify(play.rows);
+  }
+
+  // `now` ({level, fill}) on a gauge built by buildGauge.
+  function fillGauge(gauge, levels, now) {
+    const cells = gauge.children;
+    for (let i = 0; i < levels; i++) {
+      const level = levels - i;
+      const part = Math.min(1, Math.max(0, now.fill - (level - 1)));
+      cells[i * 5 + 1].firstChild.style.width = (part * 100).toFixed(1) + "%";
+      const current = level === now.level;
+      for (const k of [0, 2, 3]) cells[i * 5 + k].classList.toggle("current", current);
+      cells[i * 5 + 4].textContent = current ? "◀" : "";
+      cells[i * 5 + 4].style.color = levelColour(level, levels);
+    }
+  }
+
+  // The calibration block: the level asked for, the gauge (filled by drawHold while a key is held), the last result.
+  function drawCalibration(calib) {
+    show("calib");
+    $("calib-heading").textContent = calib.heading;
+    $("calib-intro").textContent = calib.intro;
+    const gauge = $("calib-gauge");
+    if (gauge.dataset.levels !== String(calib.levels.length)) {
+      buildGauge(gauge, calib.levels);
+      gauge.dataset.levels = String(calib.levels.length);
+    }
+    // The level asked for stands out on the gauge (rows run from the top level down).
+    const rows = calib.levels.length;
+    for (let i = 0; i < rows; i++) gauge.children[i * 5].classList.toggle("asked", rows - i === calib.target);
+    const lines = [el("p", calib.done ? "good" : "target", calib.instruction)];
+    lines.push(el("p", "", calib.done ? "Press space to begin practice." : ""));
+    lines[1].id = "calib-now";
+    if (calib.last && !calib.done) lines.push(el("p", "dim", "Last: " + calib.last));
+    $("calib-text").replaceChildren(...lines);
+    if (calib.done) state.held = null;
+    drawHold();
   }
 
   // Cells as large as the room allows (down to 6 px, so a 128-column world still fits a phone's
@@ -267,22 +307,14 @@
   function drawHold() {
     cancelAnimationFrame(state.frame);
     const view = state.view;
+    if (view && view.stage === "calibration") { drawCalibrationHold(view.calibration); return; }
     if (!view || view.stage !== "play") return;
     const play = view.play;
     const gauge = $("gauge");
     const levels = play.levels.length;
     const held = state.held;
     const now = held ? gaugeFill(performance.now() - held.t, play.timing) : { level: 0, fill: 0 };
-    const cells = gauge.children;
-    for (let i = 0; i < levels; i++) {
-      const level = levels - i;
-      const part = Math.min(1, Math.max(0, now.fill - (level - 1)));
-      cells[i * 5 + 1].firstChild.style.width = (part * 100).toFixed(1) + "%";
-      const current = level === now.level;
-      for (const k of [0, 2, 3]) cells[i * 5 + k].classList.toggle("current", current);
-      cells[i * 5 + 4].textContent = current ? "◀" : "";
-      cells[i * 5 + 4].style.color = levelColour(level, levels);
-    }
+    fillGauge(gauge, levels, now);
     for (const arrow of $("board").querySelectorAll(".arrow")) arrow.remove();
     if (held && play.player) {
       const cell = parseFloat(getComputedStyle($("board")).getPropertyValue("--cell")) || 56;
@@ -312,10 +344,20 @@
     }
   }
 
+  function drawCalibrationHold(calib) {
+    const held = state.held;
+    const now = held ? gaugeFill(performance.now() - held.t, calib.timing) : { level: 0, fill: 0 };
+    fillGauge($("calib-gauge"), calib.levels.length, now);
+    const line = $("calib-now");
+    if (line && !calib.done) line.textContent = held ? "Now: level " + now.level : "";
+    if (held) state.frame = requestAnimationFrame(drawHold);
+  }
+
   function stamp(event) { return event.timeStamp > 0 ? event.timeStamp : performance.now(); }
 
   function canMove() {
     const view = state.view;
+    if (view && view.stage === "calibration") return Boolean(state.page && !view.calibration.done);
     return Boolean(state.page && view && view.stage === "play" && view.play.live);
   }
 

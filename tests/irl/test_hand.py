@@ -1,0 +1,59 @@
+"""The hand from calibration trials: a known bias and noise recovered, and the people fit holding them."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from irl_core.irl import FitOptions, fit
+from irl_core.irl.hand import hand_from_trials, trials_log_likelihood
+from irl_core.irl.people_likelihood import level_kernel
+from irl_core.players.experts import demonstrations_of, rollouts
+from irl_core.players.person_like import motor_trials, person_like
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS
+
+
+def test_the_kernel_with_a_bias_is_centred_on_the_shifted_level():
+    K, _ = level_kernel(14, 0.6, -2.0)
+    assert np.allclose(K.sum(axis=1), 1.0)
+    assert K[7].argmax() == 5  # intended 8, produced 6
+    assert K[0].argmax() == 0  # nothing below level 1: the row renormalises on 1..L
+
+
+def test_trials_recover_a_known_bias_and_noise():
+    rng = np.random.default_rng(0)
+    levels, bias, sigma = 14, -2.0, 1.0
+    target = rng.integers(4, 13, 400)
+    K, _ = level_kernel(levels, sigma, bias)
+    produced = np.array([rng.choice(levels, p=K[c - 1]) + 1 for c in target])
+    hand = hand_from_trials(np.column_stack([target, produced]), levels)
+    assert hand.bias == pytest.approx(bias, abs=0.15)
+    assert hand.sigma == pytest.approx(sigma, abs=0.15)
+    trials = np.column_stack([target, produced])
+    best = trials_log_likelihood(trials, levels, bias=hand.bias, sigma=hand.sigma)
+    assert best >= trials_log_likelihood(trials, levels, bias=0.0, sigma=hand.sigma)
+
+
+def test_no_trials_and_out_of_range_trials_are_refused():
+    with pytest.raises(ValueError, match="at least one"):
+        hand_from_trials(np.zeros((0, 2)), 5)
+    with pytest.raises(ValueError, match="outside 1..5"):
+        hand_from_trials(np.array([[6, 2]]), 5)
+
+
+def test_the_people_fit_holds_the_hasty_players_bias_from_its_trials():
+    """hasty under-holds by two levels; with ten calibration trials the fit's hand is theirs, said in a note."""
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    player = person_like(mdp, "hasty")
+    rng = np.random.default_rng(4)
+    demos = demonstrations_of(mdp, rollouts(mdp, player.choose, episodes=12, rng=rng))
+    trials = motor_trials(player, np.arange(10) % 12 + 3, mdp.levels, rng)
+    with_trials = dataclasses.replace(demos, calibration=trials)
+    result = fit(with_trials, FitOptions(method="maxent", player_model="person", seed=1))
+    assert result.player is not None and result.player.bias == pytest.approx(-2.0, abs=0.8)
+    assert "hand_calibrated" in {note.code for note in result.notes}
+    plain = fit(demos, FitOptions(method="maxent", player_model="person", seed=1))
+    assert plain.player is not None and plain.player.bias == 0.0
