@@ -27,7 +27,7 @@ from irl_core.experiment.claims import order_words
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, rollouts, session_header, write_rollouts
 from irl_core.recordings.lines import StudyTag
-from irl_core.studies.plan import POOLS, PlanGrid, _drawn_player, fit_participant, plan_study
+from irl_core.studies.plan import POOLS, PlanGrid, drawn_player, fit_participant, plan_study
 from irl_core.studies.report import POOLED, fit_report, gather, report_options
 from irl_core.studies.study import load_study
 from irl_core.worlds.mdp import build_mdp
@@ -45,7 +45,7 @@ def time_default_grid(workers: int) -> None:
     started = time.perf_counter()
     for seed in range(3):
         rng = np.random.default_rng(seed)
-        played = rollouts(mdp, _drawn_player(mdp, "loose", 0.3, rng).choose, episodes=10, rng=rng)
+        played = rollouts(mdp, drawn_player(mdp, "loose", 0.3, rng).choose, episodes=10, rng=rng)
         fit_participant(mdp, unknowns, demonstrations_of(mdp, played).counts, grid)
     baseline = (time.perf_counter() - started) / 3
     started = time.perf_counter()
@@ -67,7 +67,7 @@ def write_study(folder: Path, participants: int, episodes: int, seed: int, grid:
     mdp = build_mdp(study.worlds[0])
     for i in range(participants):
         rng = np.random.default_rng([seed, i, 7])
-        player = _drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
+        player = drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
         who = f"p{i + 1:02d}"
         out = study.participant_folder(who)
         out.mkdir(parents=True)

@@ -223,7 +223,7 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     for i, seed in enumerate(seeds):
         rng = np.random.default_rng(seed)
         kind = grid.players[i % len(grid.players)]
-        played.append(rollouts(mdp, _drawn_player(mdp, kind, grid.spread, rng).choose, episodes=max(episodes), rng=rng))
+        played.append(rollouts(mdp, drawn_player(mdp, kind, grid.spread, rng).choose, episodes=max(episodes), rng=rng))
     counts = {e: [demonstrations_of(mdp, _first_episodes(r, e)).counts for r in played] for e in episodes}
     sizes = sorted(set(grid.participants))
     out = {}
@@ -250,7 +250,7 @@ def pooled_interval(mdp: MDP, unknowns: Unknowns, groups: np.ndarray, grid: Plan
                              groups=groups)
 
 
-def _drawn_player(mdp: MDP, kind: str, spread: float, rng: np.random.Generator) -> PersonLike:
+def drawn_player(mdp: MDP, kind: str, spread: float, rng: np.random.Generator) -> PersonLike:
     """A person-like player of `kind` whose parameters are the defaults each times exp(N(0, spread))
     (a probability kept below 0.9)."""
     values = {name: default * float(np.exp(rng.normal(0.0, spread))) for name, default in KINDS[kind].items()}
