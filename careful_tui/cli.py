@@ -275,7 +275,7 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--spread", type=non_negative_float, default=0.3, metavar="S",
                       help="between participants, each player parameter is its default times exp(N(0, S)) "
                            "(default 0.3)")
-    plan.add_argument("--pool", choices=["population", "shared"], default="population",
+    plan.add_argument("--pool-model", choices=["population", "shared"], default="population",
                       help="population (default, as study report pools): each participant's fit, pooled as a "
                            "population of participants; shared: one fit of everyone's episodes with an interval "
                            "over participants (study report --pool-model shared)")

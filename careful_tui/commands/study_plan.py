@@ -65,7 +65,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
         grid = PlanGrid(participants=parse_sizes(args.participants, option="--participants"),
                         episodes=parse_sizes(args.episodes, option="--episodes"),
                         players=tuple(p.strip() for p in args.players.split(",")), repeats=args.repeats,
-                        spread=args.spread, seed=args.seed, pool=args.pool)
+                        spread=args.spread, seed=args.seed, pool=args.pool_model)
         worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
         raise UsageError(f"--{exc.field}: {exc.reason}") from None
