@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # for type checkers and the API reference; at run time __getattr__ imports them
     from irl_core.irl.evaluation import Evaluation, evaluate  # noqa: F401
-    from irl_core.irl.fit import METHODS, fit  # noqa: F401
+    from irl_core.irl.fitting import METHODS, fit  # noqa: F401
     from irl_core.irl.options import FitOptions  # noqa: F401
     from irl_core.irl.result import FitError, FitResult, InfeasibleError  # noqa: F401
     from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts, simulate_to_file  # noqa: F401
@@ -65,7 +65,7 @@ _HOMES = {
     "rollouts": "irl_core.players.experts", "demonstrations_of": "irl_core.players.experts",
     "simulate_to_file": "irl_core.players.experts",
     # fitting
-    "fit": "irl_core.irl.fit", "METHODS": "irl_core.irl.fit", "FitOptions": "irl_core.irl.options",
+    "fit": "irl_core.irl.fitting", "METHODS": "irl_core.irl.fitting", "FitOptions": "irl_core.irl.options",
     "FitResult": "irl_core.irl.result", "FitError": "irl_core.irl.result", "InfeasibleError": "irl_core.irl.result",
     # what an agent trained on a fit would do
     "evaluate": "irl_core.irl.evaluation", "Evaluation": "irl_core.irl.evaluation",

@@ -29,7 +29,7 @@ import numpy as np
 
 from irl_core.experiment.claims import RECOVERED, SYMBOL_WORDS, Claim, paper_claims
 from irl_core.experiment.stage_results import Estimate, Separation
-from irl_core.irl.fit import fit
+from irl_core.irl.fitting import fit
 from irl_core.irl.options import FitOptions
 from irl_core.irl.result import FitResult, at_bound
 from irl_core.players.experts import (

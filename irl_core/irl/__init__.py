@@ -31,7 +31,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from irl_core.irl.fit import METHODS, fit  # noqa: F401
+    from irl_core.irl.fitting import METHODS, fit  # noqa: F401
     from irl_core.irl.notes import Note  # noqa: F401
     from irl_core.irl.options import FitOptions  # noqa: F401
     from irl_core.irl.result import BadInputError, FitError, FitResult, InfeasibleError, SolverError, at_bound  # noqa: F401
@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 # Names are imported on first use, so that a registry (`irl_core.irl.fit_methods`) can be read
 # without loading the solvers.
 _HOMES = {
-    "METHODS": "irl_core.irl.fit", "fit": "irl_core.irl.fit", "Note": "irl_core.irl.notes",
+    "METHODS": "irl_core.irl.fitting", "fit": "irl_core.irl.fitting", "Note": "irl_core.irl.notes",
     "FitOptions": "irl_core.irl.options", "BadInputError": "irl_core.irl.result", "FitError": "irl_core.irl.result",
     "FitResult": "irl_core.irl.result", "InfeasibleError": "irl_core.irl.result", "SolverError": "irl_core.irl.result",
     "at_bound": "irl_core.irl.result", "Stopped": "irl_core.support.stopping",

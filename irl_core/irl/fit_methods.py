@@ -2,7 +2,7 @@
 
 `FitOptions` checks a name here, `careful fit --method` offers these choices with this help,
 the fit view binds each to its key and titles it with its label, and `fit` asks which interval
-a method's fit has. Each entry's implementation is its fitter in `irl_core.irl.fit` (`FITTERS`)
+a method's fit has. Each entry's implementation is its fitter in `irl_core.irl.fitting` (`FITTERS`)
 and, for a resampled interval, its refit in `irl_core.irl.bootstrap` (`REFITS`); both modules
 check at import that every entry has one. This module imports nothing heavy, so the command line
 can read it before it needs numpy's solvers.

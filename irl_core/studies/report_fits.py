@@ -263,7 +263,7 @@ def fit_report(data: StudyData, options: FitOptions, *, pool_model: str = DEFAUL
     for i, cell in pools.items():
         members = [(j, data.cells[j]) for j in mine if data.cells[j].world_index == cell.world_index]
         if pool_model == "population":
-            fits[i] = population_row(choices[i], members, fits)
+            fits[i] = population_row(choices[i], members, fits, layout=data.study.worlds[cell.world_index].layout)
         else:
             left_out = {c.participant for j, c in members if fits[j].excluded_why}
             fits[i] = shared_row(without_participants(cell, left_out), options, fits, data, tally, workers, executor)
@@ -304,9 +304,11 @@ def excluded_why(cell: Cell, result: CellFit, exclusions: Exclusions) -> str | N
     return "; ".join(why) or None
 
 
-def population_row(choice: CellFit, members: list[tuple[int, Cell]], fits: list[CellFit]) -> CellFit:
+def population_row(choice: CellFit, members: list[tuple[int, Cell]], fits: list[CellFit], *, layout: str
+                   ) -> CellFit:
     """A world's pooled row as the population of its included participants (`pool_participants`), each
-    member's `outlier` and `influential` marks written into `fits` (members: (index in fits, cell))."""
+    member's `outlier` and `influential` marks written into `fits` (members: (index in fits, cell)); its
+    reward grid holds the population's centre on the cells of each symbol of `layout`."""
     symbols = choice.symbols
     used = [(j, c.participant) for j, c in members
             if not fits[j].excluded_why and not fits[j].error and fits[j].intervals is not None]
@@ -327,9 +329,23 @@ def population_row(choice: CellFit, members: list[tuple[int, Cell]], fits: list[
         fits[j] = dataclasses.replace(fits[j], outlier=bool(out), influential=bool(moved))
     return dataclasses.replace(
         base, estimate=population.centre, intervals=population.intervals, spread=population.spread,
+        reward_grid=_centre_grid(choice, population.centre, layout),
         prediction=population.predictions, pooled=len(used),
         outliers=tuple(name for (_, name), out in zip(used, population.outlier) if out),
         influencers=tuple(name for (_, name), moved in zip(used, population.influential) if moved))
+
+
+def _centre_grid(choice: CellFit, centre: np.ndarray, layout: str) -> np.ndarray | None:
+    """(rows, cols) the choice fit's reward grid with each fitted symbol's cells at the population's centre
+    (NaN where the population has no centre: every participant bounds it on one side only)."""
+    if choice.reward_grid is None:
+        return None
+    grid = np.array(choice.reward_grid, dtype=float)
+    for r, row in enumerate(layout.splitlines()):
+        for c, symbol in enumerate(row):
+            if symbol in choice.symbols and r < grid.shape[0] and c < grid.shape[1]:
+                grid[r, c] = centre[choice.symbols.index(symbol)]
+    return grid
 
 
 def _interval_of(result: CellFit, symbol: str, rmax: float) -> tuple[float, float]:

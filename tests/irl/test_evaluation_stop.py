@@ -88,7 +88,7 @@ def test_a_fit_told_to_stop_during_its_evaluation_stops_there(monkeypatch):
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
     sweeps = count_sweeps(monkeypatch)
     evaluating = []
-    fit_module = sys.modules["irl_core.irl.fit"]
+    fit_module = sys.modules["irl_core.irl.fitting"]
     real = fit_module.evaluate
 
     def watched(*args):

@@ -13,7 +13,7 @@ from careful_tui.option_words import FLAGS, said
 from careful_tui.screens.fit import FitScreen
 from irl_core.irl import FitOptions, InfeasibleError, Note, SolverError, fit, fit_methods
 from irl_core.irl.bootstrap import REFITS, Refit
-from irl_core.irl.fit import FITTERS
+from irl_core.irl.fitting import FITTERS
 from irl_core.irl.notes import CODES
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts

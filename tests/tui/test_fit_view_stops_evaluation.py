@@ -22,7 +22,7 @@ def test_closing_the_view_during_the_evaluation_ends_the_fit(monkeypatch):
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=20, seed=0))
     sweeps = count_sweeps(monkeypatch)
-    fit_module = sys.modules["irl_core.irl.fit"]
+    fit_module = sys.modules["irl_core.irl.fitting"]
     real_evaluate = fit_module.evaluate
     evaluating = threading.Event()
     watched = watch_view_fits(monkeypatch)

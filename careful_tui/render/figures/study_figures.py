@@ -46,7 +46,7 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
         key = world_key(data, world_index)
         name = plain(world.name)
         panels = [("true (world file)", board.rewards(world))] if world.rewards else []
-        panels += [(_who(cell), fit.reward_grid) for cell, fit in mine if fit.reward_grid is not None]
+        panels += [(_who(cell, fit), fit.reward_grid) for cell, fit in mine if fit.reward_grid is not None]
         if panels:
             how = method_phrase([f for _, f in mine])
             title = f"{name}: fitted reward per participant, point estimates ({how}, one value per symbol)"
@@ -67,8 +67,10 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
     return figures
 
 
-def _who(cell) -> str:
-    return f"pooled ({cell.participants})" if cell.participant == POOLED else plain(cell.participant)
+def _who(cell, fit: CellFit) -> str:
+    if cell.participant != POOLED:
+        return plain(cell.participant)
+    return f"population ({fit.pooled})" if fit.pooled is not None else f"pooled ({cell.participants})"
 
 
 def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figure]]:
@@ -81,8 +83,9 @@ def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple
                             float(estimate), float(truth))
                 for symbol, (low, high), estimate, truth in zip(fit.symbols, fit.intervals, fit.estimate, fit.truth)]
         world = data.study.worlds[cell.world_index]
-        title = (f"{plain(world.name)}: pooled over {plural(cell.participants, 'participant')}, "
-                 f"{plural(cell.episodes, 'episode')}")
+        title = (f"{plain(world.name)}: the population of {plural(fit.pooled, 'participant')}" if fit.pooled is not None
+                 else f"{plain(world.name)}: pooled over {plural(cell.participants, 'participant')}, "
+                      f"{plural(cell.episodes, 'episode')}")
         by_kind.setdefault(fit.interval_kind, []).append((title, rows))
         if fit.interval_kind == "confidence":
             confidence = fit.confidence

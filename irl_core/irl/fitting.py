@@ -379,7 +379,7 @@ def _maxent_notes(solution: MaxEntSolution, mdp: MDP, *, estimated: bool) -> lis
 
 # Every method's fitter, checked against the registry.
 FITTERS: dict[str, Callable[..., _Fitted]] = {"auto": _auto, "lp": _fit_lp, "loss": _fit_loss, "maxent": _fit_maxent}
-fit_methods.check_covers(FITTERS, fit_methods.NAMES, "irl_core.irl.fit.FITTERS")
+fit_methods.check_covers(FITTERS, fit_methods.NAMES, "irl_core.irl.fitting.FITTERS")
 
 
 def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptions, notes: list[Note], *,
