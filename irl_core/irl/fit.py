@@ -42,7 +42,6 @@ from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bo
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
-from irl_core.support.words import plural
 from irl_core.worlds.mdp import MDP
 
 METHODS = fit_methods.FITTED
@@ -122,7 +121,9 @@ def fit(
                                   executor=executor)
 
     check = _fit_check(fitted, demos, options, notes)
-    bounded = [label for label, value in zip(unknowns.labels, fitted.theta) if at_bound(value, options.rmax)]
+    held = fitted.held_upper is not None and ~np.isnan(fitted.held_upper)  # named in their own note
+    bounded = [label for j, (label, value) in enumerate(zip(unknowns.labels, fitted.theta))
+               if at_bound(value, options.rmax) and not (held is not False and held[j])]
     if bounded:
         notes.append(Note("at_bound", f"at ±rmax: {', '.join(bounded)}; there the bound, not the demonstrations, "
                                       "set the value"))
@@ -335,13 +336,10 @@ def _held_note(qmap: QMap, demos: Demonstrations, solution: PlayerFit, options: 
         return None
     upper = held_upper_bounds(qmap.mdp, qmap.unknowns, demos.counts, theta=solution.theta, model=solution.model,
                               player=solution.player, held=held, rmax=options.rmax, V0=solution.V1)
-    named = "; ".join(f"{label} at most {value:.3g}" for label, value, on in zip(qmap.unknowns.labels, upper, held) if on)
-    how = "all raised together" if jointly(held) else "each raised alone"
-    notes.append(Note("unreached", f"not bounded below by the data: no recorded action can lead into "
-                                   f"{plural(int(held.sum()), 'rewarded cell')}, so lowering their rewards only makes "
-                                   "unrecorded actions less likely; the fit holds them at -{rmax}, where the "
-                                   "likelihood is highest, and the data say only how high they may be before the "
-                                   f"likelihood falls by {FLAT_DROP:g} ({how}): {named}"))
+    named = "; ".join(f"{label} {value:.3g}" for label, value, on in zip(qmap.unknowns.labels, upper, held) if on)
+    how = "all together" if jointly(held) else "each alone"
+    notes.append(Note("unreached", f"not bounded below by the data (no recorded action can lead there), held at the "
+                                   f"lowest reward {{rmax}} allows; the data allow at most ({how}): {named}"))
     return upper
 
 
