@@ -16,6 +16,7 @@ test: lint
 lint: $(STAMP)
 	$(BIN)/ruff check irl_core careful_tui bench
 	$(BIN)/mypy
+	$(BIN)/vulture
 
 # The manual, in site/; --strict fails on a broken link or anchor.
 docs: $(STAMP)

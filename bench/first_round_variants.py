@@ -3,7 +3,7 @@
 Run: .venv/bin/python -m bench.first_round_variants SIZE VARIANT [--limit SECONDS]
 
 The per-cell lp fit's first round is solved from no basis, and on 128x128 it is where the fit
-stops (README "How cost grows"). Variants:
+stops (docs/benchmarks.md#how-cost-grows). Variants:
 
   plain                      the first round (base rows and the seed) from HiGHS's own start
   policy-start               the same from the policy's vertex, as the fit now starts it

@@ -19,7 +19,7 @@ from rich.text import Text
 
 import irl_core.irl.fit_methods as fit_methods
 import irl_core.irl.player_models as player_models
-from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError, missing_extra, missing_extra_line
 from careful_tui.version import app_version
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
@@ -261,7 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
         "nuisance'), the share whose pooled intervals hold the hypothesised rewards, and the median interval "
         "widths; writes plan.csv and plan.pdf/plan.png to <out>/plan/."),
         epilog="Example: careful study plan pilot.toml --participants 5,10 --episodes 5,10 --repeats 20; the default "
-        "grid (3 x 3, 20 studies each) takes a few minutes on two cores.")
+        "grid (3 x 3, 20 studies each) took about 10 minutes per world on two busy cores.")
     plan.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
     plan.add_argument("--truth", default=None, metavar="C=-1000,U=-30,G=100",
                       help="the hypothesised reward per symbol (default: the worlds' own)")
@@ -275,6 +275,10 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--spread", type=non_negative_float, default=0.3, metavar="S",
                       help="between participants, each player parameter is its default times exp(N(0, S)) "
                            "(default 0.3)")
+    plan.add_argument("--pool-model", choices=["population", "shared"], default="population",
+                      help="population (default, as study report pools): each participant's fit, pooled as a "
+                           "population of participants; shared: one fit of everyone's episodes with an interval "
+                           "over participants (study report --pool-model shared)")
     plan.add_argument("--repeats", type=positive_int, default=20, metavar="N",
                       help="simulated studies per grid point (default 20)")
     plan.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the simulations (default 0)")
@@ -346,7 +350,15 @@ def _lazy(module: str, function: str) -> Callable[[argparse.Namespace], int]:
     for the commands that need them, so `careful --help` and `careful worlds` answer at once."""
 
     def run(args: argparse.Namespace) -> int:
-        return getattr(importlib.import_module(module), function)(args)
+        try:
+            command = getattr(importlib.import_module(module), function)
+            return command(args)
+        except ModuleNotFoundError as exc:
+            # An extra's module, missing here or mid-command (matplotlib for a figure): what to install.
+            if (extra := missing_extra(exc)) is None:
+                raise
+            print(missing_extra_line(exc, extra), file=sys.stderr)
+            return EXIT_FAILURE
 
     return run
 

@@ -1,23 +1,15 @@
 """The `careful` console script: the command line, or one line saying which extra to install.
 
-`pip install careful` is the library alone; the command line needs the `tui` extra (Rich and
-Textual), and some commands another (`figures`, `export`). Without it, the import of the command
-line would end in a traceback; this says what to install instead. Nothing here imports Rich.
+`pip install careful` plays (Textual and Rich are in the base dependencies); some commands need an
+extra (`figures`, `export`, `web`, `cluster`). A module that an extra installs and is missing would end
+in a traceback; this says what to install instead (`careful_tui.cli` does the same for each command).
 """
 
 from __future__ import annotations
 
 import sys
 
-# The extra that installs each optional top-level module (pyproject.toml's optional-dependencies).
-EXTRA_OF = {"textual": "tui", "rich": "tui", "matplotlib": "figures", "minari": "export", "PIL": "export",
-            "h5py": "export"}
-EXIT_FAILURE = 1
-
-
-def missing_extra(exc: ModuleNotFoundError) -> str | None:
-    """The extra whose module `exc` did not find, or None when it is not an extra's."""
-    return EXTRA_OF.get((exc.name or "").partition(".")[0])
+from careful_tui.errors import EXIT_FAILURE, missing_extra, missing_extra_line
 
 
 def main() -> int:
@@ -27,7 +19,6 @@ def main() -> int:
         extra = missing_extra(exc)
         if extra is None:
             raise
-        print(f"careful: the command line needs {exc.name}, which is not installed: "
-              f"pip install 'careful[{extra}]' (or 'careful[all]')", file=sys.stderr)
+        print(missing_extra_line(exc, extra), file=sys.stderr)
         return EXIT_FAILURE
     return command_line()

@@ -19,3 +19,19 @@ def require_terminal(command: str) -> None:
     """Raise `UsageError` unless standard input and output are a terminal (for the screens)."""
     if not (sys.stdin.isatty() and sys.stdout.isatty()):
         raise UsageError(f"careful {command} needs an interactive terminal")
+
+
+# The extra that installs each optional top-level module (pyproject.toml's optional-dependencies).
+EXTRA_OF = {"matplotlib": "figures", "minari": "export", "PIL": "export", "h5py": "export",
+            "starlette": "web", "uvicorn": "web", "distributed": "cluster"}
+
+
+def missing_extra(exc: ModuleNotFoundError) -> str | None:
+    """The extra whose module `exc` did not find, or None when it is not an extra's."""
+    return EXTRA_OF.get((exc.name or "").partition(".")[0])
+
+
+def missing_extra_line(exc: ModuleNotFoundError, extra: str) -> str:
+    """The one line that says which extra to install."""
+    return (f"careful: this needs {exc.name}, which is not installed: pip install 'careful[{extra}]' "
+            "(or 'careful[all]')")

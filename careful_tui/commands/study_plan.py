@@ -1,4 +1,4 @@
-"""`careful study plan STUDY.toml`: simulate whole studies before running one (README "Studies").
+"""`careful study plan STUDY.toml`: simulate whole studies before running one (docs/studies.md#planning-a-study).
 
 The computation is `irl_core.studies.plan`; this module parses the grid and the hypothesised
 rewards, shows a progress bar on stderr, prints the table on stdout and writes ``plan.csv`` and the
@@ -65,7 +65,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
         grid = PlanGrid(participants=parse_sizes(args.participants, option="--participants"),
                         episodes=parse_sizes(args.episodes, option="--episodes"),
                         players=tuple(p.strip() for p in args.players.split(",")), repeats=args.repeats,
-                        spread=args.spread, seed=args.seed)
+                        spread=args.spread, seed=args.seed, pool=args.pool_model)
         worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
         raise UsageError(f"--{exc.field}: {exc.reason}") from None
@@ -133,8 +133,8 @@ def plan_table(points: list[PlanPoint], grid: PlanGrid) -> Table:
     """A row per world and grid point: the shares and the median width of each pooled interval."""
     symbols = list(dict.fromkeys(s for p in points for s in p.symbols))
     table = Table(title=Text(f"study plan: {grid.repeats} simulated studies per row (players "
-                             f"{', '.join(grid.players)}, spread {grid.spread:g}; person model, Laplace intervals, "
-                             "population pool)"),
+                             f"{', '.join(grid.players)}, spread {grid.spread:g}; {grid.model} model, Laplace intervals, "
+                             f"{grid.pool} pool)"),
                   caption=Text("separated: the pooled hazard interval lies below the nuisance's; covered: every "
                                "pooled interval holds its hypothesised reward; width: the median width of the pooled "
                                f"{grid.confidence:.0%} interval"),
@@ -159,7 +159,8 @@ def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: f
         name = printable(world, limit=30)
         worst = min(p.covered for p in mine)
         best = max(p.covered for p in mine)
-        cover = (f"every pooled interval held the hypothesised rewards in {worst:.0%} to {best:.0%} of studies"
+        shares = f"{worst:.0%}" if f"{worst:.0%}" == f"{best:.0%}" else f"{worst:.0%} to {best:.0%}"
+        cover = (f"every pooled interval held the hypothesised rewards in {shares} of studies"
                  + ("" if worst >= target else f": the pooled intervals miss the truth more often than "
                     f"their {confidence:.0%} says{_most_missed(mine)}"))
         if mine[0].separated is None:

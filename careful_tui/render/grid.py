@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from decimal import ROUND_HALF_UP, Decimal
 
 import numpy as np
 from rich.console import Console, ConsoleOptions, RenderResult
@@ -177,3 +178,19 @@ def symbol_legend(world: World) -> Text:
 def action_label(direction: str, level: int, *, levels: int) -> str:
     """An action as a cell label: "→8" (arrow, carefulness level), or "→" when the world has one level."""
     return f"{ARROWS[direction]}{level}" if levels > 1 else ARROWS[direction]
+
+
+def format_chance(p: float) -> str:
+    """A probability as a short percentage, halves rounded up: two significant digits from 1 %
+    ("50%", "13%", "6.3%"), one below ("0.8%", "0.006%"), "<0.001%" below that; never shown as
+    0 % or 100 % unless it is."""
+    percent = Decimal(repr(100.0 * p))
+    if percent <= 0 or percent >= 100:
+        return f"{percent:.0f}%"
+    if percent < Decimal("0.001"):
+        return "<0.001%"
+    digits = 2 if percent >= 1 else 1
+    shown = percent.quantize(Decimal(1).scaleb(percent.adjusted() - digits + 1), rounding=ROUND_HALF_UP)
+    if shown >= 100:
+        return ">99%"
+    return f"{shown.normalize():f}%"

@@ -40,21 +40,16 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from rich.console import Group
-from rich.text import Text
-
-from careful_tui.render.grid import SYMBOL_NAMES, format_value
-from careful_tui.render.palette import GOOD, NOTE, WARN
+from careful_tui.render.grid import SYMBOL_NAMES, format_chance, format_value
 from careful_tui.render.session import outcome_text
-from careful_tui.screens.study import BEGIN, between_text, opening_texts
 from careful_tui.version import app_version
-from careful_tui.widgets.gauge import format_chance
 from irl_core.play.game import level_costs, level_slip_chances
 from irl_core.play.hold import HoldProfile
 from irl_core.play.motor_block import MOTOR_INTRO, MOTOR_TITLE, MotorBlock, result_words
 from irl_core.play.session import Played, PlaySession
 from irl_core.recordings.lines import ProlificTag
 from irl_core.recordings.summary import outcome_code
+from irl_core.studies import words
 from irl_core.studies.flow import StudyFlow
 from irl_core.studies.study import LoadedStudy, Protocol, read_protocol
 from irl_core.support.safe_text import printable
@@ -305,29 +300,24 @@ class WebSession:
                 keys = [["space", "go on" if view["play"]["all_played"] else "next episode"]]
             view["keys"] = keys + [["q", "leave"]]
         else:
-            view["paragraphs"] = _paragraphs(self._screen_text())
+            view["paragraphs"] = _paragraphs(self._screen_words())
             view["keys"] = [] if self.stage in ("end", "left") else [["space", "begin" if self.stage == "instructions"
                                                                        else "go on"], ["q", "leave"]]
         if self.stage == "end" and self.completion_url is not None:
             view["complete_url"] = self.completion_url
         return view
 
-    def _screen_text(self) -> Group:
+    def _screen_words(self) -> list[words.Paragraph]:
         if self.stage == "instructions":
-            return _instructions(self.protocol)
+            # The browser times every hold, so the plan words it as hold input whatever the study's input.
+            return words.opening(self.protocol, input_name="hold", experimenter=False)
         if self.stage == "between":
             assert self.flow.finished is not None
-            return between_text(self.protocol, self.flow.finished)
-        done, total = read_protocol(self.study, self.participant).progress
+            return words.between(self.protocol, self.flow.finished)
+        protocol = read_protocol(self.study, self.participant)
         if self.stage == "end":
-            lines = [Text("That is the end of the study. Thank you!", style=f"bold {GOOD}"),
-                     Text(f"{'The episode is' if total == 1 else f'All {total} episodes are'} recorded.")]
-            if self.completion_url is not None:
-                lines.append(Text("You are being sent back to Prolific to complete your submission.", style="dim"))
-            return Group(*lines)
-        return Group(Text("You have left the study.", style=f"bold {NOTE}"),
-                     Text(f"What you played is kept: {done} of {plural(total, 'episode')} done."),
-                     Text("Open your link again to go on where you stopped.", style="dim"))
+            return words.end(protocol, show_folder=False, to_prolific=self.completion_url is not None)
+        return words.left(protocol)
 
     def _calibration_view(self) -> dict[str, Any]:
         motor = self.motor
@@ -377,24 +367,11 @@ class WebSession:
         return view
 
 
-def _instructions(protocol: Protocol) -> Group:
-    """The first screen: the study's instructions and plan (the terminal's, `opening_texts`; the protocol's
-    study says hold input, `WebSession`, so the plan words the browser's way to choose a level)."""
-    return Group(*opening_texts(protocol), Text(BEGIN, style="dim"))
-
-
-def _paragraphs(group: Group) -> list[dict[str, str]]:
-    """A screen's Rich text as paragraphs of plain text, each with its tone (title, good, warn, dim)."""
-    paragraphs = []
-    for part in group.renderables:
-        assert isinstance(part, Text)
-        if not part.plain.strip():
-            continue
-        style = str(part.style)
-        tone = next((name for name, colour in (("title", NOTE), ("good", GOOD), ("warn", WARN)) if colour in style),
-                    "dim" if "dim" in style else "")
-        paragraphs.append({"text": part.plain, "tone": tone})
-    return paragraphs
+def _paragraphs(paragraphs: list[words.Paragraph]) -> list[dict[str, str]]:
+    """A screen's words as the page's paragraphs: plain text, each with the tone of its first span (the page
+    draws one tone a paragraph)."""
+    return [{"text": "".join(span.text for span in paragraph), "tone": paragraph[0].tone}
+            for paragraph in paragraphs if "".join(span.text for span in paragraph).strip()]
 
 
 def _symbols(layout: str) -> list[str]:

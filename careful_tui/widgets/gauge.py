@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from decimal import ROUND_HALF_UP, Decimal
 
 from rich.segment import Segment
 from rich.style import Style
@@ -19,7 +18,7 @@ from textual.reactive import reactive
 from textual.strip import Strip
 from textual.widget import Widget
 
-from careful_tui.render.grid import format_value
+from careful_tui.render.grid import format_chance, format_value
 from careful_tui.render.palette import EMPTY, level_colour
 
 _PARTIAL = " ▁▂▃▄▅▆▇█"
@@ -97,22 +96,6 @@ class Gauge(Widget):
 
     def get_content_height(self, container, viewport, width: int) -> int:
         return self.levels
-
-
-def format_chance(p: float) -> str:
-    """A probability as a short percentage, halves rounded up: two significant digits from 1 %
-    ("50%", "13%", "6.3%"), one below ("0.8%", "0.006%"), "<0.001%" below that; never shown as
-    0 % or 100 % unless it is."""
-    percent = Decimal(repr(100.0 * p))
-    if percent <= 0 or percent >= 100:
-        return f"{percent:.0f}%"
-    if percent < Decimal("0.001"):
-        return "<0.001%"
-    digits = 2 if percent >= 1 else 1
-    shown = percent.quantize(Decimal(1).scaleb(percent.adjusted() - digits + 1), rounding=ROUND_HALF_UP)
-    if shown >= 100:
-        return ">99%"
-    return f"{shown.normalize():f}%"
 
 
 _STRIPS: dict[tuple, Strip] = {}

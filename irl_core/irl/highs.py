@@ -276,12 +276,6 @@ class HighsModel:
             raise RuntimeError("the model has not been solved yet")
         return self.last
 
-    def set_row_bounds(self, rows: np.ndarray, row_lower: np.ndarray, row_upper: np.ndarray) -> None:
-        rows = np.asarray(rows, dtype=np.int32)
-        # In highspy since 1.7; its stubs do not list it.
-        self.highs.changeRowsBounds(  # type: ignore[attr-defined]
-            rows.size, rows, _highs_bound(row_lower), _highs_bound(row_upper))
-
     def solve(self, options: Options | None = None) -> tuple[np.ndarray, SolveReport]:
         """Solve from the current basis, with `options` for this solve only (the first attempt);
         on a failure retry as the module says. Never raises."""

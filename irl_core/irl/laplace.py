@@ -16,8 +16,9 @@ variance, on one of two scales (`SCALES`):
 Variables at the end of their range (beta at its cap, the hand's sigma at 0.05, the lapse at its
 floor) are held where they are: the curvature there is not the likelihood's shape. A reward the data
 bound on one side only (`people_flat.flat_toward_bound`) reaches the bound on that side, as the
-bootstrap's does. docs/people.md ("Laplace intervals") compares both scales with the bootstrap on the
-same fits.
+bootstrap's does. For a pool of people, `groups` gives the cluster-robust (sandwich) covariance, which
+counts each person's episodes as one draw, as the pool's bootstrap resamples people. docs/people.md
+("Laplace intervals") compares both scales with the bootstrap on the same fits.
 """
 
 from __future__ import annotations
@@ -43,16 +44,23 @@ FLAT_EIGENVALUE = 1e-9
 
 
 def laplace_intervals(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, *, rmax: float,
-                      confidence: float = 0.95, scale: str = "log") -> np.ndarray:
+                      confidence: float = 0.95, scale: str = "log", groups: np.ndarray | None = None) -> np.ndarray:
     """(k, 2) [low, high] per unknown of `fit` (a model of people fitted to counts N (S, A)), from the
     curvature of the log likelihood there, clipped to [-rmax, rmax]; see the module's docstring.
+
+    `groups` (n, S, A): the counts of each of n people whose sum is `counts` (a pool): the covariance is
+    then the cluster-robust sandwich I^-1 (sum_i g_i g_i^T) I^-1 n / (n - 1), g_i person i's score at the
+    fit, which covers the differences between people as the pool's bootstrap over people does (no variance
+    below the model's).
 
     Raises ValueError for a `scale` not in `SCALES`."""
     if scale not in SCALES:
         raise ValueError(f"scale must be one of {SCALES}, not {scale!r}")
     counts = np.asarray(counts, dtype=float)
     k = unknowns.k
-    variance = np.diag(covariance(mdp, unknowns, counts, fit))[:k]
+    variance = np.diag(covariance(mdp, unknowns, counts, fit, groups=groups))[:k]
+    # A pool's too takes the normal quantile, not Student's t on n - 1: the planner predicts the study report,
+    # whose pooled bootstrap over people is a percentile interval without that correction.
     z = float(norm.ppf(0.5 + confidence / 2))
     se = np.sqrt(np.maximum(variance, 0.0))
     theta = fit.theta
@@ -71,9 +79,11 @@ def laplace_intervals(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: Pla
     return np.clip(np.stack([low, high], axis=1), -rmax, rmax)
 
 
-def covariance(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit) -> np.ndarray:
-    """(p, p) the inverse observed information over `fit`'s variables (`variables`), inf on the diagonal
-    of a direction the data do not pin, 0 in the rows of a variable held at the end of its range."""
+def covariance(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, *,
+               groups: np.ndarray | None = None) -> np.ndarray:
+    """(p, p) the inverse observed information over `fit`'s variables (`variables`), or with `groups` the
+    cluster-robust sandwich (`laplace_intervals`); inf on the diagonal of a direction the data do not pin,
+    0 in the rows of a variable held at the end of its range."""
     z, free = variables(fit)
     info = -hessian(mdp, unknowns, counts, fit, free=free)
     info = (info + info.T) / 2
@@ -88,6 +98,16 @@ def covariance(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit)
     flat = values <= FLAT_EIGENVALUE * max(1.0, float(values.max(initial=0.0)))
     inverse = (vectors[:, ~flat] / values[~flat]) @ vectors[:, ~flat].T
     inner = inverse / np.outer(d_safe, d_safe)
+    if groups is not None and len(groups) > 1:
+        scores = np.stack([gradient(mdp, unknowns, np.asarray(g, dtype=float), fit, z)[free] for g in groups])
+        scores -= scores.mean(axis=0)  # at the pooled optimum they sum to zero, up to the optimiser's tolerance
+        n = len(groups)
+        sandwich = inner @ (scores.T @ scores) @ inner * n / (n - 1)
+        # With few people the sandwich is itself noisy and tends low (four alike people's gave a cliff interval
+        # a tenth of one person's): the differences between people add to the noise within them, never take
+        # from it, so no variance falls below the model's.
+        np.fill_diagonal(sandwich, np.maximum(np.diag(sandwich), np.diag(inner)))
+        inner = sandwich
     # A variable with any weight on a flat direction (or no curvature at all) is not pinned.
     loose = ~pinned | (np.abs(vectors[:, flat]) > 1e-6).any(axis=1)
     np.fill_diagonal(inner, np.where(loose, np.inf, np.diag(inner)))

@@ -250,7 +250,7 @@ def margin_options(problem: MarginLP) -> Options:
 
 # The first round's rows past which the margin LP is solved by the interior point method, round
 # after round from no basis (`highs.INTERIOR`): beyond them the dual simplex is slower or fails its
-# first round (docs/benchmarks.md, "Past 80x80"; `bench.bench_scaling --stages lp_fit` measures both sides).
+# first round (docs/benchmarks.md#how-cost-grows, its "Past 80x80"; `bench.bench_scaling --stages lp_fit` measures both sides).
 INTERIOR_ROWS = 30_000
 # The same for a tied fit (one unknown for many terminal cells, solved by the simplex from HiGHS's
 # own start without presolve, `margin_options`), whose simplex gives out sooner (the same bench's

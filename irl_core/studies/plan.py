@@ -4,8 +4,10 @@ For each world of the study, with the hypothesised rewards (`planned_worlds`), a
 (participants n, main episodes e), `plan_study` simulates `PlanGrid.repeats` studies: n person-like
 participants (`irl_core.players.person_like`, the kinds `PlanGrid.players` in turn, each of their
 parameters scaled by exp(N(0, `PlanGrid.spread`)): people differ), each playing e episodes; it fits
-each participant with a model of people (`PlanGrid.model`) and the cheap Laplace interval
-(`irl_core.irl.laplace`), pools them as `careful study report` does (`irl_core.studies.population`), and counts
+each participant's episodes with a model of people (`PlanGrid.model`) and the cheap Laplace interval
+(`irl_core.irl.laplace`), pooled as the study report pools (`POOLS`: by default the population of
+participants, `irl_core.studies.population`, over each participant's fit; or one shared fit of
+everyone's episodes with the cluster-robust interval over participants), and counts
 
 - **separated**: the pooled hazard interval lies below the nuisance's (the report's finding
   "carefulness separates catastrophe from nuisance", `experiment.claims.order_words`);
@@ -42,6 +44,13 @@ from irl_core.worlds.world import World
 MAX_PARTICIPANTS = 500
 MAX_EPISODES = 500
 MAX_REPEATS = 10_000
+# How a simulated study's participants are pooled, as `study report` pools them:
+POOLS = {
+    "population": "each participant's own fit and Laplace interval, pooled as the report's population "
+                  "(`irl_core.studies.population`, random effects over participants)",
+    "shared": "one fit of everyone's episodes (the rewards and the player shared), its interval the cluster-robust "
+              "Laplace interval over participants (as the report's shared pool resamples participants)",
+}
 
 
 class PlanError(ValueError):
@@ -65,6 +74,7 @@ class PlanGrid:
     spread: float = 0.3
     seed: int = 0
     model: str = "person"
+    pool: str = "population"
     confidence: float = 0.95
     rmax: float = 5000.0
 
@@ -82,6 +92,8 @@ class PlanGrid:
         if unknown or not self.players:
             raise PlanError("players", f"unknown player {unknown[0]!r}; the players are {', '.join(KINDS)}"
                             if unknown else "give at least one player")
+        if self.pool not in POOLS:
+            raise PlanError("pool", f"{self.pool!r} is not one of {', '.join(POOLS)}")
         if not 0 <= self.spread < 5:
             raise PlanError("spread", f"{self.spread:g} is outside 0..5")
         try:
@@ -201,21 +213,27 @@ def hazard_and_nuisance(world: World, symbols: tuple[str, ...], truth: np.ndarra
 
 
 def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int, int], _Study]:
-    """One repeat of every grid point of `world`: the largest study simulated once, each participant fitted
-    on their first e episodes, the first n pooled (see the module's docstring)."""
+    """One repeat of every grid point of `world`: the largest study simulated once, each grid point's
+    participants its first n and their first e episodes, pooled as `grid.pool` says (see `POOLS`)."""
     mdp = build_mdp(world)
     unknowns = build_unknowns(mdp, tie=True)
     n_most, episodes = max(grid.participants), sorted(set(grid.episodes))
     seeds = np.random.SeedSequence([grid.seed, repeat, sum(map(ord, world.name))]).spawn(n_most)
-    fits: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {e: [] for e in episodes}
+    played = []
     for i, seed in enumerate(seeds):
         rng = np.random.default_rng(seed)
         kind = grid.players[i % len(grid.players)]
-        played = rollouts(mdp, _drawn_player(mdp, kind, grid.spread, rng).choose, episodes=max(episodes), rng=rng)
-        for e in episodes:
-            fits[e].append(fit_participant(mdp, unknowns, _first_episodes(played, e), grid))
+        played.append(rollouts(mdp, drawn_player(mdp, kind, grid.spread, rng).choose, episodes=max(episodes), rng=rng))
+    counts = {e: [demonstrations_of(mdp, _first_episodes(r, e)).counts for r in played] for e in episodes}
+    sizes = sorted(set(grid.participants))
     out = {}
-    for n in sorted(set(grid.participants)):
+    if grid.pool == "shared":
+        for n in sizes:
+            for e in episodes:
+                out[(n, e)] = _Study(pooled_interval(mdp, unknowns, np.stack(counts[e][:n]), grid))
+        return out
+    fits = {e: [fit_participant(mdp, unknowns, c, grid) for c in counts[e]] for e in episodes}
+    for n in sizes:
         for e in episodes:
             intervals = np.stack([f[1] for f in fits[e][:n]])
             pooled = pool_participants(intervals, confidence=grid.confidence, rmax=grid.rmax, marks=False)
@@ -223,7 +241,16 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     return out
 
 
-def _drawn_player(mdp: MDP, kind: str, spread: float, rng: np.random.Generator) -> PersonLike:
+def pooled_interval(mdp: MDP, unknowns: Unknowns, groups: np.ndarray, grid: PlanGrid) -> np.ndarray:
+    """(k, 2) the shared pool's intervals: one fit of the summed counts of groups (n, S, A), and the
+    cluster-robust Laplace interval over its n participants."""
+    counts = groups.sum(axis=0)
+    fitted = fit_given_model(mdp, unknowns, counts, model=player_model(grid.model), rmax=grid.rmax)
+    return laplace_intervals(mdp, unknowns, counts, fitted, rmax=grid.rmax, confidence=grid.confidence,
+                             groups=groups)
+
+
+def drawn_player(mdp: MDP, kind: str, spread: float, rng: np.random.Generator) -> PersonLike:
     """A person-like player of `kind` whose parameters are the defaults each times exp(N(0, spread))
     (a probability kept below 0.9)."""
     values = {name: default * float(np.exp(rng.normal(0.0, spread))) for name, default in KINDS[kind].items()}
@@ -240,10 +267,9 @@ def _first_episodes(played: Rollouts, e: int) -> Rollouts:
                     length=played.length[:e], final_state=played.final_state[:e], truncated=played.truncated[:e])
 
 
-def fit_participant(mdp: MDP, unknowns: Unknowns, played: Rollouts, grid: PlanGrid) -> tuple[np.ndarray, np.ndarray]:
-    """One simulated participant's rewards (k,) and Laplace intervals (k, 2), fitted from the starts a model
-    given by name is (`fit_given_model`; a warm start from the same participant's fit on fewer episodes
-    is faster, but stopped in a poorer optimum in 2 of 12 trials on mud)."""
-    counts = demonstrations_of(mdp, played).counts
+def fit_participant(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, grid: PlanGrid) -> tuple[np.ndarray, np.ndarray]:
+    """One simulated participant's rewards (k,) and Laplace intervals (k, 2) from their counts (S, A), fitted
+    from the starts a model given by name is (`fit_given_model`; a warm start from the same participant's
+    fit on fewer episodes is faster, but stopped in a poorer optimum in 2 of 12 trials on mud)."""
     fitted = fit_given_model(mdp, unknowns, counts, model=player_model(grid.model), rmax=grid.rmax)
     return fitted.theta, laplace_intervals(mdp, unknowns, counts, fitted, rmax=grid.rmax, confidence=grid.confidence)

@@ -89,14 +89,6 @@ def pooling_scale(intervals: np.ndarray, *, rmax: float) -> Scale:
     return "linear"
 
 
-def _to_scale(values: np.ndarray, scale: Scale) -> np.ndarray:
-    if scale == "log_negative":
-        return np.log(-values)
-    if scale == "log_positive":
-        return np.log(values)
-    return values
-
-
 def from_scale(values: np.ndarray, scale: Scale) -> np.ndarray:
     """Pooling-scale values back to rewards (order kept: the first of a low-high pair stays the lower reward)."""
     values = np.asarray(values, dtype=float)
@@ -185,9 +177,9 @@ def pool_reward(intervals: np.ndarray, *, rmax: float, confidence: float = 0.95,
     a = answers(intervals, rmax=rmax, confidence=confidence, scale=scale, shift=shift)
     mu, tau, se, used = fit_population(a)
     n = int((a.kind != 2).sum())
-    nothing = np.array([-rmax, rmax])
     if not np.isfinite(mu):
-        return PopulationReward(float("nan"), nothing, float("nan"), nothing, float("nan"), a.scale, used,
+        bound = _one_sided_bound(a, rmax=rmax)
+        return PopulationReward(float("nan"), bound, float("nan"), bound, float("nan"), a.scale, used,
                                 int((np.abs(a.kind) == 1).sum()))
     q = 0.5 + confidence / 2
     half = (float(student.ppf(q, n - 1)) if n > 1 else float("inf")) * se
@@ -202,6 +194,21 @@ def pool_reward(intervals: np.ndarray, *, rmax: float, confidence: float = 0.95,
         spread = abs(centre) * float(np.sqrt(np.expm1(tau**2) * np.exp(tau**2)))
     return PopulationReward(centre, interval, float(spread), prediction, tau, a.scale, used,
                             int((np.abs(a.kind) == 1).sum()), mu=mu, se=se)
+
+
+def _one_sided_bound(a: Answers, *, rmax: float) -> np.ndarray:
+    """(2,) what participants who all bound a reward on one side say of the population: up to the mildest
+    bound among them ("every fit puts the cliff at most -300, one at most -120": at most -120); the whole
+    range when they bound it on different sides or not at all."""
+    sides = set(a.kind[a.kind != 2].tolist())
+    if len(sides) != 1:
+        return np.array([-rmax, rmax])
+    y = a.y[a.kind != 2]
+    # On the pooling scale, "at least" (kind 1) is bounded below by the smallest; "at most" above by the largest.
+    end = float(y.min()) if sides == {1} else float(y.max())
+    ends = np.array([end, np.inf]) if sides == {1} else np.array([-np.inf, end])
+    with np.errstate(over="ignore"):
+        return np.clip(from_scale(ends, a.scale), -rmax, rmax)
 
 
 def join(first: PopulationReward, second: PopulationReward) -> PopulationReward:

@@ -2,7 +2,8 @@
 
 `gather` reads every participant folder under the study's ``out`` and keeps each one's finished
 main-phase episodes per world (practice never enters a fit; an interrupted episode is counted, not
-fitted; see `irl_core.studies.study`). A file that cannot be used is named in `StudyData.problems`
+fitted; see `irl_core.studies.study`), with the participant's motor calibration trials (their hand,
+which the people fit holds; the pool's are everyone's). A file that cannot be used is named in `StudyData.problems`
 and left out; the participant's other files are still reported.
 """
 
@@ -120,6 +121,7 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
     ids, problems = participant_ids(study)
     folders_left_out = len(problems)
     per_world: dict[int, list[Recording]] = {i: [] for i in range(len(study.worlds))}
+    trials_of: dict[str, np.ndarray] = {}
     cells, left_out = [], {}
     for n, participant in enumerate(ids, 1):
         found = read_participant(study, participant)
@@ -130,13 +132,17 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
         for tag, recording in found.recordings:
             if tag.phase == "main":
                 mine[tag.world_index].append(recording)
+        # The calibration block's trials (in a practice-tagged file of their own) are the participant's hand.
+        trials_of[participant] = calibration_trials([recording for _, recording in found.recordings])
         for world_index, recordings in mine.items():
-            cells.append(_cell(study, participant, world_index, recordings))
+            cells.append(_cell(study, participant, world_index, recordings, trials_of[participant]))
             per_world[world_index].extend(recordings)
         if progress:
             progress(n, len(ids))
+    every_trial = np.concatenate([np.zeros((0, 2), dtype=np.int64), *trials_of.values()])
     for world_index, recordings in per_world.items():
-        pooled = _cell(study, POOLED, world_index, recordings)
+        # The fixed-effect pool shares one player, so one hand: every participant's trials.
+        pooled = _cell(study, POOLED, world_index, recordings, every_trial)
         contributing = sum(1 for cell in cells if cell.world_index == world_index and cell.episodes)
         cells.append(_grouped(dataclasses.replace(pooled, participants=contributing),
                               [cell for cell in cells if cell.world_index == world_index]))
@@ -192,7 +198,14 @@ def _finished_only(recording: Recording) -> Recording:
     return dataclasses.replace(recording, steps=steps, episode_ends=ends, warnings=[])
 
 
-def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: list[Recording]) -> Cell:
+def calibration_trials(recordings: list[Recording]) -> np.ndarray:
+    """(n, 2) (target, produced) of every calibration trial in `recordings`, in file order."""
+    return np.array([(t.target, t.produced) for r in recordings for t in r.calibration_trials],
+                    dtype=np.int64).reshape(-1, 2)
+
+
+def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: list[Recording],
+          trials: np.ndarray | None = None) -> Cell:
     interrupted: Counter[str] = Counter()
     for recording in recordings:
         ends = {end.episode: end for end in recording.episode_ends}
@@ -204,6 +217,9 @@ def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: li
     levels = [step.carefulness for r in finished for step in r.steps if step.state in near]
     steps = sum(len(r.steps) for r in finished)
     demos = Demonstrations.from_recordings(finished) if steps else None
+    if demos is not None and trials is not None and trials.size and int(trials.max()) <= world.levels:
+        # Trials of levels this world lacks cannot be read on its levels: they stay with the worlds that have them.
+        demos = dataclasses.replace(demos, calibration=trials)
     return Cell(participant=participant, world_index=world_index, demos=demos,
                 episodes=sum(len(r.episode_ends) for r in finished), steps=steps, outcomes=dict(outcomes),
                 interrupted_outcomes=dict(interrupted), careful_next_to_terminal=float(np.mean(levels)) if levels else None)

@@ -57,3 +57,16 @@ def test_the_people_fit_holds_the_hasty_players_bias_from_its_trials():
     assert "hand_calibrated" in {note.code for note in result.notes}
     plain = fit(demos, FitOptions(method="maxent", player_model="person", seed=1))
     assert plain.player is not None and plain.player.bias == 0.0
+
+
+def test_a_quick_slice_of_the_bench_hasty_on_mud_with_ten_calibration_trials():
+    """bench_people's hasty run on mud (seed 0) with and without a calibration block of 10 (points only, no
+    intervals): with the trials the rewards are in order and the cliff and the goal are nearer their truth
+    (-1000, 100) than without, where the under-holding reads as a smaller cliff and a goal near zero."""
+    from bench.bench_people import one_run
+
+    options = FitOptions(method="auto", intervals=False, seed=0)
+    plain, calibrated = (one_run("hasty", "mud", 0, options, calibration=n) for n in (0, 10))
+    assert calibrated.error is None and calibrated.ordered, calibrated
+    for symbol, truth in (("C", -1000.0), ("G", 100.0)):
+        assert abs(np.log(calibrated.value[symbol] / truth)) < abs(np.log(abs(plain.value[symbol] / truth))), symbol

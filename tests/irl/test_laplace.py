@@ -79,3 +79,18 @@ def test_an_unknown_scale_is_refused(fitted):
     mdp, unknowns, counts, fit = fitted
     with pytest.raises(ValueError, match="scale"):
         laplace_intervals(mdp, unknowns, counts, fit, rmax=RMAX, scale="logit")
+
+
+def test_a_pool_of_people_who_differ_gets_a_wider_interval_than_one_who_plays_it_all():
+    # Cluster-robust: three careful people and a reckless one differ more than their episodes do.
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    unknowns = build_unknowns(mdp, tie=True)
+    groups = np.stack([demonstrations_of(mdp, rollouts(mdp, person_like(mdp, kind).choose, episodes=8, seed=i)).counts
+                       for i, kind in enumerate(["loose", "loose", "timed", "reckless"])])
+    counts = groups.sum(axis=0)
+    fit = fit_given_model(mdp, unknowns, counts, model=player_model("person"), rmax=RMAX)
+    alone = laplace_intervals(mdp, unknowns, counts, fit, rmax=RMAX, scale="reward")
+    pooled = laplace_intervals(mdp, unknowns, counts, fit, rmax=RMAX, scale="reward", groups=groups)
+    cliff = unknowns.symbols.index("C")
+    assert np.diff(pooled[cliff]) > 1.5 * np.diff(alone[cliff])
+    assert np.all(np.diff(pooled, axis=1) >= np.diff(alone, axis=1))

@@ -137,3 +137,29 @@ def test_a_trial_above_the_worlds_levels_is_one_line_naming_the_field(tmp_path: 
                                                "hold_ms": 10.0, "hold_exact": True}) + "\n")
     with pytest.raises(RecordingError, match=r"bad.jsonl:2: target: 99 is above"):
         read_recording(bad)
+
+
+def test_the_report_gives_each_participant_their_own_trials_and_the_pool_everyones(tmp_path: Path) -> None:
+    """The trials' file is tagged practice, which no fit reads: the report still carries its trials to the
+    participant's main cells (their hand), and every participant's to the pool."""
+    from study.conftest import write_block
+
+    from irl_core.studies.report_cells import gather
+
+    path = study_file(tmp_path, n=2)
+    study = load_study(path)
+    for participant, short in (("p05", 1), ("p06", 2)):
+        clock = FakeClock()
+        flow = StudyFlow(study, participant, clock=clock, seed=4, app_version="test")
+        block = flow.calibration()
+        assert block is not None
+        while not block.view().done:
+            hold_to(block, clock, (block.view().target or 3) - short)
+        flow.quit()
+        write_block(study, participant, 0, "main", name="main.jsonl", finished=2)
+    data = gather(study)
+    by = {cell.participant: cell for cell in data.cells}
+    for participant, short in (("p05", 1), ("p06", 2)):
+        calibration = by[participant].demos.calibration
+        assert calibration.shape == (2, 2) and (calibration[:, 0] - calibration[:, 1] == short).all()
+    assert by["pooled"].demos.calibration.shape == (4, 2)

@@ -10,6 +10,7 @@ from irl_core.studies.plan import PlanError, PlanGrid, plan_study, planned_world
 from irl_core.worlds.world import BUILTIN_WORLDS
 
 TINY = PlanGrid(participants=(2, 3), episodes=(3,), repeats=2)
+TINY_SHARED = PlanGrid(participants=(2, 3), episodes=(3,), repeats=2, pool="shared")
 
 
 @pytest.fixture(scope="module")
@@ -29,6 +30,13 @@ def test_every_world_and_grid_point_gets_shares_of_its_simulated_studies(tiny_pl
         assert all(w >= 0 for w in p.width.values())
     # paper has no nuisance to separate from the cliff
     assert [p.separated is None for p in points] == [False, False, True, True]
+
+
+def test_the_shared_pool_plans_the_same_points():
+    worlds = planned_worlds((BUILTIN_WORLDS["mud"],), {})
+    points = plan_study(worlds, TINY_SHARED)
+    assert [(p.participants, p.studies) for p in points] == [(2, 2), (3, 2)]
+    assert all(0 <= p.covered <= 1 and p.separated is not None for p in points)
 
 
 def test_the_same_seed_plans_the_same(tiny_plan):

@@ -89,3 +89,10 @@ def test_the_rival_planning_model_widens_the_interval_it_shares():
 def test_a_reward_with_both_signs_pools_on_its_own_scale():
     reward = pool_reward(np.array([[-10.0, 30.0], [5.0, 40.0], [0.0, 20.0]]), rmax=5000)
     assert reward.scale == "linear" and reward.interval[0] < reward.centre < reward.interval[1]
+
+
+def test_participants_who_all_bound_a_reward_on_one_side_bound_the_population_by_the_mildest():
+    reward = pool_reward(np.array([[-5000.0, -325.0], [-5000.0, -119.0], [-5000.0, -741.0]]), rmax=5000)
+    assert np.isnan(reward.centre) and list(reward.interval) == [-5000.0, pytest.approx(-119.0)]
+    mixed = pool_reward(np.array([[-5000.0, -325.0], [40.0, 5000.0]]), rmax=5000)
+    assert list(mixed.interval) == [-5000.0, 5000.0]

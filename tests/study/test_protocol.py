@@ -111,7 +111,7 @@ def test_fixed_order_follows_the_file(tmp_path):
 def test_a_file_cut_mid_line_by_a_crash_is_counted_and_not_called_left_out(study):
     """A crash mid-write leaves a truncated last line: the reader skips that line and the file's
     episodes count; the experimenter is told so, not that the file is left out."""
-    from careful_tui.screens.study import problems_text
+    from irl_core.studies.words import problems
 
     path = write_block(study, "p01", 1, "practice", name="a.jsonl", finished=1)
     with path.open("a") as file:
@@ -121,7 +121,7 @@ def test_a_file_cut_mid_line_by_a_crash_is_counted_and_not_called_left_out(study
     (problem,) = protocol.problems
     assert "a.jsonl:4: the last line is truncated" in problem and "left out" not in problem
     assert "the rest of the file is counted" in problem
-    shown = " ".join(text.plain for text in problems_text(protocol))
+    shown = " ".join(span.text for paragraph in problems(protocol) for span in paragraph)
     assert "not counted" not in shown and "the rest of the file is counted" in shown
 
 

@@ -198,3 +198,30 @@ def test_the_layout_page_lists_every_module_of_every_wing():
         and not re.search(rf"`{module.split('.')[-1]}`", rows[module.split(".")[1]])
     )
     assert missing == []
+
+
+def test_the_web_front_end_imports_no_screen_no_widget_and_no_textual():
+    """The browser's server draws the participants' words from `irl_core.studies.words`, not from the
+    terminal's screens: no module of careful_tui.web imports Textual, a screen or a widget, and importing the
+    server and its command works in a process where Textual cannot be imported at all."""
+    import subprocess
+    import sys
+
+    modules = project_modules()
+    borrowed = sorted(f"{module} imports {name}" for module, path in modules.items() if module.startswith("careful_tui.web")
+                      for name in imported_names(path, module)
+                      if name.split(".")[0] == "textual" or name.startswith(("careful_tui.screens", "careful_tui.widgets")))
+    assert borrowed == []
+    code = (
+        "import sys\n"
+        "class Refuse:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] == 'textual':\n"
+        "            raise ImportError('textual is refused here')\n"
+        "sys.meta_path.insert(0, Refuse())\n"
+        "import careful_tui.web.server, careful_tui.commands.serve\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'textual'))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

@@ -53,6 +53,7 @@ def _row(axes, points: list[PlanPoint], world: World, *, first: bool, last: bool
             ax.set_yticks([0, 0.5, 1])
             ax.set_yticklabels(["0%", "50%", "100%"])
             ax.axhline(0.8, color="#bbbbbb", linewidth=0.5, linestyle=":", zorder=0)
+            ax.text(0.01, 0.81, "80%", transform=ax.get_yaxis_transform(), color=QUIET, fontsize=5, va="bottom")
         else:
             ax.set_ylim(bottom=0)
         if last and title.startswith("every"):
