@@ -34,7 +34,7 @@ from irl_core.irl.people_choice import ModelChoice, choose_player_model, fit_giv
 from irl_core.irl.people_fit import PlayerFit, PlayerRefit
 from irl_core.irl.people_fit import curvature_scale as people_curvature_scale
 from irl_core.irl.people_flat import flat_toward_bound
-from irl_core.irl.people_held import FLAT_DROP, held_upper_bounds, jointly
+from irl_core.irl.people_held import FLAT_DROP, held_note
 from irl_core.irl.player_models import AUTO as PLAYER_AUTO
 from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -313,7 +313,11 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         notes.append(Note("not_identified", f"beta ran to the end of its range ({player.beta:.3g}): the intended "
                                             "choices look deterministic, so the data bound the rewards rather than "
                                             "pin them; read the intervals, not the points"))
-    held_upper = _held_note(qmap, demos, solution, options, notes)
+    held_upper = None
+    if solution.held.any():
+        held_upper, note = held_note(mdp, unknowns, demos.counts, theta=solution.theta, model=solution.model,
+                                     player=solution.player, held=solution.held, rmax=options.rmax, V0=solution.V1)
+        notes.append(note)
     flat = flat_toward_bound(mdp, unknowns, demos.counts, solution, rmax=options.rmax)
     if flat.any():
         sides = [f"{label} {'at most' if side < 0 else 'at least'} {value:.3g}"
@@ -325,22 +329,6 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
                    people=solution, rival=rival, held_upper=held_upper)
-
-
-def _held_note(qmap: QMap, demos: Demonstrations, solution: PlayerFit, options: FitOptions,
-               notes: list[Note]) -> np.ndarray | None:
-    """(k,) the upper bounds of the rewards the fit held at -rmax (NaN elsewhere), with a note naming them; None
-    when none was held."""
-    held = solution.held
-    if not held.any():
-        return None
-    upper = held_upper_bounds(qmap.mdp, qmap.unknowns, demos.counts, theta=solution.theta, model=solution.model,
-                              player=solution.player, held=held, rmax=options.rmax, V0=solution.V1)
-    named = "; ".join(f"{label} {value:.3g}" for label, value, on in zip(qmap.unknowns.labels, upper, held) if on)
-    how = "all together" if jointly(held) else "each alone"
-    notes.append(Note("unreached", f"not bounded below by the data (no recorded action can lead there), held at the "
-                                   f"lowest reward {{rmax}} allows; the data allow at most ({how}): {named}"))
-    return upper
 
 
 def _planning_rival(choice: ModelChoice) -> PlayerFit | None:
