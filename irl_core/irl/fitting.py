@@ -34,7 +34,7 @@ from irl_core.irl.people_choice import ModelChoice, choose_player_model, fit_giv
 from irl_core.irl.people_fit import PlayerFit, PlayerRefit
 from irl_core.irl.people_fit import curvature_scale as people_curvature_scale
 from irl_core.irl.people_flat import flat_toward_bound
-from irl_core.irl.people_held import FLAT_DROP, held_upper_bounds, jointly
+from irl_core.irl.people_held import FLAT_DROP, held_note
 from irl_core.irl.player_models import AUTO as PLAYER_AUTO
 from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -42,7 +42,6 @@ from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bo
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
-from irl_core.support.words import plural
 from irl_core.worlds.mdp import MDP
 
 METHODS = fit_methods.FITTED
@@ -122,7 +121,9 @@ def fit(
                                   executor=executor)
 
     check = _fit_check(fitted, demos, options, notes)
-    bounded = [label for label, value in zip(unknowns.labels, fitted.theta) if at_bound(value, options.rmax)]
+    held = fitted.held_upper is not None and ~np.isnan(fitted.held_upper)  # named in their own note
+    bounded = [label for j, (label, value) in enumerate(zip(unknowns.labels, fitted.theta))
+               if at_bound(value, options.rmax) and not (held is not False and held[j])]
     if bounded:
         notes.append(Note("at_bound", f"at ±rmax: {', '.join(bounded)}; there the bound, not the demonstrations, "
                                       "set the value"))
@@ -312,7 +313,11 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         notes.append(Note("not_identified", f"beta ran to the end of its range ({player.beta:.3g}): the intended "
                                             "choices look deterministic, so the data bound the rewards rather than "
                                             "pin them; read the intervals, not the points"))
-    held_upper = _held_note(qmap, demos, solution, options, notes)
+    held_upper = None
+    if solution.held.any():
+        held_upper, note = held_note(mdp, unknowns, demos.counts, theta=solution.theta, model=solution.model,
+                                     player=solution.player, held=solution.held, rmax=options.rmax, V0=solution.V1)
+        notes.append(note)
     flat = flat_toward_bound(mdp, unknowns, demos.counts, solution, rmax=options.rmax)
     if flat.any():
         sides = [f"{label} {'at most' if side < 0 else 'at least'} {value:.3g}"
@@ -324,25 +329,6 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
                    people=solution, rival=rival, held_upper=held_upper)
-
-
-def _held_note(qmap: QMap, demos: Demonstrations, solution: PlayerFit, options: FitOptions,
-               notes: list[Note]) -> np.ndarray | None:
-    """(k,) the upper bounds of the rewards the fit held at -rmax (NaN elsewhere), with a note naming them; None
-    when none was held."""
-    held = solution.held
-    if not held.any():
-        return None
-    upper = held_upper_bounds(qmap.mdp, qmap.unknowns, demos.counts, theta=solution.theta, model=solution.model,
-                              player=solution.player, held=held, rmax=options.rmax, V0=solution.V1)
-    named = "; ".join(f"{label} at most {value:.3g}" for label, value, on in zip(qmap.unknowns.labels, upper, held) if on)
-    how = "all raised together" if jointly(held) else "each raised alone"
-    notes.append(Note("unreached", f"not bounded below by the data: no recorded action can lead into "
-                                   f"{plural(int(held.sum()), 'rewarded cell')}, so lowering their rewards only makes "
-                                   "unrecorded actions less likely; the fit holds them at -{rmax}, where the "
-                                   "likelihood is highest, and the data say only how high they may be before the "
-                                   f"likelihood falls by {FLAT_DROP:g} ({how}): {named}"))
-    return upper
 
 
 def _planning_rival(choice: ModelChoice) -> PlayerFit | None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from irl_core.irl.notes import Note
 from irl_core.irl.people_likelihood import log_likelihood
 from irl_core.irl.player_models import Player, PlayerModel
 from irl_core.irl.qmap import Unknowns
@@ -67,3 +68,14 @@ def held_upper_bounds(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta
 def jointly(held: np.ndarray) -> bool:
     """Whether `held_upper_bounds` bounded the held unknowns together rather than one by one."""
     return int(np.sum(held)) > MAX_ONE_BY_ONE
+
+
+def held_note(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, model: PlayerModel,
+              player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None) -> tuple[np.ndarray, Note]:
+    """(k,) the upper bounds of the held rewards (`held_upper_bounds`, NaN elsewhere), and the note naming them."""
+    upper = held_upper_bounds(mdp, unknowns, counts, theta=theta, model=model, player=player, held=held, rmax=rmax,
+                              V0=V0)
+    named = "; ".join(f"{label} {value:.3g}" for label, value, on in zip(unknowns.labels, upper, held) if on)
+    how = "all together" if jointly(held) else "each alone"
+    return upper, Note("unreached", f"not bounded below by the data (no recorded action can lead there), held at the "
+                                    f"lowest reward {{rmax}} allows; the data allow at most ({how}): {named}")
