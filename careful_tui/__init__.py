@@ -10,6 +10,9 @@ Layers, each importing only from those above it in this list (a test reads the i
 - `widgets`: the board, the gauge, the key bar.
 - `screens`: play, replay, the fit view, calibration.
 - `app`: the factories that build an app, shared by the command line and the tests.
+- `web`: `careful serve`, the browser's front end (beside `app`: no Textual, no screen, no widget).
+- `option_words`: the core's notes in the command line's words (fit()'s parameters as flags).
 - `commands`: one module per `careful` command.
 - `cli`: the argument parser and `main`.
+- `entry`: the console script, which says which extra to install when one is missing.
 """
