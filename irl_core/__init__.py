@@ -33,8 +33,9 @@ May import: numpy, scipy, cvxpy, highspy, pydantic, threadpoolctl, gymnasium and
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from irl_core.support.lazy import lazy_names
 
 if TYPE_CHECKING:  # for type checkers and the API reference; at run time __getattr__ imports them
     from irl_core.irl.evaluation import Evaluation, evaluate  # noqa: F401
@@ -80,14 +81,4 @@ _HOMES = {
 __all__ = sorted(_HOMES)
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module 'irl_core' has no attribute {name!r}")
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_HOMES])
+__getattr__, __dir__ = lazy_names(__name__, _HOMES, globals())

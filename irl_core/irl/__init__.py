@@ -27,8 +27,9 @@ May import: every wing below it (`support`, `worlds`, `recordings`, `play`, `pla
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from irl_core.support.lazy import lazy_names
 
 if TYPE_CHECKING:
     from irl_core.irl.fitting import METHODS, fit  # noqa: F401
@@ -49,14 +50,4 @@ _HOMES = {
 __all__ = sorted(_HOMES)
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module 'irl_core.irl' has no attribute {name!r}")
-    value = getattr(importlib.import_module(home), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_HOMES])
+__getattr__, __dir__ = lazy_names(__name__, _HOMES, globals())
