@@ -19,6 +19,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from bench.big_recording import write_big_recording
+
 MEASURE = """
 import json, resource, sys, time
 start = time.perf_counter()
@@ -45,16 +47,8 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=150_000)
     parser.add_argument("--out", type=Path, help="also write the numbers here as JSON")
     args = parser.parse_args()
-    from irl_core.players.experts import boltzmann_policy, expert_name, simulate_to_file
-    from irl_core.worlds.mdp import build_mdp
-    from irl_core.worlds.world import BUILTIN_WORLDS
-
-    mdp = build_mdp(BUILTIN_WORLDS["paper"])
     with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "big.jsonl"
-        simulate_to_file(path, mdp, boltzmann_policy(mdp, beta=0.1), episodes=args.episodes, seed=0,
-                         player=expert_name("boltzmann", 0.1))
-        size_mb = path.stat().st_size / 2**20
+        path, size_mb = write_big_recording(folder, episodes=args.episodes)
         read = measure("read", path, Path(folder) / "read.json")
         fit = measure("fit", path, Path(folder) / "fit.json")
         check = json.loads((Path(folder) / "fit.json").read_text()).get("fit_check", {})

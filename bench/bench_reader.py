@@ -17,6 +17,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from bench.big_recording import write_big_recording
+
 READ = """
 import json, resource, sys, time
 from pathlib import Path
@@ -46,16 +48,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(prog="bench_reader")
     parser.add_argument("--episodes", type=int, default=100_000)
     args = parser.parse_args()
-    from irl_core.players.experts import boltzmann_policy, expert_name, simulate_to_file
-    from irl_core.worlds.mdp import build_mdp
-    from irl_core.worlds.world import BUILTIN_WORLDS
-
-    mdp = build_mdp(BUILTIN_WORLDS["paper"])
     with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "big.jsonl"
-        simulate_to_file(path, mdp, boltzmann_policy(mdp, beta=0.1), episodes=args.episodes, seed=0,
-                         player=expert_name("boltzmann", 0.1))
-        size_mb = path.stat().st_size / 2**20
+        path, size_mb = write_big_recording(folder, episodes=args.episodes)
         careful, bare = measure("careful", path), measure("json", path)
     print(f"reading a {size_mb:.0f} MB recording ({careful['steps']:,} steps):")
     for name, m in (("read_recording", careful), ("json.loads per line", bare)):
