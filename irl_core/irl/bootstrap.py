@@ -40,7 +40,7 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.fit_methods import METHODS, check_covers
+from irl_core.irl.fit_methods import method
 from irl_core.irl.loss import fit_loss
 from irl_core.irl.lp import Progress
 from irl_core.irl.maxent import fit_maxent
@@ -75,8 +75,8 @@ class Refitter(Protocol):
 
 @dataclass(frozen=True, eq=False)
 class Refit:
-    """How to refit one resample's counts (S, A): the method (one with a refit in `REFITS`; any
-    other raises ValueError here), its settings, the warm start (theta, beta) and, for maxent,
+    """How to refit one resample's counts (S, A): the method (one whose `fit_methods` entry has a refit;
+    any other raises ValueError here), its settings, the warm start (theta, beta) and, for maxent,
     the variables' scale at the full-data fit."""
 
     mdp: MDP
@@ -90,8 +90,7 @@ class Refit:
     start_V: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        if self.method not in REFITS:
-            raise ValueError(f"no bootstrap refit for method {self.method!r}: one of {', '.join(REFITS)}")
+        method(self.method).load_refit()
 
     @property
     def size(self) -> int:
@@ -100,27 +99,21 @@ class Refit:
 
     def __call__(self, counts: np.ndarray) -> np.ndarray:
         """(p,) the unknowns fitted to `counts` (S, A), with beta appended when it is estimated."""
-        return REFITS[self.method](self, counts)
+        return method(self.method).load_refit()(self, counts)
 
 
-def _refit_maxent(refit: Refit, counts: np.ndarray) -> np.ndarray:
+def maxent_refit(refit: Refit, counts: np.ndarray) -> np.ndarray:
     solution = fit_maxent(refit.mdp, refit.unknowns, counts, beta=refit.beta, rmax=refit.rmax, start=refit.start,
                           start_V=refit.start_V, scale=refit.scale, gradient_tolerance=RESAMPLE_GRADIENT_TOLERANCE,
                           value_tolerance=RESAMPLE_VALUE_TOLERANCE)
     return np.append(solution.theta, solution.beta) if refit.beta == "auto" else solution.theta
 
 
-def _refit_loss(refit: Refit, counts: np.ndarray) -> np.ndarray:
+def loss_refit(refit: Refit, counts: np.ndarray) -> np.ndarray:
     totals = counts.sum(axis=1, keepdims=True)
     frequencies = np.divide(counts, totals, out=np.zeros_like(counts), where=totals > 0)
     solution = fit_loss(build_qmap(refit.mdp, refit.unknowns), frequencies, rmax=refit.rmax, lam=refit.lam)
     return np.asarray(solution.x[: refit.unknowns.k], dtype=float)
-
-
-# The refit of every method whose intervals are a bootstrap's (`irl_core.irl.fit_methods`), checked against the registry.
-REFITS: dict[str, Callable[[Refit, np.ndarray], np.ndarray]] = {"loss": _refit_loss, "maxent": _refit_maxent}
-check_covers(REFITS, (m.name for m in METHODS.values() if m.interval_kind == "confidence"),
-             "irl_core.irl.bootstrap.REFITS")
 
 
 @dataclass(frozen=True)

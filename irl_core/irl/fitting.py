@@ -1,7 +1,7 @@
 """`fit`: one entry point for the inverse-RL methods in docs/fitting.md and docs/answers.md.
 
-It builds the unknowns and the Q map once, runs the method's fitter (`FITTERS`, one per entry
-of `irl_core.irl.fit_methods`; ``auto``'s chooses lp for a deterministic expert whose lp is
+It builds the unknowns and the Q map once, runs the method's fitter (named by its entry in
+`irl_core.irl.fit_methods`; ``auto``'s chooses lp for a deterministic expert whose lp is
 feasible, else maxent with beta estimated), optionally bounds every unknown (``intervals``:
 the identified set, or a bootstrap confidence interval, by the method's interval kind),
 evaluates an agent trained on the fitted reward in the true world, and returns a `FitResult`
@@ -201,10 +201,10 @@ def _stopping(progress: Progress | None, stop: Callable[[], bool]) -> Progress:
 def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
          progress: Progress | None = None) -> _Fitted:
     """Fit with `method`'s fitter (`options.method` is not read: auto runs another method with them)."""
-    return FITTERS[fit_methods.method(method).name](qmap, demos, options, progress=progress)
+    return fit_methods.method(method).load_fitter()(qmap, demos, options, progress=progress)
 
 
-def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
+def auto_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
     """The auto method's choice: lp for a deterministic expert whose lp is feasible, else maxent (beta auto)."""
     acted = demos.counts[demos.demonstrated]
     mixed = int(((acted > 0).sum(axis=1) > 1).sum())
@@ -228,7 +228,7 @@ def _auto(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: P
     return fitted
 
 
-def _fit_lp(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
+def lp_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
     """The simple IRL agent: the margin LP over the most frequent actions."""
     solution = solve_margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=options.rmax), lam=options.lam,
                                progress=progress)
@@ -245,7 +245,7 @@ def _fit_lp(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress:
     return fitted
 
 
-def _fit_loss(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
+def loss_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
     """The loss IRL agent: the convex loss over the demonstrated action frequencies."""
     solution = fit_loss(qmap, demos.policy, rmax=options.rmax, lam=options.lam)
     theta, V = qmap.split(solution.x)
@@ -253,7 +253,7 @@ def _fit_loss(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progres
                    notes=list(solution.notes), unique=solution.unique)
 
 
-def _fit_maxent(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
+def maxent_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
     """Maximum-entropy IRL: the paper's Boltzmann expert with beta given or estimated (`FitOptions.maxent_beta`),
     or a model of people (`FitOptions.player_model`, `irl_core.irl.people_fit`)."""
     chosen_by_auto = options.method == "auto"
@@ -364,8 +364,6 @@ def _maxent_notes(solution: MaxEntSolution, mdp: MDP, *, estimated: bool) -> lis
 
 
 # Every method's fitter, checked against the registry.
-FITTERS: dict[str, Callable[..., _Fitted]] = {"auto": _auto, "lp": _fit_lp, "loss": _fit_loss, "maxent": _fit_maxent}
-fit_methods.check_covers(FITTERS, fit_methods.NAMES, "irl_core.irl.fitting.FITTERS")
 
 
 def _intervals(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: FitOptions, notes: list[Note], *,

@@ -34,9 +34,10 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from irl_core.play.hold import MS_PER_LEVEL, TAP_MS
+from irl_core.play.input_modes import DEFAULT_INPUT_MODE, input_mode
 from irl_core.recordings.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
 from irl_core.recordings.lines import StudyTag
 from irl_core.recordings.writer import slug
@@ -96,11 +97,17 @@ class Study(BaseModel):
     # Targets of the motor calibration block before practice (0: no block).
     calibration_block: int = Field(0, ge=0, le=100)
     episodes: int = Field(5, ge=1, le=100_000)
-    input: Literal["hold", "tap", "digits"] = "hold"
+    input: str = DEFAULT_INPUT_MODE
     tap_ms: float = Field(TAP_MS, ge=50.0, le=5_000.0)
     ms_per_level: float = Field(MS_PER_LEVEL, ge=20.0, le=5_000.0)
     out: str = Field("data", min_length=1)
     exclusions: Exclusions = Field(default_factory=Exclusions)
+
+    @field_validator("input")
+    @classmethod
+    def _input_is_a_registered_mode(cls, name: str) -> str:
+        """The study's input mode is one of the input-mode registry's (`irl_core.play.input_modes`)."""
+        return input_mode(name).name
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,7 @@ from careful_tui.cli import build_parser
 from careful_tui.option_words import FLAGS, said
 from careful_tui.screens.fit import FitScreen
 from irl_core.irl import FitOptions, InfeasibleError, Note, SolverError, fit, fit_methods
-from irl_core.irl.bootstrap import REFITS, Refit
-from irl_core.irl.fitting import FITTERS
+from irl_core.irl.bootstrap import Refit
 from irl_core.irl.notes import CODES
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
@@ -35,8 +34,12 @@ def test_an_unknown_method_is_refused_where_it_enters():
 
 
 def test_every_reader_of_a_method_name_takes_it_from_the_registry():
-    assert set(FITTERS) == set(fit_methods.NAMES)
-    assert set(REFITS) == {m.name for m in fit_methods.METHODS.values() if m.interval_kind == "confidence"}
+    # Each entry's fitter and refit import as named; a bootstrap interval has a refit, nothing else does.
+    for entry in fit_methods.METHODS.values():
+        assert callable(entry.load_fitter())
+        assert (entry.refit is not None) == (entry.interval_kind == "confidence")
+        if entry.refit is not None:
+            assert callable(entry.load_refit())
     method_flag = next(a for a in build_parser()._subparsers._group_actions[0].choices["fit"]._actions
                        if a.dest == "method")
     assert tuple(method_flag.choices) == fit_methods.NAMES and method_flag.default == fit_methods.DEFAULT
@@ -44,9 +47,12 @@ def test_every_reader_of_a_method_name_takes_it_from_the_registry():
     assert keys == {m.key: f"method('{m.name}')" for m in fit_methods.METHODS.values()}
 
 
-def test_an_implementation_table_missing_an_entry_is_refused_at_import():
-    with pytest.raises(RuntimeError, match=r"missing \['maxent'\]"):
-        fit_methods.check_covers({"lp": None, "loss": None}, fit_methods.FITTED, "fitters")
+def test_an_entry_naming_a_fitter_that_is_not_there_fails_when_loaded():
+    import dataclasses
+
+    broken = dataclasses.replace(fit_methods.METHODS["lp"], fitter="irl_core.irl.fitting:no_such_fitter")
+    with pytest.raises(AttributeError, match="no_such_fitter"):
+        broken.load_fitter()
 
 
 def test_the_library_defaults_to_auto_as_the_command_line_does():

@@ -3,8 +3,6 @@ unknown name is refused where it enters."""
 
 from __future__ import annotations
 
-import typing
-
 import pytest
 
 from careful_tui.cli import build_parser
@@ -15,8 +13,11 @@ from irl_core.studies.study import Study
 
 
 def test_the_study_file_takes_exactly_the_registered_modes() -> None:
-    # A study file's field is a Literal (pydantic names the choices in its error): it must list the registry.
-    assert typing.get_args(Study.model_fields["input"].annotation) == INPUT_MODE_NAMES
+    # The study file's field reads the registry: every registered mode, nothing else, the registry's default.
+    for name in INPUT_MODE_NAMES:
+        assert Study(name="s", worlds=("mud",), input=name).input == name
+    with pytest.raises(ValueError, match="unknown input mode 'joystick': use one of hold, tap, digits"):
+        Study(name="s", worlds=("mud",), input="joystick")
     assert Study.model_fields["input"].default == DEFAULT_INPUT_MODE
 
 
