@@ -1,16 +1,127 @@
-"""Parsed command-line arguments turned into the core's option objects, for the commands and
-the app factory alike."""
+"""The command line's arguments: their types (a bad value is one line, exit 2), and `careful fit`'s
+options, each `FitOptions` field declared once here with its flag (`FIT_FLAGS`): the parser, the
+options built from parsed arguments and the notes' words (`careful_tui.option_words`) all read it."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
 
+import irl_core.irl.fit_methods as fit_methods
+import irl_core.irl.player_models as player_models
 from irl_core.irl import FitOptions
+
+
+def finite_float(text: str) -> float:
+    """A number JSON can hold: "inf" and "nan" are refused (exit 2), as is anything beyond 1e300."""
+    value = float(text)
+    if not (math.isfinite(value) and abs(value) <= 1e300):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    value = finite_float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    value = finite_float(text)
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"must be zero or more, got {text}")
+    return value
+
+
+def probability(text: str) -> float:
+    value = finite_float(text)
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"must be a probability from 0 to 1, got {text}")
+    return value
+
+
+def beta_value(text: str) -> float | str:
+    """A positive number, or "auto" (estimate beta with the rewards)."""
+    if text == "auto":
+        return text
+    try:
+        return positive_float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive number or auto, got {text}") from None
+
+
+def seed_int(text: str) -> int:
+    """A seed numpy takes: a whole number from 0 to 2**64 - 1."""
+    value = int(text)
+    if not 0 <= value < 2**64:
+        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to 2**64 - 1, got {text}")
+    return value
+
+
+def text_argument(text: str) -> str:
+    """Text from the command line that a recording can hold: undecodable bytes are refused."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise argparse.ArgumentTypeError("is not valid UTF-8 text") from None
+    return text
+
+
+def positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text}")
+    return value
+
+
+@dataclass(frozen=True)
+class Flag:
+    """A `FitOptions` field's flag on `careful fit`: its name and argparse's keyword arguments."""
+
+    field: str
+    flag: str
+    kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+FIT_FLAGS: tuple[Flag, ...] = (
+    Flag("method", "--method", dict(choices=fit_methods.NAMES, default=fit_methods.DEFAULT, help="; ".join(
+        f"{m.name}{' (default)' if m.name == fit_methods.DEFAULT else ''}: {m.summary}"
+        for m in fit_methods.METHODS.values()))),
+    Flag("rmax", "--rmax", dict(type=positive_float, default=1000.0, help="bound |R_S| <= rmax (default 1000)")),
+    Flag("lam", "--lambda", dict(type=non_negative_float, default=0.0, help="L1 penalty on R_S (default 0)")),
+    Flag("beta", "--beta", dict(type=beta_value, default=None, metavar="X|auto", help=(
+        "maxent inverse temperature, or auto to estimate it with the rewards (default: 1.0 with --method "
+        "maxent, auto when --method auto picks maxent)"))),
+    Flag("player_model", "--player-model", dict(choices=(player_models.AUTO, *player_models.PLAYER_MODELS), default=None,
+         help="maxent's model of the player: auto chooses by held-out episodes (the default when --method auto "
+         "picks maxent); " + "; ".join(f"{m.name}: {m.summary}" for m in player_models.PLAYER_MODELS.values())
+         + " (boltzmann is the default with --method maxent)")),
+    Flag("reward_cells", "--reward-cells", dict(choices=["special", "all"], default="special",
+         help="special: fit non-ground cells, ground is 0 (default); all: fit every cell")),
+    Flag("tie", "--tie", dict(action="store_true", help="one unknown per symbol instead of per cell")),
+    Flag("intervals", "--intervals", dict(action="store_true", help=(
+        "an interval per unknown: for lp every value the demonstrations allow (identified set); for maxent and "
+        "loss a confidence interval from resampling whole episodes"))),
+    Flag("confidence", "--confidence", dict(type=finite_float, default=0.95, metavar="P",
+         help="confidence level of maxent's and loss's intervals, between 0 and 1 (default 0.95)")),
+    Flag("resamples", "--resamples", dict(type=int, default=200, metavar="N",
+         help="bootstrap resamples for those intervals, at least 20 (default 200)")),
+    Flag("seed", "--seed", dict(type=seed_int, default=0, help="seed of the resampling (default 0)")),
+)
+if {f.field for f in FIT_FLAGS} != {f.name for f in dataclasses.fields(FitOptions)}:
+    raise RuntimeError("careful_tui.arguments.FIT_FLAGS must declare a flag for every FitOptions field")
+
+
+def add_fit_options(parser: argparse.ArgumentParser) -> None:
+    """`careful fit`'s option flags, one per `FitOptions` field (`FIT_FLAGS`)."""
+    for option in FIT_FLAGS:
+        parser.add_argument(option.flag, dest=option.field, **option.kwargs)
 
 
 def options_from_args(args: argparse.Namespace) -> FitOptions:
     """The fit's settings from `careful fit`'s parsed arguments (built once; the view refits with replace)."""
-    return FitOptions(method=args.method, rmax=args.rmax, lam=args.lam, beta=args.beta,
-                      player_model=getattr(args, "player_model", None),
-                      reward_cells=args.reward_cells, tie=args.tie, intervals=args.intervals,
-                      confidence=args.confidence, resamples=args.resamples, seed=args.seed)
+    return FitOptions(**{option.field: getattr(args, option.field) for option in FIT_FLAGS})

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -17,77 +16,22 @@ from pathlib import Path
 from rich.console import Console
 from rich.text import Text
 
-import irl_core.irl.fit_methods as fit_methods
-import irl_core.irl.player_models as player_models
+from careful_tui.arguments import (
+    add_fit_options,
+    finite_float,
+    non_negative_float,
+    positive_float,
+    positive_int,
+    probability,
+    seed_int,
+    text_argument,
+)
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError, missing_extra, missing_extra_line
 from careful_tui.version import app_version
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
 from irl_core.support.safe_files import InputError, OutputError
 from irl_core.support.safe_text import one_line
-
-
-def finite_float(text: str) -> float:
-    """A number JSON can hold: "inf" and "nan" are refused (exit 2), as is anything beyond 1e300."""
-    value = float(text)
-    if not (math.isfinite(value) and abs(value) <= 1e300):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
-    return value
-
-
-def positive_float(text: str) -> float:
-    value = finite_float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
-    return value
-
-
-def non_negative_float(text: str) -> float:
-    value = finite_float(text)
-    if not value >= 0:
-        raise argparse.ArgumentTypeError(f"must be zero or more, got {text}")
-    return value
-
-
-def probability(text: str) -> float:
-    value = finite_float(text)
-    if not 0 <= value <= 1:
-        raise argparse.ArgumentTypeError(f"must be a probability from 0 to 1, got {text}")
-    return value
-
-
-def beta_value(text: str) -> float | str:
-    """A positive number, or "auto" (estimate beta with the rewards)."""
-    if text == "auto":
-        return text
-    try:
-        return positive_float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a positive number or auto, got {text}") from None
-
-
-def seed_int(text: str) -> int:
-    """A seed numpy takes: a whole number from 0 to 2**64 - 1."""
-    value = int(text)
-    if not 0 <= value < 2**64:
-        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to 2**64 - 1, got {text}")
-    return value
-
-
-def text_argument(text: str) -> str:
-    """Text from the command line that a recording can hold: undecodable bytes are refused."""
-    try:
-        text.encode("utf-8")
-    except UnicodeEncodeError:
-        raise argparse.ArgumentTypeError("is not valid UTF-8 text") from None
-    return text
-
-
-def positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {text}")
-    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -127,30 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
         "the fit view; without one, or with --no-view, it prints the result and exits."))
     fit.add_argument("files", type=Path, nargs="+", metavar="FILE",
                      help="recordings (JSONL) of one world, fitted together")
-    fit.add_argument("--method", choices=fit_methods.NAMES, default=fit_methods.DEFAULT,
-                     help="; ".join(f"{m.name}{' (default)' if m.name == fit_methods.DEFAULT else ''}: {m.summary}"
-                                    for m in fit_methods.METHODS.values()))
-    fit.add_argument("--rmax", type=positive_float, default=1000.0, help="bound |R_S| <= rmax (default 1000)")
-    fit.add_argument("--lambda", dest="lam", type=non_negative_float, default=0.0, help="L1 penalty on R_S (default 0)")
-    fit.add_argument("--beta", type=beta_value, default=None, metavar="X|auto",
-                     help="maxent inverse temperature, or auto to estimate it with the rewards "
-                     "(default: 1.0 with --method maxent, auto when --method auto picks maxent)")
-    fit.add_argument("--player-model", dest="player_model", choices=(player_models.AUTO, *player_models.PLAYER_MODELS),
-                     default=None,
-                     help="maxent's model of the player: auto chooses by held-out episodes (the default when --method "
-                     "auto picks maxent); " + "; ".join(f"{m.name}: {m.summary}" for m in player_models.PLAYER_MODELS.values())
-                     + " (boltzmann is the default with --method maxent)")
-    fit.add_argument("--reward-cells", choices=["special", "all"], default="special",
-                     help="special: fit non-ground cells, ground is 0 (default); all: fit every cell")
-    fit.add_argument("--tie", action="store_true", help="one unknown per symbol instead of per cell")
-    fit.add_argument("--intervals", action="store_true",
-                     help="an interval per unknown: for lp every value the demonstrations allow (identified set); "
-                     "for maxent and loss a confidence interval from resampling whole episodes")
-    fit.add_argument("--confidence", type=finite_float, default=0.95, metavar="P",
-                     help="confidence level of maxent's and loss's intervals, between 0 and 1 (default 0.95)")
-    fit.add_argument("--resamples", type=int, default=200, metavar="N",
-                     help="bootstrap resamples for those intervals, at least 20 (default 200)")
-    fit.add_argument("--seed", type=seed_int, default=0, help="seed of the resampling (default 0)")
+    add_fit_options(fit)
     fit.add_argument("--json", type=Path, metavar="PATH", help="write the result as JSON")
     fit.add_argument("--svg", type=Path, metavar="PATH", help="save a picture of the result as SVG")
     fit.add_argument("--figure", type=Path, metavar="PATH", help="save the result as a figure for a paper "

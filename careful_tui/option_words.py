@@ -1,32 +1,18 @@
 """The core's notes and errors in the command line's words: ``{rmax}`` says ``--rmax``, ``{method=loss}``
 ``--method loss``, ``{intervals=True}`` ``--intervals``.
 
-`FLAGS` is the one table from `FitOptions`' fields to `careful fit`'s flags; every field has one (checked
-at import), so a new option cannot reach a user under its Python name.
+`FLAGS` maps `FitOptions`' fields to `careful fit`'s flags, read from `careful_tui.arguments.FIT_FLAGS`,
+where each field's flag is declared once (checked at import), so a new option cannot reach a user under its
+Python name.
 """
 
 from __future__ import annotations
 
-import dataclasses
-
-from irl_core.irl import FitError, FitOptions, Note
+from careful_tui.arguments import FIT_FLAGS
+from irl_core.irl import FitError, Note
 from irl_core.irl.notes import worded
 
-FLAGS: dict[str, str] = {
-    "method": "--method",
-    "rmax": "--rmax",
-    "lam": "--lambda",
-    "beta": "--beta",
-    "player_model": "--player-model",
-    "reward_cells": "--reward-cells",
-    "tie": "--tie",
-    "intervals": "--intervals",
-    "confidence": "--confidence",
-    "resamples": "--resamples",
-    "seed": "--seed",
-}
-if set(FLAGS) != {field.name for field in dataclasses.fields(FitOptions)}:
-    raise RuntimeError("careful_tui.option_words.FLAGS must name a flag for every FitOptions field")
+FLAGS: dict[str, str] = {option.field: option.flag for option in FIT_FLAGS}
 
 
 def flag(name: str, value: str | None) -> str:
