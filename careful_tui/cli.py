@@ -12,6 +12,7 @@ import importlib
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console
 from rich.text import Text
@@ -44,6 +45,19 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"careful {app_version()}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
+    _add_play(commands)
+    _add_replay(commands)
+    _add_fit(commands)
+    _add_simulate(commands)
+    _add_worlds(commands)
+    _add_experiment(commands)
+    _add_export(commands)
+    _add_study(commands)
+    _add_serve(commands)
+    return parser
+
+
+def _add_play(commands: Any) -> None:
     play = commands.add_parser("play", help="play the game and record every step", description=(
         "Play the cliff gridworld. Arrow keys move; hold a key longer to be more careful "
         "(careful moves cost more and slip less). Every step is saved as JSONL."))
@@ -57,6 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--seed", type=seed_int, default=None, help="seed for the world's randomness (default: random)")
     play.add_argument("--calibrate", action="store_true", help="measure your keyboard's autorepeat before playing")
 
+
+def _add_replay(commands: Any) -> None:
     replay = commands.add_parser("replay", help="watch recorded sessions", description=(
         "Watch recorded sessions step by step or animated, one file after another: files in the order "
         "given, a folder's *.jsonl files in name order (numbers by value, so s-2 comes before s-10). "
@@ -66,6 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("files", type=Path, nargs="+", metavar="FILE|FOLDER",
                         help="recordings, or folders of recordings (not searched below the folder)")
 
+
+def _add_fit(commands: Any) -> None:
     fit = commands.add_parser("fit", help="fit a reward to recordings (inverse RL)", description=(
         "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "
         "the fit view; without one, or with --no-view, it prints the result and exits."))
@@ -78,6 +96,8 @@ def build_parser() -> argparse.ArgumentParser:
                      "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
 
+
+def _add_simulate(commands: Any) -> None:
     simulate = commands.add_parser("simulate", help="record a computer expert or a person-like player", description=(
         "Roll out a computer expert or a person-like player and write its episodes as a recording."))
     simulate.add_argument("--world", required=True, metavar="NAME|FILE", help="built-in world or TOML file")
@@ -103,9 +123,13 @@ def build_parser() -> argparse.ArgumentParser:
                           help="seed of the rollouts (the same seed writes the same file)")
     simulate.add_argument("--out", type=Path, required=True, metavar="FILE", help="the new recording (never overwritten)")
 
+
+def _add_worlds(commands: Any) -> None:
     worlds = commands.add_parser("worlds", help="list the built-in worlds", description="List the built-in worlds, or show one.")
     worlds.add_argument("--show", metavar="NAME|FILE", help="draw one world and print it as TOML")
 
+
+def _add_experiment(commands: Any) -> None:
     experiment = commands.add_parser("experiment", help="the paper's experiments, end to end", description=(
         "Run the paper's experiments end to end: figures as PDF and PNG (300 dpi), summary.json and report.md."))
     experiment.add_argument("--out", type=Path, default=Path("experiment"), metavar="DIR",
@@ -116,6 +140,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "experts, labelled so)")
     experiment.add_argument("--seed", type=seed_int, default=0, help="seed of every simulated expert and resampling (default 0)")
 
+
+def _add_export(commands: Any) -> None:
     export = commands.add_parser("export", help="recordings as CSV or a Minari dataset", description=(
         "Export recordings for other tools: a CSV table with one row per step, or a local Minari "
         "dataset (under $MINARI_DATASETS_PATH, or ~/.minari/datasets) of one world, one Minari episode "
@@ -126,11 +152,19 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--out", required=True, metavar="PATH|DATASET_ID",
                         help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0")
 
+
+def _add_study(commands: Any) -> None:
     study = commands.add_parser("study", help="studies: one protocol for many participants, one report", description=(
         "Studies (a study file names the worlds, their order, practice and main episodes per world). "
         "'careful study run' takes one participant through the study; 'careful study report' fits "
         "every participant and the pool of them."))
     study_commands = study.add_subparsers(dest="study_command", metavar="COMMAND", required=True)
+    _add_study_run(study_commands)
+    _add_study_report(study_commands)
+    _add_study_plan(study_commands)
+
+
+def _add_study_run(study_commands: Any) -> None:
     run = study_commands.add_parser("run", help="take one participant through the study", description=(
         "Take one participant through the study in this terminal: the study's instructions (space to "
         "begin), then for each world, in the participant's order, its practice episodes and its main "
@@ -144,6 +178,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file")
     run.add_argument("--participant", required=True, metavar="ID", type=text_argument,
                      help="the participant's id, their folder's name: 1 to 80 letters, digits and _ . = -")
+
+
+def _add_study_report(study_commands: Any) -> None:
     report = study_commands.add_parser("report", help="fit every participant and the pool, per world", description=(
         "Fit the main-phase episodes of every participant folder under the study's out folder, per world, with 95% "
         "confidence intervals (maxent, beta estimated, one reward per symbol; lp with its identified set for a "
@@ -172,6 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("--no-exclusions", action="store_true",
                         help="pool every participant, ignoring the study file's [exclusions] (to show what they change)")
 
+
+def _add_study_plan(study_commands: Any) -> None:
     plan = study_commands.add_parser("plan", help="simulate whole studies: how many participants and episodes?",
                                      description=(
         "Simulate whole studies before running one: for each world of the study, with the hypothesised rewards "
@@ -208,6 +247,8 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--out", type=Path, default=None, metavar="DIR",
                       help="the files go to DIR/plan/ (default: the study's out folder)")
 
+
+def _add_serve(commands: Any) -> None:
     serve = commands.add_parser("serve", help="serve a study to participants in a web browser", description=(
         "Serve the study to participants in a web browser: the same screens, blocks, files and resume rules as "
         "'careful study run', with every hold timed from key down to key up. Participants arrive by a link "
@@ -226,7 +267,6 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--completion-code", default=None, metavar="CODE",
                        help="Prolific's completion code: a Prolific participant who finishes is sent to Prolific's "
                        "completion address with it, once every episode is on disk")
-    return parser
 
 
 def port_number(text: str) -> int:
