@@ -206,10 +206,21 @@ def run_experiment(
     """
     out = ExperimentResult()
     started = time.perf_counter()
+    paper = build_mdp(BUILTIN_WORLDS["paper"])
+    _optimal_stage(out, paper, progress)
+    _maxent_stage(out, sizes, seed, progress)
+    _lp_stage(out, paper, sizes, seed, progress)
+    humans = _loss_stage(out, paper, sizes, recordings, seed, progress)
+    _identified_stage(out, sizes, seed, progress)
+    _noisy_stage(out, sizes, seed, progress)
+    out.claims = paper_claims(out.estimates, out.separations, people=humans)
+    out.seconds = time.perf_counter() - started
+    return out
 
+
+def _optimal_stage(out: ExperimentResult, paper: MDP, progress: Progress) -> None:
     # 1. Figures 3 and 4: the optimal policy with 14 levels, and the true reward.
     progress("optimal policy of paper (figures 3, 4)")
-    paper = build_mdp(BUILTIN_WORLDS["paper"])
     plan = value_iteration(paper)
     out.figures.append(Figure("fig3-optimal-policy", "Figure 3: optimal policy, 14 levels of carefulness",
                               paper.world, policy=policy_cells(paper, plan.greedy),
@@ -217,6 +228,8 @@ def run_experiment(
     out.figures.append(Figure("fig4-true-reward", "Figure 4: true reward", paper.world,
                               values=paper.grid_of(paper.R_S), caption=_reward_caption(paper.world)))
 
+
+def _maxent_stage(out: ExperimentResult, sizes: Sizes, seed: int, progress: Progress) -> None:
     # 2. Figure 5: the MaxEnt baseline in the deterministic world.
     progress(f"MaxEnt baseline: {sizes.maxent_episodes} Boltzmann episodes (figure 5)")
     maxent_mdp = build_mdp(BUILTIN_WORLDS["paper-maxent"])
@@ -229,6 +242,8 @@ def run_experiment(
     out.figures.append(_fitted(result, "Figure 5: MaxEnt baseline (no carefulness)", "fig5-maxent",
                                severity(out.estimates[-1])))
 
+
+def _lp_stage(out: ExperimentResult, paper: MDP, sizes: Sizes, seed: int, progress: Progress) -> None:
     # 3. Figure 6: the careful LP from optimal episodes.
     progress(f"careful LP: {sizes.lp_episodes} optimal episodes (figure 6)")
     t = time.perf_counter()
@@ -239,6 +254,10 @@ def run_experiment(
     out.figures.append(_fitted(result, "Figure 6: careful LP from optimal rollouts", "fig6-lp",
                                severity(out.estimates[-1])))
 
+
+def _loss_stage(out: ExperimentResult, paper: MDP, sizes: Sizes, recordings: Path | None, seed: int,
+                progress: Progress) -> bool:
+    """Figures 7 and 8 (and the people fit of people's sessions); whether people's sessions were read."""
     # 4. Figures 7 and 8: the loss method on a handful of noisy demonstrations.
     humans, left_out = human_sessions(recordings, paper.world) if recordings is not None else ([], [])
     out.notes += left_out
@@ -271,7 +290,10 @@ def run_experiment(
                                    "fig8b-people", _people_caption(result)))
         out.notes += [f"people fit: {note}" for note in result.notes
                       if note.code in ("player_model", "fit_check_failed", "fit_check_not_run", "one_sided")]
+    return bool(humans)
 
+
+def _identified_stage(out: ExperimentResult, sizes: Sizes, seed: int, progress: Progress) -> None:
     # 5. Beyond the paper: what carefulness buys, as intervals.
     for name in ("mud", "mud-simple"):
         progress(f"intervals on {name}: {sizes.interval_episodes} optimal episodes")
@@ -285,6 +307,8 @@ def run_experiment(
         out.figures.append(_fitted(result, f"Identified sets on {name}: every value the lp allows",
                                    f"intervals-{name}", interval_caption(out.separations[-1])))
 
+
+def _noisy_stage(out: ExperimentResult, sizes: Sizes, seed: int, progress: Progress) -> None:
     # 6. The same with noisy experts: confidence intervals.
     for name in ("mud", "mud-simple"):
         progress(f"confidence intervals on {name}: {sizes.boltzmann_episodes} Boltzmann episodes, "
@@ -306,10 +330,6 @@ def run_experiment(
         out.figures.append(_fitted(result, f"Confidence intervals on {name}: maxent from noisy experts",
                                    f"intervals-noisy-{name}", interval_caption(out.separations[-1])))
         out.notes += [f"noisy {name}: {note}" for note in result.notes if note.code == "not_identified"]
-
-    out.claims = paper_claims(out.estimates, out.separations, people=bool(humans))
-    out.seconds = time.perf_counter() - started
-    return out
 
 
 def severity(e: Estimate) -> str:
