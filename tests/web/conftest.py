@@ -98,8 +98,10 @@ def live_server(web_study: LoadedStudy) -> Iterator[LiveServer]:
     thread.join(10)
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def browser():
+    # Per module, not per session: Playwright's sync API keeps an event loop running in this thread while
+    # it is open, and a Textual Pilot test after it in the same run could not start its own.
     if not CHROMIUM.exists():
         pytest.skip(f"{CHROMIUM} is missing (apt-get install chromium; .ci/run installs it)")
     try:
