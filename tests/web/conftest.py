@@ -155,6 +155,14 @@ class Api:
             assert self.hold("right", ms).status_code == 200
         assert self.view["play"]["end"]["code"] == "G"
 
+    def play_the_study(self):
+        """The web study from its instructions to its end: begin, the practice episode, on, the main one, on."""
+        self.key("space")
+        self.walk_to_goal()
+        self.key("space"), self.key("space")
+        self.walk_to_goal()
+        self.key("space")
+
 
 def web_app(study: LoadedStudy, *, links: int = 2, completion_code: str | None = None, **options):
     """The server's app for `study` with `links` links; returns (app, participant -> token)."""

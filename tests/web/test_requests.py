@@ -211,11 +211,7 @@ def test_the_completion_address_comes_only_at_the_end_for_a_prolific_participant
     assert api.view["complete_url"] == "https://app.prolific.com/submissions/complete?cc=C0DE-42"
     assert read_protocol(web_study, "prolific-PP1").finished
     linked = Api(client, token=tokens["p002"])  # a link participant is not sent to Prolific
-    linked.key("space")
-    linked.walk_to_goal()
-    linked.key("space"), linked.key("space")
-    linked.walk_to_goal()
-    linked.key("space")
+    linked.play_the_study()
     assert linked.view["stage"] == "end" and "complete_url" not in linked.view
 
 

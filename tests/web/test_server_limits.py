@@ -51,11 +51,7 @@ def test_a_prolific_id_never_names_a_link_participants_folder(web_study) -> None
     app, tokens = web_app(web_study, completion_code="C0DE-42", prolific=True)
     with TestClient(app) as client:
         linked = Api(client, token=tokens["p001"])
-        linked.key("space")
-        linked.walk_to_goal()
-        linked.key("space"), linked.key("space")
-        linked.walk_to_goal()
-        linked.key("space")
+        linked.play_the_study()
         assert linked.view["stage"] == "end" and "complete_url" not in linked.view
         client.post("/api/leave", json={"page": linked.page})
         impostor = Api(client, prolific=prolific("p001"))
