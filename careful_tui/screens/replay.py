@@ -319,11 +319,11 @@ class ReplayScreen(Screen[None]):
         step = None if frame is None else frame.step
         phase = None if frame is None else frame.phase
         board.player = None if frame is None else frame.player
-        board.arrow = (Arrow(step.direction, step.carefulness, self.world.levels)
+        board.arrow = (Arrow(step.direction, step.level, self.world.levels)
                        if step is not None and phase == "before" else None)
         board.highlight = {step.next_state: SLIP} if step is not None and step.slipped and phase == "after" else {}
-        gauge.level = None if step is None else step.carefulness
-        gauge.fill = 0.0 if step is None else float(step.carefulness)
+        gauge.level = None if step is None else step.level
+        gauge.fill = 0.0 if step is None else float(step.level)
         self.query_one("#hold-info", Static).update(self._hold_info(step), layout=False)
         self.query_one("#status", Static).update(self._status(frame), layout=False)
         distance = None if frame is None or frame.player is None else self.distances.get(frame.player)
@@ -336,10 +336,10 @@ class ReplayScreen(Screen[None]):
     def _hold_info(self, step: Step | None) -> Text:
         if step is None:
             return Text()
-        level = step.carefulness
+        level = step.level
         text = Text.assemble(
             ("level ", "dim"), (f"{level}", f"bold {level_colour(level, self.world.levels)}"),
-            ("  cost ", "dim"), (format_value(self.world.cost_per_level * level), "bold"),
+            ("  cost ", "dim"), (format_value(self.world.level_costs[level - 1]), "bold"),
         )
         mode = self.recording.header.input.get("mode")
         timed = mode in INPUT_MODES and INPUT_MODES[mode].times_holds  # a file may name a mode this version lacks
@@ -382,7 +382,7 @@ class ReplayScreen(Screen[None]):
         return status
 
     def _move_text(self, frame: Frame, step: Step) -> Text:
-        colour = level_colour(step.carefulness, self.world.levels)
+        colour = level_colour(step.level, self.world.levels)
         if frame.phase == "before":
             return Text.assemble((f"{step.direction} ", "bold"), (f"at level {step.carefulness}", f"bold {colour}"),
                                  (f"   reward {format_value(step.reward)}", "dim"))

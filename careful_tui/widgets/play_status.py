@@ -104,7 +104,7 @@ class HoldInfo(Static):
             return Text(mode_help(self.mode, levels), style="dim")
         step = self.last_move.step
         text = Text.assemble(("last move\n", "dim"), (f"{step.direction} ", "bold"),
-                             (f"level {step.carefulness}", f"bold {level_colour(step.carefulness, levels)}"))
+                             (f"level {step.level}", f"bold {level_colour(step.level, levels)}"))
         if step.hold_ms is not None and self.mode.times_holds:
             text.append(f"\n{step.hold_ms:.0f} ms" + (" (exact)" if step.hold_exact else ""), style="dim")
         return text

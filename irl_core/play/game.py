@@ -31,7 +31,7 @@ from typing import Literal, Protocol
 import numpy as np
 
 from irl_core.recordings.lines import EpisodeEnd, Step
-from irl_core.worlds.mdp import DIRECTIONS, action_index, build_mdp, direction_probabilities
+from irl_core.worlds.mdp import DIRECTIONS, action_index, build_mdp
 from irl_core.worlds.world import Cell, World
 
 
@@ -67,7 +67,7 @@ class MoveResult:
 
 def level_costs(world: World) -> list[float]:
     """The action cost of each carefulness level 1..L, as a positive number."""
-    return [world.cost_per_level * c for c in range(1, world.levels + 1)]
+    return list(world.level_costs)
 
 
 def level_slip_chances(world: World) -> list[float]:
@@ -75,8 +75,7 @@ def level_slip_chances(world: World) -> list[float]:
 
     With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0.
     """
-    levels = range(1, world.levels + 1)
-    return [float(1.0 - p[0]) for p in direction_probabilities(np.array(levels), slip=world.slip)]
+    return list(world.slip_chances)
 
 
 class GameOver(RuntimeError):
@@ -125,31 +124,50 @@ class Game:
         self.live = True
         return self.cell
 
-    def move(self, direction: str, carefulness: int, *, hold_ms: float | None = None, exact: bool = False) -> MoveResult:
+    def move(self, direction: str, carefulness: int | None, *, hold_ms: float | None = None,
+             exact: bool = False) -> MoveResult:
         """Play one move, record it, and end the episode if it ends here.
+
+        On a time world `carefulness` is None and `hold_ms` the held time: the move slips with
+        p(hold_ms) and costs the exact hold (capped at max_hold_ms); the step records its bin.
 
         Raises:
             GameOver: no episode is running.
-            ValueError: an unknown direction or a carefulness outside 1..L.
+            ValueError: an unknown direction, a carefulness outside 1..L, or (a time world) no hold.
         """
         if not self.live or self.cell is None:
             raise GameOver("no episode is running: call begin_episode first")
         if direction not in DIRECTIONS:
             raise ValueError(f"unknown direction {direction!r}")
-        if not 1 <= carefulness <= self.world.levels:
-            raise ValueError(f"carefulness must be in 1..{self.world.levels}, got {carefulness}")
         s = self.mdp.state_of[self.cell]
-        a = action_index(direction, carefulness, self.world.levels)
-        s_next, realised = self.mdp.move(s, a, self._rng)
-        reward = float(self._reward[s, a])
+        if self.world.care == "time":
+            if carefulness is not None or hold_ms is None or not 0 <= hold_ms < float("inf"):
+                raise ValueError(f"a move on a time world is a hold in ms, got carefulness {carefulness}, hold {hold_ms}")
+            held = min(round(float(hold_ms), 1), self.world.max_hold_ms)
+            bin_: int | None = int(self.world.bin_of(held))
+            slip = float(self.world.hold_slip_chance(held))
+            k = int(self._rng.choice(4, p=[1.0 - slip, slip / 3, slip / 3, slip / 3]))
+            realised = (DIRECTIONS.index(direction) + k) % 4
+            s_next = int(self.mdp.neighbour[s, realised])
+            reward = float(self.mdp.R_S[s] - self.world.hold_cost(held))
+            hold: float | None = held
+        else:
+            if carefulness is None or not 1 <= carefulness <= self.world.levels:
+                raise ValueError(f"carefulness must be in 1..{self.world.levels}, got {carefulness}")
+            bin_ = None
+            a = action_index(direction, carefulness, self.world.levels)
+            s_next, realised = self.mdp.move(s, a, self._rng)
+            reward = float(self._reward[s, a])
+            hold = None if hold_ms is None else round(float(hold_ms), 1)
         step = Step(
             episode=self.episode,
             t=self.t,
             state=self.cell,
             direction=direction,
             carefulness=carefulness,
-            hold_ms=None if hold_ms is None else round(float(hold_ms), 1),
+            hold_ms=hold,
             hold_exact=exact,
+            bin=bin_,
             next_state=self.mdp.cells[s_next],
             slipped=DIRECTIONS[realised] != direction,
             reward=reward,

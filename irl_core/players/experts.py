@@ -85,8 +85,8 @@ class Rollouts:
     """Steps of many episodes, in the order they happened (time-major).
 
     Step arrays (n_steps,): episode, t, state, action, direction (realised direction
-    index), next_state, reward. Episode arrays (n_episodes,): length (steps taken),
-    final_state, truncated (hit the step limit).
+    index), next_state, reward, and on a time world hold_ms (the exact hold; None elsewhere).
+    Episode arrays (n_episodes,): length (steps taken), final_state, truncated (hit the step limit).
     """
 
     episode: np.ndarray
@@ -99,11 +99,14 @@ class Rollouts:
     length: np.ndarray
     final_state: np.ndarray
     truncated: np.ndarray
+    hold_ms: np.ndarray | None = None
 
 
-Chooser = Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
+Chooser = Callable[[np.ndarray, np.ndarray, np.random.Generator], "np.ndarray | tuple[np.ndarray, np.ndarray]"]
 """A player's choice for many episodes at once: ``choose(states, previous, rng)`` -> actions (n,), where
-`previous` (n,) is each episode's previous action (-1 at its first step)."""
+`previous` (n,) is each episode's previous action (-1 at its first step). On a time world a chooser
+may return (actions, hold_ms), each (n,), the action's level being the hold's duration bin + 1; a
+chooser of actions alone holds each bin's geometric mid-point."""
 
 
 def policy_chooser(policy: np.ndarray) -> Chooser:
@@ -138,8 +141,10 @@ def rollouts(
     given_starts = starts
     starts = np.array([mdp.state_of[cell] for cell in world.start_cells])
     choose = policy if callable(policy) else policy_chooser(policy)
-    slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, slip=world.slip), axis=1)  # (A, 4)
+    slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, world=world), axis=1)  # (A, 4)
     R = mdp.reward_matrix()
+    timed = world.care == "time"
+    mids = np.asarray(world.bin_mids_ms)
 
     state = (np.asarray(given_starts, dtype=np.int64).copy() if given_starts is not None
              else starts[rng.integers(len(starts), size=episodes)])
@@ -147,16 +152,27 @@ def rollouts(
     length = np.zeros(episodes, dtype=np.int64)
     live = np.arange(episodes)
     trace: list[tuple[np.ndarray, ...]] = []
+    holds: list[np.ndarray] = []
     for t in range(max_steps):
         if live.size == 0:
             break
         s = state[live]
-        a = choose(s, previous[live], rng)
+        chosen = choose(s, previous[live], rng)
+        a = np.asarray(chosen[0] if isinstance(chosen, tuple) else chosen)
         previous[live] = a
-        k = np.minimum((slip_cdf[a] < rng.random((live.size, 1))).sum(axis=1), 3)
+        if timed:
+            # The slip and the cost of the exact hold, not of its bin's mid-point.
+            hold = np.asarray(chosen[1], dtype=float) if isinstance(chosen, tuple) else mids[a % mdp.levels]
+            slipped = rng.random(live.size) < world.hold_slip_chance(hold)
+            k = np.where(slipped, 1 + rng.integers(3, size=live.size), 0)
+            reward = np.where(mdp.nonterminal[s], mdp.R_S[s] - world.hold_cost(hold), mdp.R_S[s])
+            holds.append(hold)
+        else:
+            k = np.minimum((slip_cdf[a] < rng.random((live.size, 1))).sum(axis=1), 3)
+            reward = R[s, a]
         d = (mdp.direction[a] + k) % 4
         s_next = mdp.neighbour[s, d]
-        trace.append((live, np.full(live.size, t), s, a, d, s_next, R[s, a]))
+        trace.append((live, np.full(live.size, t), s, a, d, s_next, reward))
         state[live] = s_next
         length[live] += 1
         live = live[mdp.nonterminal[s_next]]
@@ -168,6 +184,7 @@ def rollouts(
         length=length,
         final_state=state,
         truncated=mdp.nonterminal[state],
+        hold_ms=(np.concatenate(holds) if holds else np.zeros(0)) if timed else None,
     )
 
 
@@ -287,15 +304,18 @@ def _write_block(
             s, a, s_next = int(result.state[j]), int(result.action[j]), int(result.next_state[j])
             score += float(result.reward[j])
             direction, realised = DIRECTIONS[int(mdp.direction[a])], DIRECTIONS[int(result.direction[j])]
+            # On a time world: the exact hold (to the 0.1 ms a recording keeps) and its bin.
+            hold = None if result.hold_ms is None else round(float(result.hold_ms[j]), 1)
             lines.append(
                 Step.model_construct(
                     episode=first_episode + episode,
                     t=int(result.t[j]),
                     state=cells[s],
                     direction=direction,
-                    carefulness=int(mdp.carefulness[a]),
-                    hold_ms=0.0,
-                    hold_exact=False,
+                    carefulness=None if hold is not None else int(mdp.carefulness[a]),
+                    hold_ms=0.0 if hold is None else hold,
+                    hold_exact=hold is not None,
+                    bin=None if hold is None else int(mdp.carefulness[a]) - 1,
                     next_state=cells[s_next],
                     slipped=realised != direction,
                     reward=float(result.reward[j]),

@@ -344,7 +344,7 @@ class Demonstrations:
             return np.concatenate([np.empty(0, np.int64)] + [r.steps.column(name) for r in recordings]).astype(np.int64)
 
         states = index[column("row"), column("col")]
-        actions = column("direction") * world.levels + column("carefulness") - 1
+        actions = column("direction") * world.levels + column("level") - 1
         if states.size:
             np.add.at(counts, (states, actions), 1.0)
         files = np.concatenate([np.empty(0, np.int64)] + [np.full(len(r.steps), i) for i, r in enumerate(recordings)])

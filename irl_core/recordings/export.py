@@ -167,7 +167,7 @@ def episode_arrays(episode: RecordedEpisode, mdp: MDP) -> dict[str, Any]:
     (terminations if terminated else truncations)[-1] = True
     return {
         "observations": cells[:, 0] * world.cols + cells[:, 1],
-        "actions": np.array([action_index(s.direction, s.carefulness, world.levels) for s in steps], dtype=np.int64),
+        "actions": np.array([action_index(s.direction, s.level, world.levels) for s in steps], dtype=np.int64),
         "rewards": rewards,
         "terminations": terminations,
         "truncations": truncations,

@@ -110,10 +110,34 @@ class LineChecker:
             raise self._error(number, "terminal_symbol", f"{printable(end.terminal_symbol, limit=20)!r}, but the "
                               f"episode ended as {end.outcome}, in no terminal cell")
 
+    def _check_hold(self, step: Step, number: int) -> None:
+        """A time world's step: no carefulness, a hold within max_hold_ms, and the bin that holds it."""
+        world = self.mdp.world
+        if step.carefulness is not None:
+            raise self._error(number, "carefulness", f"{step.carefulness}, but on a time world care is the hold: "
+                              "carefulness is null")
+        if step.hold_ms is None:
+            raise self._error(number, "hold_ms", "missing: a time world's step records how long the key was held")
+        if step.hold_ms > world.max_hold_ms:
+            raise self._error(number, "hold_ms", f"{step.hold_ms:g} is beyond the world's max_hold_ms "
+                              f"({world.max_hold_ms:g})")
+        if step.bin is None:
+            raise self._error(number, "bin", "missing: a time world's step records its duration bin")
+        if step.bin != int(world.bin_of(step.hold_ms)):
+            raise self._error(number, "bin", f"{step.bin}, but a hold of {step.hold_ms:g} ms is in bin "
+                              f"{int(world.bin_of(step.hold_ms))}")
+
     def _check_move(self, step: Step, number: int) -> None:
         world, mdp = self.mdp.world, self.mdp
-        if step.carefulness > world.levels:
+        if world.care == "time":
+            self._check_hold(step, number)
+        elif step.carefulness is None:
+            raise self._error(number, "carefulness", "null, but this world has levels (only a time world's steps "
+                              "have no carefulness)")
+        elif step.carefulness > world.levels:
             raise self._error(number, "carefulness", f"{step.carefulness} is above the world's {plural(world.levels, 'level')}")
+        elif step.bin is not None:
+            raise self._error(number, "bin", "a step on a world with levels has no duration bin")
         for name in ("state", "next_state"):
             cell = getattr(step, name)
             if cell not in mdp.state_of:

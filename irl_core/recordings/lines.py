@@ -66,15 +66,25 @@ class Step(_Line):
     # JSON has no tuples: a cell arrives as a 2-element array.
     state: tuple[int, int] = Field(strict=False)
     direction: Direction
-    carefulness: int = Field(ge=1)
+    # null on a time world, where the hold is the care and `bin` its duration bin (docs/timing.md).
+    carefulness: int | None = Field(ge=1)
     hold_ms: float | None = Field(default=None, ge=0)
     hold_exact: bool = False
+    # Only on a time world: the index of the duration bin holding hold_ms.
+    bin: int | None = Field(default=None, ge=0)
     next_state: tuple[int, int] = Field(strict=False)
     slipped: bool
     reward: float
     score: float
     # The direction the move really went (differs from `direction` on a slip); optional, newer files have it.
     realised: Direction | None = None
+
+    @property
+    def level(self) -> int:
+        """The action's level 1..L: the carefulness, or on a time world the duration bin + 1."""
+        if self.carefulness is not None:
+            return self.carefulness
+        return 1 if self.bin is None else self.bin + 1
 
 
 class EpisodeEnd(_Line):

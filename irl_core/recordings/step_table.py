@@ -19,20 +19,24 @@ from irl_core.worlds.mdp import DIRECTIONS
 
 _COLUMNS = {
     "episode": np.int64, "t": np.int64, "row": np.int32, "col": np.int32, "direction": np.int8,
-    "carefulness": np.int16, "hold_ms": np.float64, "hold_exact": np.bool_, "next_row": np.int32,
+    "level": np.int16, "timed": np.bool_, "hold_ms": np.float64, "hold_exact": np.bool_, "next_row": np.int32,
     "next_col": np.int32, "slipped": np.bool_, "reward": np.float64, "score": np.float64, "realised": np.int8,
 }
 _DIRECTION = {name: i for i, name in enumerate(DIRECTIONS)}
 
 
 class StepTable(ColumnTable):
-    """Steps in file order, stored column by column (`hold_ms` NaN and `realised` -1 mean absent)."""
+    """Steps in file order, stored column by column (`hold_ms` NaN and `realised` -1 mean absent).
+
+    `level` is the action's level 1..L (`Step.level`): the carefulness, or on a time world (`timed`)
+    the duration bin + 1.
+    """
 
     COLUMNS = _COLUMNS
 
     def append(self, step: Any) -> None:
         self._append_row((
-            step.episode, step.t, *step.state, _DIRECTION[step.direction], step.carefulness,
+            step.episode, step.t, *step.state, _DIRECTION[step.direction], step.level, step.carefulness is None,
             np.nan if step.hold_ms is None else step.hold_ms, step.hold_exact, *step.next_state, step.slipped,
             step.reward, step.score, -1 if step.realised is None else _DIRECTION[step.realised],
         ))
@@ -40,7 +44,8 @@ class StepTable(ColumnTable):
     def _record(self, c: dict[str, Any]) -> Step:
         return Step.model_construct(
             episode=c["episode"], t=c["t"], state=(c["row"], c["col"]), direction=DIRECTIONS[c["direction"]],
-            carefulness=c["carefulness"], hold_ms=None if np.isnan(c["hold_ms"]) else c["hold_ms"],
+            carefulness=None if c["timed"] else c["level"], bin=c["level"] - 1 if c["timed"] else None,
+            hold_ms=None if np.isnan(c["hold_ms"]) else c["hold_ms"],
             hold_exact=c["hold_exact"], next_state=(c["next_row"], c["next_col"]), slipped=c["slipped"],
             reward=c["reward"], score=c["score"], realised=None if c["realised"] < 0 else DIRECTIONS[c["realised"]],
         )

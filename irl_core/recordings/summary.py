@@ -90,7 +90,7 @@ def summarise(recording: Recording, *, distances: dict[tuple[int, int], int] | N
     distance = grid[steps.column("row"), steps.column("col")]
     reached = distance >= 0
     counts = np.bincount(distance[reached], minlength=1)
-    totals = np.bincount(distance[reached], weights=steps.column("carefulness")[reached], minlength=1)
+    totals = np.bincount(distance[reached], weights=steps.column("level")[reached], minlength=1)
     return SessionSummary(
         episodes=len(recording.episodes),
         outcomes=dict(outcomes),

@@ -305,7 +305,7 @@ def _prefix(short: Recording, long: Recording) -> bool:
     if n > len(long.steps) or len(short.episode_ends) > len(long.episode_ends):
         return False
     same_steps = all(np.array_equal(short.steps.column(name), long.steps.column(name)[:n], equal_nan=True)
-                     for name in ("episode", "t", "row", "col", "direction", "carefulness", "hold_ms"))
+                     for name in ("episode", "t", "row", "col", "direction", "level", "timed", "hold_ms"))
     return same_steps and short.episode_ends == long.episode_ends[: len(short.episode_ends)]
 
 

@@ -7,11 +7,13 @@ actions        a = d * L + (c - 1): direction d in (up, right, down, left),
                carefulness c in 1..L
 transitions    ``P``: (S * A, S) sparse, row ``s * A + a`` is P(. | s, a).
                Halving slip: the chosen direction with 1 - 2^-c, each other
-               direction with 2^-c / 3; off the grid or into a wall: stay.
+               direction with 2^-c / 3 (a time world: p(d) of the bin's
+               mid-point for 2^-c); off the grid or into a wall: stay.
                A terminal cell moves to the exit with any action; the exit
                stays where it is.
 rewards        R(s, a) = R_S(s) + R_A(a) at a non-terminal cell, with
-               R_A(a) = -cost_per_level * c; R_S(s) at a terminal cell (no
+               R_A(a) = -cost_per_level * c (a time world: the cost of the
+               bin's mid-point); R_S(s) at a terminal cell (no
                action cost); 0 at the exit.
 =============  ==============================================================
 """
@@ -43,14 +45,15 @@ def action_parts(action: int, levels: int) -> tuple[str, int]:
     return DIRECTIONS[action // levels], action % levels + 1
 
 
-def direction_probabilities(carefulness: np.ndarray | int, *, slip: str) -> np.ndarray:
-    """(..., 4) probability of each realised direction relative to the chosen one.
+def direction_probabilities(carefulness: np.ndarray | int, *, world: World) -> np.ndarray:
+    """(..., 4) probability of each realised direction relative to the chosen one, for levels (...) in 1..L.
 
-    Column 0 is the chosen direction; columns 1..3 are the others (each equally likely).
+    Column 0 is the chosen direction; columns 1..3 are the others (each equally likely). The
+    slip chance of a level is `World.slip_chances` (a time world's: of its duration bin's mid-point).
     """
-    c = np.asarray(carefulness, dtype=float)
-    main = np.ones_like(c) if slip == "none" else 1.0 - 2.0**-c
-    other = (1.0 - main) / 3.0
+    c = np.asarray(carefulness, dtype=int)
+    other = np.asarray(world.slip_chances, dtype=float)[c - 1] / 3.0
+    main = 1.0 - 3.0 * other
     return np.stack([main, other, other, other], axis=-1)
 
 
@@ -65,7 +68,7 @@ class MDP:
         terminal: (S,) True at terminal cells.
         P: (S * A, S) sparse CSR transition probabilities, row s * A + a.
         R_S: (S,) true state rewards from the world (0 at the exit).
-        R_A: (A,) known action costs, -cost_per_level * c.
+        R_A: (A,) known action costs, -cost_per_level * c (`World.level_costs`).
     """
 
     world: World
@@ -144,7 +147,7 @@ class MDP:
     def move(self, state: int, action: int, rng: np.random.Generator) -> tuple[int, int]:
         """Sample one move: (next state, realised direction index)."""
         d, c = divmod(action, self.levels)
-        probs = direction_probabilities(c + 1, slip=self.world.slip)
+        probs = direction_probabilities(c + 1, world=self.world)
         realised = (d + rng.choice(4, p=probs)) % 4
         if not self.nonterminal[state]:
             return self.exit_state, realised
@@ -179,7 +182,7 @@ def build_mdp(world: World) -> MDP:
     # For each acting state, action (d, c) and slip k in 0..3: realised direction (d + k) % 4.
     d = np.arange(A) // L
     c = np.arange(A) % L + 1
-    probs = direction_probabilities(c, slip=world.slip)  # (A, 4)
+    probs = direction_probabilities(c, world=world)  # (A, 4)
     realised = (d[:, None] + np.arange(4)[None, :]) % 4  # (A, 4)
     rows = (acting[:, None, None] * A + np.arange(A)[None, :, None]).repeat(4, axis=2)
     cols = neighbour[acting][:, realised]  # (n_acting, A, 4)
@@ -200,5 +203,5 @@ def build_mdp(world: World) -> MDP:
     P.eliminate_zeros()
 
     R_S = np.array([world.reward_of(world.symbol(cell)) for cell in cells] + [0.0])
-    R_A = -world.cost_per_level * c.astype(float)
+    R_A = -np.asarray(world.level_costs, dtype=float)[c - 1]
     return MDP(world=world, cells=cells, neighbour=neighbour, terminal=terminal, P=P, R_S=R_S, R_A=R_A)

@@ -19,16 +19,35 @@ field                 meaning
 ``max_steps``         step limit that truncates an episode
 ``rewards``           R_S per symbol; unlisted symbols have R_S = 0
 ====================  =====================================================
+
+A world with ``care = "time"`` has no levels: care is how long the key is held (docs/timing.md).
+A hold of d ms slips with p(d) = p_inf + (p0 - p_inf) exp(-d / tau_ms) and costs
+cost_per_second * d / 1000, d capped at ``max_hold_ms``. For planning, d falls into the
+``duration_bins_ms`` (by default 16 log-spaced bins, `default_duration_bins`); a bin's action
+has the slip chance and cost of its geometric mid-point, so a time world is, to every method,
+a world whose levels are its bins (`World.levels` is their count).
 """
 
 from __future__ import annotations
 
+import math
 import tomllib
 from functools import cached_property
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+import numpy as np
+from numpy.typing import ArrayLike
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 from irl_core.support.safe_files import InputError, read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
@@ -54,6 +73,23 @@ MAX_STATE_ACTIONS = 1_000_000
 MAX_MAGNITUDE = 1e12
 MAX_STEPS = 1_000_000
 
+# The fields only a time world has, and the ones only a level world has: each kind's header and
+# TOML hold its own (a level world's file reads and writes exactly as before time worlds existed).
+TIME_FIELDS = ("care", "p0", "p_inf", "tau_ms", "cost_per_second", "max_hold_ms", "duration_bins_ms", "show_hold")
+LEVEL_FIELDS = ("levels", "cost_per_level", "slip")
+# A bin starting at 0 ms has its geometric mid-point computed as if it started here: no key is
+# held for less than the time a press takes to register.
+SHORTEST_HOLD_MS = 20.0
+DEFAULT_DURATION_BINS = 16
+
+
+def default_duration_bins(max_hold_ms: float, *, bins: int = DEFAULT_DURATION_BINS) -> tuple[float, ...]:
+    """(bins + 1,) edges: 0, then SHORTEST_HOLD_MS * r^k for k = 1..bins with r^bins = max_hold_ms / SHORTEST_HOLD_MS,
+    rounded to the millisecond (the last is max_hold_ms itself)."""
+    ratio = max_hold_ms / SHORTEST_HOLD_MS
+    inner = [float(round(SHORTEST_HOLD_MS * ratio ** (k / bins))) for k in range(1, bins)]
+    return (0.0, *inner, float(max_hold_ms))
+
 
 class WorldError(InputError):
     """A world file or name that cannot be used; the message is one sentence for the user."""
@@ -76,6 +112,45 @@ class World(BaseModel):
     initial_score: float = Field(200.0, strict=True, ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE)
     max_steps: int = Field(200, ge=1, le=MAX_STEPS, strict=True)
     rewards: dict[str, float] = Field(default_factory=dict)
+    # A time world's fields (docs/timing.md); a level world has their defaults and never shows them.
+    care: Literal["levels", "time"] = "levels"
+    p0: float = Field(0.5, ge=0, le=1, strict=True)
+    p_inf: float = Field(0.0, ge=0, le=1, strict=True)
+    tau_ms: float = Field(400.0, gt=0, le=MAX_MAGNITUDE, strict=True)
+    cost_per_second: float = Field(5.0, ge=0, le=MAX_MAGNITUDE, strict=True)
+    max_hold_ms: float = Field(4000.0, ge=50, le=3_600_000, strict=True)
+    duration_bins_ms: tuple[float, ...] | None = None
+    show_hold: bool = Field(False, strict=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _fields_of_its_kind(cls, data: Any) -> Any:
+        """A time world gives no levels (its bins are its levels); a level world gives no time field."""
+        if not isinstance(data, dict):
+            return data
+        if data.get("care", "levels") != "time":
+            for name in TIME_FIELDS[1:]:
+                if name in data:
+                    raise ValueError(f'{name}: only a time world (care = "time") has this field')
+            return data
+        for name in LEVEL_FIELDS:
+            if name in data:
+                raise ValueError(f'{name}: a time world (care = "time") has no {name}: care is how long the key '
+                                 "is held (remove the field)")
+        data = dict(data)
+        max_hold = data.get("max_hold_ms", 4000.0)
+        if data.get("duration_bins_ms") is None and isinstance(max_hold, int | float) and max_hold >= 50:
+            data["duration_bins_ms"] = default_duration_bins(float(max_hold))
+        bins = data.get("duration_bins_ms")
+        data["levels"] = min(max(len(bins) - 1, 1), MAX_LEVELS) if isinstance(bins, list | tuple) else 1
+        data["cost_per_level"] = 0.0
+        return data
+
+    @model_serializer(mode="wrap")
+    def _dump_its_kind(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        data = handler(self)
+        drop = LEVEL_FIELDS if self.care == "time" else TIME_FIELDS
+        return {key: value for key, value in data.items() if key not in drop}
 
     @field_validator("layout")
     @classmethod
@@ -130,13 +205,15 @@ class World(BaseModel):
 
     @model_validator(mode="after")
     def _consistent(self) -> World:
+        if self.care == "time":
+            self._check_time_fields()
         state_actions = (self.rows * self.cols + 1) * 4 * self.levels
         if state_actions > MAX_STATE_ACTIONS:
             raise ValueError(
                 f"{self.rows}x{self.cols} cells with {self.levels} levels make {state_actions:,} state-actions; "
                 f"careful handles at most {MAX_STATE_ACTIONS:,} (fewer cells or fewer levels)"
             )
-        if not self.cost_per_level * self.levels <= MAX_MAGNITUDE:
+        if self.care == "levels" and not self.cost_per_level * self.levels <= MAX_MAGNITUDE:
             raise ValueError(
                 f"cost_per_level {self.cost_per_level:g} x {plural(self.levels, 'level')} is "
                 f"{self.cost_per_level * self.levels:g}; "
@@ -162,6 +239,54 @@ class World(BaseModel):
             if symbol in self.terminal:
                 raise ValueError(f"start {list(self.start)} is a terminal cell {symbol!r}")
         return self
+
+    def _check_time_fields(self) -> None:
+        if self.p_inf > self.p0:
+            raise ValueError(f"p_inf: {self.p_inf:g} is above p0 {self.p0:g}: a longer hold may not slip more often")
+        bins = self.duration_bins_ms or ()
+        if len(bins) < 2 or len(bins) - 1 > MAX_LEVELS:
+            raise ValueError(f"duration_bins_ms: {plural(max(len(bins) - 1, 0), 'bin')}; a time world has 1 to "
+                             f"{MAX_LEVELS} bins (2 to {MAX_LEVELS + 1} edges)")
+        if bins[0] != 0 or bins[-1] != self.max_hold_ms or any(b <= a for a, b in zip(bins, bins[1:])):
+            raise ValueError(f"duration_bins_ms: the edges must rise from 0 to max_hold_ms ({self.max_hold_ms:g})")
+
+    # A property, not cached: `model_copy(update=...)` would carry a cached value over unchanged.
+    @property
+    def bin_mids_ms(self) -> tuple[float, ...]:
+        """(L,) a time world's bins' geometric mid-points in ms (a bin from 0 counts from SHORTEST_HOLD_MS)."""
+        edges = self.duration_bins_ms or ()
+        return tuple(math.sqrt(max(lo, SHORTEST_HOLD_MS) * hi) for lo, hi in zip(edges, edges[1:]))
+
+    def hold_slip_chance(self, hold_ms: ArrayLike) -> np.ndarray:
+        """p(d) for holds (...) in ms, capped at max_hold_ms: a time world's chance that the move goes another way."""
+        d = np.minimum(np.asarray(hold_ms, dtype=float), self.max_hold_ms)
+        return self.p_inf + (self.p0 - self.p_inf) * np.exp(-d / self.tau_ms)
+
+    def hold_cost(self, hold_ms: ArrayLike) -> np.ndarray:
+        """(...) a time world's cost (positive) of holds (...) in ms, capped at max_hold_ms."""
+        return self.cost_per_second * np.minimum(np.asarray(hold_ms, dtype=float), self.max_hold_ms) / 1000.0
+
+    def bin_of(self, hold_ms: ArrayLike) -> np.ndarray:
+        """(...) the index of the duration bin holding each hold (...) in ms; max_hold_ms and beyond: the last."""
+        inner = np.asarray(self.duration_bins_ms or (0.0, self.max_hold_ms), dtype=float)[1:-1]
+        return np.searchsorted(inner, np.asarray(hold_ms, dtype=float), side="right")
+
+    @property
+    def level_costs(self) -> tuple[float, ...]:
+        """(L,) the cost (positive) of each carefulness level 1..L, or of each duration bin's mid-point."""
+        if self.care == "time":
+            return tuple(float(cost) for cost in self.hold_cost(self.bin_mids_ms))
+        return tuple(self.cost_per_level * c for c in range(1, self.levels + 1))
+
+    @property
+    def slip_chances(self) -> tuple[float, ...]:
+        """(L,) the chance that a move of each level 1..L (or duration bin) goes another way than chosen:
+        2^-c with halving slip, 0 without, p(mid-point) on a time world."""
+        if self.care == "time":
+            return tuple(float(p) for p in self.hold_slip_chance(self.bin_mids_ms))
+        if self.slip == "none":
+            return (0.0,) * self.levels
+        return tuple(2.0**-c for c in range(1, self.levels + 1))
 
     @cached_property
     def grid(self) -> list[str]:
@@ -199,13 +324,22 @@ class World(BaseModel):
     def to_toml(self) -> str:
         """The world as a TOML file that `load_world` reads back to an equal world."""
         start = '"random"' if self.start == "random" else f"[{self.start[0]}, {self.start[1]}]"
+        if self.care == "time":
+            care = [
+                'care = "time"', f"p0 = {self.p0!r}", f"p_inf = {self.p_inf!r}", f"tau_ms = {self.tau_ms!r}",
+                f"cost_per_second = {self.cost_per_second!r}", f"max_hold_ms = {self.max_hold_ms!r}",
+                "duration_bins_ms = [" + ", ".join(repr(b) for b in self.duration_bins_ms or ()) + "]",
+                f"show_hold = {str(self.show_hold).lower()}",
+            ]
+        else:
+            care = [f"levels = {self.levels}", f"cost_per_level = {self.cost_per_level!r}"]
+        slip = [] if self.care == "time" else [f"slip = {_toml_str(self.slip)}"]
         lines = [
             f"name = {_toml_str(self.name)}",
             f'layout = """\n{_toml_escape(self.layout, keep_newlines=True)}"""',
-            f"levels = {self.levels}",
-            f"cost_per_level = {self.cost_per_level!r}",
+            *care,
             f"gamma = {self.gamma!r}",
-            f"slip = {_toml_str(self.slip)}",
+            *slip,
             "terminal = [" + ", ".join(_toml_str(t) for t in self.terminal) + "]",
             f"start = {start}",
             f"initial_score = {self.initial_score!r}",
@@ -260,6 +394,8 @@ BUILTIN_WORLDS: dict[str, World] = {
     "cliffwalking": World(
         name="cliffwalking", layout=_CLIFFWALKING_LAYOUT, levels=14, start=(3, 0), rewards={"C": -100.0, "G": 0.0}
     ),
+    "paper-time": World(name="paper-time", layout=_PAPER_LAYOUT, care="time", rewards=_PAPER_REWARDS),
+    "mud-time": World(name="mud-time", layout=_MUD_LAYOUT, care="time", rewards=_MUD_REWARDS),
     "walls": World.model_validate(tomllib.loads((Path(__file__).parent / "walls.toml").read_text("utf-8"))),
 }
 
@@ -270,6 +406,8 @@ WORLD_PURPOSES: dict[str, str] = {
     "mud": "catastrophic vs merely undesirable",
     "mud-simple": "the same without carefulness",
     "cliffwalking": "Gymnasium's CliffWalking layout, for code written for it",
+    "paper-time": "the paper's layout; care is how long the key is held",
+    "mud-time": "mud's layout; care is how long the key is held",
     "walls": "walls, mud, a corridor beside the cliff",
 }
 

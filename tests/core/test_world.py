@@ -17,9 +17,10 @@ def test_builtin_worlds_match_the_spec_table():
     assert (BUILTIN_WORLDS["paper-maxent"].levels, BUILTIN_WORLDS["paper-maxent"].slip) == (1, "none")
     assert mud.rewards["U"] == -30.0 and BUILTIN_WORLDS["mud-simple"].levels == 1
     assert (paper.gamma, paper.initial_score, paper.max_steps, paper.start) == (0.95, 200.0, 200, "random")
-    # The spec's five, Gymnasium's CliffWalking layout (tests/env/test_cliffwalking.py) and a walled world.
-    assert set(BUILTIN_WORLDS) == {"paper", "paper-simple", "paper-maxent", "mud", "mud-simple", "cliffwalking",
-                                   "walls"}
+    # The spec's five, its two time worlds, Gymnasium's CliffWalking layout (tests/env/test_cliffwalking.py)
+    # and a walled world.
+    assert set(BUILTIN_WORLDS) == {"paper", "paper-simple", "paper-maxent", "mud", "mud-simple", "paper-time",
+                                   "mud-time", "cliffwalking", "walls"}
 
 
 def test_walls_is_a_walled_world_with_a_hazard_a_nuisance_and_a_goal_read_from_its_file():
