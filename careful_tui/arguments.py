@@ -111,6 +111,11 @@ FIT_FLAGS: tuple[Flag, ...] = (
     Flag("resamples", "--resamples", dict(type=int, default=200, metavar="N",
          help="bootstrap resamples for those intervals, at least 20 (default 200)")),
     Flag("seed", "--seed", dict(type=seed_int, default=0, help="seed of the resampling (default 0)")),
+    Flag("slip_known", "--slip-known", dict(action="store_true", help=(
+        "a time world: plan with the world's own slip curve instead of learning it from the recorded slips"))),
+    Flag("cost", "--cost", dict(choices=["known", "unknown"], default="known", help=(
+        "a time world: known (default) reports rewards in points; unknown treats the cost of holding as unknown "
+        "and reports each reward in seconds of holding (the scale the data identify without it)"))),
 )
 if {f.field for f in FIT_FLAGS} != {f.name for f in dataclasses.fields(FitOptions)}:
     raise RuntimeError("careful_tui.arguments.FIT_FLAGS must declare a flag for every FitOptions field")

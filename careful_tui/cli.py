@@ -104,16 +104,21 @@ def _add_simulate(commands: Any) -> None:
     simulate.add_argument("--policy", choices=["optimal", "boltzmann", *PERSON_LIKE], required=True,
                           help="optimal: the best action in every state; boltzmann: actions with probability "
                                "proportional to exp(beta Q); loose, timed, hasty, inverted, reckless: person-like "
-                               "players over the optimal plan (docs/people.md)")
+                               "players over the optimal plan (docs/people.md); timing, steady: players of a time "
+                               "world who hold the key for a time (docs/timing.md)")
     simulate.add_argument("--beta", type=positive_float, default=None,
                           help="Boltzmann inverse temperature, for --policy boltzmann (default 1.0)")
     simulate.add_argument("--lapse", type=probability, default=None, metavar="P",
-                          help="share of lapsed directions: loose, inverted 0.1 (random), timed 0.1 (the previous "
-                               "one), reckless 0.25 (random)")
+                          help="share of lapsed directions: loose, inverted, timing, steady 0.1 (random), timed 0.1 "
+                               "(the previous one), reckless 0.25 (random)")
     simulate.add_argument("--spread", type=non_negative_float, default=None, metavar="LEVELS",
                           help="sd of the level's noise: loose, inverted 1.75, hasty 1")
     simulate.add_argument("--weber", type=non_negative_float, default=None, metavar="SD",
-                          help="timed: sd of the log hold time (default 0.25, about 25%%)")
+                          help="timed, timing: sd of the log hold time (default 0.25, about 25%%)")
+    simulate.add_argument("--poll-ms", dest="poll_ms", type=non_negative_float, default=None, metavar="MS",
+                          help="timing: key-ups land on this polling grid, as a USB keyboard's (default 8)")
+    simulate.add_argument("--hold-ms", dest="hold_ms", type=positive_float, default=None, metavar="MS",
+                          help="steady: the one hold, whatever is at stake (default 600)")
     simulate.add_argument("--temperature", type=positive_float, default=None,
                           help="hasty: temperature of the direction's choice, in reward units (default 1.25)")
     simulate.add_argument("--bias", type=finite_float, default=None, metavar="LEVELS",

@@ -77,11 +77,12 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
     """
     world = result.world
     scale = reward_scale(result)
-    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate)")
+    seconds = result.reward_unit != "points"
+    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate" + (", seconds of holding)" if seconds else ")"))
     grids = [Group(fitted, WorldGrid(world, values=result.reward_grid, scale=scale))]
     if world.rewards:
-        grids.append(Group(Text("true R_S (world file)", style="bold"),
-                           WorldGrid(world, values=result.true_reward_grid, scale=scale)))
+        true = "true R_S (world file" + (", in seconds at its cost)" if seconds else ")")
+        grids.append(Group(Text(true, style="bold"), WorldGrid(world, values=result.true_reward_grid, scale=scale)))
     gap = 4
     grid_width = world.cols * WorldGrid(world).cell_width
     side_by_side = len(grids) * grid_width + (len(grids) - 1) * gap <= width
@@ -101,18 +102,39 @@ def unknown_phrase(result: FitResult) -> str:
     """Which rewards were fitted: "fitted: the non-ground cells (ground is 0); the action cost is known"."""
     options = result.options
     cells = "every cell" if options.reward_cells == "all" else "the non-ground cells (ground is 0)"
-    return f"fitted: {cells}{', one value per symbol' if options.tie else ''}; the action cost is known"
+    fitted = f"fitted: {cells}{', one value per symbol' if options.tie else ''}"
+    curve = result.slip_curve
+    if curve is None:
+        return f"{fitted}; the action cost is known"
+    slips = "the world's slip curve" if curve.known else "the slip curve learnt from the recorded slips"
+    if result.reward_unit == "points":
+        per_second = (result.recorded_world or result.world).cost_per_second
+        return f"{fitted}; holding costs {format_value(per_second)} points a second (known); {slips}"
+    return f"{fitted}; the cost of holding taken as unknown, so rewards are in seconds of holding; {slips}"
 
 
 def policy_labels(result: FitResult) -> dict[tuple[int, int], str]:
-    """Per demonstrated cell, the most frequent action: "→8 ×38" (direction, carefulness level, count)."""
+    """Per demonstrated cell, the most frequent action: "→8 ×38" (direction, carefulness level, count); on a time
+    world "→1.7 ×38", the hold in seconds at its duration bin's mid-point."""
     cells = result.policy_cells().items()
-    return {cell: f"{ARROWS[p.direction]}{p.carefulness} ×{_count(p.count)}" for cell, p in cells}
+    mids = result.world.bin_mids_ms
+    care = ((lambda level: _seconds(mids[level - 1]) + "s") if result.world.care == "time" else str)
+    # A label wider than a cell (7 characters) puts its count on a line of its own rather than lose digits.
+    return {cell: (label if len(label := f"{ARROWS[p.direction]}{care(p.carefulness)} ×{_count(p.count)}") <= 7
+                   else label.replace(" ", "\n")) for cell, p in cells}
+
+
+def _seconds(ms: float) -> str:
+    """A hold in seconds that fits a cell: .02, .35, 1.7, 12."""
+    s = ms / 1000
+    return f"{s:.2f}".lstrip("0") if s < 1 else f"{s:.1f}" if s < 10 else f"{s:.0f}"
 
 
 def policy_grid(result: FitResult) -> Group:
     """The most frequent demonstrated action per cell: arrow, carefulness level and count."""
-    title = Text.assemble(("demonstrated policy", "bold"), "  (most frequent action: direction, level ×count)")
+    what = ("direction, hold in s (its bin's mid-point) ×count" if result.world.care == "time"
+            else "direction, level ×count")
+    title = Text.assemble(("demonstrated policy", "bold"), f"  (most frequent action: {what})")
     return Group(title, WorldGrid(result.world, labels=policy_labels(result)))
 
 

@@ -120,8 +120,8 @@ class WorldGrid:
             content = [Text(symbol if symbol not in (".", WALL) else "", style=base + Style(dim=True))]
             if self.values is not None and symbol != WALL and np.isfinite(self.values[cell]):
                 content.append(Text(format_value(float(self.values[cell])), style=base + Style(bold=True)))
-            if cell in self.labels:
-                content.append(Text(self.labels[cell], style=base))
+            if cell in self.labels:  # a label's lines, each its own line of the cell
+                content.extend(Text(part, style=base) for part in self.labels[cell].split("\n"))
         content = content[:h]
         top = (h - len(content)) // 2
         lines = [Text(" " * w, style=base) for _ in range(h)]

@@ -41,6 +41,10 @@ def interval_table(result: FitResult) -> Table:
 
 def interval_title(result: FitResult) -> str:
     """What the intervals are: identified by the demonstrations (lp) or a confidence interval."""
+    if result.interval_kind == "confidence" and result.method == "timing":
+        grouped = result.demos.episode_groups is not None
+        return (f"{result.options.confidence:.0%} confidence intervals (the likelihood's curvature, its spread "
+                f"measured between {'participants' if grouped else 'episodes'})")
     if result.interval_kind == "confidence":
         options = result.options
         return (f"{options.confidence:.0%} confidence intervals ({options.resamples} resamples of "

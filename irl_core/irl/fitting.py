@@ -39,10 +39,12 @@ from irl_core.irl.player_models import AUTO as PLAYER_AUTO
 from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bound
+from irl_core.irl.slip_curve import SlipCurve, fit_slip_curve
+from irl_core.irl.timing_fit import fit_timing, timing_policy
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
-from irl_core.worlds.mdp import MDP
+from irl_core.worlds.mdp import MDP, build_mdp
 
 METHODS = fit_methods.FITTED
 
@@ -67,6 +69,8 @@ class _Fitted:
     people: PlayerFit | None = None
     rival: PlayerFit | None = None
     held_upper: np.ndarray | None = None  # (k,) a held reward's upper bound (`people_flat.held_upper_bounds`)
+    curve: SlipCurve | None = None  # the timing fit's slip curve, estimated with the rewards
+    own_intervals: np.ndarray | None = None  # (k, 2) the timing fit's sandwich intervals
 
 
 def fit(
@@ -102,10 +106,12 @@ def fit(
     if demos.counts.sum() <= 0:
         raise BadInputError("the recordings contain no steps: there is nothing to fit", code="no_steps")
     start = time.perf_counter()
+    recorded_mdp = demos.mdp
+    notes: list[Note] = []
+    curve, demos = _on_its_curve(demos, options, notes)
     mdp = demos.mdp
     unknowns = build_unknowns(mdp, reward_cells=options.reward_cells, tie=options.tie)
     qmap = build_qmap(mdp, unknowns)
-    notes: list[Note] = []
     if unknowns.k == 0:
         notes.append(Note("nothing_to_fit", "nothing to fit: every cell is ground, which {reward_cells=special} "
                                             "keeps at 0; try {reward_cells=all}"))
@@ -113,13 +119,25 @@ def fit(
         fitted = _run(options.method, qmap, demos, options, progress=progress)
     except InfeasibleError as exc:
         raise _infeasible(exc, qmap, demos, options) from exc
+    if fitted.curve is not None:
+        curve = fitted.curve
+        demos = dataclasses.replace(demos, mdp=build_mdp(curve.world(recorded_mdp.world)))
+    if curve is not None and not curve.known:
+        how = "jointly with the rewards and the player" if fitted.curve is not None else "from the slips alone"
+        notes.append(Note("slip_curve_fitted", curve.sentence().replace(": ", f" {how}: ", 1)))
     notes += fitted.notes
 
     bounds, kind = None, None
-    if options.intervals and unknowns.k:
+    if options.intervals and unknowns.k and fitted.method == "timing":
+        bounds, kind = fitted.own_intervals, None if fitted.own_intervals is None else "confidence"
+    elif options.intervals and unknowns.k:
         bounds, kind = _intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers,
                                   executor=executor)
 
+    if unknowns.k:
+        # Without intervals, the points stand for them: a catastrophe fitted no worse than the nuisance.
+        spans = bounds if bounds is not None else np.column_stack([fitted.theta, fitted.theta])
+        notes.extend(_not_separated(unknowns.symbols, spans, demos.mdp.world.terminal))
     check = _fit_check(fitted, demos, options, notes)
     held = fitted.held_upper is not None and ~np.isnan(fitted.held_upper)  # named in their own note
     bounded = [label for j, (label, value) in enumerate(zip(unknowns.labels, fitted.theta))
@@ -128,6 +146,9 @@ def fit(
         notes.append(Note("at_bound", f"at ±rmax: {', '.join(bounded)}; there the bound, not the demonstrations, "
                                       "set the value"))
     R_S = unknowns.state_rewards(fitted.theta)
+    evaluation = evaluate(recorded_mdp, R_S)
+    if options.cost == "unknown":
+        fitted, bounds, R_S, demos = _in_seconds(fitted, bounds, R_S, demos)
     return FitResult(
         method=fitted.method,
         options=options,
@@ -140,7 +161,7 @@ def fit(
         intervals=bounds,
         interval_kind=kind,
         demos=demos,
-        evaluation=evaluate(mdp, R_S),
+        evaluation=evaluation,
         status=fitted.status,
         elapsed_s=time.perf_counter() - start,
         notes=notes,
@@ -149,7 +170,85 @@ def fit(
         fit_check=check,
         rival_model=None if fitted.rival is None else fitted.rival.model.name,
         rival_theta=None if fitted.rival is None else np.asarray(fitted.rival.theta, dtype=float),
+        slip_curve=curve,
+        recorded_world=None if mdp is recorded_mdp else recorded_mdp.world,
     )
+
+
+def _on_its_curve(demos: Demonstrations, options: FitOptions,
+                  notes: list[Note]) -> tuple[SlipCurve | None, Demonstrations]:
+    """On a time world: the slip curve the fit plans with (fitted to the recorded slips unless `slip_known`)
+    and the demonstrations on that world (its cost per second 1 when the cost is unknown, so that rewards
+    come out in seconds of holding). On a world with levels: (None, demos), or bad input for the time options."""
+    world = demos.mdp.world
+    if world.care != "time":
+        for asked, flag in ((options.slip_known, "{slip_known}"), (options.cost == "unknown", "{cost=unknown}")):
+            if asked:
+                raise BadInputError(f"{flag} is for a time world, where care is how long the key is held; "
+                                    f"{world.name!r} has levels, whose slips and costs the world states",
+                                    code="time_option_on_levels")
+        return None, demos
+    if options.method in ("lp", "loss") and not options.slip_known:
+        raise BadInputError(f"{{method={options.method}}} plans with a known slip curve and cannot learn one: on a "
+                            "time world add {slip_known} to use the world's curve, or fit with {method=maxent} "
+                            "(or auto), which learns it from the recorded slips", code="curve_needs_maxent")
+    outcomes = demos.slip_outcomes
+    if options.slip_known or outcomes.shape[0] == 0:
+        curve = SlipCurve.of_world(world, observations=int(outcomes.shape[0]))
+        if not options.slip_known:
+            notes.append(Note("slip_curve_given", "no recorded holds to learn the slip curve from: the world's own "
+                                                  "curve was used"))
+    else:
+        curve = fit_slip_curve(outcomes, max_hold_ms=world.max_hold_ms, confidence=options.confidence)
+    if options.cost == "unknown":
+        if not world.cost_per_second > 0:
+            raise BadInputError("{cost=unknown} reports rewards in seconds of holding, which needs holding to cost "
+                                f"something: {world.name!r} has cost_per_second 0", code="cost_is_zero")
+        notes.append(Note("reward_in_seconds", "the cost of holding was taken as unknown: each reward is in seconds "
+                                               "of holding (a reward of -14 is worth 14 s of care)"))
+    if curve.known:
+        return curve, demos
+    return curve, dataclasses.replace(demos, mdp=build_mdp(curve.world(world)))
+
+
+def _not_separated(symbols: tuple[str, ...], bounds: np.ndarray, terminal: tuple[str, ...]) -> list[Note]:
+    """A note when the lowest terminal symbol's interval (over its cells: the catastrophe) reaches a non-terminal
+    one's (a nuisance): the data then do not tell the catastrophe from the nuisance, which is what care was to
+    show. `bounds` (k, 2) are the intervals, or each point twice when there are none."""
+    envelope: dict[str, tuple[float, float]] = {}
+    for symbol, (low, high) in zip(symbols, np.asarray(bounds, dtype=float)):
+        was = envelope.get(symbol, (np.inf, -np.inf))
+        envelope[symbol] = (min(was[0], low), max(was[1], high))
+    # The hazard: the terminal symbol with the lowest interval (the goal is terminal too); nuisances: every other.
+    ends = sorted((s for s in envelope if s in terminal), key=lambda s: sum(envelope[s]))
+    hazards = ends[:1]
+    nuisances = [s for s in envelope if s not in terminal]
+    pairs = [(h, n) for h in hazards for n in nuisances if envelope[h][1] >= envelope[n][0]]
+    if not pairs:
+        return []
+    points = all(low == high for low, high in envelope.values())
+    shown = (lambda s: f"{envelope[s][0]:.3g}") if points else (lambda s: f"{envelope[s][0]:.3g} to {envelope[s][1]:.3g}")
+    said = "; ".join(f"{h} {shown(h)} {'is no lower than' if points else 'reaches'} {n} {shown(n)}" for h, n in pairs)
+    what = "the fitted rewards do not put" if points else "the intervals do not separate"
+    return [Note("cliff_not_separated", f"{what} the catastrophe {'below ' if points else 'from '}the nuisance "
+                                        f"({said}): these recordings do not show which is worse")]
+
+
+def _in_seconds(fitted: _Fitted, bounds: np.ndarray | None, R_S: np.ndarray,
+                demos: Demonstrations) -> tuple[_Fitted, np.ndarray | None, np.ndarray, Demonstrations]:
+    """A time world's fit in seconds of holding: the rewards, values and intervals divided by the cost per second,
+    beta multiplied by it, on the same world at a cost of 1 per second (the same choices, the same likelihood: the
+    data fix only rewards relative to the cost, and this is the world's cost taken as the unit)."""
+    per_second = demos.mdp.world.cost_per_second
+    player = fitted.player
+    seconds = dataclasses.replace(
+        fitted, theta=np.asarray(fitted.theta) / per_second, V=np.asarray(fitted.V) / per_second,
+        beta=None if fitted.beta is None else fitted.beta * per_second,
+        player=None if player is None else dataclasses.replace(player, beta=player.beta * per_second))
+    world = demos.mdp.world.model_dump()
+    world["cost_per_second"] = 1.0
+    on_unit = dataclasses.replace(demos, mdp=build_mdp(type(demos.mdp.world).model_validate(world)))
+    return seconds, None if bounds is None else bounds / per_second, R_S / per_second, on_unit
 
 
 def _fit_check(fitted: _Fitted, demos: Demonstrations, options: FitOptions, notes: list[Note]) -> FitCheck | None:
@@ -205,7 +304,13 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
 
 
 def auto_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
-    """The auto method's choice: lp for a deterministic expert whose lp is feasible, else maxent (beta auto)."""
+    """The auto method's choice: the timing fit on a time world with recorded holds; else lp for a deterministic
+    expert whose lp is feasible, else maxent (beta auto)."""
+    if qmap.mdp.world.care == "time" and demos.hold_steps.shape[0]:
+        fitted = _run("timing", qmap, demos, options, progress=progress)
+        fitted.notes.insert(0, Note("auto_chose", "method auto chose the timing fit: on a time world the exact holds "
+                                                  "show the care taken, and the slips the curve"))
+        return fitted
     acted = demos.counts[demos.demonstrated]
     mixed = int(((acted > 0).sum(axis=1) > 1).sum())
     if mixed == 0:
@@ -329,6 +434,35 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
                    people=solution, rival=rival, held_upper=held_upper)
+
+
+def timing_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
+    """The timing fit (`irl_core.irl.timing_fit`): rewards, slip curve and player from the exact holds, started
+    where the people fit over duration bins and the slips' own curve end."""
+    mdp, unknowns = qmap.mdp, qmap.unknowns
+    world = mdp.world
+    if world.care != "time" or not demos.hold_steps.shape[0]:
+        raise BadInputError("{method=timing} reads exact holds, which only a time world's recordings have",
+                            code="timing_needs_holds")
+    start = fit_given_model(mdp, unknowns, demos.counts, model=player_model("person"), rmax=options.rmax)
+    curve = (None if options.slip_known else
+             fit_slip_curve(demos.slip_outcomes, max_hold_ms=world.max_hold_ms, confidence=options.confidence))
+    solution = fit_timing(mdp, unknowns, demos.hold_steps, rmax=options.rmax, cost_per_second=world.cost_per_second,
+                          groups=demos.episode_groups, slip_known=options.slip_known, confidence=options.confidence,
+                          start_theta=start.theta, start_curve=curve)
+    player = Player(solution.beta, solution.sigma, solution.lapse)
+    notes = [Note("player_estimated", f"player estimated with the rewards and the curve: the holds' timing noise "
+                                      f"{100 * solution.sigma:.0f}% (sd of log hold {solution.sigma:.2g}), lapses "
+                                      f"{solution.lapse:.2g}, beta {solution.beta:.3g} per point")]
+    if not solution.converged:
+        notes.append(Note("not_converged", f"the timing fit stopped before converging: {solution.message.lower()}"))
+    if solution.theta_intervals is None:
+        notes.append(Note("intervals_not_computed", "no intervals: the likelihood's curvature at the answer is not "
+                                                    "positive definite (a flat direction the data do not pin)"))
+    return _Fitted("timing", solution.theta, solution.plan.V, status="optimal" if solution.converged else
+                   "not_converged", notes=notes, player_model="timing", player=player,
+                   observed_policy=timing_policy(mdp, solution), curve=solution.curve,
+                   own_intervals=solution.theta_intervals)
 
 
 def _planning_rival(choice: ModelChoice) -> PlayerFit | None:

@@ -41,6 +41,10 @@ CODES: dict[str, str] = {
     "fit_check_failed": "the fitted player does not reproduce the recordings",
     "fit_check_passed": "the fitted player reproduces the recordings",
     "fit_check_not_run": "the fit check could not run",
+    "slip_curve_fitted": "a time world's slip curve as fitted to the recorded slips, with its intervals",
+    "slip_curve_given": "a time world's slip curve taken from the world (no holds to learn it from)",
+    "reward_in_seconds": "the cost of holding taken as unknown: rewards in seconds of holding",
+    "cliff_not_separated": "the hazards' and nuisances' intervals overlap: the fit does not tell them apart",
     # `FitOptions.problem`: options a fit would not refuse, but the command line does.
     "beta_needs_maxent": "beta estimated for a method without one",
     "bad_confidence": "a confidence level outside (0, 1)",

@@ -42,6 +42,8 @@ class FitOptions:
         confidence: the confidence level of maxent's and loss's intervals, in (0, 1).
         resamples: bootstrap resamples for those intervals (at least 20).
         seed: the bootstrap's seed.
+        slip_known: on a time world, plan with the world's slip curve instead of fitting it (docs/timing.md).
+        cost: on a time world, ``known`` (rewards in points) or ``unknown`` (rewards in seconds of holding).
     """
 
     method: str = fit_methods.DEFAULT
@@ -55,6 +57,8 @@ class FitOptions:
     confidence: float = 0.95
     resamples: int = 200
     seed: int = 0
+    slip_known: bool = False
+    cost: Literal["known", "unknown"] = "known"
 
     def __post_init__(self) -> None:
         fit_methods.method(self.method)
@@ -66,6 +70,8 @@ class FitOptions:
             raise ValueError(f"beta must be positive or 'auto', not {self.beta!r}")
         if self.player_model is not None and self.player_model != PLAYER_AUTO:
             player_model(self.player_model)
+        if self.cost not in ("known", "unknown"):
+            raise ValueError(f"cost must be 'known' or 'unknown', not {self.cost!r}")
 
     def problem(self) -> Note | None:
         """Why these options are bad input (a `Note` whose sentence is for the user), or None.
@@ -115,4 +121,6 @@ class FitOptions:
             "confidence": self.confidence,
             "resamples": self.resamples,
             "seed": self.seed,
+            # A time world's two (a fit on levels refuses them, and its JSON does not show them).
+            **({"slip_known": self.slip_known, "cost": self.cost} if self.slip_known or self.cost != "known" else {}),
         }

@@ -79,6 +79,13 @@ def choose_player_model(
             start = (previous.theta, Player(previous.player.beta, previous.player.sigma or START_SIGMA,
                                             previous.player.lapse or START_LAPSE))
             tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
+        # And, as `fit_given_model` does, from the ends model's answer with a fresh hand: a hand model's
+        # sigma, started from the simpler hand's small one, can stay in the optimum where beta explains the
+        # spread of levels (on a time world that optimum put the cliff at half its size).
+        ends = fits.get("ends")
+        if model.hand and ends is not None and previous is not ends:
+            start = (ends.theta, Player(ends.player.beta, START_SIGMA, START_LAPSE))
+            tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
         fits[model.name] = max(tries, key=lambda fit: fit.mean_log_likelihood)
     k = min(folds, E)
     fold_of = np.random.default_rng(seed).permutation(np.arange(E) % k)

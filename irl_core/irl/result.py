@@ -19,6 +19,7 @@ from irl_core.irl.notes import Note, worded
 from irl_core.irl.options import DEFAULT_BETA, FitOptions
 from irl_core.irl.player_models import Player
 from irl_core.irl.qmap import Unknowns
+from irl_core.irl.slip_curve import SlipCurve
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.worlds.mdp import MDP, action_parts
 from irl_core.worlds.world import WALL, World
@@ -123,6 +124,10 @@ class FitResult:
         rival_model: where held-out episodes cannot tell whether the player plans for the hand, the other
             planning model (``person`` or ``naive``), whose rewards the intervals also cover; else None.
         rival_theta: (k,) that model's fitted unknowns, or None.
+        slip_curve: on a time world, the slip curve the fit planned with (fitted, or the world's with
+            ``slip_known``); `demos` then sit on the world with that curve (and a cost per second of 1 when the
+            cost is unknown: rewards in seconds of holding).
+        recorded_world: the world the recordings name, when the fit planned in another (the JSON's ``world``).
     """
 
     method: str
@@ -145,6 +150,8 @@ class FitResult:
     fit_check: FitCheck | None = None
     rival_model: str | None = None
     rival_theta: np.ndarray | None = None
+    slip_curve: SlipCurve | None = None
+    recorded_world: World | None = None
 
     @property
     def mdp(self) -> MDP:
@@ -171,6 +178,8 @@ class FitResult:
         out["beta"] = self.beta if self.beta is not None else (given if isinstance(given, (int, float)) else DEFAULT_BETA)
         out["beta_auto"] = self.beta_auto
         out["player_model"] = self.player_model
+        if self.slip_curve is not None:
+            out.update(slip_known=self.options.slip_known, cost=self.options.cost)
         if self.player is not None and self.player_model is not None and self.player_model != "boltzmann":
             out["sigma"] = self.player.sigma
             out["lapse"] = self.player.lapse
@@ -205,8 +214,11 @@ class FitResult:
 
     @property
     def true_reward_grid(self) -> np.ndarray:
-        """(rows, cols) the world's own R_S, NaN at walls."""
-        return self.grid(self.mdp.R_S)
+        """(rows, cols) the world's own R_S, NaN at walls (in the fit's `reward_unit`: on a time world whose
+        cost was taken as unknown, in seconds of holding at the recorded world's cost)."""
+        if self.reward_unit == "points":
+            return self.grid(self.mdp.R_S)
+        return self.grid(self.mdp.R_S / (self.recorded_world or self.world).cost_per_second)
 
     @property
     def unknown_grid(self) -> np.ndarray:
@@ -250,7 +262,7 @@ class FitResult:
         policy = self.policy_cells()
         return {
             "method": self.method,
-            "world": world.model_dump(mode="json"),
+            "world": (self.recorded_world or world).model_dump(mode="json"),
             "options": self.options_json(),
             "reward": [
                 [None if wall[r][c] else _number(reward[r, c]) for c in range(world.cols)] for r in range(world.rows)
@@ -284,7 +296,19 @@ class FitResult:
             "fit_check": None if self.fit_check is None else self.fit_check.to_json(),
             "notes": [str(note) for note in self.notes],
             "note_codes": [note.code for note in self.notes],
+            **self._time_json(),
         }
+
+    @property
+    def reward_unit(self) -> str:
+        """``points``, or ``seconds of holding`` when a time world's cost was taken as unknown."""
+        return "seconds of holding" if self.slip_curve is not None and self.options.cost == "unknown" else "points"
+
+    def _time_json(self) -> dict[str, Any]:
+        """A time world's ``slip_curve`` and ``reward_unit`` (nothing for a world with levels)."""
+        if self.slip_curve is None:
+            return {}
+        return {"slip_curve": self.slip_curve.to_json(), "reward_unit": self.reward_unit}
 
 
 def _number(value: float) -> float:

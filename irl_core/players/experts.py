@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.recordings.demonstrations import Demonstrations, EpisodeFacts, episode_matrix
+from irl_core.recordings.demonstrations import Demonstrations, EpisodeFacts, episode_matrix, hold_steps
 from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.support.safe_files import built_beside
@@ -199,8 +199,12 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
     ends = tuple("step_limit" if cut else symbols[s] for s, cut in zip(result.final_state, result.truncated))
     facts = EpisodeFacts(start=result.state[first], length=result.length[result.length > 0],
                          end=tuple(end for end, n in zip(ends, result.length) if n > 0))
+    chosen = mdp.direction[result.action]
+    holds = (np.zeros((0, 5)) if result.hold_ms is None else
+             hold_steps(result.state, chosen, result.hold_ms, result.direction != chosen, result.episode.tolist()))
     return Demonstrations(mdp=mdp, counts=counts, files=0, episodes=int(result.length.size),
-                          steps=int(result.state.size), by_episode=by_episode, episode_facts=facts)
+                          steps=int(result.state.size), by_episode=by_episode, episode_facts=facts,
+                          hold_steps=holds)
 
 
 # The most steps one block of `simulate_to_file` may hold (about 60 bytes each while rolled out).

@@ -30,6 +30,21 @@ player        direction                                       level
               uniformly random one
 ============  ==============================================  ===============================================
 
+On a time world (docs/timing.md) two more hold the key for a length of time, not a level:
+
+============  ==============================================  ===============================================
+player        direction                                       hold
+============  ==============================================  ===============================================
+``timing``    d*(s); with probability `lapse` (0.1) a         h*(s), the best hold over continuous time for
+              uniformly random one                            d*(s) given the plan's values, times
+                                                              exp(N(0, `weber`)), `weber` 0.25 (noise grows
+                                                              with the hold), released on the next `poll_ms`
+                                                              (8 ms, a USB keyboard's polling)
+``steady``    as ``timing``                                   `hold_ms` (600) everywhere, whatever is at stake
+============  ==============================================  ===============================================
+
+Neither is any player model of the fit: the fit sees bins, these slip with their exact holds.
+
 Every player is a `experts.Chooser`, so `experts.rollouts` and `experts.simulate_to_file` roll
 them out and write them exactly as they do computer experts, with the player named
 ``person:loose(lapse=0.1, spread=1.75)``.
@@ -55,7 +70,12 @@ KINDS: dict[str, dict[str, float]] = {
     "hasty": {"temperature": 1.25, "bias": 2.0, "spread": 1.0},
     "inverted": {"lapse": 0.1, "spread": 1.75},
     "reckless": {"lapse": 0.25},
+    "timing": {"lapse": 0.1, "weber": 0.25, "poll_ms": 8.0},
+    "steady": {"lapse": 0.1, "hold_ms": 600.0},
 }
+# The players that hold for a time and so need a time world; ``timed`` times the level world's windows.
+TIME_KINDS = frozenset({"timing", "steady"})
+LEVEL_KINDS = tuple(kind for kind in KINDS if kind not in TIME_KINDS)
 
 # The game's hold timing with its defaults (`irl_core.play.hold.HoldProfile`, whose level_for is per hold,
 # not per array): a hold shorter than its tap_ms is level 1, then one level per MS_PER_LEVEL.
@@ -99,6 +119,11 @@ def person_like(mdp: MDP, kind: str, **parameters: float) -> PersonLike:
                          f"{', '.join(KINDS[kind])}")
     values = {name: float(parameters.get(name, default)) for name, default in KINDS[kind].items()}
     _check(values)
+    timed_world = mdp.world.care == "time"
+    if (kind in TIME_KINDS) != timed_world and kind not in ("loose", "hasty", "inverted", "reckless"):
+        raise ValueError(f"the {kind} player " + ("holds for a time and needs a time world (care = \"time\")"
+                         if kind in TIME_KINDS else "times the level windows of a world with levels; on a time "
+                         "world the timing player holds for a time"))
     from irl_core.players.experts import optimal_plan
 
     plan = optimal_plan(mdp)
@@ -114,6 +139,11 @@ def person_like(mdp: MDP, kind: str, **parameters: float) -> PersonLike:
         choose = _loose(d_star, np.ones_like(c_star), L, lapse=values["lapse"], spread=0.0)
     elif kind == "timed":
         choose = _timed(d_star, c_star, L, lapse=values["lapse"], weber=values["weber"])
+    elif kind in TIME_KINDS:
+        best_hold = (np.full(mdp.n_states, values["hold_ms"]) if kind == "steady"
+                     else best_holds(mdp, plan.V, d_star))
+        choose = _holding(mdp, d_star, best_hold, lapse=values["lapse"], weber=values.get("weber", 0.0),
+                          poll_ms=values.get("poll_ms", 0.0))
     else:
         choose = _hasty(plan.Q, L, temperature=values["temperature"], bias=values["bias"], spread=values["spread"])
     return PersonLike(kind=kind, parameters=values, choose=choose)
@@ -123,9 +153,9 @@ def _check(values: dict[str, float]) -> None:
     for name, value in values.items():
         if name == "lapse" and not 0 <= value <= 1:
             raise ValueError(f"lapse is a probability, between 0 and 1, not {value:g}")
-        if name in ("spread", "weber") and not 0 <= value < np.inf:
+        if name in ("spread", "weber", "poll_ms") and not 0 <= value < np.inf:
             raise ValueError(f"{name} must be zero or more, not {value:g}")
-        if name == "temperature" and not 0 < value < np.inf:
+        if name in ("temperature", "hold_ms") and not 0 < value < np.inf:
             raise ValueError(f"temperature must be positive, not {value:g}")
         if name == "bias" and not abs(value) < np.inf:
             raise ValueError(f"bias must be a finite number of levels, not {value:g}")
@@ -212,5 +242,38 @@ def _hasty(Q: np.ndarray, levels: int, *, temperature: float, bias: float, sprea
     def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         d = np.minimum((cdf[s] < rng.random((s.size, 1))).sum(axis=1), 3)
         return d * levels + _noisy_level(best_level[s, d], spread, levels, rng, bias=bias) - 1
+
+    return choose
+
+
+# Holds the best-hold search looks at: log-spaced, fine enough that neighbours differ by under 1%.
+_HOLD_GRID = 600
+
+
+def best_holds(mdp: MDP, V: np.ndarray, d_star: np.ndarray) -> np.ndarray:
+    """(S,) a time world's best hold h*(s) in ms for the direction d*(s) (S,), over continuous time:
+    the h maximising -cost(h) + gamma [(1 - p(h)) V(n_d*) + p(h) / 3 sum of V over the other three
+    neighbours], with the values V (S,) of the plan over bins (0 where the player does not act)."""
+    world = mdp.world
+    grid = np.geomspace(20.0, world.max_hold_ms, _HOLD_GRID)  # (H,)
+    p, cost = world.hold_slip_chance(grid), world.hold_cost(grid)
+    k = np.arange(4)
+    ahead = V[mdp.neighbour[np.arange(mdp.n_states)[:, None], (d_star[:, None] + k[None, :]) % 4]]  # (S, 4)
+    value = -cost[None, :] + mdp.gamma * ((1 - p)[None, :] * ahead[:, :1] + (p / 3)[None, :] * ahead[:, 1:].sum(1, keepdims=True))
+    return np.where(mdp.nonterminal, grid[value.argmax(axis=1)], 0.0)
+
+
+def _holding(mdp: MDP, d_star: np.ndarray, hold: np.ndarray, *, lapse: float, weber: float, poll_ms: float) -> Chooser:
+    """The chooser of a player holding `hold` (S,) ms for d*(s), with log-normal timing noise and key-ups
+    on the keyboard's polling grid; returns (actions, exact holds)."""
+    world, levels = mdp.world, mdp.levels
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        d = _lapsed(d_star[s], lapse, rng)
+        held = hold[s] * np.exp(rng.normal(0.0, weber, s.size)) if weber > 0 else hold[s].astype(float)
+        if poll_ms > 0:
+            held = np.ceil(held / poll_ms) * poll_ms
+        held = np.minimum(held, world.max_hold_ms)
+        return d * levels + world.bin_of(held), held
 
     return choose

@@ -307,6 +307,10 @@ class Demonstrations:
             check compares them with the fitted player's); None when not known.
         calibration: (n, 2) the motor calibration trials' (target, produced) levels, in file order
             (n = 0 without any): the people fit estimates the hand from them.
+        hold_steps: (m, 5) on a time world each step with a recorded hold as (state, chosen direction index,
+            hold_ms, slipped 0/1, row of `by_episode`), in file order: the slips teach the slip curve
+            (`irl_core.irl.slip_curve`), the holds the timing fit (`irl_core.irl.timing_fit`); m = 0 on a
+            world with levels.
     """
 
     mdp: MDP
@@ -318,6 +322,7 @@ class Demonstrations:
     episode_groups: np.ndarray | None = None
     episode_facts: EpisodeFacts | None = None
     calibration: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    hold_steps: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
 
     @classmethod
     def from_recordings(cls, recordings: list[Recording]) -> Demonstrations:
@@ -360,11 +365,20 @@ class Demonstrations:
             episode_facts=EpisodeFacts.of_steps(episode_keys, states, endings),
             calibration=np.array([(t.target, t.produced) for r in recordings for t in r.calibration_trials],
                                  dtype=np.int64).reshape(-1, 2),
+            hold_steps=(hold_steps(states, column("direction"), np.concatenate(
+                [np.empty(0)] + [r.steps.column("hold_ms") for r in recordings]), np.concatenate(
+                [np.empty(0, bool)] + [r.steps.column("slipped") for r in recordings]), episode_keys)
+                if world.care == "time" else np.zeros((0, 5))),
         )
 
     @classmethod
     def read(cls, paths: Sequence[str | Path]) -> Demonstrations:
         return cls.from_recordings(read_recordings(paths)[0])
+
+    @property
+    def slip_outcomes(self) -> np.ndarray:
+        """(m, 2) (hold_ms, slipped 0/1) of every step with a recorded hold (a time world's)."""
+        return self.hold_steps[:, 2:4]
 
     @property
     def demonstrated(self) -> np.ndarray:
@@ -381,6 +395,18 @@ class Demonstrations:
     def most_frequent(self) -> np.ndarray:
         """(S,) the most frequent demonstrated action (lowest index among ties); -1 if none."""
         return np.where(self.demonstrated, self.counts.argmax(axis=1), -1)
+
+
+def hold_steps(states: np.ndarray, directions: np.ndarray, hold_ms: np.ndarray, slipped: np.ndarray,
+               episode_of_step: list) -> np.ndarray:
+    """(m, 5) `Demonstrations.hold_steps` from per-step (n,) states, chosen direction indices, holds (NaN where
+    none was recorded), slips and episode keys (the rows of `by_episode` in order of first appearance)."""
+    rows = {key: e for e, key in enumerate(dict.fromkeys(episode_of_step))}
+    row = np.array([rows[key] for key in episode_of_step], dtype=float)
+    hold_ms = np.asarray(hold_ms, dtype=float)
+    keep = np.isfinite(hold_ms)
+    table = np.column_stack([states, directions, hold_ms, np.asarray(slipped, dtype=float), row]).reshape(-1, 5)
+    return table[keep]
 
 
 UNFINISHED = "unfinished"
