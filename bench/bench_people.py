@@ -44,7 +44,7 @@ from irl_core.irl import FitOptions, fit
 from irl_core.irl.result import FitError
 from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import demonstrations_of, rollouts
-from irl_core.players.person_like import KINDS, LEVEL_KINDS, motor_trials, person_like
+from irl_core.players.person_like import LEVEL_KINDS, motor_trials, person_like
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS
 

@@ -58,14 +58,15 @@ def pooled_players(mdp: MDP, kind: str, *, seed: int, players: int = PLAYERS, ep
         player = person_like(mdp, kind, **{**values, **fixed})
         parts.append(demonstrations_of(mdp, rollouts(mdp, player.choose, episodes=episodes, seed=seed * 1000 + i)))
     facts = [p.episode_facts for p in parts if p.episode_facts is not None]
+    rows = [p.by_episode for p in parts if p.by_episode is not None]
     return Demonstrations(
-        mdp=mdp, counts=sum(p.counts for p in parts), files=0, episodes=sum(p.episodes for p in parts),
-        steps=sum(p.steps for p in parts), by_episode=sp.vstack([p.by_episode for p in parts]).tocsr(),
-        episode_groups=np.concatenate([np.full(p.by_episode.shape[0], i) for i, p in enumerate(parts)]),
+        mdp=mdp, counts=np.sum([p.counts for p in parts], axis=0), files=0, episodes=sum(p.episodes for p in parts),
+        steps=sum(p.steps for p in parts), by_episode=sp.vstack(rows).tocsr(),
+        episode_groups=np.concatenate([np.full(r.shape[0], i) for i, r in enumerate(rows)]),
         episode_facts=EpisodeFacts(start=np.concatenate([f.start for f in facts]),
                                    length=np.concatenate([f.length for f in facts]),
                                    end=tuple(e for f in facts for e in f.end)),
-        hold_steps=np.concatenate([_shifted(p.hold_steps, sum(q.by_episode.shape[0] for q in parts[:i]))
+        hold_steps=np.concatenate([_shifted(p.hold_steps, sum(r.shape[0] for r in rows[:i]))
                                    for i, p in enumerate(parts)]))
 
 

@@ -12,6 +12,7 @@ from careful_tui.app import make_play_app
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
+from careful_tui.keys.probe import reports_key_releases
 from irl_core.play.input_modes import INPUT_MODES, input_mode
 from irl_core.recordings.writer import SessionRecorder, check_writable
 from irl_core.support.safe_text import printable
@@ -38,6 +39,8 @@ def run_play(args: argparse.Namespace) -> int:
         raise UsageError(f"cannot write recordings to {args.out} ({exc.strerror or exc}); "
                          "choose a writable folder with --out") from None
     require_terminal("play")
+    if world.care == "time":
+        _time_world_playable(world.name, args.input)
     # Calibration times how long a held key takes per level: other inputs and one level time nothing.
     times_holds = input_mode(args.input).times_holds
     calibrate = args.calibrate and times_holds and world.levels > 1
@@ -63,6 +66,20 @@ def run_play(args: argparse.Namespace) -> int:
     if not recorder.paths:
         print("nothing was played, so nothing was recorded")
     return 0
+
+
+def _time_world_playable(name: str, mode: str) -> None:
+    """A time world is played by holding keys, timed from key-down to key-up: refuse another input, or a
+    terminal that does not report key-ups, in one line (rather than guessing holds from autorepeats)."""
+    shown = printable(name, limit=40)
+    if mode != "hold":
+        raise UsageError(f"{shown!r} is a time world: care is how long an arrow is held, so --input {mode} does not "
+                         "apply (leave --input out)")
+    if not reports_key_releases():
+        raise UsageError(f"{shown!r} is a time world: care is how long each arrow is held, timed from key-down to "
+                         "key-up, and this terminal does not report key-ups; play it in a terminal that speaks "
+                         "kitty's keyboard protocol (kitty, WezTerm, foot, Ghostty) or in the browser "
+                         "(careful serve)")
 
 
 def say_recorded(recorder: SessionRecorder) -> None:

@@ -31,6 +31,8 @@ def carefulness_gauge(world: World, *, slips: bool = False) -> Gauge:
     `slips` the chance that a move of that level slips, from the world's dynamics)."""
     gauge = Gauge(level_costs(world), slips=level_slip_chances(world) if slips else None, id="gauge")
     gauge.border_title = "carefulness"
+    # A time world shows no levels: the player sees the board, the score and at most the held time.
+    gauge.display = world.care != "time"
     if slips:
         gauge.border_subtitle = "points slip"
     return gauge
@@ -39,7 +41,9 @@ def carefulness_gauge(world: World, *, slips: bool = False) -> Gauge:
 def world_board(world: World) -> Board:
     """The board of the play and replay screens, titled with the world and its legend."""
     board = Board(world, id="board")
-    board.border_title = Text(f"{printable(world.name, limit=40)} · {plural(world.levels, 'level')} · slip {world.slip}")
+    care = ("care is how long you hold" if world.care == "time" else
+            f"{plural(world.levels, 'level')} · slip {world.slip}")
+    board.border_title = Text(f"{printable(world.name, limit=40)} · {care}")
     board.border_subtitle = legend(world)
     return board
 
@@ -50,7 +54,7 @@ def compose_game(world: World, *, panel: Widget | None = None, slips: bool = Fal
     `panel` on the right), the key bar; `status` and `hold_info` replace the plain `Static`s."""
     yield Static(id="title")
     with Horizontal(id="main"):
-        with Vertical(id="side"):
+        with Vertical(id="side", classes="time" if world.care == "time" else ""):
             yield carefulness_gauge(world, slips=slips)
             yield Static(id="hold-info") if hold_info is None else hold_info
         with Vertical(id="right"):
@@ -73,6 +77,7 @@ def minimum_size(world: World, *, side_padding: int, panel_width: int = 0, side_
     gauge_width = carefulness_gauge(world, slips=slips).get_content_width(None, None)
     cell_width, cell_height = MIN_CELL
     # A title bar and a key bar; the board's border and the status lines under it.
+    levels = 0 if world.care == "time" else world.levels
     width = (gauge_width + side_padding) + (world.cols * cell_width + 2) + panel_width
-    height = 2 + max(world.levels + 2 + side_lines, world.rows * cell_height + 2 + STATUS_LINES)
+    height = 2 + max(levels + 2 + side_lines, world.rows * cell_height + 2 + STATUS_LINES)
     return width, height

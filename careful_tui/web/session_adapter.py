@@ -346,8 +346,11 @@ class WebSession:
             "heading": session.options.heading,
             "rows": [printable(row) for row in world.layout.splitlines()],
             "legend": [[symbol, SYMBOL_NAMES.get(symbol, printable(symbol))] for symbol in _symbols(world.layout)],
-            "levels": [{"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
-                       for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],
+            # A time world shows no levels: the page draws no gauge, and the held time only with show_hold.
+            "care": world.care, "show_hold": world.care == "time" and world.show_hold,
+            "levels": [] if world.care == "time" else [
+                {"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
+                for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],
             "timing": {"tap_ms": profile.tap_ms, "ms_per_level": profile.ms_per_level,
                        "levels": profile.levels},
             "player": list(now.cell) if now.cell is not None else None,

@@ -59,6 +59,8 @@ class GameStatus(Static):
                 status.append(f"Last {names.word.lower()} ({names.number(end.episode)}): ", style="dim")
                 status.append(outcome_text(end), style=outcome_colour(outcome_code(end)))
                 status.append(f", score {format_value(end.score)}", style="dim")
+            elif self.world.care == "time":
+                status.append("Hold longer to be more careful: it costs more and slips less.", style="dim")
             elif self.world.levels > 1:
                 status.append("Careful moves cost more and slip less.", style="dim")
             else:  # one level: no carefulness to choose
@@ -91,6 +93,8 @@ class HoldInfo(Static):
         self.mode = mode
 
     def render(self) -> Text:
+        if self.world.care == "time":
+            return self._render_time()
         levels, view = self.world.levels, self.hold
         if view is not None:
             text = Text.assemble(
@@ -107,4 +111,17 @@ class HoldInfo(Static):
                              (f"level {step.level}", f"bold {level_colour(step.level, levels)}"))
         if step.hold_ms is not None and self.mode.times_holds:
             text.append(f"\n{step.hold_ms:.0f} ms" + (" (exact)" if step.hold_exact else ""), style="dim")
+        return text
+
+    def _render_time(self) -> Text:
+        """A time world: no levels and no costs per level; the held time only if the world shows it."""
+        view, shows = self.hold, self.world.show_hold
+        if view is not None:
+            return Text(f"held {view.held_ms:.0f} ms", style="bold") if shows else Text("holding…", style="dim")
+        if self.last_move is None:
+            return Text("hold an arrow:\nlonger = careful\nand costlier", style="dim")
+        step = self.last_move.step
+        text = Text.assemble(("last move\n", "dim"), (f"{step.direction}", "bold"))
+        if shows and step.hold_ms is not None:
+            text.append(f"\nheld {step.hold_ms:.0f} ms", style="dim")
         return text

@@ -85,24 +85,34 @@ def fit_slip_curve(outcomes: np.ndarray, *, max_hold_ms: float, confidence: floa
         p = np.clip(p_inf + (p0 - p_inf) * np.exp(-d / tau), _EDGE, 1 - _EDGE)
         return float(np.sum(y * np.log(p) + (1 - y) * np.log1p(-p)))
 
+    log_tau = (np.log(tau_low), np.log(tau_high))
+    tau_start = np.log(max_hold_ms / 8)
+
     # Free coordinates for each search: every one is a box, so L-BFGS-B keeps p_inf <= p0 by construction.
+    def search(fixed: str | None, value: float) -> tuple[Callable[[np.ndarray], tuple[float, float, float]],
+                                                         list[tuple[float, float]], list[float]]:
+        """How the free coordinates z make (p0, p_inf, tau) with `fixed` held at `value`; their box and start."""
+        def unpack(z: np.ndarray) -> tuple[float, float, float]:
+            if fixed == "p0":
+                return value, value * z[0], float(np.exp(z[1]))
+            if fixed == "p_inf":
+                return value + (1 - value) * z[0], value, float(np.exp(z[1]))
+            if fixed == "tau_ms":
+                return z[0], z[0] * z[1], value
+            return z[0], z[0] * z[1], float(np.exp(z[2]))
+
+        if fixed in ("p0", "p_inf"):
+            return unpack, [(0.0, 1.0), log_tau], [0.1 if fixed == "p0" else 0.5, tau_start]
+        if fixed == "tau_ms":
+            return unpack, [(0.0, 1.0), (0.0, 1.0)], [0.5, 0.1]
+        return unpack, [(0.0, 1.0), (0.0, 1.0), log_tau], [0.5, 0.1, tau_start]
+
     def best(fixed: str | None, value: float) -> tuple[float, tuple[float, float, float]]:
-        if fixed == "p0":
-            unpack: Callable[[np.ndarray], tuple[float, float, float]] = lambda z: (value, value * z[0], np.exp(z[1]))
-            bounds, start = [(0.0, 1.0), (np.log(tau_low), np.log(tau_high))], [0.1, np.log(max_hold_ms / 8)]
-        elif fixed == "p_inf":
-            unpack = lambda z: (value + (1 - value) * z[0], value, np.exp(z[1]))
-            bounds, start = [(0.0, 1.0), (np.log(tau_low), np.log(tau_high))], [0.5, np.log(max_hold_ms / 8)]
-        elif fixed == "tau_ms":
-            unpack = lambda z: (z[0], z[0] * z[1], value)
-            bounds, start = [(0.0, 1.0), (0.0, 1.0)], [0.5, 0.1]
-        else:
-            unpack = lambda z: (z[0], z[0] * z[1], np.exp(z[2]))
-            bounds, start = [(0.0, 1.0), (0.0, 1.0), (np.log(tau_low), np.log(tau_high))], [0.5, 0.1, np.log(max_hold_ms / 8)]
+        unpack, bounds, start = search(fixed, value)
         tries = [minimize(lambda z: -log_likelihood(*unpack(z)), np.array(x0), method="L-BFGS-B", bounds=bounds)
                  for x0 in _starts(start, bounds)]
         top = min(tries, key=lambda r: r.fun)
-        return -float(top.fun), tuple(float(v) for v in unpack(top.x))  # type: ignore[return-value]
+        return -float(top.fun), unpack(top.x)
 
     top, (p0, p_inf, tau) = best(None, 0.0)
     drop = chi2.ppf(confidence, 1) / 2
@@ -110,7 +120,9 @@ def fit_slip_curve(outcomes: np.ndarray, *, max_hold_ms: float, confidence: floa
     at = {"p0": p0, "p_inf": p_inf, "tau_ms": tau}
     interval = {}
     for name in PARAMETERS:
-        below = lambda v, name=name: top - best(name, v)[0] <= drop
+        def below(v: float, name: str = name) -> bool:
+            return top - best(name, v)[0] <= drop
+
         low, high = ranges[name]
         ends = []
         for edge in (low, high):

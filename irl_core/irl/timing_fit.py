@@ -221,7 +221,10 @@ def _sandwich(per_step, z: np.ndarray, unit: np.ndarray, cluster: np.ndarray, fr
         up, down = per_step(z + e), per_step(z - e)
         scores[:, j] = np.bincount(index, weights=(up - down) / (2 * step[j]), minlength=clusters.size)
     hessian = np.zeros((p, p))
-    total = lambda x: float(per_step(x).sum())
+
+    def total(x: np.ndarray) -> float:
+        return float(per_step(x).sum())
+
     centre = total(z)
     for i in np.flatnonzero(free):
         for j in np.flatnonzero(free):
@@ -255,7 +258,9 @@ def _curve_interval(z: np.ndarray, half: np.ndarray, k: int, max_hold_ms: float,
     """The curve's intervals: Wald on the search's coordinates (logit p0, logit p_inf / p0, log tau), mapped back;
     for a coordinate the joint likelihood is flat along (a p_inf at 0), the slips' own profile interval `flat`
     (or the whole range without one)."""
-    logistic = lambda x: 1 / (1 + np.exp(-x))
+    def logistic(x: float) -> float:
+        return float(1 / (1 + np.exp(-x)))
+
     left_out = np.isnan(half)
     half = np.where(left_out, np.inf, half)
     p0_lo, p0_hi = logistic(z[k + 3] - half[k + 3]), logistic(z[k + 3] + half[k + 3])

@@ -16,6 +16,9 @@ and draws what `view()` answers; the session keeps every rule of the session in 
 - `quit` records a running episode that has steps as ``quit`` and closes the file; a move still
   being entered is not a move and is dropped.
 
+On a time world (``care = "time"``) the move is the hold itself: its exact length, from `press` to
+`release`; a hold the session could only infer from autorepeats is dropped with a warning.
+
 Time: every call takes the time its key event happened (`at`, seconds on the session's
 `clock`; default: the clock now). A front end that knows when a key went down and when it came
 up (a browser's keydown and keyup, a kitty terminal) calls `press(key, at=t0)` and
@@ -230,13 +233,16 @@ class PlaySession:
         """Time passed: end a move whose silence ran out by `until` (default: now), the time up to
         which every key event that came has been fed. `keys_waiting`: key events that came are
         still queued in the front end, so the silence is no silence and nothing ends."""
-        if keys_waiting:
+        if keys_waiting or self.world.care == "time":
+            # A time world's hold ends only by its key-up: a silence (a busy machine's gap between repeats)
+            # is the key still down.
             return Played()
         return self._commit(self.input.poll(at=until))
 
     def deadline(self) -> float | None:
-        """When the move being entered ends by silence (clock seconds), if nothing comes first."""
-        return self.input.deadline()
+        """When the move being entered ends by silence (clock seconds), if nothing comes first (never on a
+        time world, whose holds end by their key-up)."""
+        return None if self.world.care == "time" else self.input.deadline()
 
     def entering(self) -> bool:
         """A move is being entered, or waits for its silence: a front end keeps calling `tick`."""
@@ -285,12 +291,15 @@ class PlaySession:
 
     @property
     def calibration_offered(self) -> bool:
-        """Calibration applies here and now: the mode times holds, the world has levels to time,
-        and no episode is half played."""
-        return self.mode.times_holds and self.world.levels > 1 and (not self.game.live or self.game.t == 0)
+        """Calibration applies here and now: the mode times holds, the world has levels to time (a time
+        world has none), and no episode is half played."""
+        return (self.mode.times_holds and self.world.levels > 1 and self.world.care != "time"
+                and (not self.game.live or self.game.t == 0))
 
     def calibration_refused(self) -> str | None:
         """Why calibration cannot start now (a sentence for the player), or None when it can."""
+        if self.world.care == "time":
+            return "This world has no levels to calibrate: your hold itself is the care."
         if not self.mode.times_holds:
             return (f"Calibration measures how your keyboard repeats a held key; {self.mode.name} input "
                     "does not time holds.")
@@ -346,8 +355,15 @@ class PlaySession:
         for hold in holds:
             if not self.game.live:
                 break
+            timed = self.game.world.care == "time"
+            if timed and not hold.exact:
+                # A time world's care is the hold itself: one guessed from autorepeats is not a move.
+                self.message = Message("this world times each hold from key-down to key-up, and this terminal "
+                                       "did not report the key-up: play it in the browser or in kitty", "warn")
+                continue
             try:
-                result = self.game.move(hold.key, hold.level, hold_ms=hold.hold_ms, exact=hold.exact)
+                result = self.game.move(hold.key, None if timed else hold.level, hold_ms=hold.hold_ms,
+                                        exact=hold.exact)
             except (OSError, ValueError) as exc:
                 self._stop(exc)
                 return Played(tuple(moves), stopped=True)

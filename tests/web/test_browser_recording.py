@@ -30,7 +30,7 @@ def test_a_browser_participants_recording_goes_through_every_tool(web_study, tmp
     main_file = next(path for path in sorted(folder.glob("*.jsonl")) if read_recording(path).header.study.phase == "main")
     recording = read_recording(main_file)
     assert recording.header.input["front_end"] == "browser"
-    assert recording.steps.column("carefulness").tolist() == [1, 1, 3, 7]  # the terminal's scale
+    assert recording.steps.column("level").tolist() == [1, 1, 3, 7]  # the terminal's scale
     assert (recording.header.input["tap_ms"], recording.header.input["ms_per_level"]) == (500.0, 150.0)
 
     async def replay() -> tuple:

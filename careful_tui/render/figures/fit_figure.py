@@ -2,8 +2,10 @@
 
 First row: the fitted reward, and the world's own reward beside it on the same colour scale
 (when the world file gives rewards). Second row: the demonstrated policy and, with carefulness
-levels, mean carefulness against distance to danger. With intervals, a third row: the
-interval of every unknown (or of every symbol, when there are too many cells to read).
+levels, mean carefulness against distance to danger. On a time world, a row with the slip curve
+over the recorded slips and the holds against distance to danger (`careful_tui.render.figures.timing`).
+With intervals, a last row: the interval of every unknown (or of every symbol, when there are too many
+cells to read).
 """
 
 from __future__ import annotations
@@ -33,12 +35,15 @@ from careful_tui.render.figures.intervals import (
 )
 from careful_tui.render.figures.policy import NOTE_HEIGHT, draw_policy, policy_note, policy_panel
 from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure, symbol_label
+from careful_tui.render.figures.timing import draw_holds, draw_slip_curve
 from careful_tui.render.intervals import interval_title
 from irl_core.irl import FitResult
 from irl_core.support.words import plural
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
 MAX_INTERVAL_ROWS = 24
+# A time world's row: the slip curve and the holds by distance (inches).
+TIMING_HEIGHT = 2.3
 
 
 def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
@@ -107,6 +112,9 @@ def fit_figure(result: FitResult) -> Figure:
     grid_width = (PAGE_WIDTH - COLOUR_BAR_WIDTH) / 2 * 0.92
     grid_height = grid_width * rows / cols + TITLE_HEIGHT
     heights = [grid_height + NOTE_HEIGHT, grid_height + NOTE_HEIGHT]
+    timed = result.slip_curve is not None
+    if timed:
+        heights.append(TIMING_HEIGHT)
     has_intervals = result.intervals is not None and len(result.intervals) > 0
     if has_intervals:
         interval_data, hulls = interval_rows(result)
@@ -116,8 +124,8 @@ def fit_figure(result: FitResult) -> Figure:
     width = cell_width(grid_width, cols)
     with figure_style():
         figure = new_figure(PAGE_WIDTH, sum(heights))
-        reward_row, middle_row, *interval_row = figure.subfigures(len(heights), 1, height_ratios=heights,
-                                                                  squeeze=False)[:, 0]
+        reward_row, middle_row, *rest = figure.subfigures(len(heights), 1, height_ratios=heights, squeeze=False)[:, 0]
+        timing_row, interval_row = (rest[0], rest[1:]) if timed else (None, rest)
         axes = reward_row.subplots(1, 2, squeeze=False)[0]
         norm = reward_norm(vmax)
         image = None
@@ -129,7 +137,7 @@ def fit_figure(result: FitResult) -> Figure:
             axes[1].set_visible(False)  # keeps the fitted grid the same size as with a true one
         assert image is not None, "the fitted reward is always drawn"
         add_colour_bar(reward_row, image, axes, vmax=vmax)
-        careful = world.levels > 1
+        careful = world.levels > 1 and not timed  # a time world's care is drawn as holds, below
         ax_policy, *ax_careful = middle_row.subplots(1, 2 if careful else 1, squeeze=False)[0]
         draw_policy(ax_policy, policy, board, levels=world.levels,
                     background=result.true_reward_grid if world.rewards else None, vmax=vmax, width=width)
@@ -140,6 +148,12 @@ def fit_figure(result: FitResult) -> Figure:
             draw_carefulness(ax_careful[0], [(plural(result.demonstrations['steps'], 'step'), series)],
                              levels=world.levels, title="carefulness by distance to danger")
             ax_careful[0].set_label("carefulness")
+        if timing_row is not None:
+            ax_curve, ax_holds = timing_row.subplots(1, 2, squeeze=False)[0]
+            draw_slip_curve(ax_curve, result)
+            ax_curve.set_label("slip curve")
+            draw_holds(ax_holds, result)
+            ax_holds.set_label("holds")
         if interval_row:
             ax_int = interval_row[0].subplots()
             title = f"{interval_title(result)}{' (hull per symbol)' if hulls else ''}"

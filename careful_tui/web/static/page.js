@@ -174,7 +174,7 @@
   function drawPlay(play) {
     $("heading").textContent = play.heading;
     show("play");  // first, so the board is sized to the room it has
-    if (state.drawnRows !== JSON.stringify(play.rows)) buildBoard(play);
+    if (state.drawnRows !== JSON.stringify([play.rows, play.care])) buildBoard(play);
     const board = $("board");
     for (const cell of board.querySelectorAll(".player, .arrow")) cell.remove();
     for (const cell of board.querySelectorAll(".slipped-to")) cell.classList.remove("slipped-to");
@@ -203,7 +203,37 @@
       return item;
     }));
     buildGauge($("gauge"), play.levels);
-    state.drawnRows = JSON.stringify(play.rows);
+    $("gauge").hidden = $("gauge-caption").hidden = play.care === "time";
+    $("side").classList.toggle("time", play.care === "time");
+    state.drawnRows = JSON.stringify([play.rows, play.care]);
+  }
+
+  // A time world: no gauge and no level; an arrow of one length shows the direction held, and with show_hold the
+  // milliseconds held so far.
+  function drawTimedHold(play) {
+    for (const arrow of $("board").querySelectorAll(".arrow")) arrow.remove();
+    const held = state.held;
+    if (!held || !play.player) return;
+    const cell = parseFloat(getComputedStyle($("board")).getPropertyValue("--cell")) || 56;
+    const half = Math.max(3, Math.round(cell * 0.16));
+    const length = cell * 0.6;
+    const arrow = el("div", "arrow");
+    const shaft = el("div", "shaft");
+    shaft.style.width = Math.max(0, length - half) + "px";
+    shaft.style.height = Math.max(2, Math.round(half * 0.66)) + "px";
+    shaft.style.top = -Math.max(1, Math.round(half * 0.33)) + "px";
+    shaft.style.background = "#555";
+    const head = el("div", "head");
+    head.style.left = Math.max(0, length - 1.5 * half) + "px";
+    head.style.top = -half + "px";
+    head.style.borderTopWidth = head.style.borderBottomWidth = half + "px";
+    head.style.borderLeftWidth = 1.5 * half + "px";
+    head.style.borderLeftColor = "#555";
+    arrow.append(shaft, head);
+    arrow.style.transform = "rotate(" + ANGLE[held.key] + "deg)";
+    cellAt(play.player).append(arrow);
+    $("hold-info").textContent = play.show_hold ? "held " + Math.round(performance.now() - held.t) + " ms" : "holding…";
+    state.frame = requestAnimationFrame(drawHold);
   }
 
   function buildGauge(gauge, rows) {
@@ -294,9 +324,15 @@
     if (!state.held) {
       const move = play.last_move;
       info.replaceChildren();
-      if (move) {
+      if (move && play.care === "time") {
+        info.append(document.createTextNode("last move: "), el("strong", "", move.direction),
+          document.createTextNode((play.show_hold ? "\nheld " + Math.round(move.hold_ms) + " ms" : "") +
+            (move.slipped ? (play.show_hold ? " · " : "\n") + "slipped " + move.realised : "")));
+      } else if (move) {
         info.append(document.createTextNode("last move: "), el("strong", "", move.direction + " at level " + move.level),
           document.createTextNode("\nheld " + Math.round(move.hold_ms) + " ms" + (move.slipped ? " · slipped " + move.realised : "")));
+      } else if (play.live && play.care === "time") {
+        info.textContent = "Hold an arrow key: the longer you hold it, the more careful the move, and the more it costs.\nLet go to move.";
       } else if (play.live) {
         info.textContent = play.levels.length > 1 ? "Hold an arrow key: the longer you hold it, the more careful the move.\nLet go to move." : "Press an arrow key to move.";
       }
@@ -310,6 +346,7 @@
     if (view && view.stage === "calibration") { drawCalibrationHold(view.calibration); return; }
     if (!view || view.stage !== "play") return;
     const play = view.play;
+    if (play.care === "time") { drawTimedHold(play); return; }
     const gauge = $("gauge");
     const levels = play.levels.length;
     const held = state.held;

@@ -1,0 +1,71 @@
+"""Playing a time world (docs/timing.md): the hold from key-down to key-up is the move's care, no gauge shows,
+and a terminal without key-ups is told so instead of having its holds guessed."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+
+from play_fixtures import FakeClock
+from textual.widgets import Static
+from tmux_terminal import terminal
+
+from careful_tui.app import make_play_app
+from careful_tui.keys.kitty import KeyRelease, KittyParser
+from careful_tui.widgets import Gauge
+from irl_core.recordings.demonstrations import read_recording
+from irl_core.worlds.world import BUILTIN_WORLDS, world_from_dict
+
+ARROW_FINAL = {"up": "A", "down": "B", "right": "C", "left": "D"}
+SHOWN = world_from_dict({**BUILTIN_WORLDS["mud-time"].model_dump(), "show_hold": True, "start": [2, 2]})
+
+
+def kitty(key: str, event: int) -> str:
+    """An arrow key event in kitty's protocol: 1 press, 2 repeat, 3 release."""
+    return f"\x1b[1;1:{event}{ARROW_FINAL[key]}"
+
+
+def test_a_hold_timed_by_its_release_is_the_moves_care_and_no_gauge_shows(tmp_path: Path):
+    clock = FakeClock()
+    app = make_play_app(SHOWN, out=tmp_path / "rec", player="p", seed=1, clock=clock)
+    parser = KittyParser()
+
+    async def main() -> None:
+        async with app.run_test(size=(100, 35)) as pilot:
+            await pilot.pause()
+            assert not app.query_one(Gauge).display
+            screen = app.first_screen
+
+            async def hold(key: str, seconds: float) -> None:
+                for event in parser.feed(kitty(key, 1)):
+                    screen.on_key(event)
+                clock.advance(seconds / 2)
+                screen.tick()
+                await pilot.pause()
+                held = str(app.query_one("#hold-info", Static).render())
+                assert "held" in held and "level" not in held
+                clock.advance(seconds / 2)
+                for event in parser.feed(kitty(key, 3)):
+                    assert isinstance(event, KeyRelease)
+                    screen.on_key_release(event)
+                await pilot.pause()
+
+            await hold("up", 0.15)
+            await hold("left", 1.8)
+            info = str(app.query_one("#hold-info", Static).render())
+            assert "held 1800 ms" in info and "level" not in info and "cost" not in info
+            await pilot.press("q")
+
+    asyncio.run(main())
+    (path,) = app.first_screen.recorder.paths
+    steps = read_recording(path).steps
+    assert [(s.direction, s.carefulness, s.hold_ms, s.hold_exact, s.bin) for s in steps] == [
+        ("up", None, 150.0, True, int(SHOWN.bin_of(150.0))), ("left", None, 1800.0, True, int(SHOWN.bin_of(1800.0)))]
+
+
+def test_a_terminal_without_key_ups_is_told_in_one_line_and_nothing_is_recorded(tmp_path: Path):
+    with terminal(tmp_path, ["play", "--world", "mud-time", "--out", "rec"], env={"CAREFUL_KEY_RELEASES": ""}) as term:
+        assert term.wait_exit() == 2
+        shown = " ".join(term.history().split())
+    assert "'mud-time' is a time world" in shown and "does not report key-ups" in shown and "careful serve" in shown
+    assert not (tmp_path / "rec").exists() or not any((tmp_path / "rec").iterdir())
