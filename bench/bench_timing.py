@@ -100,7 +100,8 @@ def one_seed(seed: int, *, resamples: int) -> dict:
         "covered": {s: bool(iv[0] <= TRUTH[s] <= iv[1]) for s, iv in intervals.items()},
         "falls": round(falls, 5), "falls_ok": bool(falls <= 0.01),
         "cliff_seconds": round(seconds["C"], 1), "seconds_ok": bool(abs(seconds["C"] / (TRUTH["C"] / 5.0) - 1) <= 0.2),
-        "method": known.method, "fit_check": None if known.fit_check is None else known.fit_check.passed,
+        "intervals_from": "scores" if "intervals_scores" in [n.code for n in known.notes] else "curvature",
+        "player_model": known.player_model, "fit_check": None if known.fit_check is None else known.fit_check.passed,
         "curve": [round(known.slip_curve.p0, 3), round(known.slip_curve.p_inf, 4), round(known.slip_curve.tau_ms, 1)],
     }
 

@@ -66,4 +66,6 @@ def _player(mdp: MDP, args: argparse.Namespace) -> tuple[np.ndarray | Chooser, s
                                                   if getattr(args, name) is not None})
     except NotConverged as exc:
         raise UsageError(str(exc)) from None
+    except ValueError as exc:  # a player for the other kind of world (levels or time)
+        raise UsageError(f"--policy {args.policy}: {exc}") from None
     return player.choose, player.player

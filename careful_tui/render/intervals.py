@@ -41,7 +41,7 @@ def interval_table(result: FitResult) -> Table:
 
 def interval_title(result: FitResult) -> str:
     """What the intervals are: identified by the demonstrations (lp) or a confidence interval."""
-    if result.interval_kind == "confidence" and result.method == "timing":
+    if result.interval_kind == "confidence" and result.player_model == "timing":
         grouped = result.demos.episode_groups is not None
         return (f"{result.options.confidence:.0%} confidence intervals (the likelihood's curvature, its spread "
                 f"measured between {'participants' if grouped else 'episodes'})")

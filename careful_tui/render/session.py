@@ -5,6 +5,7 @@ The play and replay screens share these; they draw nothing themselves.
 
 from __future__ import annotations
 
+import numpy as np
 from rich.console import Group, RenderableType
 from rich.table import Table
 from rich.text import Text
@@ -88,17 +89,20 @@ def summary_panel(recording: Recording, summary: SessionSummary, distance: int |
     score = "—" if summary.final_score is None else format_value(summary.final_score)
     session.add_row(score, Text("final score", style="dim"))
 
+    timed = world.care == "time"  # a time world's care is its hold, in ms, on a log bar up to the longest hold
+    what = "hold (ms)" if timed else "carefulness"
     careful = Table(box=None, padding=(0, 0), show_edge=False, header_style="dim", title_style=f"bold {NOTE}",
-                    title=f"carefulness by\ndistance to {for_markup('/'.join(world.terminal))}", title_justify="left")
+                    title=f"{what} by\ndistance to {for_markup('/'.join(world.terminal))}", title_justify="left")
     careful.add_column("d", justify="right", width=2)
     careful.add_column("mean", justify="right", width=5)
     careful.add_column("", width=MEAN_BAR + 1)
     careful.add_column("n", justify="right", min_width=4)
     for d, (mean, n) in summary.carefulness_by_distance.items():
-        colour = level_colour(mean, world.levels)
-        bar = "▆" * max(1, round(MEAN_BAR * mean / world.levels))
-        careful.add_row(str(d), Text(f"{mean:.1f}", style=f"bold {colour}"), Text(f" {bar}", style=colour),
-                        str(n), style=f"bold on {HERE}" if d == distance else "")
+        share = (np.log1p(mean / 20) / np.log1p(world.max_hold_ms / 20)) if timed else mean / world.levels
+        colour = level_colour(1 + share * (world.levels - 1) if timed else mean, world.levels)
+        bar = "▆" * max(1, round(MEAN_BAR * share))
+        careful.add_row(str(d), Text(f"{mean:.0f}" if timed else f"{mean:.1f}", style=f"bold {colour}"),
+                        Text(f" {bar}", style=colour), str(n), style=f"bold on {HERE}" if d == distance else "")
     # Warnings first: the panel is cut at the bottom in a small terminal.
     warnings = [Text(f"⚠ {printable(short_warning(recording, warning), limit=200)}\n", style=f"bold {WARN}")
                 for warning in recording.warnings]

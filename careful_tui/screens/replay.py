@@ -336,6 +336,13 @@ class ReplayScreen(Screen[None]):
     def _hold_info(self, step: Step | None) -> Text:
         if step is None:
             return Text()
+        if self.world.care == "time" and step.hold_ms is not None:
+            # A time world: the hold is the care; no level, and the cost of the exact hold.
+            text = Text.assemble(("held ", "dim"), (f"{step.hold_ms:.0f} ms", "bold"),
+                                 ("\ncost ", "dim"), (format_value(float(self.world.hold_cost(step.hold_ms))), "bold"))
+            if step.hold_exact:
+                text.append(" exact", style=f"bold {NOTE}")
+            return text
         level = step.level
         text = Text.assemble(
             ("level ", "dim"), (f"{level}", f"bold {level_colour(level, self.world.levels)}"),
@@ -384,7 +391,9 @@ class ReplayScreen(Screen[None]):
     def _move_text(self, frame: Frame, step: Step) -> Text:
         colour = level_colour(step.level, self.world.levels)
         if frame.phase == "before":
-            return Text.assemble((f"{step.direction} ", "bold"), (f"at level {step.carefulness}", f"bold {colour}"),
+            care = (f"held {step.hold_ms:.0f} ms" if self.world.care == "time" and step.hold_ms is not None
+                    else f"at level {step.carefulness}")
+            return Text.assemble((f"{step.direction} ", "bold"), (care, f"bold {colour}"),
                                  (f"   reward {format_value(step.reward)}", "dim"))
         if not step.slipped:
             return Text.assemble(("went ", "dim"), (step.direction, "bold"))

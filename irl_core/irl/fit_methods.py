@@ -27,8 +27,8 @@ class Method:
         label: what the paper calls it, for the fit view's title ("" for a chooser).
         summary: what it does, in a few words (the command line's help).
         interval_kind: its intervals: ``identified`` (every value the demonstrations allow) or
-            ``confidence`` (a bootstrap over episodes, or the timing fit's own sandwich intervals); None for a
-            chooser, whose choice decides.
+            ``confidence`` (a bootstrap over episodes; maxent's timing model on a time world gives its own);
+            None for a chooser, whose choice decides.
         uses_beta: it reads `FitOptions.beta` (a temperature, given or estimated).
         uses_lambda: it reads `FitOptions.lam` (the L1 penalty).
         chooser: it picks one of the others for the demonstrations given.
@@ -77,9 +77,6 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("maxent", "m", "the MaxEnt baseline", "the maximum-entropy baseline", "confidence",
            uses_beta=True, uses_lambda=False, fitter="irl_core.irl.fitting:maxent_fitter",
            refit="irl_core.irl.bootstrap:maxent_refit"),
-    Method("timing", "t", "the timing fit", "a time world's rewards, slip curve and player together, from the "
-           "exact holds (auto's choice on a time world)", "confidence", uses_beta=False, uses_lambda=False,
-           fitter="irl_core.irl.fitting:timing_fitter"),
 )}
 NAMES: tuple[str, ...] = tuple(METHODS)
 # The methods that fit (every one but the chooser).

@@ -128,7 +128,7 @@ def fit(
     notes += fitted.notes
 
     bounds, kind = None, None
-    if options.intervals and unknowns.k and fitted.method == "timing":
+    if options.intervals and unknowns.k and fitted.player_model == "timing":
         bounds, kind = fitted.own_intervals, None if fitted.own_intervals is None else "confidence"
     elif options.intervals and unknowns.k:
         bounds, kind = _intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers,
@@ -306,10 +306,10 @@ def _run(method: str, qmap: QMap, demos: Demonstrations, options: FitOptions, *,
 def auto_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
     """The auto method's choice: the timing fit on a time world with recorded holds; else lp for a deterministic
     expert whose lp is feasible, else maxent (beta auto)."""
-    if qmap.mdp.world.care == "time" and demos.hold_steps.shape[0]:
-        fitted = _run("timing", qmap, demos, options, progress=progress)
-        fitted.notes.insert(0, Note("auto_chose", "method auto chose the timing fit: on a time world the exact holds "
-                                                  "show the care taken, and the slips the curve"))
+    if qmap.mdp.world.care == "time" and demos.hold_steps.shape[0] and options.player_model in (None, "timing"):
+        fitted = _run("maxent", qmap, demos, dataclasses.replace(options, player_model="timing"), progress=progress)
+        fitted.notes.insert(0, Note("auto_chose", "method auto chose maxent with the timing model: on a time world "
+                                                  "the exact holds show the care taken, and the slips the curve"))
         return fitted
     acted = demos.counts[demos.demonstrated]
     mixed = int(((acted > 0).sum(axis=1) > 1).sum())
@@ -363,6 +363,9 @@ def maxent_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, pro
     or a model of people (`FitOptions.player_model`, `irl_core.irl.people_fit`)."""
     chosen_by_auto = options.method == "auto"
     model = options.maxent_player_model(chosen_by_auto=chosen_by_auto)
+    timed = qmap.mdp.world.care == "time" and demos.hold_steps.shape[0] > 0
+    if model == "timing" or (timed and options.player_model is None):
+        return timing_fitter(qmap, demos, options, progress=progress)
     if model != "boltzmann":
         return _fit_people(qmap, demos, options, model=model)
     beta = options.maxent_beta(chosen_by_auto=chosen_by_auto)
@@ -437,12 +440,12 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
 
 
 def timing_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
-    """The timing fit (`irl_core.irl.timing_fit`): rewards, slip curve and player from the exact holds, started
-    where the people fit over duration bins and the slips' own curve end."""
+    """maxent with the timing model (`irl_core.irl.timing_fit`): rewards, slip curve and player from the exact
+    holds, started where the people fit over duration bins and the slips' own curve end."""
     mdp, unknowns = qmap.mdp, qmap.unknowns
     world = mdp.world
     if world.care != "time" or not demos.hold_steps.shape[0]:
-        raise BadInputError("{method=timing} reads exact holds, which only a time world's recordings have",
+        raise BadInputError("{player_model=timing} reads exact holds, which only a time world's recordings have",
                             code="timing_needs_holds")
     start = fit_given_model(mdp, unknowns, demos.counts, model=player_model("person"), rmax=options.rmax)
     curve = (None if options.slip_known else
@@ -456,10 +459,15 @@ def timing_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, pro
                                       f"{solution.lapse:.2g}, beta {solution.beta:.3g} per point")]
     if not solution.converged:
         notes.append(Note("not_converged", f"the timing fit stopped before converging: {solution.message.lower()}"))
+    if solution.interval_route == "scores":
+        notes.append(Note("intervals_scores", "the intervals come from the spread of the participants' scores alone: "
+                                              "the likelihood's curvature, measured by differences, was not positive "
+                                              "definite (kinks where a best hold is clipped), so they assume the "
+                                              "model is right"))
     if solution.theta_intervals is None:
         notes.append(Note("intervals_not_computed", "no intervals: the likelihood's curvature at the answer is not "
                                                     "positive definite (a flat direction the data do not pin)"))
-    return _Fitted("timing", solution.theta, solution.plan.V, status="optimal" if solution.converged else
+    return _Fitted("maxent", solution.theta, solution.plan.V, status="optimal" if solution.converged else
                    "not_converged", notes=notes, player_model="timing", player=player,
                    observed_policy=timing_policy(mdp, solution), curve=solution.curve,
                    own_intervals=solution.theta_intervals)

@@ -44,6 +44,7 @@ CODES: dict[str, str] = {
     "slip_curve_fitted": "a time world's slip curve as fitted to the recorded slips, with its intervals",
     "slip_curve_given": "a time world's slip curve taken from the world (no holds to learn it from)",
     "reward_in_seconds": "the cost of holding taken as unknown: rewards in seconds of holding",
+    "intervals_scores": "the timing fit's intervals from the scores' spread alone (its curvature was not usable)",
     "cliff_not_separated": "the hazards' and nuisances' intervals overlap: the fit does not tell them apart",
     # `FitOptions.problem`: options a fit would not refuse, but the command line does.
     "beta_needs_maxent": "beta estimated for a method without one",

@@ -53,6 +53,9 @@ PLAYER_MODELS: dict[str, PlayerModel] = {
                     summary="as hand, and now and then a lapse: a random direction"),
         PlayerModel("naive", ends=True, hand=True, lapses=True, plans=False,
                     summary="as person, but planning as if the intended level were the realised one"),
+        PlayerModel("timing", ends=True, hand=True, lapses=True,
+                    summary="a time world's player, holding for continuous times around the best hold, the slip "
+                            "curve learnt with the rewards (the default there)"),
     )
 }
 @dataclass(frozen=True)

@@ -55,12 +55,13 @@ class TimingPlan:
 
 
 def timing_plan(mdp: MDP, R_S: np.ndarray, *, p0: float, p_inf: float, tau_ms: float,
-                cost_per_second: float) -> TimingPlan:
-    """Value iteration over directions with each direction's closed-form best hold (module docstring)."""
+                cost_per_second: float, V0: np.ndarray | None = None) -> TimingPlan:
+    """Value iteration over directions with each direction's closed-form best hold (module docstring), from
+    the values `V0` (S,) when given (a nearby fit's: the search's next point converges in a few sweeps)."""
     world, gamma = mdp.world, mdp.gamma
     acting = mdp.nonterminal
     neighbours = mdp.neighbour  # (S, 4)
-    V = np.where(acting, 0.0, np.asarray(R_S, dtype=float))
+    V = np.where(acting, 0.0 if V0 is None else V0, np.asarray(R_S, dtype=float))
     V[mdp.exit_state] = 0.0
     drop = max(p0 - p_inf, 0.0)
     scale = max(float(np.abs(R_S).max()), 1.0)
@@ -112,6 +113,7 @@ class TimingFit:
     converged: bool
     message: str
     theta_intervals: np.ndarray | None
+    interval_route: str = "sandwich"
 
 
 def fit_timing(mdp: MDP, unknowns: Unknowns, steps: np.ndarray, *, rmax: float, cost_per_second: float,
@@ -146,10 +148,14 @@ def fit_timing(mdp: MDP, unknowns: Unknowns, steps: np.ndarray, *, rmax: float, 
         p0 = 1 / (1 + np.exp(-z[k + 3]))
         return theta, beta, sigma, lapse, p0, p0 * (1 / (1 + np.exp(-z[k + 4]))), world.max_hold_ms * np.exp(z[k + 5])
 
+    last_V: list[np.ndarray] = []  # the values of the last point evaluated, where the next one's sweeps start
+
     def per_step(z: np.ndarray) -> np.ndarray:
         theta, beta, sigma, lapse, p0, p_inf, tau = unpack(z)
         R_S = basis @ theta + fixed
-        plan = timing_plan(mdp, R_S, p0=p0, p_inf=p_inf, tau_ms=tau, cost_per_second=cost_per_second)
+        plan = timing_plan(mdp, R_S, p0=p0, p_inf=p_inf, tau_ms=tau, cost_per_second=cost_per_second,
+                           V0=last_V[0] if last_V else None)
+        last_V[:] = [plan.V]
         q = beta * plan.Q[s]  # (m, 4)
         q -= q.max(axis=1, keepdims=True)
         log_direction = q[np.arange(s.size), d] - np.log(np.exp(q).sum(axis=1))
@@ -185,8 +191,9 @@ def fit_timing(mdp: MDP, unknowns: Unknowns, steps: np.ndarray, *, rmax: float, 
     # the likelihood still climbs past it, so its curvature says nothing. A reward at ±rmax is kept, its
     # interval then reaching the bound.
     lows, highs = np.array(bounds).T
-    held = (np.arange(z.size) >= k) & ((z - lows < 1e-6 * unit) | (highs - z < 1e-6 * unit))
-    covariance = _sandwich(per_step, z, unit, episode if groups is None else np.asarray(groups)[episode], ~held)
+    held = (np.arange(z.size) >= k) & ((z - lows < 1e-2 * unit) | (highs - z < 1e-2 * unit))
+    covariance, route = _sandwich(per_step, z, unit, episode if groups is None else np.asarray(groups)[episode], ~held,
+                           rewards=k)
     theta_intervals = None
     curve_interval = None if start_curve is None else start_curve.interval  # the slips' own, failing the joint
     if covariance is not None:
@@ -203,14 +210,19 @@ def fit_timing(mdp: MDP, unknowns: Unknowns, steps: np.ndarray, *, rmax: float, 
                        interval=curve_interval))
     return TimingFit(theta=np.asarray(theta, dtype=float), curve=curve, beta=float(beta), sigma=float(sigma),
                      lapse=float(lapse), plan=plan, mean_log_likelihood=-float(scaled.fun),
-                     converged=bool(scaled.success), message=str(scaled.message), theta_intervals=theta_intervals)
+                     converged=bool(scaled.success), message=str(scaled.message), theta_intervals=theta_intervals,
+                     interval_route=route)
 
 
-def _sandwich(per_step, z: np.ndarray, unit: np.ndarray, cluster: np.ndarray, free: np.ndarray) -> np.ndarray | None:
+def _sandwich(per_step, z: np.ndarray, unit: np.ndarray, cluster: np.ndarray, free: np.ndarray, *,
+              rewards: int) -> tuple[np.ndarray | None, str]:
     """(p, p) H^-1 J H^-1 at z over the coordinates `free` (p,) (NaN rows and columns for the others and for those
     the likelihood is flat along): H the negative log likelihood's Hessian, J the outer products of each
     cluster's score, both by central differences in steps of `unit` * 1e-3 (a reward at its bound is differenced
-    across it: the likelihood is defined there); None when H is not positive definite."""
+    across it: the likelihood is defined there). The first `rewards` coordinates are the rewards; None when H is
+    not positive definite even without every other parameter. Returns the covariance and its route: ``sandwich``,
+    ``scores`` (the outer product of the scores alone, when the differenced curvature is not positive definite)
+    or ``none``."""
     p = z.size
     step = unit * 1e-3
     clusters, index = np.unique(cluster, return_inverse=True)
@@ -242,15 +254,32 @@ def _sandwich(per_step, z: np.ndarray, unit: np.ndarray, cluster: np.ndarray, fr
     # left out: its Wald interval would mean nothing.
     bend = np.diag(hessian) * unit**2  # in the search's own units, where the parameters are comparable
     keep = free & (bend > 1e-6 * max(float(bend.max()), 1e-300))
+    meat = scores.T @ scores
+    out = np.full((p, p), np.nan)
+    while True:
+        inner = np.ix_(keep, keep)
+        try:
+            np.linalg.cholesky(hessian[inner])
+            inverse = np.linalg.inv(hessian[inner])
+            out[inner] = inverse @ meat[inner] @ inverse
+            return out, "sandwich"
+        except np.linalg.LinAlgError:
+            # Not positive definite: leave out the player or curve parameter that bends least, and try again;
+            # the rewards are what the intervals are for, so they are never the ones left out.
+            spare = np.flatnonzero(keep & (np.arange(p) >= rewards))
+            if spare.size == 0:
+                break
+            keep[spare[np.argmin(bend[spare])]] = False
+    # The curvature by differences is not positive definite even over the rewards (the best hold's clip at the
+    # shortest hold puts kinks in the likelihood): the scores' own spread stands in for it (the outer-product
+    # estimate, right when the model is), still over the participants.
+    keep = free & (bend > 1e-6 * max(float(bend.max()), 1e-300))
     inner = np.ix_(keep, keep)
     try:
-        np.linalg.cholesky(hessian[inner])
-        inverse = np.linalg.inv(hessian[inner])
+        out[inner] = np.linalg.inv(meat[inner])
     except np.linalg.LinAlgError:
-        return None
-    out = np.full((p, p), np.nan)
-    out[inner] = inverse @ (scores[:, keep].T @ scores[:, keep]) @ inverse
-    return out
+        return None, "none"
+    return out, "scores"
 
 
 def _curve_interval(z: np.ndarray, half: np.ndarray, k: int, max_hold_ms: float,

@@ -49,6 +49,8 @@ CSV_COLUMNS = (
     "file", "player", "episode", "t", "row", "col", "direction", "carefulness", "hold_ms",
     "hold_exact", "next_row", "next_col", "slipped", "reward", "score",
 )
+# A time world's steps (docs/timing.md) add their duration bin (their carefulness is empty).
+TIME_COLUMNS = ("bin",)
 # A study session's header (docs/studies.md) adds these, from its `study` field.
 STUDY_COLUMNS = ("study", "participant", "phase", "world_index")
 STUDY_FIELDS = ("name", "participant", "phase", "world_index")
@@ -67,8 +69,10 @@ def _study(recording: Recording) -> dict[str, Any] | None:
 
 
 def csv_columns(recordings: list[Recording]) -> tuple[str, ...]:
-    """The CSV header: the step columns, and the study columns when any session has a study."""
-    return CSV_COLUMNS + (STUDY_COLUMNS if any(_study(r) for r in recordings) else ())
+    """The CSV header: the step columns, the bin when any session is of a time world, and the study columns
+    when any session has a study."""
+    timed = TIME_COLUMNS if any(r.world.care == "time" for r in recordings) else ()
+    return CSV_COLUMNS + timed + (STUDY_COLUMNS if any(_study(r) for r in recordings) else ())
 
 
 def _text(value: object) -> str:
@@ -79,7 +83,7 @@ def _text(value: object) -> str:
     return str(value)
 
 
-def csv_rows(recording: Recording, *, study_columns: bool) -> Iterator[list[str]]:
+def csv_rows(recording: Recording, *, study_columns: bool, time_columns: bool = False) -> Iterator[list[str]]:
     """One row per step of `recording`, in `csv_columns` order."""
     study = _study(recording) or {}
     extra = [text_cell(_text(study.get(name))) for name in STUDY_FIELDS] if study_columns else []
@@ -87,8 +91,9 @@ def csv_rows(recording: Recording, *, study_columns: bool) -> Iterator[list[str]
     for s in recording.steps:
         yield [
             file, player, str(s.episode), str(s.t), str(s.state[0]), str(s.state[1]), s.direction,
-            str(s.carefulness), _text(s.hold_ms), _text(s.hold_exact), str(s.next_state[0]),
-            str(s.next_state[1]), _text(s.slipped), repr(s.reward), repr(s.score), *extra,
+            _text(s.carefulness), _text(s.hold_ms), _text(s.hold_exact), str(s.next_state[0]),
+            str(s.next_state[1]), _text(s.slipped), repr(s.reward), repr(s.score),
+            *([_text(s.bin)] if time_columns else []), *extra,
         ]
 
 
@@ -107,7 +112,8 @@ def write_csv(path: str | Path, recordings: list[Recording], *, progress: Callab
         writer = csv_writer(handle, lineterminator="\r\n")
         writer.writerow(header(columns))
         for recording in recordings:
-            writer.writerows(csv_rows(recording, study_columns=len(columns) > len(CSV_COLUMNS)))
+            writer.writerows(csv_rows(recording, study_columns=STUDY_COLUMNS[0] in columns,
+                                      time_columns=TIME_COLUMNS[0] in columns))
             rows += len(recording.steps)
             if progress:
                 progress(rows)

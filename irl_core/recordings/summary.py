@@ -47,7 +47,8 @@ class SessionSummary:
         final_score: the score after the last step or episode end (None if nothing was played).
         steps: number of steps.
         slips: number of steps that slipped.
-        carefulness_by_distance: distance to the nearest terminal cell -> (mean carefulness, steps).
+        carefulness_by_distance: distance to the nearest terminal cell -> (mean carefulness, steps); on a time
+            world the mean hold in ms (a time world's care) instead of a mean level.
     """
 
     episodes: int
@@ -90,7 +91,8 @@ def summarise(recording: Recording, *, distances: dict[tuple[int, int], int] | N
     distance = grid[steps.column("row"), steps.column("col")]
     reached = distance >= 0
     counts = np.bincount(distance[reached], minlength=1)
-    totals = np.bincount(distance[reached], weights=steps.column("level")[reached], minlength=1)
+    care = np.nan_to_num(steps.column("hold_ms")) if world.care == "time" else steps.column("level")
+    totals = np.bincount(distance[reached], weights=care[reached], minlength=1)
     return SessionSummary(
         episodes=len(recording.episodes),
         outcomes=dict(outcomes),

@@ -7,7 +7,7 @@ import pytest
 from careful_tui.cli import main
 from irl_core.experiment.run import human_sessions
 from irl_core.irl import fit
-from irl_core.players.person_like import KINDS
+from irl_core.players.person_like import KINDS, TIME_KINDS
 from irl_core.recordings.demonstrations import Demonstrations, read_recording
 from irl_core.worlds.mdp import action_index, build_mdp
 
@@ -23,7 +23,9 @@ def careful_simulate(capsys, tmp_path, name, *extra) -> tuple:
 
 @pytest.mark.parametrize("kind", list(KINDS))
 def test_every_person_like_player_writes_a_recording_the_reader_takes_with_possible_moves(capsys, tmp_path, kind):
-    code, out, err = careful_simulate(capsys, tmp_path, f"{kind}.jsonl", "--world", "walls", "--policy", kind,
+    # A player that holds for a time plays a time world; the others a world of levels.
+    world = "mud-time" if kind in TIME_KINDS else "walls"
+    code, out, err = careful_simulate(capsys, tmp_path, f"{kind}.jsonl", "--world", world, "--policy", kind,
                                       "--episodes", "40", "--seed", "3")
     assert code == 0 and "wrote 40 episodes" in err
     recording = read_recording(out)
@@ -31,7 +33,7 @@ def test_every_person_like_player_writes_a_recording_the_reader_takes_with_possi
     assert len(recording.episode_ends) == 40
     mdp = build_mdp(recording.world)
     for step in recording.steps:
-        row = mdp.P[mdp.state_of[step.state] * mdp.n_actions + action_index(step.direction, step.carefulness, 14)]
+        row = mdp.P[mdp.state_of[step.state] * mdp.n_actions + action_index(step.direction, step.level, mdp.levels)]
         assert row[0, mdp.state_of[step.next_state]] > 0
 
 
@@ -69,10 +71,10 @@ def test_options_set_the_player_and_its_name(capsys, tmp_path):
 @pytest.mark.parametrize(("policy", "options", "wanted"), [
     ("loose", ["--beta", "2"], ["warning: --beta applies only to --policy boltzmann; ignored"]),
     ("timed", ["--spread", "2"], ["warning: --spread applies only to --policy loose, hasty and inverted; ignored"]),
-    ("optimal", ["--weber", "0.3", "--bias", "1"], ["warning: --weber applies only to --policy timed; ignored",
+    ("optimal", ["--weber", "0.3", "--bias", "1"], ["warning: --weber applies only to --policy timed and timing; ignored",
                                                     "warning: --bias applies only to --policy hasty; ignored"]),
     ("boltzmann", ["--lapse", "0.2"],
-     ["warning: --lapse applies only to --policy loose, timed, inverted and reckless; ignored"]),
+     ["warning: --lapse applies only to --policy loose, timed, inverted, reckless, timing and steady; ignored"]),
     ("inverted", ["--lapse", "0.2", "--spread", "1"], []),
 ])
 def test_an_option_the_player_does_not_take_is_named_and_ignored(capsys, tmp_path, policy, options, wanted):
@@ -100,3 +102,10 @@ def test_a_lapse_of_zero_follows_the_optimal_directions(capsys, tmp_path):
     best = optimal_plan(mdp).greedy
     directions = np.array([mdp.direction[best[mdp.state_of[step.state]]] for step in recording.steps])
     assert [("up", "right", "down", "left")[d] for d in directions] == [step.direction for step in recording.steps]
+
+
+@pytest.mark.parametrize("kind, world", [("timing", "walls"), ("timed", "mud-time")])
+def test_a_player_on_the_wrong_kind_of_world_is_one_line(capsys, tmp_path, kind, world):
+    code, out, err = careful_simulate(capsys, tmp_path, "x.jsonl", "--world", world, "--policy", kind,
+                                      "--episodes", "5", "--seed", "1")
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "time world" in err and not out.exists()

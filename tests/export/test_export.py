@@ -103,7 +103,7 @@ def test_csv_takes_many_files_of_many_worlds(tmp_path, capsys):
 def test_csv_study_columns_come_from_a_study_header():
     recording = read_recording(CORPUS / "valid.jsonl")
     study = {"name": "pilot", "participant": "p7", "phase": "main", "world_index": 1}
-    in_study = dataclasses.replace(recording, header=SimpleNamespace(player="p7", study=study))
+    in_study = dataclasses.replace(recording, header=SimpleNamespace(player="p7", study=study, world=recording.world))
     assert csv_columns([recording]) == CSV_COLUMNS
     assert csv_columns([recording, in_study]) == CSV_COLUMNS + STUDY_COLUMNS
     rows = list(csv_rows(in_study, study_columns=True))

@@ -89,7 +89,7 @@ def careful_players():
 def test_the_fit_of_timing_players_it_does_not_contain_finds_the_cliff_and_the_curve(careful_players):
     result = fit(careful_players, tie=True, intervals=True, rmax=5000.0)
     got = dict(zip(result.unknowns.labels, result.theta))
-    assert result.method == "timing" and result.slip_curve is not None and not result.slip_curve.known
+    assert (result.method, result.player_model) == ("maxent", "timing") and result.slip_curve is not None and not result.slip_curve.known
     assert abs(got["C"] / got["U"] / (1000 / 30) - 1) < 0.25
     assert abs(result.slip_curve.tau_ms / 400 - 1) < 0.1
     assert result.intervals is not None
