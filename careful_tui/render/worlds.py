@@ -19,15 +19,20 @@ def print_world_table(console: Console) -> None:
         table.add_column(column)
     for name, world in BUILTIN_WORLDS.items():
         rewards = ", ".join(f"{k} {format_value(v)}" for k, v in world.rewards.items())
-        table.add_row(name, f"{world.rows}x{world.cols}", str(world.levels), world.slip, rewards, WORLD_PURPOSES[name])
+        # A time world's care is the hold: no levels, and a slip curve instead of halving.
+        levels, slip = ("hold", f"p(d), tau {world.tau_ms:g} ms") if world.care == "time" else (str(world.levels),
+                                                                                              world.slip)
+        table.add_row(name, f"{world.rows}x{world.cols}", levels, slip, rewards, WORLD_PURPOSES[name])
     console.print(table)
 
 
 def print_world(console: Console, world: World) -> None:
     # The name is text from a file: shown escaped and cut, never as markup.
+    care = (f"care is the hold (slips {world.p_inf:g} + {world.p0 - world.p_inf:g} e^(-d / {world.tau_ms:g} ms), costs "
+            f"{world.cost_per_second:g} a second, {plural(world.levels, 'duration bin')} for planning)"
+            if world.care == "time" else f"{plural(world.levels, 'carefulness level')}, slip {world.slip}")
     console.print(Text.assemble((printable(world.name, limit=VALUE_LIMIT), "bold"),
-                                f": {world.rows}x{world.cols} cells, {plural(world.levels, 'carefulness level')},"
-                                f" slip {world.slip}, gamma {world.gamma}"), soft_wrap=True)
+                                f": {world.rows}x{world.cols} cells, {care}, gamma {world.gamma}"), soft_wrap=True)
     console.print(WorldGrid(world))
     console.print(symbol_legend(world))
-    console.print(Syntax(world.to_toml(), "toml", theme="ansi_dark", background_color="default"))
+    console.print(Syntax(world.to_toml(), "toml", theme="ansi_dark", background_color="default", word_wrap=True))

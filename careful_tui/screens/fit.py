@@ -470,6 +470,8 @@ class FitScreen(Screen[None]):
         if not self.options.intervals:
             what = (f"every value the demonstrations allow ({result.method})"
                     if METHODS[result.method].interval_kind == "identified"
+                    else f"a {self.options.confidence:.0%} confidence interval (the likelihood's curvature)"
+                    if result.player_model == "timing"
                     else f"a {self.options.confidence:.0%} confidence interval (resampling episodes)")
             return Text.assemble(("press ", "dim"), ("i", "bold"), (f" to bound every fitted reward: {what}", "dim"))
         if result.intervals is None:
@@ -483,6 +485,14 @@ class FitScreen(Screen[None]):
 
     def _policy_key(self) -> Text:
         world = self.world
+        if world.care == "time":
+            return Text.assemble(
+                ("The most frequent action in each cell\n", "bold"),
+                ("  →  ", "bold"), "the direction\n",
+                (" .65s ", "bold"), "the hold, its duration bin's mid-point\n",
+                (" ×38 ", "bold"), "how often it was taken there\n",
+                (f"Holding costs {format_value(world.cost_per_second)} a second; a longer hold slips less.", "dim"),
+            )
         level = f"the carefulness level (1-{world.levels})" if world.levels > 1 else "the level (one level)"
         slip = ("a level-c move slips with probability 2^-c" if world.slip == "halving" else "moves never slip")
         return Text.assemble(

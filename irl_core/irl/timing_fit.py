@@ -196,6 +196,8 @@ def fit_timing(mdp: MDP, unknowns: Unknowns, steps: np.ndarray, *, rmax: float, 
                            rewards=k)
     theta_intervals = None
     curve_interval = None if start_curve is None else start_curve.interval  # the slips' own, failing the joint
+    if covariance is not None and not np.all(np.diag(covariance)[:k] > 0):
+        covariance, route = None, "none"  # a reward's variance of 0 or less would be an interval of no width
     if covariance is not None:
         half = norm.ppf(0.5 + confidence / 2) * np.sqrt(np.maximum(np.diag(covariance), 0.0))
         # A reward the likelihood is flat along is bounded by rmax alone: its interval reaches the bounds.
@@ -261,7 +263,12 @@ def _sandwich(per_step, z: np.ndarray, unit: np.ndarray, cluster: np.ndarray, fr
         try:
             np.linalg.cholesky(hessian[inner])
             inverse = np.linalg.inv(hessian[inner])
-            out[inner] = inverse @ meat[inner] @ inverse
+            sandwich = inverse @ meat[inner] @ inverse
+            # The wider of the sandwich and the curvature's own variance: where the scores barely move (a reward the
+            # holds do not depend on) the sandwich alone would shrink to nothing, while the curvature still says
+            # how little the data pin it.
+            np.fill_diagonal(sandwich, np.maximum(np.diag(sandwich), np.diag(inverse)))
+            out[inner] = sandwich
             return out, "sandwich"
         except np.linalg.LinAlgError:
             # Not positive definite: leave out the player or curve parameter that bends least, and try again;

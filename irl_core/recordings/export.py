@@ -179,7 +179,7 @@ def episode_arrays(episode: RecordedEpisode, mdp: MDP) -> dict[str, Any]:
         "truncations": truncations,
         "infos": {
             "cell": cells,
-            "carefulness": np.array([0] + [s.carefulness for s in steps], dtype=np.int64),
+            "carefulness": np.array([0] + [s.level for s in steps], dtype=np.int64),  # the env's c: a bin + 1 on a time world
             "slipped": np.array([False] + [s.slipped for s in steps], dtype=bool),
             "hold_ms": np.array([np.nan] + [np.nan if s.hold_ms is None else s.hold_ms for s in steps]),
             "hold_exact": np.array([False] + [s.hold_exact for s in steps], dtype=bool),

@@ -69,3 +69,27 @@ def test_a_terminal_without_key_ups_is_told_in_one_line_and_nothing_is_recorded(
         shown = " ".join(term.history().split())
     assert "'mud-time' is a time world" in shown and "does not report key-ups" in shown and "careful serve" in shown
     assert not (tmp_path / "rec").exists() or not any((tmp_path / "rec").iterdir())
+
+
+def test_a_time_recording_replays_exports_and_becomes_a_dataset(tmp_path: Path, monkeypatch, capsys):
+    import csv
+
+    import minari
+
+    from careful_tui.cli import main
+
+    recording = tmp_path / "t.jsonl"
+    assert main(["simulate", "--world", "mud-time", "--policy", "timing", "--episodes", "6", "--seed", "2",
+                 "--out", str(recording)]) == 0
+    steps = read_recording(recording).steps
+    assert main(["export", str(recording), "--format", "csv", "--out", str(tmp_path / "t.csv")]) == 0
+    with open(tmp_path / "t.csv", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert [(r["carefulness"], float(r["hold_ms"]), int(r["bin"])) for r in rows] == [
+        ("", s.hold_ms, s.bin) for s in steps]
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "datasets"))
+    assert main(["export", str(recording), "--format", "minari", "--out", "careful/time-v0"]) == 0
+    dataset = minari.load_dataset("careful/time-v0")
+    first = next(iter(dataset.iterate_episodes()))
+    # The action is the environment's: direction * bins + bin.
+    assert first.actions[0] == ["up", "right", "down", "left"].index(steps[0].direction) * 16 + steps[0].bin
