@@ -212,13 +212,15 @@ STEPS_PER_BLOCK = 2_000_000
 
 
 def session_header(mdp: MDP, *, player: str, seed: int) -> SessionHeader:
-    """The header of a simulated session: fixed time, digits input (an expert states its level)."""
+    """The header of a simulated session: fixed time, digits input (an expert states its level), or on a time
+    world hold input (its holds are exact by construction)."""
+    mode = "hold" if mdp.world.care == "time" else "digits"
     return SessionHeader(
         world=mdp.world,
         player=player,
         created=SIMULATED_AT,
         seed=seed,
-        input={"mode": "digits", "expert": player},
+        input={"mode": mode, "expert": player},
         app_version=_app_version(),
     )
 
