@@ -78,12 +78,21 @@ def plan(protocol: Protocol, *, input_name: str | None = None) -> Paragraph:
                                                                     else f": {each}. ")))
     spans.append(Span("Every episode ends when you reach a cell that ends it (the goal, or worse) or run out of "
                       "steps.\n\n"))
-    if all(world.levels == 1 for world in protocol.study.worlds):
+    worlds_played = protocol.study.worlds
+    timed = [world.care == "time" for world in worlds_played]
+    if all(timed):
+        # A time world shows no levels: the hold itself is the care.
+        return (*spans, Span("The longer you hold an arrow key, the more careful the move. ", "bold"),
+                Span("A careful move costs more points and slips less: a slip sends you another way than you chose. "
+                     "The move is made when you let go."))
+    if all(world.levels == 1 for world in worlds_played):
         return (*spans, Span("Move with the arrow keys."))
+    some_timed = (Span(" In a world without a gauge, care is how long you hold the arrow: the move is made when "
+                       "you let go.") if any(timed) else Span(""))
     return (*spans, Span("Each move has a carefulness level. ", "bold"),
             Span("A careful move costs more points and slips less: a slip sends you another way than you chose. "
-                 "Beside the gauge on the left, every level shows its cost and its chance of slipping.\n\n"),
-            Span(input_mode(input_name or study.input).study_words))
+                 "On the gauge, every level shows its cost and its chance of slipping.\n\n"),
+            Span(input_mode(input_name or study.input).study_words), some_timed)
 
 
 def opening(protocol: Protocol, *, input_name: str | None = None, experimenter: bool = True) -> list[Paragraph]:

@@ -46,6 +46,8 @@ def test_a_time_worlds_view_has_no_levels_and_its_steps_no_carefulness(tmp_path)
     app, tokens = web_app(study)
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
+        words = " ".join(paragraph["text"] for paragraph in api.view["paragraphs"])
+        assert "the longer you hold an arrow key" in words.lower() and "level" not in words and "gauge" not in words
         api.key("space")
         play = api.view["play"]
         assert play["care"] == "time" and play["levels"] == [] and play["show_hold"] is False
