@@ -149,3 +149,20 @@ def test_the_slip_known_fit_plans_with_the_worlds_own_curve(tmp_path: Path):
     assert result.slip_curve is not None and result.slip_curve.known
     assert (result.slip_curve.p0, result.slip_curve.tau_ms) == (0.5, 400.0)
     assert build_unknowns(mdp, reward_cells="special", tie=True).labels == result.unknowns.labels
+
+
+def test_the_fit_figure_of_a_time_world_draws_the_slip_curve_and_the_holds(careful_players):
+    from careful_tui.render.figures.fit_figure import fit_figure
+
+    result = fit(careful_players, tie=True, intervals=True, rmax=5000.0)
+    figure = fit_figure(result)
+    axes = {ax.get_label(): ax for ax in figure.get_axes()}
+    assert {"slip curve", "holds", "policy", "intervals"} <= set(axes) and "carefulness" not in axes
+    curve_lines = [line for line in axes["slip curve"].get_lines() if line.get_label() == "fitted curve"]
+    (line,) = curve_lines
+    x, y = line.get_data()
+    expected = result.slip_curve.p_inf + (result.slip_curve.p0 - result.slip_curve.p_inf) * np.exp(
+        -np.asarray(x) / result.slip_curve.tau_ms)
+    assert np.allclose(y, expected)
+    fitted = [line for line in axes["holds"].get_lines() if line.get_label() == "fitted player's intended hold"]
+    assert fitted and np.all(np.diff(fitted[0].get_ydata()) < 0)  # the intended hold shortens away from danger

@@ -62,12 +62,7 @@ def draw_slip_curve(ax: Axes, result: FitResult) -> None:
         ax.plot(hold, np.full(hold.size, -0.03), "|", color=QUIET, markersize=3, alpha=0.3)
     ax.set_xscale("log")
     ax.set_ylim(-0.06, max(0.6, curve.p0 + 0.05))
-    ax.set_xlabel("hold (ms)")
-    ax.set_ylabel("chance of slipping")
-    ax.set_title("slip curve", pad=3)
-    for side in ("top", "right"):
-        ax.spines[side].set_visible(False)
-    ax.legend(loc="upper right", fontsize=5)
+    _finish(ax, x="hold (ms)", y="chance of slipping", title="slip curve")
 
 
 def draw_holds(ax: Axes, result: FitResult) -> None:
@@ -91,14 +86,20 @@ def draw_holds(ax: Axes, result: FitResult) -> None:
     if rows:
         dist_, mean_, low_, high_, fit_ = (np.array(c) for c in zip(*rows))
         ax.errorbar(dist_, mean_, yerr=[mean_ - low_, high_ - mean_], fmt="o-", color=OKABE_ITO[0], markersize=3,
-                    capsize=2, elinewidth=0.8, linewidth=1.0, label="recorded, in the best direction\n(geometric mean ± 95%)")
+                    capsize=2, elinewidth=0.8, linewidth=1.0,
+                    label="recorded, in the best direction\n(geometric mean ± 95%)")
         ax.plot(dist_, fit_, "s--", color=OKABE_ITO[1], markersize=3, linewidth=1.0,
                 label="fitted player's intended hold")
     ax.set_yscale("log")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_xlabel("steps to the nearest terminal cell")
-    ax.set_ylabel("hold (ms)")
-    ax.set_title("holds by distance to danger", pad=3)
+    _finish(ax, x="steps to the nearest terminal cell", y="hold (ms)", title="holds by distance to danger")
+
+
+def _finish(ax: Axes, *, x: str, y: str, title: str) -> None:
+    """A panel's labels and title, its open frame and its legend at the top right."""
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    ax.set_title(title, pad=3)
     for side in ("top", "right"):
         ax.spines[side].set_visible(False)
     ax.legend(loc="upper right", fontsize=5)
