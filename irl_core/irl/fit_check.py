@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.players.experts import rollouts
+from irl_core.players.experts import Chooser, rollouts
 from irl_core.recordings.demonstrations import EpisodeFacts
 from irl_core.worlds.mdp import MDP
 
@@ -122,9 +122,11 @@ def fit_check(
     *,
     replicates: int = REPLICATES,
     seed: int = 0,
+    player: Chooser | None = None,
 ) -> FitCheck:
     """Compare the recorded episodes (rows of `by_episode` (E, S * A), `facts` of each) with
-    `replicates` simulations of the fitted player `observed_policy` (S, A) from the same starts."""
+    `replicates` simulations of the fitted player `observed_policy` (S, A) from the same starts, or of
+    `player` when given (a time world's timing model, which holds for continuous times and slips with them)."""
     finished = facts.finished
     if not finished.any():
         return FitCheck(None, (), 0, "no recorded episode ran to its end (every one was quit or cut short)")
@@ -144,7 +146,7 @@ def fit_check(
     rng = np.random.default_rng(seed)
     for first in range(0, replicates, per_chunk):
         count = min(per_chunk, replicates - first)
-        chunk = _replicate_statistics(mdp, observed_policy, starts, count, names, rng)
+        chunk = _replicate_statistics(mdp, observed_policy, starts, count, names, rng, player=player)
         for name in names:
             values[name][first:first + count] = chunk[name]
     tail = FAMILY_LEVEL / (2 * len(names))
@@ -159,10 +161,12 @@ def fit_check(
 
 
 def _replicate_statistics(mdp: MDP, policy: np.ndarray, starts: np.ndarray, count: int, names: list[str],
-                          rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Each statistic in `names` for `count` replicates of the episodes from `starts` (n,): (count,) each."""
+                          rng: np.random.Generator, *, player: Chooser | None = None) -> dict[str, np.ndarray]:
+    """Each statistic in `names` for `count` replicates of the episodes from `starts` (n,): (count,) each,
+    played by `player` when given, else by `policy`."""
     n = len(starts)
-    simulated = rollouts(mdp, policy, starts=np.tile(starts, count), episodes=n * count, rng=rng)
+    simulated = rollouts(mdp, policy if player is None else player, starts=np.tile(starts, count),
+                         episodes=n * count, rng=rng)
     pairs = simulated.state * mdp.n_actions + simulated.action
     per_replicate = sp.csr_matrix((np.ones(pairs.size), (simulated.episode // n, pairs)),
                                   shape=(count, mdp.n_states * mdp.n_actions)).toarray()

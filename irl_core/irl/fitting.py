@@ -40,7 +40,8 @@ from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.irl.result import BadInputError, FitResult, InfeasibleError, at_bound
 from irl_core.irl.slip_curve import SlipCurve, fit_slip_curve
-from irl_core.irl.timing_fit import fit_timing, timing_policy
+from irl_core.irl.timing_fit import fit_timing, timing_chooser, timing_policy
+from irl_core.players.experts import Chooser
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
@@ -71,6 +72,7 @@ class _Fitted:
     held_upper: np.ndarray | None = None  # (k,) a held reward's upper bound (`people_flat.held_upper_bounds`)
     curve: SlipCurve | None = None  # the timing fit's slip curve, estimated with the rewards
     own_intervals: np.ndarray | None = None  # (k, 2) the timing fit's sandwich intervals
+    chooser: Chooser | None = None  # the timing model's player over continuous holds, for the fit check
 
 
 def fit(
@@ -258,7 +260,8 @@ def _fit_check(fitted: _Fitted, demos: Demonstrations, options: FitOptions, note
     if demos.by_episode is None or demos.episode_facts is None:
         notes.append(Note("fit_check_not_run", "fit check not run: these demonstrations do not keep their episodes"))
         return None
-    check = fit_check(demos.mdp, fitted.observed_policy, demos.by_episode, demos.episode_facts, seed=options.seed)
+    check = fit_check(demos.mdp, fitted.observed_policy, demos.by_episode, demos.episode_facts, seed=options.seed,
+                      player=fitted.chooser)
     code = {True: "fit_check_passed", False: "fit_check_failed", None: "fit_check_not_run"}[check.passed]
     sentence = check.summary()
     if check.passed is False:
@@ -470,6 +473,7 @@ def timing_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, pro
     return _Fitted("maxent", solution.theta, solution.plan.V, status="optimal" if solution.converged else
                    "not_converged", notes=notes, player_model="timing", player=player,
                    observed_policy=timing_policy(mdp, solution), curve=solution.curve,
+                   chooser=timing_chooser(mdp, solution),
                    own_intervals=solution.theta_intervals)
 
 

@@ -23,6 +23,7 @@ player is not exactly this model.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -333,3 +334,27 @@ def timing_policy(mdp: MDP, fitted: TimingFit) -> np.ndarray:
     policy = policy.reshape(mdp.n_states, -1)
     policy[~mdp.nonterminal] = 1.0 / policy.shape[1]
     return policy
+
+
+def timing_chooser(mdp: MDP, fitted: TimingFit) -> Callable[[np.ndarray, np.ndarray, np.random.Generator],
+                                                             tuple[np.ndarray, np.ndarray]]:
+    """The fitted player as an `irl_core.players.experts.Chooser` over continuous holds (what the fit check
+    replays): the direction by the softmax or a lapse's uniform one, the hold log-normal around h*(s, d) or a
+    lapse's log-uniform one; returns (actions, holds), the action's level being the hold's bin + 1."""
+    world, levels = mdp.world, mdp.levels
+    q = fitted.beta * fitted.plan.Q
+    q -= q.max(axis=1, keepdims=True)
+    cdf = np.cumsum(np.exp(q) / np.exp(q).sum(axis=1, keepdims=True), axis=1)  # (S, 4)
+    aim = np.log(np.maximum(fitted.plan.hold, SHORTEST_HOLD_MS))  # (S, 4)
+    low, high = np.log(SHORTEST_HOLD_MS), np.log(world.max_hold_ms)
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        lapsed = rng.random(s.size) < fitted.lapse
+        d = np.where(lapsed, rng.integers(4, size=s.size),
+                     np.minimum((cdf[s] < rng.random((s.size, 1))).sum(axis=1), 3))
+        hold = np.where(lapsed, np.exp(rng.uniform(low, high, s.size)),
+                        np.exp(aim[s, d] + fitted.sigma * rng.normal(size=s.size)))
+        hold = np.minimum(hold, world.max_hold_ms)
+        return d * levels + world.bin_of(hold), hold
+
+    return choose

@@ -166,3 +166,19 @@ def test_the_fit_figure_of_a_time_world_draws_the_slip_curve_and_the_holds(caref
     assert np.allclose(y, expected)
     fitted = [line for line in axes["holds"].get_lines() if line.get_label() == "fitted player's intended hold"]
     assert fitted and np.all(np.diff(fitted[0].get_ydata()) < 0)  # the intended hold shortens away from danger
+
+
+def test_on_play_drawn_from_the_timing_model_itself_the_fit_check_passes_and_the_rewards_return():
+    from irl_core.irl.slip_curve import SlipCurve
+    from irl_core.irl.timing_fit import TimingFit, timing_chooser
+
+    mdp = build_mdp(MUD_TIME)
+    plan = timing_plan(mdp, mdp.R_S, p0=0.5, p_inf=0.0, tau_ms=400.0, cost_per_second=5.0)
+    truth = TimingFit(theta=np.zeros(0), curve=SlipCurve(0.5, 0.0, 400.0, known=True), beta=1.0, sigma=0.25,
+                      lapse=0.1, plan=plan, mean_log_likelihood=0.0, converged=True, message="",
+                      theta_intervals=None)
+    demos = demonstrations_of(mdp, rollouts(mdp, timing_chooser(mdp, truth), episodes=400, seed=0))
+    result = fit(demos, tie=True, rmax=5000.0)
+    got = dict(zip(result.unknowns.labels, result.theta))
+    assert result.fit_check is not None and result.fit_check.passed is True
+    assert abs(got["C"] / got["U"] / (1000 / 30) - 1) < 0.2 and abs(got["G"] / 100 - 1) < 0.2
