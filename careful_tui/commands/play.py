@@ -40,7 +40,7 @@ def run_play(args: argparse.Namespace) -> int:
                          "choose a writable folder with --out") from None
     require_terminal("play")
     if world.care == "time":
-        _time_world_playable(world.name, args.input)
+        time_world_playable(world.name, args.input)
     # Calibration times how long a held key takes per level: other inputs and one level time nothing.
     times_holds = input_mode(args.input).times_holds
     calibrate = args.calibrate and times_holds and world.levels > 1
@@ -68,7 +68,7 @@ def run_play(args: argparse.Namespace) -> int:
     return 0
 
 
-def _time_world_playable(name: str, mode: str) -> None:
+def time_world_playable(name: str, mode: str) -> None:
     """A time world is played by holding keys, timed from key-down to key-up: refuse another input, or a
     terminal that does not report key-ups, in one line (rather than guessing holds from autorepeats)."""
     shown = printable(name, limit=40)

@@ -7,7 +7,7 @@ import argparse
 import sys
 
 from careful_tui.app import make_study_app
-from careful_tui.commands.play import say_recorded, write_problem
+from careful_tui.commands.play import say_recorded, time_world_playable, write_problem
 from careful_tui.errors import UsageError, require_terminal
 from careful_tui.keys.kitty import KittyDriver
 from irl_core.recordings.writer import check_writable
@@ -49,6 +49,9 @@ def _run_participant(study: LoadedStudy, args: argparse.Namespace) -> int:
         raise UsageError(f"cannot write recordings to {printable(str(target))} "
                          f"({exc.strerror or exc}); check the study's out folder") from None
     require_terminal("study run")
+    for world in study.worlds:
+        if world.care == "time":
+            time_world_playable(world.name, study.study.input)
     app = make_study_app(study, args.participant, driver_class=KittyDriver)
     flow = app.first_screen.flow
     try:

@@ -166,6 +166,11 @@ def load_study(path: str | Path) -> LoadedStudy:
             worlds.append(read[entry] if entry in read else read.setdefault(entry, load_world(source)))
         except WorldError as exc:
             raise StudyError(f"{path}: worlds[{i}]: {exc}") from None
+    timed = [i for i, world in enumerate(worlds) if world.care == "time"]
+    if timed and study.input != "hold":
+        # A time world's care is the hold itself, from key-down to key-up: taps or digits cannot give it.
+        raise StudyError(f"{path}: input: {study.input!r} cannot play worlds[{timed[0]}], a time world (care is how "
+                         'long an arrow is held): use input = "hold"')
     return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)
 
 

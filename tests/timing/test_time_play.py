@@ -93,3 +93,19 @@ def test_a_time_recording_replays_exports_and_becomes_a_dataset(tmp_path: Path, 
     first = next(iter(dataset.iterate_episodes()))
     # The action is the environment's: direction * bins + bin.
     assert first.actions[0] == ["up", "right", "down", "left"].index(steps[0].direction) * 16 + steps[0].bin
+
+
+def test_a_study_with_a_time_world_refuses_taps_and_a_terminal_without_key_ups(tmp_path: Path):
+    import pytest
+
+    from irl_core.studies.study import StudyError, load_study
+
+    (tmp_path / "tap.toml").write_text('name = "t"\nworlds = ["mud", "mud-time"]\ninput = "tap"\nout = "data"\n')
+    with pytest.raises(StudyError, match=r"input: 'tap' cannot play worlds\[1\], a time world"):
+        load_study(tmp_path / "tap.toml")
+    (tmp_path / "hold.toml").write_text('name = "t"\nworlds = ["mud-time"]\nout = "data"\n')
+    with terminal(tmp_path, ["study", "run", "hold.toml", "--participant", "p1"],
+                  env={"CAREFUL_KEY_RELEASES": ""}) as term:
+        assert term.wait_exit() == 2
+        shown = " ".join(term.history().split())
+    assert "'mud-time' is a time world" in shown and "does not report key-ups" in shown
