@@ -302,7 +302,8 @@ def _curve_interval(z: np.ndarray, half: np.ndarray, k: int, max_hold_ms: float,
     half = np.where(left_out, np.inf, half)
     p0_lo, p0_hi = logistic(z[k + 3] - half[k + 3]), logistic(z[k + 3] + half[k + 3])
     r_lo, r_hi = logistic(z[k + 4] - half[k + 4]), logistic(z[k + 4] + half[k + 4])
-    tau_lo, tau_hi = max_hold_ms * np.exp(z[k + 5] - half[k + 5]), max_hold_ms * np.exp(z[k + 5] + half[k + 5])
+    # Clipped to the range searched: beyond it the curve is flat over every hold, as far as anything here says.
+    tau_lo, tau_hi = max_hold_ms * np.exp(np.clip([z[k + 5] - half[k + 5], z[k + 5] + half[k + 5]], *LOG_TAU_FACTOR))
     out = {"p0": (float(p0_lo), float(p0_hi)), "p_inf": (float(p0_lo * r_lo), float(p0_hi * r_hi)),
            "tau_ms": (float(tau_lo), float(tau_hi))}
     for name, j in (("p0", k + 3), ("p_inf", k + 4), ("tau_ms", k + 5)):

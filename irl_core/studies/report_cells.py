@@ -47,7 +47,7 @@ class Cell:
         interrupted_outcomes: main episodes with steps that did not finish (not fitted), per
             outcome code (``quit``, or ``unfinished``: no end recorded).
         careful_next_to_terminal: mean carefulness of the steps taken next to a terminal cell
-            (one grid step away), or None when there were none.
+            (one grid step away; on a time world the mean duration bin + 1), or None when there were none.
         participants: how many participants the cell holds (1, or how many have episodes in the pool).
         members: in a pool, the participants whose episodes it holds, in the order of
             ``demos.episode_groups`` (group g is members[g]).
@@ -214,7 +214,7 @@ def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: li
     outcomes = Counter(outcome_code(end) for recording in finished for end in recording.episode_ends)
     world = study.worlds[world_index]
     near = {cell for cell, d in distance_to_terminal(world).items() if d == 1}
-    levels = [step.carefulness for r in finished for step in r.steps if step.state in near]
+    levels = [step.level for r in finished for step in r.steps if step.state in near]
     steps = sum(len(r.steps) for r in finished)
     demos = Demonstrations.from_recordings(finished) if steps else None
     if demos is not None and trials is not None and trials.size and int(trials.max()) <= world.levels:

@@ -109,3 +109,29 @@ def test_a_study_with_a_time_world_refuses_taps_and_a_terminal_without_key_ups(t
         assert term.wait_exit() == 2
         shown = " ".join(term.history().split())
     assert "'mud-time' is a time world" in shown and "does not report key-ups" in shown
+
+
+def test_a_time_world_studys_report_cells_read_the_holds_bins(tmp_path: Path):
+    from irl_core.players.experts import rollouts, session_header, write_rollouts
+    from irl_core.players.person_like import person_like
+    from irl_core.recordings.lines import StudyTag
+    from irl_core.studies.report_cells import gather
+    from irl_core.studies.study import load_study
+    from irl_core.worlds.mdp import build_mdp
+
+    (tmp_path / "study.toml").write_text('name = "t"\nworlds = ["mud-time"]\npractice_episodes = 0\nepisodes = 4\n'
+                                         'out = "data"\n')
+    study = load_study(tmp_path / "study.toml")
+    mdp = build_mdp(study.worlds[0])
+    player = person_like(mdp, "timing")
+    folder = study.participant_folder("p1")
+    folder.mkdir(parents=True)
+    header = session_header(mdp, player=player.player, seed=0).model_copy(
+        update={"player": "p1", "study": StudyTag(name="t", participant="p1", phase="main", world_index=0)})
+    write_rollouts(folder / "p1-0-w0-main.jsonl", mdp, rollouts(mdp, player.choose, episodes=4, seed=0),
+                   player=player.player, seed=0, header=header)
+    (cell,) = [c for c in gather(study).cells if c.participant == "p1"]
+    steps = read_recording(folder / "p1-0-w0-main.jsonl").steps
+    near = {(2, 1), (2, 2), (2, 3), (2, 4), (3, 0), (2, 5)}
+    bins = [s.bin + 1 for s in steps if s.state in near]
+    assert cell.careful_next_to_terminal == sum(bins) / len(bins)
