@@ -192,7 +192,8 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
     """Rollouts as demonstrations (counts N(s, a)), without a file in between."""
     counts = np.zeros((mdp.n_states, mdp.n_actions))
     np.add.at(counts, (result.state, result.action), 1.0)
-    by_episode = episode_matrix(result.episode.tolist(), result.state * mdp.n_actions + result.action,
+    # Rollouts number their episodes 0, 1, ... and every one has a first step at t = 0, in order: they are the rows.
+    by_episode = episode_matrix(result.episode, result.state * mdp.n_actions + result.action,
                                 mdp.n_states * mdp.n_actions)
     first = np.unique(result.episode, return_index=True)[1]
     symbols = mdp.symbols + ("",)
@@ -201,7 +202,7 @@ def demonstrations_of(mdp: MDP, result: Rollouts) -> Demonstrations:
                          end=tuple(end for end, n in zip(ends, result.length) if n > 0))
     chosen = mdp.direction[result.action]
     holds = (np.zeros((0, 5)) if result.hold_ms is None else
-             hold_steps(result.state, chosen, result.hold_ms, result.direction != chosen, result.episode.tolist()))
+             hold_steps(result.state, chosen, result.hold_ms, result.direction != chosen, result.episode))
     return Demonstrations(mdp=mdp, counts=counts, files=0, episodes=int(result.length.size),
                           steps=int(result.state.size), by_episode=by_episode, episode_facts=facts,
                           hold_steps=holds)

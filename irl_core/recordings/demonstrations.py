@@ -354,6 +354,7 @@ class Demonstrations:
             np.add.at(counts, (states, actions), 1.0)
         files = np.concatenate([np.empty(0, np.int64)] + [np.full(len(r.steps), i) for i, r in enumerate(recordings)])
         episode_keys = list(zip(files.tolist(), column("episode").tolist()))
+        row_of_step = episode_rows(episode_keys)
         endings = {(i, end.episode): end for i, r in enumerate(recordings) for end in r.episode_ends}
         return cls(
             mdp=mdp,
@@ -361,13 +362,13 @@ class Demonstrations:
             files=len(recordings),
             episodes=sum(len(r.episodes) for r in recordings),
             steps=sum(len(r.steps) for r in recordings),
-            by_episode=episode_matrix(episode_keys, states * mdp.n_actions + actions, mdp.n_states * mdp.n_actions),
+            by_episode=episode_matrix(row_of_step, states * mdp.n_actions + actions, mdp.n_states * mdp.n_actions),
             episode_facts=EpisodeFacts.of_steps(episode_keys, states, endings),
             calibration=np.array([(t.target, t.produced) for r in recordings for t in r.calibration_trials],
                                  dtype=np.int64).reshape(-1, 2),
             hold_steps=(hold_steps(states, column("direction"), np.concatenate(
                 [np.empty(0)] + [r.steps.column("hold_ms") for r in recordings]), np.concatenate(
-                [np.empty(0, bool)] + [r.steps.column("slipped") for r in recordings]), episode_keys)
+                [np.empty(0, bool)] + [r.steps.column("slipped") for r in recordings]), row_of_step)
                 if world.care == "time" else np.zeros((0, 5))),
         )
 
@@ -398,14 +399,12 @@ class Demonstrations:
 
 
 def hold_steps(states: np.ndarray, directions: np.ndarray, hold_ms: np.ndarray, slipped: np.ndarray,
-               episode_of_step: list) -> np.ndarray:
+               row_of_step: np.ndarray) -> np.ndarray:
     """(m, 5) `Demonstrations.hold_steps` from per-step (n,) states, chosen direction indices, holds (NaN where
-    none was recorded), slips and episode keys (the rows of `by_episode` in order of first appearance)."""
-    rows = {key: e for e, key in enumerate(dict.fromkeys(episode_of_step))}
-    row = np.array([rows[key] for key in episode_of_step], dtype=float)
+    none was recorded), slips and rows of `by_episode` (`episode_rows`)."""
     hold_ms = np.asarray(hold_ms, dtype=float)
     keep = np.isfinite(hold_ms)
-    table = np.column_stack([states, directions, hold_ms, np.asarray(slipped, dtype=float), row]).reshape(-1, 5)
+    table = np.column_stack([states, directions, hold_ms, np.asarray(slipped, dtype=float), row_of_step]).reshape(-1, 5)
     return table[keep]
 
 
@@ -451,17 +450,24 @@ class EpisodeFacts:
         return np.array([end not in ("quit", UNFINISHED) for end in self.end], dtype=bool)
 
 
-def episode_matrix(episode_of_step: list, pair_of_step: np.ndarray, n_pairs: int) -> sp.csr_matrix:
+def episode_rows(episode_of_step: list) -> np.ndarray:
+    """(steps,) the row of each step's episode: the episodes numbered 0, 1, ... by first appearance of their key."""
+    index: dict = {}
+    return np.array([index.setdefault(key, len(index)) for key in episode_of_step], dtype=np.int64)
+
+
+def episode_matrix(episode_of_step: list | np.ndarray, pair_of_step: np.ndarray, n_pairs: int) -> sp.csr_matrix:
     """(E, n_pairs) per-episode counts: row e counts the pairs (s * A + a) of the e-th distinct episode key.
 
     Args:
-        episode_of_step: (steps,) a hashable episode key per step (e.g. (file, episode)).
+        episode_of_step: (steps,) a hashable episode key per step (e.g. (file, episode)), or an int array that
+            already numbers the rows (`episode_rows`).
         pair_of_step: (steps,) the state-action index s * A + a of each step.
     """
-    rows = list(dict.fromkeys(episode_of_step))
-    index = {key: e for e, key in enumerate(rows)}
-    row_of_step = np.array([index[key] for key in episode_of_step], dtype=np.int64)
+    row_of_step = (episode_of_step if isinstance(episode_of_step, np.ndarray)
+                   else episode_rows(episode_of_step))
+    n_rows = int(row_of_step.max()) + 1 if row_of_step.size else 0
     matrix = sp.csr_matrix((np.ones(row_of_step.size), (row_of_step, np.asarray(pair_of_step, dtype=np.int64))),
-                           shape=(len(rows), n_pairs))
+                           shape=(n_rows, n_pairs))
     matrix.sum_duplicates()
     return matrix
