@@ -272,6 +272,9 @@ def _add_serve(commands: Any) -> None:
     serve.add_argument("--completion-code", default=None, metavar="CODE",
                        help="Prolific's completion code: a Prolific participant who finishes is sent to Prolific's "
                        "completion address with it, once every episode is on disk")
+    serve.add_argument("--workers", type=positive_int, default=1, metavar="N",
+                       help="worker processes serving on the one port (default 1; at most 4 per core): any of them "
+                       "serves any request, each page's seat kept in <out>/.<participant>.seat")
 
 
 def port_number(text: str) -> int:

@@ -9,7 +9,7 @@ import socket
 
 from careful_tui.errors import UsageError
 from irl_core.recordings.writer import check_writable
-from irl_core.studies.study import StudyError, load_study
+from irl_core.studies.study import LoadedStudy, StudyError, load_study
 from irl_core.support.safe_files import write_problem
 from irl_core.support.safe_text import printable
 
@@ -22,9 +22,10 @@ def say(line: str) -> None:
 
 
 def run_serve(args: argparse.Namespace) -> int:
-    """`careful serve STUDY.toml [--host H] [--port N] [--links N] [--completion-code CODE]`."""
-    from careful_tui.web.links import LINKS_FILE, MOST_LINKS, LinksError, add_links, link_path, read_links
+    """`careful serve STUDY.toml [--host H] [--port N] [--links N] [--completion-code CODE] [--workers N]`."""
+    from careful_tui.web.links import MOST_LINKS, LinksError, add_links, read_links
     from careful_tui.web.server import make_app
+    from careful_tui.web.workers import most_workers
 
     if not args.host.strip():
         raise UsageError("--host needs an address: 127.0.0.1 (this machine only) or 0.0.0.0 (every interface)")
@@ -44,6 +45,9 @@ def run_serve(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UsageError(f"cannot write recordings to {printable(str(study.out))} ({write_problem(exc)}); "
                          "check the study's out folder") from None
+    if args.workers > most_workers():
+        raise UsageError(f"--workers {args.workers} is more than this machine can use (at most {most_workers()}: "
+                         "4 per core)")
     sock = bind(args.host, args.port)
     try:
         new = add_links(study, args.links) if args.links else []
@@ -52,28 +56,52 @@ def run_serve(args: argparse.Namespace) -> int:
         sock.close()
         raise UsageError(str(exc)) from None
     prolific = args.prolific or not links
+    if args.workers > 1:
+        return serve_workers(args, study, sock, new=new, links=links, prolific=prolific)
     server = make_server(make_app(study, links=links, completion_code=args.completion_code, say=say, prolific=prolific))
     # From the first line on, Ctrl+C or SIGTERM is a stop (before uvicorn runs, and while it runs).
     stopping = {sig: signal.signal(sig, lambda *_: setattr(server, "should_exit", True))
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        base = f"http://{args.host if ':' not in args.host else f'[{args.host}]'}:{sock.getsockname()[1]}"
-        say(f"careful serve: study {study.study.name!r} at {base}/ (Ctrl+C stops)")
-        if new:
-            say(f"links: {len(new)} new appended to {study.out / LINKS_FILE}, {len(links)} in all")
-        elif links:
-            say(f"links: {len(links)} in {study.out / LINKS_FILE}")
-        for participant, token in new[:3]:
-            say(f"  {participant}: {base}{link_path(token)}")
-        say(prolific_line(base, args.completion_code) if prolific else
-            "Prolific: off (links only; --prolific also takes Prolific links, as participants of their own)")
-        say(f"recordings: {study.out}/<participant>/")
+        announce(args, study, sock, new=new, links=links, prolific=prolific)
         server.run(sockets=[sock])
     finally:
         for sig, handler in stopping.items():
             signal.signal(sig, handler)
     say("careful serve: stopped; every recording is closed")
     return 0
+
+
+def serve_workers(args: argparse.Namespace, study: LoadedStudy, sock: socket.socket, *, new: list[tuple[str, str]],
+                  links: dict[str, str], prolific: bool) -> int:
+    """`--workers N` > 1: the worker processes on `sock` (`careful_tui.web.workers`) until Ctrl+C."""
+    from careful_tui.web.workers import WorkerSettings, new_key, supervise
+
+    settings = WorkerSettings(args.study.resolve(), args.completion_code, prolific, new_key())
+    announce(args, study, sock, new=new, links=links, prolific=prolific)
+    say(f"workers: {args.workers} processes; the pages' seats in {study.out}/.<participant>.seat")
+    code = supervise(settings, sock, workers=args.workers, say=say)
+    sock.close()
+    say("careful serve: stopped; every recording is closed" if code == 0 else "careful serve: stopped")
+    return code
+
+
+def announce(args: argparse.Namespace, study: LoadedStudy, sock: socket.socket, *, new: list[tuple[str, str]],
+             links: dict[str, str], prolific: bool) -> None:
+    """The experimenter's first lines: where the study is served, the links, Prolific, the recordings."""
+    from careful_tui.web.links import LINKS_FILE, link_path
+
+    base = f"http://{args.host if ':' not in args.host else f'[{args.host}]'}:{sock.getsockname()[1]}"
+    say(f"careful serve: study {study.study.name!r} at {base}/ (Ctrl+C stops)")
+    if new:
+        say(f"links: {len(new)} new appended to {study.out / LINKS_FILE}, {len(links)} in all")
+    elif links:
+        say(f"links: {len(links)} in {study.out / LINKS_FILE}")
+    for participant, token in new[:3]:
+        say(f"  {participant}: {base}{link_path(token)}")
+    say(prolific_line(base, args.completion_code) if prolific else
+        "Prolific: off (links only; --prolific also takes Prolific links, as participants of their own)")
+    say(f"recordings: {study.out}/<participant>/")
 
 
 def prolific_line(base: str, code: str | None) -> str:

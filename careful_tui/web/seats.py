@@ -28,14 +28,15 @@ import resource
 import secrets
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 
 from careful_tui.web.session_adapter import WebSession
+from irl_core.studies.participant_lock import SEAT_FRESH_S
 
 # A hidden tab's timers may run once a minute (Chrome's intensive throttling): its heartbeat still arrives.
-SILENT_S = 90.0
+SILENT_S = SEAT_FRESH_S
 KEY_BURST = 24
 KEY_RATE = 12.0
 ADDRESS_SEATS = (120, 1.0)
@@ -168,6 +169,28 @@ class Seats:
             if seat is not None:
                 seat.seen = self.clock()
             return seat
+
+    def heard(self, page: object) -> bool:
+        """The page's heartbeat: whether it still holds a seat (hearing from it keeps it)."""
+        return self.page(page) is not None
+
+    @contextlib.contextmanager
+    def playing(self, page: object) -> Iterator[Seat | None]:
+        """The seat of `page` under its lock (None: it holds none); a session that left frees its seat after."""
+        seat = self.page(page)
+        if seat is None:
+            yield None
+            return
+        with seat.lock:
+            yield seat
+        if seat.session.left:  # q, a recording that cannot be written, a lock refused
+            self.release(seat)
+
+    def leave(self, page: object, why: str) -> None:
+        """The page closed: its seat, if it holds one, is released."""
+        seat = self.page(page)
+        if seat is not None:
+            self.release(seat, why)
 
     def release(self, seat: Seat, why: str = "left") -> None:
         """The page left: its session records what was running and closes its file."""

@@ -55,6 +55,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from careful_tui.web.links import prolific_ids
+from careful_tui.web.seat_files import SeatUnavailable, SharedSeats
 from careful_tui.web.seats import Seat, SeatRefused, Seats
 from careful_tui.web.session_adapter import KeyRefused, WebSession
 from irl_core.recordings.lines import ProlificTag
@@ -88,9 +89,11 @@ class BodyTooSlow(Exception):
 class SecurityHeaders:
     """ASGI middleware: `SECURITY_HEADERS` on every response."""
 
-    def __init__(self, app) -> None:
+    def __init__(self, app, *, worker: int | None = None) -> None:
         self.app = app
-        self.headers = [(k.encode(), v.encode()) for k, v in SECURITY_HEADERS.items()]
+        # With several workers, which one answered (the load bench and the tests count them).
+        more = {} if worker is None else {"x-careful-worker": str(worker)}
+        self.headers = [(k.encode(), v.encode()) for k, v in (SECURITY_HEADERS | more).items()]
 
     async def __call__(self, scope, receive, send) -> None:
         if scope["type"] != "http":
@@ -198,7 +201,7 @@ class Served:
 
     study: LoadedStudy
     links: dict[str, str]
-    seats: Seats
+    seats: Seats | SharedSeats
     say: Callable[[str], None]
     completion_code: str | None
     seed: int | None
@@ -253,26 +256,20 @@ async def start(request: Request, data: dict[str, Any]) -> Response:
 @json_endpoint
 async def key(request: Request, data: dict[str, Any]) -> Response:
     """POST /api/key: a key of a page that plays."""
-    served = served_by(request)
-    seat = served.seats.page(data.get("page"))
-    if seat is None:
-        return refuse(410, "This page no longer plays: reload it to go on.")
-    return await run_in_threadpool(play_key, served, seat, data)
+    return await run_in_threadpool(play_key, served_by(request), data)
 
 
 @json_endpoint
 async def alive(request: Request, data: dict[str, Any]) -> Response:
     """POST /api/alive: the page's heartbeat."""
-    return Response(status_code=204 if served_by(request).seats.page(data.get("page")) is not None else 410)
+    heard = await run_in_threadpool(served_by(request).seats.heard, data.get("page"))
+    return Response(status_code=204 if heard else 410)
 
 
 @json_endpoint
 async def leave(request: Request, data: dict[str, Any]) -> Response:
     """POST /api/leave: the page closes."""
-    seats = served_by(request).seats
-    seat = seats.page(data.get("page"))
-    if seat is not None:
-        await run_in_threadpool(seats.release, seat, "left (closed the page)")
+    await run_in_threadpool(served_by(request).seats.leave, data.get("page"), "left (closed the page)")
     return Response(status_code=204)
 
 
@@ -345,16 +342,18 @@ def lock_refusal(served: Served, participant: str, exc: Exception) -> JSONRespon
                        "if this comes back, write to the experimenter.")
 
 
-def play_key(served: Served, seat: Seat, data: dict[str, Any]) -> Response:
-    """A key event of `seat`'s page: the new view, or a refusal; a page that has left frees its seat."""
+def play_key(served: Served, data: dict[str, Any]) -> Response:
+    """A key event of a page: the new view, or a refusal; a page that has left frees its seat."""
     kind = data.get("type")
     if not isinstance(kind, str) or kind not in KEY_TYPES:
         return refuse(400, "Unknown key event.")
-    with seat.lock:
-        answer = play_locked(served, seat, kind, data)
-    if seat.session.left:  # q, a recording that cannot be written, a lock refused: the seat is free
-        served.seats.release(seat)
-    return answer
+    try:
+        with served.seats.playing(data.get("page")) as seat:
+            if seat is None:
+                return refuse(410, "This page no longer plays: reload it to go on.")
+            return play_locked(served, seat, kind, data)
+    except SeatUnavailable as exc:  # seats in files: the participant's lock or seat, for this one request
+        return lock_refusal(served, exc.participant, exc.cause)
 
 
 def play_locked(served: Served, seat: Seat, kind: str, data: dict[str, Any]) -> Response:
@@ -417,12 +416,13 @@ async def lifespan(app: Starlette) -> AsyncIterator[dict[str, Served]]:
 
 
 def make_app(study: LoadedStudy, *, links: dict[str, str], completion_code: str | None = None,
-             say: Callable[[str], None] = print, seed: int | None = None, seats: Seats | None = None,
-             prolific: bool | None = None) -> Starlette:
+             say: Callable[[str], None] = print, seed: int | None = None, seats: Seats | SharedSeats | None = None,
+             prolific: bool | None = None, worker: int | None = None) -> Starlette:
     """The server's ASGI app for `study`, its participants from `links` (token -> id) and, when
-    `prolific` (default: only when there are no links), Prolific links."""
+    `prolific` (default: only when there are no links), Prolific links; `worker` numbers it among
+    several (`careful_tui.web.workers`), whose seats are `SharedSeats`."""
     page_html = resources.files("careful_tui.web").joinpath("static/page.html").read_text(encoding="utf-8")
-    app = Starlette(routes=routes, middleware=[Middleware(SecurityHeaders)], lifespan=lifespan,
+    app = Starlette(routes=routes, middleware=[Middleware(SecurityHeaders, worker=worker)], lifespan=lifespan,
                     exception_handlers={HTTPException: http_refusal, Exception: server_error})
     app.router.redirect_slashes = False  # its redirect would go to whatever host the Host header names
     app.state.served = Served(study, links, Seats() if seats is None else seats, say, completion_code, seed,

@@ -67,6 +67,12 @@ def browser_profile(levels: int) -> HoldProfile:
     return HoldProfile(levels=levels)
 
 
+def browser_study(study: LoadedStudy) -> LoadedStudy:
+    """`study` as a browser plays it: a browser always times holds, so the study's terminal input mode
+    does not apply."""
+    return replace(study, study=study.study.model_copy(update={"input": "hold"}))
+
+
 def input_header(profile: HoldProfile, user_agent: str) -> dict[str, object]:
     """The session header's ``input``: hold mode, timed exactly in a browser, and its level scale."""
     return {"mode": "hold", "front_end": "browser", "user_agent": user_agent[:USER_AGENT_LIMIT],
@@ -109,8 +115,7 @@ class WebSession:
         self.prolific = prolific
         self.completion_url = completion_url
         self.say = say
-        # A browser always times holds: the study's terminal input mode does not apply here.
-        self.study = replace(study, study=study.study.model_copy(update={"input": "hold"}))
+        self.study = browser_study(study)
         self.flow = StudyFlow(self.study, participant, seed=seed, app_version=app_version())
         self.flow.profile = browser_profile(max(world.levels for world in study.worlds))  # each block's levels
         self.session: PlaySession | None = None

@@ -31,7 +31,7 @@ from typing import Literal, Protocol
 import numpy as np
 
 from irl_core.recordings.lines import EpisodeEnd, Step
-from irl_core.worlds.mdp import DIRECTIONS, action_index, build_mdp
+from irl_core.worlds.mdp import DIRECTIONS, MDP, action_index, build_mdp
 from irl_core.worlds.world import Cell, World
 
 
@@ -108,6 +108,14 @@ class Game:
         self.score = world.initial_score
         self.live = False
         self.last_end: EpisodeEnd | None = None
+
+    def __getstate__(self) -> dict[str, object]:
+        # The world's arrays are built again where a pickled game is taken up (a web server's other worker).
+        return {name: value for name, value in self.__dict__.items() if name not in ("mdp", "_reward", "_starts")}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self.mdp, self._reward, self._starts = _world_arrays(self.world)
 
     def costs(self) -> list[float]:
         """The action cost of each carefulness level 1..L, as a positive number."""
@@ -215,3 +223,20 @@ class Game:
         self.live = False
         self.last_end = end
         return end
+
+
+_BUILT: dict[int, tuple[World, MDP, np.ndarray, list[int]]] = {}
+_BUILT_KEPT = 16
+
+
+def _world_arrays(world: World) -> tuple[MDP, np.ndarray, list[int]]:
+    """A game's MDP, reward matrix and start states for `world`, built once per world object (an unpickled
+    game's world is its study's, the same object each time: `careful_tui.web.seat_files`)."""
+    built = _BUILT.get(id(world))
+    if built is None or built[0] is not world:
+        mdp = build_mdp(world)
+        built = (world, mdp, mdp.reward_matrix(), [mdp.state_of[cell] for cell in world.start_cells])
+        if len(_BUILT) >= _BUILT_KEPT:
+            del _BUILT[next(iter(_BUILT))]
+        _BUILT[id(world)] = built
+    return built[1], built[2], built[3]

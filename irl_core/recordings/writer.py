@@ -13,7 +13,7 @@ import json
 import os
 import re
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from datetime import datetime
 from pathlib import Path
 
@@ -71,12 +71,33 @@ class RecordingWriter:
         first = _encoded(header)
         flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND | getattr(os, "O_CLOEXEC", 0)
         self._fd: int | None = os.open(self.path, flags, 0o666)
+        self._reopen = False
         try:
             self._write_bytes(first)
             self.sync()
         except BaseException:
             self._discard()
             raise
+
+    @classmethod
+    def reopened(cls, path: str | Path, *, sync_episodes: bool = True, is_open: bool = True) -> RecordingWriter:
+        """A writer that goes on appending to the existing file at `path`, opened at its next write
+        (a web server's worker process takes up a session another one wrote: `careful_tui.web.seat_files`).
+        A file gone by then is `RecordingLost` at that write, as for a file deleted mid-write.
+        `is_open=False` gives a closed writer (its writes refused, as after `close`)."""
+        writer = cls.__new__(cls)
+        writer.path, writer._sync_episodes = Path(path), sync_episodes
+        writer._fd, writer._reopen = None, is_open
+        return writer
+
+    @property
+    def is_open(self) -> bool:
+        """Whether lines may still be written (it is not closed)."""
+        return self._fd is not None or self._reopen
+
+    @property
+    def sync_episodes(self) -> bool:
+        return self._sync_episodes
 
     @classmethod
     def create_in(cls, folder: str | Path, header: SessionHeader) -> RecordingWriter:
@@ -96,23 +117,28 @@ class RecordingWriter:
         raise FileExistsError(f"{folder}: too many sessions named {stem}")
 
     def write_step(self, step: Step) -> None:
-        self._write_bytes(_encoded(step))
+        self.write_encoded(_encoded(step))
 
     def end_episode(self, end: EpisodeEnd) -> None:
-        self._write_bytes(_encoded(end))
-        if self._sync_episodes:
-            self.sync()
+        self.write_encoded(_encoded(end), episode_end=True)
 
     def write_trial(self, trial: CalibrationTrial) -> None:
         """A calibration trial, synced at once: a participant's trial is not asked twice."""
-        self._write_bytes(_encoded(trial))
-        self.sync()
+        self.write_encoded(_encoded(trial), now=True)
+
+    def write_encoded(self, data: bytes, *, episode_end: bool = False, now: bool = False) -> None:
+        """Lines already encoded (`_encoded`), synced `now`, or at an `episode_end` unless `sync_episodes` is off."""
+        self._write_bytes(data)
+        if now or (episode_end and self._sync_episodes):
+            self.sync()
 
     def write_many(self, lines: Iterable[BodyLine]) -> None:
         """Several lines in one write (bulk output): encoded first, so a bad one writes nothing."""
         self._write_bytes(b"".join(_encoded(line) for line in lines))
 
     def close(self) -> None:
+        if self._reopen:
+            self._descriptor()
         if self._fd is not None:
             try:
                 self.sync()
@@ -121,7 +147,9 @@ class RecordingWriter:
                 self._fd = None
 
     def abandon(self) -> None:
-        """Close without syncing (the file is gone or cannot be written)."""
+        """Close without syncing (the file is gone or cannot be written; or, for a `reopened` writer, another
+        process goes on with it)."""
+        self._reopen = False
         if self._fd is not None:
             try:
                 os.close(self._fd)
@@ -136,21 +164,31 @@ class RecordingWriter:
         self.close()
 
     def _write_bytes(self, data: bytes) -> None:
-        if self._fd is None:
-            raise ValueError(f"{self.path} is closed")
+        fd = self._descriptor()
         view = memoryview(data)
         while view:
-            view = view[os.write(self._fd, view):]
-        if os.fstat(self._fd).st_nlink == 0:
+            view = view[os.write(fd, view):]
+        if os.fstat(fd).st_nlink == 0:
             raise RecordingLost(f"{self.path} was deleted while it was being written")
 
     def sync(self) -> None:
         """Flush the file to disk."""
+        fd = self._descriptor()
+        os.fsync(fd)
+        if os.fstat(fd).st_nlink == 0:
+            raise RecordingLost(f"{self.path} was deleted while it was being written")
+
+    def _descriptor(self) -> int:
+        """The open file; a `reopened` writer opens its file here, never creating it."""
+        if self._fd is None and self._reopen:
+            self._reopen = False
+            try:
+                self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | getattr(os, "O_CLOEXEC", 0))
+            except FileNotFoundError:
+                raise RecordingLost(f"{self.path} was deleted while it was being written") from None
         if self._fd is None:
             raise ValueError(f"{self.path} is closed")
-        os.fsync(self._fd)
-        if os.fstat(self._fd).st_nlink == 0:
-            raise RecordingLost(f"{self.path} was deleted while it was being written")
+        return self._fd
 
     def _discard(self) -> None:
         self.abandon()
@@ -180,7 +218,7 @@ class SessionRecorder:
         self.lost: list[Path] = []
         self.notices: list[str] = []
         self._writer: RecordingWriter | None = None
-        self._lines: list[BodyLine] = []
+        self._lines: list[bytes] = []  # encoded: a session taken up by another process pickles them quickly
 
     @property
     def path(self) -> Path | None:
@@ -192,13 +230,13 @@ class SessionRecorder:
         self.header = header
 
     def write_step(self, step: Step) -> None:
-        self._record(step, lambda writer: writer.write_step(step))
+        self._record(_encoded(step))
 
     def end_episode(self, end: EpisodeEnd) -> None:
-        self._record(end, lambda writer: writer.end_episode(end))
+        self._record(_encoded(end), episode_end=True)
 
     def write_trial(self, trial: CalibrationTrial) -> None:
-        self._record(trial, lambda writer: writer.write_trial(trial))
+        self._record(_encoded(trial), now=True)
 
     def close(self) -> None:
         if self._writer is None:
@@ -211,10 +249,10 @@ class SessionRecorder:
         self._writer = None
         self._lines = []
 
-    def _record(self, line: BodyLine, write: Callable[[RecordingWriter], None]) -> None:
+    def _record(self, line: bytes, *, episode_end: bool = False, now: bool = False) -> None:
         self._lines.append(line)
         try:
-            write(self._open())
+            self._open().write_encoded(line, episode_end=episode_end, now=now)
         except RecordingLost:
             self._recover()
         except BaseException:
@@ -230,7 +268,7 @@ class SessionRecorder:
             self.lost.append(lost)
             self.paths.remove(lost)
         writer = self._open()
-        writer.write_many(self._lines)
+        writer.write_encoded(b"".join(self._lines))
         writer.sync()
         self.notices.append(f"recording deleted: every step so far is saved again in {writer.path.name}")
 

@@ -11,6 +11,7 @@ from starlette.testclient import TestClient
 from web.conftest import Api, recorded_lines, web_app
 
 from careful_tui.web.links import LINKS_FILE, add_links, read_links
+from careful_tui.web.seat_files import SharedSeats
 from careful_tui.web.seats import SILENT_S, Seats
 from careful_tui.web.server import MAX_BODY
 from careful_tui.web.session_adapter import browser_profile
@@ -18,9 +19,12 @@ from irl_core.recordings.demonstrations import read_recording
 from irl_core.studies.study import read_protocol
 
 
-@pytest.fixture
-def served(web_study):
-    app, tokens = web_app(web_study, completion_code="C0DE-42", prolific=True)
+@pytest.fixture(params=["one process", "seats in files"])
+def served(web_study, request):
+    """The app with one process's seats, and with the seats every worker of `--workers N` shares (in files)."""
+    seats = (Seats() if request.param == "one process"
+             else SharedSeats(web_study, key=b"k" * 32, say=lambda line: None))
+    app, tokens = web_app(web_study, completion_code="C0DE-42", prolific=True, seats=seats)
     with TestClient(app) as client:
         yield client, tokens
 

@@ -1,0 +1,372 @@
+"""Seats kept in files: several worker processes of one server (`careful serve --workers N`) serve
+any page's request.
+
+A worker holds nothing of a page between its requests. Each request takes the participant's
+lock (`irl_core.studies.participant_lock`, waiting its turn behind the server's other requests
+for that participant), reads the page's seat from ``<out>/.<ID>.seat``, plays the key on the
+session it holds, writes the seat back (a new file renamed over the old, so a reader sees the
+one or the other whole) and lets the lock go. The recordings are written as by one process:
+each line appended to the participant's file as it happens, fsynced at each episode end.
+
+A seat file is three text lines and the session::
+
+    played            open (no key yet) | played (the page holds the participant) | free
+    9f2c...           SHA-256 of the page's secret (the heartbeat checks it without the session)
+    5be1...           HMAC-SHA256 of the rest under the server's key
+    <pickle>          page secret, session, key budget
+
+The session is a pickle, read only when its HMAC holds under a key the server draws at its
+start (handed to each worker with its settings, never on a command line): a seat file of an earlier run, or one written
+by anything else, is never unpickled and counts as no seat. The study, its worlds and the console
+travel by name (the worker has its own), a recording's writer by its path (reopened at its next
+line), an input mode by its registry name. The file's modification time is when the page was last
+heard from: a terminal session is refused while a page that has played was heard from within
+`irl_core.studies.participant_lock.SEAT_FRESH_S`.
+
+Bounds, as `careful_tui.web.seats` has them, except that the budget of new pages per client
+address is each worker's own (N workers take N times the burst) and the seats at once are counted
+from the files (a seat here holds no file descriptor between requests).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import hmac
+import io
+import os
+import pickle
+import secrets
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from careful_tui.web.seats import ADDRESS_SEATS, MOST_SEATS, SILENT_S, KeyBudget, Seat, SeatRefused
+from careful_tui.web.session_adapter import WebSession, browser_study
+from irl_core.play.input_modes import InputMode, input_mode
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.studies.participant_lock import SEAT_PLAYED, participant_lock, seat_path
+from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+
+PAGE_HOLDER = "careful serve (a browser page)"
+# Another request of the same participant holds the lock for a few milliseconds; a sweep for longer.
+LOCK_WAIT_S = 5.0
+_OPEN, _FREE = b"open\n", b"free\n"
+_HEADER_BYTES = 200
+
+
+class SeatUnavailable(StudyError):
+    """A request's seat cannot be read: another session holds the participant (`cause` is
+    `ParticipantBusy`), or the lock or the seat file cannot be made (a full disk)."""
+
+    def __init__(self, participant: str, cause: Exception) -> None:
+        super().__init__(str(cause))
+        self.participant, self.cause = participant, cause
+
+
+@dataclass
+class _Record:
+    """A seat file's content: the page's secret (None: free), its session, its key budget."""
+
+    page: str | None
+    session: WebSession | None
+    tokens: float
+    at: float
+    played: bool
+
+
+class SharedSeats:
+    """The pages playing now, one per participant, in the study's out folder (see the module text).
+
+    Args:
+        study: the study served (each worker's own, loaded from the same file).
+        key: the server's secret for the seat files' HMAC (the same in every worker).
+        say: the console's line (travels by name: each worker has its own).
+    """
+
+    def __init__(self, study: LoadedStudy, *, key: bytes, say: Callable[[str], None] = print,
+                 clock: Callable[[], float] = time.monotonic, wall: Callable[[], float] = time.time,
+                 silent_s: float = SILENT_S, limit: int = MOST_SEATS,
+                 address_seats: tuple[int, float] = ADDRESS_SEATS) -> None:
+        self.study, self.key, self.say = study, key, say
+        self.clock, self.wall = clock, wall
+        self.silent_s, self.limit, self.address_seats = silent_s, limit, address_seats
+        self.browser_study = browser_study(study)
+        self._addresses: dict[str, KeyBudget] = {}
+
+    # ------------------------------------------------------------------ what the server asks
+
+    def claim(self, participant: str, make_session: Callable[[], WebSession], *, address: str = "",
+              hold: object = None) -> Seat | None:
+        """A seat for a new page of `participant`, or None while another page of theirs plays (as
+        `Seats.claim`; `hold` is not used: the lock is taken here, for the claim).
+
+        Raises:
+            SeatRefused: the address opened too many seats of late (429), or every seat is taken (503).
+            irl_core.studies.participant_lock.ParticipantBusy: another session plays the participant.
+            irl_core.studies.study.StudyError, OSError: the lock or the seat file cannot be made.
+        """
+        with self._locked(participant):
+            record, seen, writers = self._read(participant)
+            try:
+                if record is not None and record.page is not None:
+                    if self.wall() - seen < self.silent_s:
+                        return None
+                    self._end(record, "left (the page went silent)")
+                if self._seated() >= self.limit:
+                    raise SeatRefused(503, "The study is full just now. Please try again in a few minutes.")
+                burst, rate = self.address_seats
+                if not self._addresses.setdefault(address, KeyBudget(burst=burst, rate=rate, clock=self.clock)).spend():
+                    raise SeatRefused(429, "Too many pages opened from your network just now. "
+                                           "Please try again in a minute.")
+                budget = self._budget(record)
+                secret = secrets.token_urlsafe(18)
+                seat = Seat(participant, f"{participant}/{secret}", make_session(), self.clock(), budget,
+                            contextlib.nullcontext)
+                self._write(participant, _Record(secret, seat.session, budget.tokens, budget.at, False))
+            finally:
+                _let_go(writers)
+            return seat
+
+    def heard(self, page: object) -> bool:
+        """The page's heartbeat: whether it holds its seat (its file's time is then now)."""
+        parsed = _parse(page)
+        if parsed is None:
+            return False
+        participant, secret = parsed
+        path = seat_path(self.study, participant)
+        try:
+            with open(path, "rb") as seat:
+                state, digest = seat.read(_HEADER_BYTES).split(b"\n")[:2]
+            if state + b"\n" == _FREE or not hmac.compare_digest(digest, _digest(secret)):
+                return False
+            os.utime(path)
+        except (OSError, ValueError):
+            return False
+        return True
+
+    @contextlib.contextmanager
+    def playing(self, page: object) -> Iterator[Seat | None]:
+        """The seat of `page` for one request, under the participant's lock (None: it holds none); written
+        back after, free once its session has left.
+
+        Raises:
+            SeatUnavailable: the lock is held elsewhere, or the seat cannot be read.
+        """
+        parsed = _parse(page)
+        if parsed is None:
+            yield None
+            return
+        participant, secret = parsed
+        try:
+            held = self._locked(participant)
+            held.__enter__()
+        except (StudyError, OSError) as exc:
+            raise SeatUnavailable(participant, exc) from None
+        try:
+            record, seen, writers = self._read(participant)
+            if record is None or record.page is None or record.session is None \
+                    or not hmac.compare_digest(record.page, secret):
+                yield None
+                return
+            budget = self._budget(record)
+            seat = Seat(participant, f"{participant}/{secret}", record.session, seen, budget, contextlib.nullcontext,
+                        locked=record.played)
+            try:
+                yield seat
+            finally:
+                if seat.session.left:
+                    record.page, record.session = None, None
+                record.tokens, record.at, record.played = budget.tokens, budget.at, seat.locked
+                self._write(participant, record)
+                _let_go(writers)
+        finally:
+            held.__exit__(None, None, None)
+
+    def leave(self, page: object, why: str) -> None:
+        """The page closed: its seat, if it holds one, is released."""
+        with contextlib.suppress(SeatUnavailable), self.playing(page) as seat:
+            if seat is not None:
+                seat.session.leave(why)
+
+    def release_silent(self) -> None:
+        """Release every page not heard from for `silent_s`, and forget seat files older than that."""
+        for path, _ in self._files():
+            self._sweep(path, "left (the page went silent)", only_silent=True)
+        for address in [address for address, budget in self._addresses.items() if budget.full()]:
+            del self._addresses[address]
+
+    def release_all(self, why: str) -> None:
+        """Every page leaves (the server stops): sessions record what was running; the files go."""
+        for path, _ in self._files():
+            self._sweep(path, why, only_silent=False)
+
+    def __len__(self) -> int:
+        return self._seated()
+
+    # ------------------------------------------------------------------ the files
+
+    def _locked(self, participant: str) -> contextlib.AbstractContextManager[Path]:
+        return participant_lock(self.study, participant, holder=PAGE_HOLDER, wait_s=LOCK_WAIT_S, for_page=True)
+
+    def _sweep(self, path: Path, why: str, *, only_silent: bool) -> None:
+        participant = path.name[1:-len(".seat")]
+        try:
+            check_participant(participant)
+            with self._locked(participant):
+                if only_silent and self.wall() - path.stat().st_mtime < self.silent_s:
+                    return
+                record, _, writers = self._read(participant)
+                try:
+                    if record is not None and record.session is not None:
+                        self._end(record, why)
+                finally:
+                    _let_go(writers)
+                path.unlink()
+        except FileNotFoundError:
+            return  # another worker swept it
+        except (StudyError, OSError) as exc:  # a terminal session holds them, a full disk: the next sweep
+            self.say(f"{participant}: seat not released yet ({exc})")
+
+    def _end(self, record: _Record, why: str) -> None:
+        assert record.session is not None
+        record.session.leave(why)
+        record.page, record.session = None, None
+
+    def _budget(self, record: _Record | None) -> KeyBudget:
+        budget = KeyBudget(clock=self.clock)
+        if record is not None:
+            budget.tokens, budget.at = record.tokens, record.at
+        return budget
+
+    def _files(self) -> list[tuple[Path, bytes]]:
+        """Every seat file with its first line."""
+        found = []
+        for path in self.study.out.glob(".*.seat"):
+            with contextlib.suppress(OSError), open(path, "rb") as seat:
+                found.append((path, seat.readline()))
+        return found
+
+    def _seated(self) -> int:
+        return sum(state != _FREE for _, state in self._files())
+
+    def _read(self, participant: str) -> tuple[_Record | None, float, list[RecordingWriter]]:
+        """The participant's seat (None: no file, or one this server did not write), when it was last heard
+        from (wall clock), and the recording writers its session holds (to let go after the request)."""
+        try:
+            with open(seat_path(self.study, participant), "rb") as seat:
+                data, seen = seat.read(), os.fstat(seat.fileno()).st_mtime
+        except FileNotFoundError:
+            return None, 0.0, []
+        parts = data.split(b"\n", 3)
+        if len(parts) != 4 or not hmac.compare_digest(parts[2], self._mac(parts[0], parts[1], parts[3])):
+            return None, seen, []
+        loader = _SessionUnpickler(io.BytesIO(parts[3]), self)
+        fields = loader.load()
+        return _Record(**fields), seen, loader.writers
+
+    def _write(self, participant: str, record: _Record) -> None:
+        """The seat file, whole or not at all (a new file renamed over the old)."""
+        state = _FREE if record.page is None else SEAT_PLAYED if record.played else _OPEN
+        digest = b"-" if record.page is None else _digest(record.page)
+        body = io.BytesIO()
+        pickler = _SessionPickler(body, self, record.session)
+        pickler.dump({"page": record.page, "session": record.session, "tokens": record.tokens, "at": record.at,
+                      "played": record.played})
+        data = body.getvalue()
+        path = seat_path(self.study, participant)
+        temporary = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        try:
+            fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0), 0o600)
+            try:
+                os.write(fd, state + digest + b"\n" + self._mac(state[:-1], digest, data) + b"\n" + data)
+            finally:
+                os.close(fd)
+            os.replace(temporary, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(temporary)
+            raise
+        finally:
+            _let_go(pickler.writers)
+
+    def _mac(self, state: bytes, digest: bytes, body: bytes) -> bytes:
+        return hmac.new(self.key, state + b"\n" + digest + b"\n" + body, hashlib.sha256).hexdigest().encode()
+
+
+def _digest(secret: str) -> bytes:
+    return hashlib.sha256(secret.encode()).hexdigest().encode()
+
+
+def _parse(page: object) -> tuple[str, str] | None:
+    """A page id, ``<participant>/<secret>``, as its two parts (None: not one)."""
+    if not isinstance(page, str) or len(page) > 200:
+        return None
+    participant, slash, secret = page.partition("/")
+    try:
+        check_participant(participant)
+    except StudyError:
+        return None
+    return (participant, secret) if slash and secret else None
+
+
+def _let_go(writers: list[RecordingWriter]) -> None:
+    """Close the descriptors a request's writers opened (no fsync: each episode end had one, and the next
+    request reopens the file)."""
+    for writer in writers:
+        writer.abandon()
+
+
+class _SessionPickler(pickle.Pickler):
+    """Pickles a seat, with what every worker has by name (see the module text)."""
+
+    def __init__(self, file: io.BytesIO, seats: SharedSeats, session: WebSession | None) -> None:
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.writers: list[RecordingWriter] = []
+        known: dict[int, Any] = {id(seats.study): "study", id(seats.say): "say"}
+        known.update({id(world): ("world", i) for i, world in enumerate(seats.study.worlds)})
+        if session is not None:
+            known.update({id(session.study): "browser_study", id(session.say): "say"})
+        self.known = known
+
+    def persistent_id(self, obj: Any) -> Any:
+        name = self.known.get(id(obj))
+        if name is not None:
+            return name
+        if isinstance(obj, RecordingWriter):
+            self.writers.append(obj)
+            return ("writer", str(obj.path), obj.is_open, obj.sync_episodes)
+        if isinstance(obj, InputMode):
+            return ("input_mode", obj.name)
+        return None
+
+
+class _SessionUnpickler(pickle.Unpickler):
+    """Reads what `_SessionPickler` wrote, with this worker's study, worlds, console and writers."""
+
+    def __init__(self, file: io.BytesIO, seats: SharedSeats) -> None:
+        super().__init__(file)
+        self.seats = seats
+        self.writers: list[RecordingWriter] = []
+
+    def persistent_load(self, pid: Any) -> Any:
+        seats = self.seats
+        if pid == "study":
+            return seats.study
+        if pid == "browser_study":
+            return seats.browser_study
+        if pid == "say":
+            return seats.say
+        kind, *rest = pid
+        if kind == "world":
+            return seats.study.worlds[rest[0]]
+        if kind == "writer":
+            path, is_open, sync_episodes = rest
+            writer = RecordingWriter.reopened(path, sync_episodes=sync_episodes, is_open=is_open)
+            self.writers.append(writer)
+            return writer
+        if kind == "input_mode":
+            return input_mode(rest[0])
+        raise pickle.UnpicklingError(f"unknown persistent id {pid!r}")
