@@ -29,6 +29,9 @@ def run_serve(args: argparse.Namespace) -> int:
 
     if not args.host.strip():
         raise UsageError("--host needs an address: 127.0.0.1 (this machine only) or 0.0.0.0 (every interface)")
+    if args.workers > most_workers():
+        raise UsageError(f"--workers {args.workers} is more than this machine can use (at most {most_workers()}: "
+                         "4 per core)")
     if args.links > MOST_LINKS:
         raise UsageError(f"--links {args.links:,} is more than one start may add ({MOST_LINKS:,}); add them in parts")
 
@@ -45,9 +48,6 @@ def run_serve(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UsageError(f"cannot write recordings to {printable(str(study.out))} ({write_problem(exc)}); "
                          "check the study's out folder") from None
-    if args.workers > most_workers():
-        raise UsageError(f"--workers {args.workers} is more than this machine can use (at most {most_workers()}: "
-                         "4 per core)")
     sock = bind(args.host, args.port)
     try:
         new = add_links(study, args.links) if args.links else []

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 EARLY_S = 5.0
+PARENT_CHECK_S = 1.0
 STOP_WAIT_S = 20.0
 
 
@@ -51,8 +52,9 @@ def most_workers() -> int:
     return 4 * (os.cpu_count() or 1)
 
 
-def run_worker(settings: WorkerSettings, sock: socket.socket, number: int) -> None:
-    """A worker process: the app on `SharedSeats`, served on the parent's socket until a signal."""
+def run_worker(settings: WorkerSettings, sock: socket.socket, number: int, parent: int) -> None:
+    """A worker process: the app on `SharedSeats`, served on the socket of its `parent` (process id) until a
+    signal, or until the parent is gone."""
     from careful_tui.commands.serve import make_server, say
     from careful_tui.web.links import read_links
     from careful_tui.web.seat_files import SharedSeats
@@ -63,7 +65,16 @@ def run_worker(settings: WorkerSettings, sock: socket.socket, number: int) -> No
     seats = SharedSeats(study, key=settings.key, say=say)
     app = make_app(study, links=read_links(study), completion_code=settings.completion_code, say=say,
                    seats=seats, prolific=settings.prolific, worker=number)
-    make_server(app).run(sockets=[sock])
+    server = make_server(app)
+
+    def orphaned() -> None:
+        # A parent ended by SIGKILL cannot stop its workers: each stops itself, every seat released as at a stop.
+        while os.getppid() == parent:
+            time.sleep(PARENT_CHECK_S)
+        server.should_exit = True
+
+    threading.Thread(target=orphaned, daemon=True).start()
+    server.run(sockets=[sock])
 
 
 def supervise(settings: WorkerSettings, sock: socket.socket, *, workers: int, say: Callable[[str], None]) -> int:
@@ -73,7 +84,7 @@ def supervise(settings: WorkerSettings, sock: socket.socket, *, workers: int, sa
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
 
     def start(number: int) -> tuple[multiprocessing.process.BaseProcess, float]:
-        process = spawn.Process(target=run_worker, args=(settings, sock, number), name=f"careful serve worker {number}")
+        process = spawn.Process(target=run_worker, args=(settings, sock, number, os.getpid()), name=f"careful serve worker {number}")
         process.start()
         return process, time.monotonic()
 
