@@ -84,7 +84,8 @@ def supervise(settings: WorkerSettings, sock: socket.socket, *, workers: int, sa
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
 
     def start(number: int) -> tuple[multiprocessing.process.BaseProcess, float]:
-        process = spawn.Process(target=run_worker, args=(settings, sock, number, os.getpid()), name=f"careful serve worker {number}")
+        process = spawn.Process(target=run_worker, args=(settings, sock, number, os.getpid()),
+                                name=f"careful serve worker {number}")
         process.start()
         return process, time.monotonic()
 
