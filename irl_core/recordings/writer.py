@@ -157,6 +157,14 @@ class RecordingWriter:
                 pass
             self._fd = None
 
+    def detach(self) -> None:
+        """Close the descriptor without syncing; the next line opens the file again (a web server's worker lets
+        it go between requests: `careful_tui.web.seat_files`)."""
+        if self._fd is not None:
+            fd, self._fd = self._fd, None
+            self._reopen = True
+            os.close(fd)
+
     def __enter__(self) -> RecordingWriter:
         return self
 

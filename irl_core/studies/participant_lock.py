@@ -60,7 +60,7 @@ def seat_path(study: LoadedStudy, participant: str) -> Path:
 
 @contextlib.contextmanager
 def participant_lock(study: LoadedStudy, participant: str, *, holder: str, wait_s: float = 0.0,
-                     for_page: bool = False) -> Iterator[Path]:
+                     for_page: bool = False, keep_file: bool = False) -> Iterator[Path]:
     """Hold `participant` of `study` for the block; yields the lock file's path.
 
     Args:
@@ -69,6 +69,8 @@ def participant_lock(study: LoadedStudy, participant: str, *, holder: str, wait_
         wait_s: how long to wait while a holder with the same `holder` words has it (another
             request of the same web server); any other holder is refused at once.
         for_page: the web server asks, for a page: a page's seat (`seat_path`) does not refuse it.
+        keep_file: leave the lock file when done (a worker's lock for one request: creating and
+            removing a file at every request made each episode end's fsync wait on the journal).
 
     Raises:
         ParticipantBusy: another session holds the participant, or a page plays them.
@@ -98,8 +100,9 @@ def participant_lock(study: LoadedStudy, participant: str, *, holder: str, wait_
         yield path
     finally:
         # Removed while still held, so no one can lock the old file after it is gone (see `_locked`).
-        with contextlib.suppress(OSError):
-            os.unlink(path)
+        if not keep_file:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
         os.close(fd)
 
 
