@@ -75,7 +75,8 @@ def main() -> None:
             clients.append(subprocess.Popen(
                 [sys.executable, "-m", "bench.serve_client", "--port", str(port), f"--token={token}",
                  "--moves", str(args.moves), "--begin-at", str(begin_at), "--reconnect", str(args.reconnect),
-                 "--seed", str(i), "--out", str(folder / f"{participant}.result.json")], env=env, cwd=root))
+                 "--seed", str(i), "--source", f"127.0.{1 + i // 250}.{1 + i % 250}",
+                 "--out", str(folder / f"{participant}.result.json")], env=env, cwd=root))
         time.sleep(max(0.0, begin_at - time.time()) + 5)
         workers = worker_pids(server.pid) if args.workers > 1 else [server.pid]
         rss_during = sum(rss_kib(pid) for pid in workers)

@@ -24,8 +24,8 @@ class Page:
     """A page's requests on one keep-alive connection, written and read by hand: http.client's CPU would be
     counted against the server on these shared cores (a browser's is on another machine)."""
 
-    def __init__(self, host: str, port: int) -> None:
-        self.host, self.port = host, port
+    def __init__(self, host: str, port: int, source: str) -> None:
+        self.host, self.port, self.source = host, port, source
         self.sock: socket.socket | None = None
         self.buffer = b""
         self.used = 0.0
@@ -34,7 +34,7 @@ class Page:
     def reconnect(self) -> None:
         if self.sock is not None:
             self.sock.close()
-        self.sock = socket.create_connection((self.host, self.port), timeout=60)
+        self.sock = socket.create_connection((self.host, self.port), timeout=60, source_address=(self.source, 0))
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.buffer = b""
 
@@ -91,10 +91,12 @@ def main() -> None:
     parser.add_argument("--begin-at", type=float, required=True, help="time.time() at which to start moving")
     parser.add_argument("--reconnect", type=float, default=0.2, help="chance of a new connection before a move")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--source", default="127.0.0.1",
+                        help="the loopback address to connect from (participants come from addresses of their own)")
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     rng = random.Random(args.seed)
-    page = Page("127.0.0.1", args.port)
+    page = Page("127.0.0.1", args.port, args.source)
     result: dict = {"press_ms": [], "release_ms": [], "reported": [], "ended": [], "fresh": [], "refused": [], "error": None}
     try:
         status, started, _ = page.post("/api/start", {"token": args.token})

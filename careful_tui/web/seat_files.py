@@ -9,12 +9,17 @@ file holds that lock (or, for the heartbeat, finds a terminal session holding it
 one half-written. The recordings are written as by one process:
 each line appended to the participant's file as it happens, fsynced at each episode end.
 
-A seat file is three text lines and the session::
+A seat file is three text lines and two pickles::
 
     played            open (no key yet) | played (the page holds the participant) | free
     9f2c...           SHA-256 of the page's secret (the heartbeat checks it without the session)
     5be1...           HMAC-SHA256 of the rest under the server's key
+    <pickle>          the length of each recording the session writes, when the seat was written
     <pickle>          page secret, session, key budget
+
+A recording longer than its length there means a worker ended between writing a step and
+writing the seat: the seat is dropped (the page reloads and resumes where the files say, as
+after a crash) rather than number a step twice.
 
 The session is a pickle, read only when its HMAC holds under a key the server draws at its
 start (handed to each worker with its settings, never on a command line): a seat file of an earlier run, or one written
@@ -38,6 +43,7 @@ import io
 import os
 import pickle
 import secrets
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -96,6 +102,7 @@ class SharedSeats:
         self.silent_s, self.limit, self.address_seats = silent_s, limit, address_seats
         self.browser_study = browser_study(study)
         self._addresses: dict[str, KeyBudget] = {}
+        self._addresses_lock = threading.Lock()
         # participant -> the MAC of the seat file this worker wrote last, its record and the record's writers:
         # while the file is still that one, the next request skips reading the session back.
         self._cache: dict[str, tuple[bytes, _Record, list[RecordingWriter]]] = {}
@@ -123,7 +130,9 @@ class SharedSeats:
                 if self._seated() >= self.limit:
                     raise SeatRefused(503, "The study is full just now. Please try again in a few minutes.")
                 burst, rate = self.address_seats
-                if not self._addresses.setdefault(address, KeyBudget(burst=burst, rate=rate, clock=self.clock)).spend():
+                with self._addresses_lock:
+                    spent = self._addresses.setdefault(address, KeyBudget(burst=burst, rate=rate, clock=self.clock)).spend()
+                if not spent:
                     raise SeatRefused(429, "Too many pages opened from your network just now. "
                                            "Please try again in a minute.")
                 budget = self._budget(record)
@@ -210,8 +219,9 @@ class SharedSeats:
         """Release every page not heard from for `silent_s`, and forget seat files older than that."""
         for path, _ in self._files():
             self._sweep(path, "left (the page went silent)", only_silent=True)
-        for address in [address for address, budget in self._addresses.items() if budget.full()]:
-            del self._addresses[address]
+        with self._addresses_lock:
+            for address in [address for address, budget in self._addresses.items() if budget.full()]:
+                del self._addresses[address]
 
     def release_all(self, why: str) -> None:
         """Every page leaves (the server stops): sessions record what was running; the files go."""
@@ -283,19 +293,29 @@ class SharedSeats:
             return cached[1], seen, cached[2]  # this worker wrote it last: its session is the one in memory
         if len(parts) != 4 or not hmac.compare_digest(parts[2], self._mac(parts[0], parts[1], parts[3])):
             return None, seen, []
-        loader = _SessionUnpickler(io.BytesIO(parts[3]), self)
+        stream = io.BytesIO(parts[3])
+        sizes = pickle.load(stream)
+        if any(_size(path) > size for path, size in sizes.items()):
+            # A worker ended between writing a step and writing the seat: the session would number its next
+            # step again. The page reloads instead, and resumes where the files say (as after a crash).
+            self.say(f"{participant}: the page's seat was behind its recording (a worker stopped mid-request); "
+                     "the page starts again from the files")
+            return None, seen, []
+        loader = _SessionUnpickler(stream, self)
         fields = loader.load()
         return _Record(**fields), seen, loader.writers
 
     def _write(self, participant: str, record: _Record) -> None:
-        """The seat file, whole or not at all (a new file renamed over the old)."""
+        """The seat file, written over the old in place (under the participant's lock)."""
         state = _FREE if record.page is None else SEAT_PLAYED if record.played else _OPEN
         digest = b"-" if record.page is None else _digest(record.page)
         body = io.BytesIO()
         pickler = _SessionPickler(body, self, record.session)
         pickler.dump({"page": record.page, "session": record.session, "tokens": record.tokens, "at": record.at,
                       "played": record.played})
-        data = body.getvalue()
+        # First the length of each recording the session writes, to tell a seat older than its files (`_read`).
+        sizes = {str(writer.path): _size(writer.path) for writer in pickler.writers if writer.is_open}
+        data = pickle.dumps(sizes, protocol=pickle.HIGHEST_PROTOCOL) + body.getvalue()
         mac = self._mac(state[:-1], digest, data)
         self._cache.pop(participant, None)
         try:
@@ -319,6 +339,14 @@ class SharedSeats:
 
     def _mac(self, state: bytes, digest: bytes, body: bytes) -> bytes:
         return hmac.new(self.key, state + b"\n" + digest + b"\n" + body, hashlib.sha256).hexdigest().encode()
+
+
+def _size(path: str | Path) -> int:
+    """The file's length, or -1 when it is gone (its recorder saves its lines again: `RecordingLost`)."""
+    try:
+        return os.stat(path).st_size
+    except FileNotFoundError:
+        return -1
 
 
 def _digest(secret: str) -> bytes:

@@ -226,7 +226,8 @@ class SessionRecorder:
         self.lost: list[Path] = []
         self.notices: list[str] = []
         self._writer: RecordingWriter | None = None
-        self._lines: list[bytes] = []  # encoded: a session taken up by another process pickles them quickly
+        # The file's lines, encoded in one buffer: a session taken up by another process pickles it at once.
+        self._lines = bytearray()
 
     @property
     def path(self) -> Path | None:
@@ -255,16 +256,16 @@ class SessionRecorder:
             self._recover()
             self._writer.close()
         self._writer = None
-        self._lines = []
+        self._lines = bytearray()
 
     def _record(self, line: bytes, *, episode_end: bool = False, now: bool = False) -> None:
-        self._lines.append(line)
+        self._lines += line
         try:
             self._open().write_encoded(line, episode_end=episode_end, now=now)
         except RecordingLost:
             self._recover()
         except BaseException:
-            self._lines.pop()
+            del self._lines[len(self._lines) - len(line):]
             raise
 
     def _recover(self) -> None:
@@ -276,7 +277,7 @@ class SessionRecorder:
             self.lost.append(lost)
             self.paths.remove(lost)
         writer = self._open()
-        writer.write_encoded(b"".join(self._lines))
+        writer.write_encoded(bytes(self._lines))
         writer.sync()
         self.notices.append(f"recording deleted: every step so far is saved again in {writer.path.name}")
 

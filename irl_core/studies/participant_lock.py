@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import os
 import socket
 import time
@@ -87,11 +88,12 @@ def participant_lock(study: LoadedStudy, participant: str, *, holder: str, wait_
                          f"({write_problem(exc)}); check the study's out folder") from None
     try:
         since = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-        host = printable(socket.gethostname(), limit=80)
-        text = f"{printable(holder, limit=200)} (process {os.getpid()} on {host}, since {since})"
+        text = f"{printable(holder, limit=200)} (process {os.getpid()} on {_host()}, since {since})".encode()
         try:
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, text.encode("utf-8"), 0)
+            # A kept file often says this already (the same worker's last request): not written again.
+            if not keep_file or os.pread(fd, len(text) + 1, 0) != text:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, text, 0)
         except OSError as exc:
             raise StudyError(f"cannot lock participant {participant} in {printable(str(study.out), limit=160)} "
                              f"({write_problem(exc)})") from None
@@ -104,6 +106,11 @@ def participant_lock(study: LoadedStudy, participant: str, *, holder: str, wait_
             with contextlib.suppress(OSError):
                 os.unlink(path)
         os.close(fd)
+
+
+@functools.cache
+def _host() -> str:
+    return printable(socket.gethostname(), limit=80)
 
 
 def _refuse_seated_page(study: LoadedStudy, participant: str) -> None:

@@ -16,6 +16,7 @@ import pytest
 
 from careful_tui.commands.serve import bind, make_server
 from careful_tui.web.links import add_links, read_links
+from careful_tui.web.seat_files import SharedSeats
 from careful_tui.web.seats import Seats
 from careful_tui.web.server import make_app
 from irl_core.studies.study import LoadedStudy, load_study
@@ -162,6 +163,14 @@ class Api:
         self.key("space"), self.key("space")
         self.walk_to_goal()
         self.key("space")
+
+
+SEAT_KINDS = ["one process", "seats in files"]
+
+
+def seats_of_kind(study: LoadedStudy, kind: str) -> Seats | SharedSeats:
+    """One process's seats, or the seats every worker of `careful serve --workers N` shares (in files)."""
+    return Seats() if kind == "one process" else SharedSeats(study, key=b"k" * 32, say=lambda line: None)
 
 
 def web_app(study: LoadedStudy, *, links: int = 2, completion_code: str | None = None, **options):

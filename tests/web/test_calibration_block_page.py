@@ -6,8 +6,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from starlette.testclient import TestClient
-from web.conftest import Api, recorded_lines, start_server, web_app, write_web_study
+from web.conftest import SEAT_KINDS, Api, recorded_lines, seats_of_kind, start_server, web_app, write_web_study
 from web.test_page import wait_for
 
 from careful_tui.web.session_adapter import browser_profile
@@ -31,9 +32,10 @@ def trials_of(study, participant: str) -> list[dict]:
     return [line for line in recorded_lines(folder) if line["kind"] == "calibration_trial"] if folder.exists() else []
 
 
-def test_the_api_runs_the_block_before_practice(tmp_path: Path) -> None:
+@pytest.mark.parametrize("seats", SEAT_KINDS)
+def test_the_api_runs_the_block_before_practice(tmp_path: Path, seats: str) -> None:
     study = calibrated_study(tmp_path)
-    app, tokens = web_app(study)
+    app, tokens = web_app(study, seats=seats_of_kind(study, seats))
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
         api.key("space")

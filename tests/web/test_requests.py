@@ -8,10 +8,9 @@ from pathlib import Path
 
 import pytest
 from starlette.testclient import TestClient
-from web.conftest import Api, recorded_lines, web_app
+from web.conftest import SEAT_KINDS, Api, recorded_lines, seats_of_kind, web_app
 
 from careful_tui.web.links import LINKS_FILE, add_links, read_links
-from careful_tui.web.seat_files import SharedSeats
 from careful_tui.web.seats import SILENT_S, Seats
 from careful_tui.web.server import MAX_BODY
 from careful_tui.web.session_adapter import browser_profile
@@ -19,12 +18,10 @@ from irl_core.recordings.demonstrations import read_recording
 from irl_core.studies.study import read_protocol
 
 
-@pytest.fixture(params=["one process", "seats in files"])
+@pytest.fixture(params=SEAT_KINDS)
 def served(web_study, request):
     """The app with one process's seats, and with the seats every worker of `--workers N` shares (in files)."""
-    seats = (Seats() if request.param == "one process"
-             else SharedSeats(web_study, key=b"k" * 32, say=lambda line: None))
-    app, tokens = web_app(web_study, completion_code="C0DE-42", prolific=True, seats=seats)
+    app, tokens = web_app(web_study, completion_code="C0DE-42", prolific=True, seats=seats_of_kind(web_study, request.param))
     with TestClient(app) as client:
         yield client, tokens
 

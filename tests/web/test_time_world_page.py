@@ -7,7 +7,7 @@ import time
 
 import pytest
 from starlette.testclient import TestClient
-from web.conftest import Api, recorded_lines, start_server, web_app
+from web.conftest import SEAT_KINDS, Api, recorded_lines, seats_of_kind, start_server, web_app
 
 from irl_core.studies.study import load_study
 from irl_core.worlds.world import BUILTIN_WORLDS
@@ -41,9 +41,10 @@ def steps(study, participant: str) -> list[dict]:
     return [line for line in recorded_lines(folder) if line["kind"] == "step"] if folder.exists() else []
 
 
-def test_a_time_worlds_view_has_no_levels_and_its_steps_no_carefulness(tmp_path):
+@pytest.mark.parametrize("seats", SEAT_KINDS)
+def test_a_time_worlds_view_has_no_levels_and_its_steps_no_carefulness(tmp_path, seats):
     study = timed_study(tmp_path, show=False)
-    app, tokens = web_app(study)
+    app, tokens = web_app(study, seats=seats_of_kind(study, seats))
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
         words = " ".join(paragraph["text"] for paragraph in api.view["paragraphs"])

@@ -184,3 +184,67 @@ def test_another_workers_sweep_releases_a_silent_page_and_records_its_episode_as
     lines = recorded_lines(web_study.participant_folder("p001"))
     assert [line["kind"] for line in lines] == ["session", "step", "episode_end"]
     assert lines[-1]["outcome"] == "quit"
+
+
+def test_a_seat_older_than_its_recording_is_dropped_rather_than_number_a_step_twice(web_study) -> None:
+    said: list[str] = []
+    first = shared(web_study)
+    second = SharedSeats(web_study, key=b"k" * 32, say=said.append)
+    seat = claim(first)
+    with first.playing(seat.page) as playing:
+        playing.take_lock()
+        playing.session.space()
+        playing.session.press("right", 0.0)
+        playing.session.release("right", 80.0)
+    (recording,) = web_study.participant_folder("p001").glob("*.jsonl")
+    step = recording.read_text().splitlines()[-1]
+    with recording.open("a") as file:  # the next step, written by a worker that died before its seat
+        file.write(step.replace('"t":0', '"t":1').replace('"t": 0', '"t": 1') + "\n")
+    with second.playing(seat.page) as playing:
+        assert playing is None
+    assert "behind its recording" in said[-1]
+
+
+def test_in_chromium_a_page_plays_the_study_through_two_workers_and_a_reload_resumes(tmp_path, page) -> None:
+    from web.test_page import MAIN_EPISODE, hold, open_and_begin
+
+    study_path = write_web_study(tmp_path)
+    served = Served(study_path, "--links", "1", "--workers", "2")
+    try:
+        served.read_until("workers: 2 processes")
+        study = load_study(study_path)
+        folder = study.participant_folder("p001")
+
+        def steps() -> int:
+            return len([line for line in recorded_lines(folder) if line["kind"] == "step"]) if folder.exists() else 0
+
+        def to_goal() -> None:
+            for _ in range(4):
+                before = steps()
+                hold(page, "ArrowRight", 30)
+                deadline = time.monotonic() + 10
+                while steps() == before and time.monotonic() < deadline:
+                    time.sleep(0.02)
+            page.wait_for_selector("#status .end-G")
+
+        open_and_begin(page, f"{served.url}/p/{token_of(study_path, 'p001')}")
+        to_goal()
+        page.keyboard.press(" ")
+        page.wait_for_selector("text=Practice is over.")
+        page.keyboard.press(" ")
+        page.locator("#status strong", has_text=MAIN_EPISODE).wait_for()
+        hold(page, "ArrowRight", 30)
+        deadline = time.monotonic() + 10
+        while steps() < 5 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        page.reload()  # a new page: its seat comes from the files, whichever worker answers
+        page.wait_for_selector("text=Welcome back: 1 of 2 episodes are done.")
+        page.keyboard.press(" ")
+        page.wait_for_selector("#play:not([hidden])")
+        to_goal()
+        page.keyboard.press(" ")
+        page.wait_for_selector("text=That is the end of the study. Thank you!")
+        ends = sorted((line["episode"], line["outcome"]) for line in recorded_lines(folder) if line["kind"] == "episode_end")
+        assert ends == [(0, "quit"), (0, "terminal"), (1, "terminal")]
+    finally:
+        served.stop()
