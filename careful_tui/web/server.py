@@ -191,7 +191,8 @@ class Served:
     Attributes:
         study: the study served.
         links: token -> participant id, from ``links.csv``.
-        seats: the pages playing now (`careful_tui.web.seats`).
+        seats: the pages playing now (`careful_tui.web.seats`; with several workers, in files:
+            `careful_tui.web.seat_files`).
         say: a line for the experimenter's console.
         completion_code: Prolific's, for the end screen of a Prolific participant (None: no redirect).
         seed: every block's seed (a test's); None draws one per block.
