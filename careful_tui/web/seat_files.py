@@ -177,7 +177,7 @@ class SharedSeats:
         back after, free once its session has left.
 
         Raises:
-            SeatUnavailable: the lock is held elsewhere, or the seat cannot be read.
+            SeatUnavailable: the lock is held elsewhere, or the seat cannot be read or written.
         """
         parsed = _parse(page)
         if parsed is None:
@@ -204,8 +204,12 @@ class SharedSeats:
                 if seat.session.left:
                     record.page, record.session = None, None
                 record.tokens, record.at, record.played = budget.tokens, budget.at, seat.locked
-                self._write(participant, record)
-                _let_go(writers)
+                try:
+                    self._write(participant, record)
+                except OSError as exc:  # a full disk: the key was played and recorded, its seat not kept
+                    raise SeatUnavailable(participant, exc) from None
+                finally:
+                    _let_go(writers)
         finally:
             held.__exit__(None, None, None)
 

@@ -248,3 +248,21 @@ def test_in_chromium_a_page_plays_the_study_through_two_workers_and_a_reload_res
         assert ends == [(0, "quit"), (0, "terminal"), (1, "terminal")]
     finally:
         served.stop()
+
+
+def test_a_seat_that_cannot_be_written_is_a_503_with_a_sentence(web_study, monkeypatch) -> None:
+    from starlette.testclient import TestClient
+    from web.conftest import Api, web_app
+
+    app, tokens = web_app(web_study, seats=shared(web_study))
+    with TestClient(app) as client:
+        api = Api(client, token=tokens["p001"])
+        api.key("space")
+
+        def full(self, participant, record):
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr(SharedSeats, "_write", full)
+        answer = api.key("press", key="right", t=1.0)
+        assert answer.status_code == 503 and "cannot save anything just now" in answer.json()["error"]
+        assert "Traceback" not in answer.text
