@@ -7,6 +7,9 @@ stops (docs/benchmarks.md#how-cost-grows). Variants:
 
   plain                      the first round (base rows and the seed) from HiGHS's own start
   policy-start               the same from the policy's vertex, as the fit now starts it
+  policy-start-sip, policy-start-pami
+                             the same with HiGHS's parallel dual simplex (SIP or PAMI, on
+                             every core)
   scale-terminal-distance    rows of state s divided by w(s), V(s) and m_s by w(s) (V = w W),
                              w(s) = gamma^(steps from s to the nearest terminal cell)
   scale-true-discount        the same with w(s) = the world's optimal policy's expected
@@ -35,7 +38,8 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-VARIANTS = ("plain", "policy-start", "scale-terminal-distance", "scale-true-discount", "ipx", "ipx-crossover",
+VARIANTS = ("plain", "policy-start", "policy-start-sip", "policy-start-pami",
+            "scale-terminal-distance", "scale-true-discount", "ipx", "ipx-crossover",
             "seed-none", "seed-careful", "seed-one")
 
 
@@ -95,7 +99,9 @@ def main() -> None:
     n, d = qmap.n, problem.demonstrated
     options = {**lp.margin_options(problem), "time_limit": args.limit}
     start = time.perf_counter()
-    if args.variant == "policy-start":
+    if args.variant.startswith("policy-start"):
+        if args.variant != "policy-start":
+            options = {**options, "parallel": "on", "simplex_strategy": 2 if args.variant.endswith("sip") else 3}
         run = lp.RowGeneration(problem, options=options)
         lp.start_from_policy(run)
         run.model.highs.run()  # one attempt, within the limit

@@ -80,7 +80,7 @@ def serve_workers(args: argparse.Namespace, study: LoadedStudy, sock: socket.soc
     settings = WorkerSettings(args.study.resolve(), args.completion_code, prolific, new_key())
     announce(args, study, sock, new=new, links=links, prolific=prolific)
     say(f"workers: {args.workers} processes; the pages' seats in {study.out}/.<participant>.seat")
-    code = supervise(settings, sock, workers=args.workers, say=say)
+    code = supervise(settings, sock, workers=args.workers, say=say, make_server=make_server)
     sock.close()
     say("careful serve: stopped; every recording is closed" if code == 0 else "careful serve: stopped")
     return code

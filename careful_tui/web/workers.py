@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 EARLY_S = 5.0
 PARENT_CHECK_S = 1.0
@@ -52,10 +53,10 @@ def most_workers() -> int:
     return 4 * (os.cpu_count() or 1)
 
 
-def run_worker(settings: WorkerSettings, sock: socket.socket, number: int, parent: int) -> None:
-    """A worker process: the app on `SharedSeats`, served on the socket of its `parent` (process id) until a
-    signal, or until the parent is gone."""
-    from careful_tui.commands.serve import make_server, say
+def run_worker(settings: WorkerSettings, sock: socket.socket, number: int, parent: int,
+               make_server: Callable[[Any], Any], say: Callable[[str], None]) -> None:
+    """A worker process: the app on `SharedSeats`, served by `make_server`'s uvicorn server on the socket of
+    its `parent` (process id) until a signal, or until the parent is gone; `say` is the console's line."""
     from careful_tui.web.links import read_links
     from careful_tui.web.seat_files import SharedSeats
     from careful_tui.web.server import make_app
@@ -77,14 +78,18 @@ def run_worker(settings: WorkerSettings, sock: socket.socket, number: int, paren
     server.run(sockets=[sock])
 
 
-def supervise(settings: WorkerSettings, sock: socket.socket, *, workers: int, say: Callable[[str], None]) -> int:
-    """Run `workers` worker processes on `sock` until SIGINT or SIGTERM; 0, or 1 when a worker could not start."""
+def supervise(settings: WorkerSettings, sock: socket.socket, *, workers: int, say: Callable[[str], None],
+              make_server: Callable[[Any], Any]) -> int:
+    """Run `workers` worker processes on `sock` until SIGINT or SIGTERM; 0, or 1 when a worker could not start.
+
+    `make_server` (the app's uvicorn server) and `say` go to each worker by name: module-level functions.
+    """
     spawn = multiprocessing.get_context("spawn")
     stop = threading.Event()
     previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
 
     def start(number: int) -> tuple[multiprocessing.process.BaseProcess, float]:
-        process = spawn.Process(target=run_worker, args=(settings, sock, number, os.getpid()),
+        process = spawn.Process(target=run_worker, args=(settings, sock, number, os.getpid(), make_server, say),
                                 name=f"careful serve worker {number}")
         process.start()
         return process, time.monotonic()

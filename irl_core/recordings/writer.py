@@ -13,7 +13,7 @@ import json
 import os
 import re
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from datetime import datetime
 from pathlib import Path
 
@@ -239,13 +239,13 @@ class SessionRecorder:
         self.header = header
 
     def write_step(self, step: Step) -> None:
-        self._record(_encoded(step))
+        self._record(step, lambda writer: writer.write_step(step))
 
     def end_episode(self, end: EpisodeEnd) -> None:
-        self._record(_encoded(end), episode_end=True)
+        self._record(end, lambda writer: writer.end_episode(end))
 
     def write_trial(self, trial: CalibrationTrial) -> None:
-        self._record(_encoded(trial), now=True)
+        self._record(trial, lambda writer: writer.write_trial(trial))
 
     def close(self) -> None:
         if self._writer is None:
@@ -258,14 +258,15 @@ class SessionRecorder:
         self._writer = None
         self._lines = bytearray()
 
-    def _record(self, line: bytes, *, episode_end: bool = False, now: bool = False) -> None:
-        self._lines += line
+    def _record(self, line: BodyLine, write: Callable[[RecordingWriter], None]) -> None:
+        encoded = _encoded(line)  # first: a line that cannot be encoded is refused before anything is kept
+        self._lines += encoded
         try:
-            self._open().write_encoded(line, episode_end=episode_end, now=now)
+            write(self._open())
         except RecordingLost:
             self._recover()
         except BaseException:
-            del self._lines[len(self._lines) - len(line):]
+            del self._lines[len(self._lines) - len(encoded):]
             raise
 
     def _recover(self) -> None:
