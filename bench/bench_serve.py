@@ -75,6 +75,14 @@ def in_process_ms(study_path: Path, moves: int) -> list[float]:
     return times
 
 
+def bench_study(prefix: str) -> tuple[Path, Path, list[float]]:
+    """A new folder holding `STUDY`, the study file's path, and 200 moves' in-process times on it."""
+    folder = Path(tempfile.mkdtemp(prefix=prefix))
+    study_path = folder / "bench.toml"
+    study_path.write_text(STUDY)
+    return folder, study_path, in_process_ms(study_path, 200)
+
+
 class Participant(threading.Thread):
     def __init__(self, host: str, port: int, path: str, *, moves: int, pace: float, deadline: float, seed: int):
         super().__init__(daemon=True)
@@ -132,10 +140,7 @@ def main() -> None:
     parser.add_argument("--pace", type=float, default=0.2, help="seconds between a participant's moves")
     parser.add_argument("--limit", type=float, default=60.0, help="stop after this many seconds")
     args = parser.parse_args()
-    folder = Path(tempfile.mkdtemp(prefix="bench-serve-"))
-    study_path = folder / "bench.toml"
-    study_path.write_text(STUDY)
-    baseline = in_process_ms(study_path, 200)
+    folder, study_path, baseline = bench_study("bench-serve-")
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])}
     server = subprocess.Popen([sys.executable, "-m", "careful_tui.cli", "serve", str(study_path), "--port", "0",
                                "--links", str(args.participants)], stdout=subprocess.PIPE, text=True, env=env)

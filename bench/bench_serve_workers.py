@@ -24,12 +24,11 @@ import signal
 import statistics
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
 
-from bench.bench_serve import STUDY, TARGET_P99_MS, in_process_ms, percentile, rss_kib
+from bench.bench_serve import TARGET_P99_MS, bench_study, percentile, rss_kib
 from irl_core.recordings.demonstrations import read_recording
 
 
@@ -51,10 +50,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--reconnect", type=float, default=0.2, help="a client's chance of a new connection per move")
     args = parser.parse_args()
-    folder = Path(tempfile.mkdtemp(prefix="bench-serve-workers-"))
-    study_path = folder / "bench.toml"
-    study_path.write_text(STUDY)
-    baseline = in_process_ms(study_path, 200)
+    folder, study_path, baseline = bench_study("bench-serve-workers-")
     root = str(Path(__file__).parents[1])
     env = {**os.environ, "PYTHONPATH": root}
     server = subprocess.Popen([sys.executable, "-m", "careful_tui.cli", "serve", str(study_path), "--port", "0",
@@ -84,8 +80,9 @@ def main() -> None:
         start = time.monotonic()
         clients_cpu = 0.0
         for client in clients:
-            _, _, usage = os.wait4(client.pid, 0)
-            client.returncode = 0
+            # wait4 for each client's CPU; Popen is told it was reaped, so it never waits on the pid again.
+            _, status, usage = os.wait4(client.pid, 0)
+            client.returncode = os.waitstatus_to_exitcode(status)
             clients_cpu += usage.ru_utime + usage.ru_stime
         wall = time.monotonic() - start
         workers_cpu = sum(cpu_s(pid) for pid in workers) - cpu_before

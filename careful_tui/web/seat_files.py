@@ -184,12 +184,11 @@ class SharedSeats:
             yield None
             return
         participant, secret = parsed
-        try:
-            held = self._locked(participant)
-            held.__enter__()
-        except (StudyError, OSError) as exc:
-            raise SeatUnavailable(participant, exc) from None
-        try:
+        with contextlib.ExitStack() as held:
+            try:
+                held.enter_context(self._locked(participant))
+            except (StudyError, OSError) as exc:
+                raise SeatUnavailable(participant, exc) from None
             record, seen, writers = self._read(participant)
             if record is None or record.page is None or record.session is None \
                     or not hmac.compare_digest(record.page, secret):
@@ -210,8 +209,6 @@ class SharedSeats:
                     raise SeatUnavailable(participant, exc) from None
                 finally:
                     _let_go(writers)
-        finally:
-            held.__exit__(None, None, None)
 
     def leave(self, page: object, why: str) -> None:
         """The page closed: its seat, if it holds one, is released."""

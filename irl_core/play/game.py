@@ -95,12 +95,10 @@ class Game:
 
     def __init__(self, world: World, *, seed: int, sink: RecordingSink, first_episode: int = 0) -> None:
         self.world = world
-        self.mdp = build_mdp(world)
+        self.mdp, self._reward, self._starts = _built_arrays(world)
         self.seed = seed
         self.sink = sink
         self._rng = np.random.default_rng(seed)
-        self._reward = self.mdp.reward_matrix()
-        self._starts = [self.mdp.state_of[cell] for cell in world.start_cells]
         self.first_episode = first_episode
         self.episode = first_episode - 1
         self.t = 0
@@ -229,13 +227,18 @@ _BUILT: dict[int, tuple[World, MDP, np.ndarray, list[int]]] = {}
 _BUILT_KEPT = 16
 
 
+def _built_arrays(world: World) -> tuple[MDP, np.ndarray, list[int]]:
+    """A game's MDP, reward matrix and start states for `world`."""
+    mdp = build_mdp(world)
+    return mdp, mdp.reward_matrix(), [mdp.state_of[cell] for cell in world.start_cells]
+
+
 def _world_arrays(world: World) -> tuple[MDP, np.ndarray, list[int]]:
-    """A game's MDP, reward matrix and start states for `world`, built once per world object (an unpickled
-    game's world is its study's, the same object each time: `careful_tui.web.seat_files`)."""
+    """`_built_arrays`, once per world object (an unpickled game's world is its study's, the same object each
+    time: `careful_tui.web.seat_files`)."""
     built = _BUILT.get(id(world))
     if built is None or built[0] is not world:
-        mdp = build_mdp(world)
-        built = (world, mdp, mdp.reward_matrix(), [mdp.state_of[cell] for cell in world.start_cells])
+        built = (world, *_built_arrays(world))
         if len(_BUILT) >= _BUILT_KEPT:
             del _BUILT[next(iter(_BUILT))]
         _BUILT[id(world)] = built

@@ -456,16 +456,13 @@ def episode_rows(episode_of_step: list) -> np.ndarray:
     return np.array([index.setdefault(key, len(index)) for key in episode_of_step], dtype=np.int64)
 
 
-def episode_matrix(episode_of_step: list | np.ndarray, pair_of_step: np.ndarray, n_pairs: int) -> sp.csr_matrix:
-    """(E, n_pairs) per-episode counts: row e counts the pairs (s * A + a) of the e-th distinct episode key.
+def episode_matrix(row_of_step: np.ndarray, pair_of_step: np.ndarray, n_pairs: int) -> sp.csr_matrix:
+    """(E, n_pairs) per-episode counts: row e counts the pairs (s * A + a) of the steps of episode row e.
 
     Args:
-        episode_of_step: (steps,) a hashable episode key per step (e.g. (file, episode)), or an int array that
-            already numbers the rows (`episode_rows`).
+        row_of_step: (steps,) each step's episode row, 0, 1, ... (`episode_rows`).
         pair_of_step: (steps,) the state-action index s * A + a of each step.
     """
-    row_of_step = (episode_of_step if isinstance(episode_of_step, np.ndarray)
-                   else episode_rows(episode_of_step))
     n_rows = int(row_of_step.max()) + 1 if row_of_step.size else 0
     matrix = sp.csr_matrix((np.ones(row_of_step.size), (row_of_step, np.asarray(pair_of_step, dtype=np.int64))),
                            shape=(n_rows, n_pairs))

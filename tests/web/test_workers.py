@@ -137,6 +137,15 @@ def claim(seats: SharedSeats, participant: str = "p001"):
     return seats.claim(participant, lambda: WebSession(seats.study, participant, seed=0))
 
 
+def begin_and_move(seats: SharedSeats, page: str) -> None:
+    """One request that begins the first episode and plays one move right (an 80 ms hold)."""
+    with seats.playing(page) as playing:
+        playing.take_lock()
+        playing.session.space()
+        playing.session.press("right", 0.0)
+        playing.session.release("right", 80.0)
+
+
 def test_a_seat_this_server_did_not_sign_is_never_unpickled(web_study, tmp_path) -> None:
     class Planted:
         def __reduce__(self):
@@ -171,11 +180,7 @@ def test_another_workers_sweep_releases_a_silent_page_and_records_its_episode_as
     now = [time.time()]
     first, second = shared(web_study, wall=lambda: now[0]), shared(web_study, wall=lambda: now[0])
     seat = claim(first)
-    with first.playing(seat.page) as playing:
-        playing.take_lock()
-        playing.session.space()
-        playing.session.press("right", 0.0)
-        playing.session.release("right", 80.0)
+    begin_and_move(first, seat.page)
     second.release_silent()
     assert first.heard(seat.page)  # heard from just now: kept
     now[0] += second.silent_s + 1
@@ -191,11 +196,7 @@ def test_a_seat_older_than_its_recording_is_dropped_rather_than_number_a_step_tw
     first = shared(web_study)
     second = SharedSeats(web_study, key=b"k" * 32, say=said.append)
     seat = claim(first)
-    with first.playing(seat.page) as playing:
-        playing.take_lock()
-        playing.session.space()
-        playing.session.press("right", 0.0)
-        playing.session.release("right", 80.0)
+    begin_and_move(first, seat.page)
     (recording,) = web_study.participant_folder("p001").glob("*.jsonl")
     step = recording.read_text().splitlines()[-1]
     with recording.open("a") as file:  # the next step, written by a worker that died before its seat
