@@ -16,14 +16,16 @@ Results do not depend on the executor: the work is the same calls with the same 
 same seeds give the same numbers to the last digit (tests/study/test_executor.py holds it).
 
 A Dask worker that dies takes its running tasks with it; the scheduler reruns them on the workers
-left (up to `distributed.scheduler.allowed-failures` times). A call that cannot be rerun is handed to
-`on_lost` with the reason, so that the caller can say which answers are missing; without `on_lost`
-it raises `LostCall`. Dask is the optional extra ``careful[cluster]``: it is imported only here, and
-only when a scheduler is named.
+left (up to `distributed.scheduler.allowed-failures` times). When every worker holding the shared data
+dies at once, the calls that need it are sent again with the data (up to `MAX_RESENDS` times). A call
+that cannot be rerun is handed to `on_lost` with the reason, so that the caller can say which answers
+are missing; without `on_lost` it raises `LostCall`. Dask is the optional extra ``careful[cluster]``:
+it is imported only here, and only when a scheduler is named.
 """
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import os
 import re
@@ -39,6 +41,8 @@ T = TypeVar("T")
 CONNECT_TIMEOUT_S = 5.0
 LOCAL = re.compile(r"local:(\d+)")
 MAX_LOCAL_WORKERS = 256
+# A call cancelled because every copy of the shared data died with its workers is sent again this many times.
+MAX_RESENDS = 3
 
 
 class SchedulerError(ValueError):
@@ -114,20 +118,38 @@ class DaskExecutor:
         """See `Executor.run`. Leaving early (`Stopped`, Ctrl+C, an error) cancels the calls not yet done."""
         import distributed
 
-        scattered = [self.client.scatter(item, broadcast=True, hash=False) for item in shared]
-        futures = [self.client.submit(function, *scattered, *call, pure=False) for call in calls]
-        index = {future.key: i for i, future in enumerate(futures)}
-        pending = set(futures)
+        scattered: list[Any] = []
+        futures: dict[Any, int] = {}  # pending future -> its call's index
+        resent = [0] * len(calls)
+
+        def send(indices: Sequence[int]) -> None:
+            # Scattered data lives only on workers: when every worker holding it dies, the scheduler cannot
+            # recompute it and cancels the calls that need it. Those calls are sent again with the data.
+            shared_now = [self.client.scatter(item, broadcast=True, hash=False) for item in shared]
+            scattered.extend(shared_now)
+            for i in indices:
+                futures[self.client.submit(function, *shared_now, *calls[i], pure=False)] = i
+
         try:
-            while pending:
-                with contextlib.suppress(TimeoutError):
-                    distributed.wait(list(pending), timeout=STOP_POLL_S, return_when="FIRST_COMPLETED")
+            send(range(len(calls)))
+            while futures:
+                with contextlib.suppress(TimeoutError, concurrent.futures.CancelledError):
+                    distributed.wait(list(futures), timeout=STOP_POLL_S, return_when="FIRST_COMPLETED")
                 stop_if_asked()
-                for future in [f for f in pending if f.done()]:
-                    pending.discard(future)
-                    _hand_back(future, index[future.key], on_result, on_lost)
+                again = []
+                for future in [f for f in futures if f.done()]:
+                    i = futures.pop(future)
+                    if not future.cancelled():
+                        _hand_back(future, i, on_result, on_lost)
+                    elif resent[i] < MAX_RESENDS:
+                        resent[i] += 1
+                        again.append(i)
+                    else:
+                        _lost(i, f"its workers died with the run's shared data {MAX_RESENDS + 1} times", on_lost)
+                if again:
+                    send(again)
         except BaseException:
-            self.client.cancel(list(pending))
+            self.client.cancel(list(futures))
             raise
         finally:
             for item in scattered:
@@ -151,7 +173,10 @@ def _hand_back(future: Any, i: int, on_result: Callable[[int, Any], None],
     error = future.exception()
     if not isinstance(error, KilledWorker):
         raise error
-    reason = f"its worker died and the cluster gave up rerunning it ({error})"
+    _lost(i, f"its worker died and the cluster gave up rerunning it ({error})", on_lost)
+
+
+def _lost(i: int, reason: str, on_lost: Callable[[int, str], None] | None) -> None:
     if on_lost is None:
         raise LostCall(reason)
     on_lost(i, reason)

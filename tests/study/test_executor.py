@@ -111,6 +111,21 @@ def _die_first_time(marker: str, value: int) -> int:
     return value * 10
 
 
+def _die_together_first_time(folder: str, value: int) -> int:
+    """Both calls start, wait for each other, and their workers die together (with every copy of the run's
+    shared data); a rerun returns value."""
+    marker = os.path.join(folder, f"died-{value}")
+    if os.path.exists(marker):
+        return value * 10
+    open(os.path.join(folder, f"started-{value}"), "w").close()
+    deadline = time.monotonic() + 20
+    while len([name for name in os.listdir(folder) if name.startswith("started-")]) < 2:
+        assert time.monotonic() < deadline, "the other call did not start"
+        time.sleep(0.01)
+    open(marker, "w").close()
+    os._exit(1)
+
+
 def _always_die(value: int) -> int:
     if value == 2:
         os._exit(1)
@@ -121,6 +136,15 @@ def test_a_call_whose_worker_dies_reruns_elsewhere(cluster, tmp_path):
     got = {}
     cluster.run(_die_first_time, [(1,), (2,)], shared=(str(tmp_path / "died"),), on_result=got.__setitem__)
     assert got == {0: 10, 1: 20}
+
+
+def test_calls_whose_workers_all_die_at_once_with_the_shared_data_are_sent_again(cluster, tmp_path):
+    # Scattered data cannot be recomputed: the scheduler cancels the calls that needed it (CI saw this
+    # as "already forgotten" when both of the test above's calls died at once). They are sent again.
+    got = {}
+    cluster.run(_die_together_first_time, [(1,), (2,)], shared=(str(tmp_path),), on_result=got.__setitem__)
+    assert got == {0: 10, 1: 20}
+    assert sorted(os.listdir(tmp_path)) == ["died-1", "died-2", "started-1", "started-2"]
 
 
 def test_a_call_that_kills_every_worker_it_meets_is_named_missing_not_dropped():
