@@ -27,6 +27,7 @@ from irl_core.irl import at_bound
 from irl_core.irl.options import FitOptions
 from irl_core.studies.report import (
     POOLED,
+    Cell,
     CellFit,
     StudyData,
     check_pool_model,
@@ -183,7 +184,10 @@ def interval_caption(fits: list[CellFit]) -> str:
 
 def table_caption(data: StudyData, fits: list[CellFit]) -> str:
     """What the table's brackets, columns and marks mean, as far as this report has them."""
-    parts = [interval_caption(fits), "Careful: mean carefulness one step from a terminal cell",
+    careful = "Careful: mean carefulness level one step from a terminal cell"
+    if any(cell.hold_ms_next_to_terminal is not None for cell in data.cells):
+        careful += " (on a time world, the median hold)"
+    parts = [interval_caption(fits), careful,
              "Episodes quit or unfinished are counted, not fitted"]
     boxed = [f for f in fits if f.intervals is not None and at_bound(f.intervals, f.rmax).any()]
     if boxed:
@@ -191,6 +195,13 @@ def table_caption(data: StudyData, fits: list[CellFit]) -> str:
     if data.left_out:
         parts.append("*: a file of this participant was left out (named above the table)")
     return ". ".join(parts) + "."
+
+
+def careful_text(cell: Cell) -> str:
+    """The table's careful column: the mean level, or on a time world the median hold, one step from danger."""
+    if cell.hold_ms_next_to_terminal is not None:
+        return f"{cell.hold_ms_next_to_terminal:.0f} ms"
+    return "" if cell.careful_next_to_terminal is None else f"{cell.careful_next_to_terminal:.1f}"
 
 
 def report_table(data: StudyData, fits: list[CellFit]) -> Table:
@@ -227,7 +238,7 @@ def report_table(data: StudyData, fits: list[CellFit]) -> Table:
         table.add_row(
             Text(who, style="bold" if pooled else ""), Text(printable(world.name, limit=40)),
             str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted_outcomes)),
-            "" if cell.careful_next_to_terminal is None else f"{cell.careful_next_to_terminal:.1f}",
+            careful_text(cell),
             Text(fit_text(result), style="red" if result.error else ""),
             *(Text(reward_text(result, symbol)) for symbol in symbols),
             style="bold" if pooled else ("dim" if result.excluded_why else None),

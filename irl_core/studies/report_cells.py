@@ -46,8 +46,10 @@ class Cell:
             ``step_limit``).
         interrupted_outcomes: main episodes with steps that did not finish (not fitted), per
             outcome code (``quit``, or ``unfinished``: no end recorded).
-        careful_next_to_terminal: mean carefulness of the steps taken next to a terminal cell
-            (one grid step away; on a time world the mean duration bin + 1), or None when there were none.
+        careful_next_to_terminal: mean carefulness level of the steps taken next to a terminal cell
+            (one grid step away), or None when there were none or the world is a time world (no levels).
+        hold_ms_next_to_terminal: on a time world, the median hold in ms of those steps (the hold is the
+            care there); else None.
         participants: how many participants the cell holds (1, or how many have episodes in the pool).
         members: in a pool, the participants whose episodes it holds, in the order of
             ``demos.episode_groups`` (group g is members[g]).
@@ -67,6 +69,7 @@ class Cell:
     outcomes: dict[str, int]
     interrupted_outcomes: dict[str, int]
     careful_next_to_terminal: float | None
+    hold_ms_next_to_terminal: float | None = None
     participants: int = 1
     members: tuple[str, ...] = ()
     without: str | None = None
@@ -214,7 +217,9 @@ def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: li
     outcomes = Counter(outcome_code(end) for recording in finished for end in recording.episode_ends)
     world = study.worlds[world_index]
     near = {cell for cell, d in distance_to_terminal(world).items() if d == 1}
-    levels = [step.level for r in finished for step in r.steps if step.state in near]
+    near_steps = [step for r in finished for step in r.steps if step.state in near]
+    levels = [step.level for step in near_steps] if world.care == "levels" else []
+    holds = [step.hold_ms for step in near_steps if step.hold_ms is not None] if world.care == "time" else []
     steps = sum(len(r.steps) for r in finished)
     demos = Demonstrations.from_recordings(finished) if steps else None
     if demos is not None and trials is not None and trials.size and int(trials.max()) <= world.levels:
@@ -222,7 +227,8 @@ def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: li
         demos = dataclasses.replace(demos, calibration=trials)
     return Cell(participant=participant, world_index=world_index, demos=demos,
                 episodes=sum(len(r.episode_ends) for r in finished), steps=steps, outcomes=dict(outcomes),
-                interrupted_outcomes=dict(interrupted), careful_next_to_terminal=float(np.mean(levels)) if levels else None)
+                interrupted_outcomes=dict(interrupted), careful_next_to_terminal=float(np.mean(levels)) if levels else None,
+                hold_ms_next_to_terminal=float(np.median(holds)) if holds else None)
 
 
 def without_participants(pool: Cell, participants: set[str]) -> Cell:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -318,8 +319,14 @@ def population_row(choice: CellFit, members: list[tuple[int, Cell]], fits: list[
     if choice.error:
         return base
     if len(used) < MIN_POPULATION:
-        return dataclasses.replace(base, intervals=None, error=(
-            f"a population needs {MIN_POPULATION} or more included participants with a fit; {len(used)} here"))
+        counted = {j for j, _ in used}
+        left = Counter("excluded" if fits[j].excluded_why else "not fitted" if fits[j].error else "fitted without intervals"
+                       for j, _ in members if j not in counted)
+        why = "".join(f", {n} {reason}" for reason, n in sorted(left.items()))
+        # No centre without the participants' intervals: the row shows none rather than another pool's numbers.
+        return CellFit(error=f"a population needs {MIN_POPULATION} or more included participants fitted with "
+                             f"intervals; {len(used)} here{why}", player_model=choice.player_model,
+                       pool_model="population", notes=base.notes)
     intervals = np.array([[_interval_of(fits[j], s, choice.rmax) for s in symbols] for j, _ in used])
     shift = None
     if choice.rival_model:

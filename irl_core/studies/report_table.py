@@ -25,7 +25,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
     """The report's CSV: its columns and one row per cell (world by world: participants, then the pool).
 
     Columns: study, participant, world_index, world, episodes, steps, interrupted,
-    ``ended_<T>`` per terminal symbol, step_limit, careful_next_to_terminal, method, beta,
+    ``ended_<T>`` per terminal symbol, step_limit, careful_next_to_terminal, hold_ms_next_to_terminal, method, beta,
     interval_kind, confidence, pool_model (a pool's row: ``population`` or ``shared``), ``reward_<S>``,
     ``reward_<S>_low``, ``reward_<S>_high``, ``reward_<S>_spread``, ``reward_<S>_pred_low``,
     ``reward_<S>_pred_high`` per fitted symbol (the last three on a population's row: the spread between
@@ -38,7 +38,8 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
     terminals = sorted({t for w in study.worlds for t in w.terminal})
     symbols = report_symbols(study, fits)
     columns = ["study", "participant", "world_index", "world", "episodes", "steps", "interrupted",
-               *(f"ended_{t}" for t in terminals), "step_limit", "careful_next_to_terminal", "method", "beta",
+               *(f"ended_{t}" for t in terminals), "step_limit", "careful_next_to_terminal",
+               "hold_ms_next_to_terminal", "method", "beta",
                "interval_kind", "confidence",
                "pool_model", *(f"reward_{s}{end}" for s in symbols for end in REWARD_COLUMNS), "files_left_out",
                "note", "fit_check", "outlier", "influential", "excluded", "excluded_why", "finding"]
@@ -56,7 +57,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
         rows.append([
             text_cell(study.study.name), cell.participant, str(cell.world_index), text_cell(world.name), str(cell.episodes),
             str(cell.steps), str(cell.interrupted), *terminal_counts, str(cell.outcomes.get("step_limit", 0)),
-            _number(cell.careful_next_to_terminal), result.method, _number(result.beta),
+            _number(cell.careful_next_to_terminal), _number(cell.hold_ms_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",
             result.pool_model or "", *rewards,
             str(data.left_out.get(cell.participant, 0)) if cell.participant != POOLED else "",

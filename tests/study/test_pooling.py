@@ -3,6 +3,7 @@ episodes; a participant without whom a pooled reward would leave its interval is
 (CSV column, a mark in the table, the pooled row's sentence)."""
 
 import csv
+import dataclasses
 import io
 from dataclasses import dataclass
 
@@ -229,3 +230,22 @@ def test_a_world_without_a_nuisance_gets_the_signs(study):
     assert pooled([-1170.0, -769.0], [68.2, 120.0]).startswith(
         "paper: the pooled cliff interval [-1170, -769] lies below 0 and the goal's [68.2, 120] lies above it; ")
     assert "lies below 0, but the goal's [-20, 120] does not lie above it" in pooled([-1170.0, -769.0], [-20.0, 120.0])
+
+
+def test_a_population_too_small_to_centre_shows_no_numbers_and_says_who_was_missing():
+    """With one participant fitted with intervals (the others without, or excluded), the pooled row is not the
+    choice fit's point dressed as a population: it has no rewards, and its reason counts each kind left out."""
+    from irl_core.studies.report_fits import population_row
+
+    choice = CellFit(symbols=("C", "G"), estimate=np.array([-900.0, 100.0]), method="maxent", rmax=1000.0,
+                     confidence=0.95)
+    with_interval = CellFit(symbols=("C", "G"), estimate=np.array([-800.0, 90.0]),
+                            intervals=np.array([[-1000.0, -500.0], [50.0, 150.0]]), rmax=1000.0)
+    fits = [with_interval, dataclasses.replace(with_interval, intervals=None),
+            dataclasses.replace(with_interval, intervals=None), dataclasses.replace(with_interval, excluded_why="x")]
+    members = [(j, type("Cell", (), {"participant": f"p{j}"})()) for j in range(4)]
+    row = population_row(choice, members, fits, layout="C.G")
+    assert row.error == ("a population needs 2 or more included participants fitted with intervals; 1 here, "
+                         "1 excluded, 2 fitted without intervals")
+    assert row.symbols == () and row.estimate.size == 0 and row.intervals is None and row.reward_grid is None
+    assert row.pool_model == "population" and [f.outlier for f in fits] == [None] * 4

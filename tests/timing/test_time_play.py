@@ -6,6 +6,8 @@ from __future__ import annotations
 import asyncio
 from pathlib import Path
 
+import numpy as np
+import pytest
 from play_fixtures import FakeClock
 from textual.widgets import Static
 from tmux_terminal import terminal
@@ -111,7 +113,7 @@ def test_a_study_with_a_time_world_refuses_taps_and_a_terminal_without_key_ups(t
     assert "'mud-time' is a time world" in shown and "does not report key-ups" in shown
 
 
-def test_a_time_world_studys_report_cells_read_the_holds_bins(tmp_path: Path):
+def test_a_time_world_studys_report_cells_give_the_median_hold_next_to_danger_not_a_level(tmp_path: Path):
     from irl_core.players.experts import rollouts, session_header, write_rollouts
     from irl_core.players.person_like import person_like
     from irl_core.recordings.lines import StudyTag
@@ -133,5 +135,7 @@ def test_a_time_world_studys_report_cells_read_the_holds_bins(tmp_path: Path):
     (cell,) = [c for c in gather(study).cells if c.participant == "p1"]
     steps = read_recording(folder / "p1-0-w0-main.jsonl").steps
     near = {(2, 1), (2, 2), (2, 3), (2, 4), (3, 0), (2, 5)}
-    bins = [s.bin + 1 for s in steps if s.state in near]
-    assert cell.careful_next_to_terminal == sum(bins) / len(bins)
+    holds = sorted(s.hold_ms for s in steps if s.state in near)
+    # The hold is the care there: its median, not a level (a time world has none).
+    assert cell.careful_next_to_terminal is None and holds
+    assert cell.hold_ms_next_to_terminal == pytest.approx(float(np.median(holds)))
