@@ -302,6 +302,9 @@ def fit_notes(data: StudyData, fits: list[CellFit]) -> list[str]:
         for note in result.notes:
             if note.code not in TABLE_NOTES:
                 where.setdefault(str(note), []).append(f"{cell.participant} · {world}")
+        if result.error and cell.participant != POOLED and fit_text(result) != result.error:
+            # The table shows the reason's first clause; a pool's whole reason is its finding.
+            where.setdefault(f"not fitted: {result.error}", []).append(f"{cell.participant} · {world}")
     return [f"{printable(note, limit=300)}: {_first_rows(rows)}" for note, rows in where.items()]
 
 
@@ -323,8 +326,8 @@ def outcomes_text(outcomes: dict[str, int], interrupted: dict[str, int]) -> str:
 
 def fit_text(result: CellFit) -> str:
     """The method and its beta ("maxent β 0.43"), or why there is no fit."""
-    if result.error:
-        return printable(result.error, limit=60)
+    if result.error:  # its first clause; the whole reason is under the table (`fit_notes`, `findings`)
+        return printable(result.error.split(";")[0], limit=100)
     if result.beta is not None:
         return f"{result.method} β {result.beta:.2g}{'' if result.beta_auto else ' (fixed)'}"
     return result.method

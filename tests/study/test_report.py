@@ -265,6 +265,22 @@ def test_the_fits_caveats_are_printed_and_kept_in_the_csv(study):
     assert notes[2] == "no finished main episodes"
 
 
+def test_a_long_reason_for_no_fit_is_its_first_clause_in_the_table_and_whole_under_it(study):
+    from careful_tui.commands.study_report import fit_notes
+
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=2)
+    data = gather(study)
+    why = ("the demonstrations are not optimal for any reward within ±rmax; they may be noisy: try method=loss, "
+           "or raise rmax")
+    fits = [CellFit(error=why) if cell.participant == "p1" and cell.world_index == 0 else CellFit(error="none")
+            for cell in data.cells]
+    console = Console(width=250, file=io.StringIO(), record=True)
+    console.print(report_table(data, fits))
+    row = next(line for line in console.export_text().splitlines() if line.strip().startswith("p1"))
+    assert "not optimal for any reward within ±rmax" in row and "noisy" not in row
+    assert fit_notes(data, fits) == [f"not fitted: {why}: p1 · paper"]
+
+
 def test_the_printed_caveats_are_chosen_by_code_not_by_wording(study):
     """A reworded note on beta is still left out of the printed caveats, and a caveat that happens
     to begin like one is still printed: the report reads the notes' codes."""
