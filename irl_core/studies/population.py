@@ -300,6 +300,14 @@ def pool_participants(intervals: np.ndarray, *, rmax: float, confidence: float =
                       outlier_on=tuple(outlier_on), influential_on=tuple(influential_on))
 
 
+def outlier_reach(n: int, *, rewards: int, confidence: float = 0.95) -> float:
+    """How many times wider than with many participants the outlier test's interval is among `n` participants
+    (`_outside`: the n - 1 others' t(n - 3) quantile at the Bonferroni level over `rewards`, against the normal's);
+    inf when n < 4, where no answer can lie outside."""
+    q = 0.5 + (1 - (1 - confidence) / max(rewards, 1)) / 2
+    return float(student.ppf(q, n - 3)) / float(norm.ppf(q)) if n > 3 else float("inf")
+
+
 def _outside(mine: Answers, others: PopulationReward, *, confidence: float) -> bool:
     """Whether one participant's answer lies outside where the others say an answer like it would lie: their
     centre +- t(n-2) sqrt(tau^2 + se^2 + s_i^2), the participant's own measurement noise included (the

@@ -5,12 +5,16 @@ from __future__ import annotations
 import numpy as np
 
 from irl_core.experiment.claims import SYMBOL_WORDS, interval_text, number_text, order_words
+from irl_core.studies.population import outlier_reach
 from irl_core.studies.report_cells import POOLED, Cell, StudyData
 from irl_core.studies.report_fits import CellFit
 from irl_core.studies.study import LoadedStudy
 from irl_core.support.csv_cells import text_cell
 
 # Per fitted symbol S: reward_S, then these suffixes (a population's spread and prediction interval last).
+# Past this, the finding says how weak the outlier test is with so few participants (`outlier_reach`): over three
+# rewards, 7 participants are past it (1.65) and 8 are not (1.48).
+WEAK_OUTLIER_TEST = 1.5
 REWARD_COLUMNS = ("", "_low", "_high", "_spread", "_pred_low", "_pred_high")
 
 
@@ -151,8 +155,20 @@ def _population_marks(data: StudyData, cell: Cell, result: CellFit) -> str:
         if names:
             said.append(f"{' and '.join(names)} {'is' if len(names) == 1 else 'are'} {what} "
                         f"({'outlier' if what.startswith('outside') else 'influential'})")
-    if not said:
+    n = result.pooled or 0
+    reach = outlier_reach(n, rewards=len(result.symbols), confidence=result.confidence or 0.95)
+    if n < 3:
+        return f"with {n} participants nobody is tested as an outlier or for influence"
+    if not result.outliers and np.isinf(reach):
+        if not result.influencers:
+            said.append("nobody moves the centre alone")
+        said.append(f"with {n} participants nobody can be found an outlier (too few others to say where a fit "
+                    "would lie)")
+    elif not said:
         said.append("no participant is an outlier or moves the centre alone")
+        if reach > WEAK_OUTLIER_TEST:
+            said.append(f"with {n} participants the outlier test finds only fits far outside the others (its "
+                        f"interval is {reach:.1f} times as wide as with many participants)")
     return "; ".join(said)
 
 

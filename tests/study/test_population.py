@@ -96,3 +96,36 @@ def test_participants_who_all_bound_a_reward_on_one_side_bound_the_population_by
     assert np.isnan(reward.centre) and list(reward.interval) == [-5000.0, pytest.approx(-119.0)]
     mixed = pool_reward(np.array([[-5000.0, -325.0], [40.0, 5000.0]]), rmax=5000)
     assert list(mixed.interval) == [-5000.0, 5000.0]
+
+
+@pytest.mark.parametrize("n", [4, 5, 8, 12])
+def test_the_outlier_tests_reach_is_the_width_at_which_an_answer_is_called_outside(n):
+    """`outlier_reach` (what the finding quotes) is `_outside`'s own threshold over the normal's: an answer just
+    inside reach x z standard deviations of the others' centre is in, just beyond it out."""
+    from irl_core.studies.population import Answers, PopulationReward, _outside, outlier_reach
+
+    confidence = 1 - 0.05 / 3
+    edge = outlier_reach(n, rewards=3) * norm.ppf(0.5 + confidence / 2)
+    others = PopulationReward(centre=1.0, interval=np.zeros(2), spread=0.0, prediction=np.zeros(2), tau=0.0,
+                              scale="linear", used=n - 1, censored=0, mu=0.0, se=0.0)
+    for y, outside in ((0.999 * edge, False), (1.001 * edge, True)):
+        mine = Answers(y=np.array([y]), s=np.array([1.0]), kind=np.array([0]), scale="linear")
+        assert _outside(mine, others, confidence=confidence) is outside
+
+
+@pytest.mark.parametrize(("n", "said"), [
+    (2, "with 2 participants nobody is tested as an outlier or for influence"),
+    (3, "nobody moves the centre alone; with 3 participants nobody can be found an outlier (too few others to say "
+        "where a fit would lie)"),
+    (5, "no participant is an outlier or moves the centre alone; with 5 participants the outlier test finds only "
+        "fits far outside the others (its interval is 3.2 times as wide as with many participants)"),
+    (12, "no participant is an outlier or moves the centre alone"),
+])
+def test_a_populations_finding_says_how_far_its_outlier_test_could_see(n, said):
+    # "No outlier" from five participants is not "no outlier" from fifty: the finding says which it is.
+    from irl_core.studies.report import CellFit
+    from irl_core.studies.report_table import _population_marks
+
+    result = CellFit(symbols=("C", "U", "G"), estimate=np.zeros(3), pooled=n, pool_model="population",
+                     confidence=0.95)
+    assert _population_marks(None, None, result) == said
