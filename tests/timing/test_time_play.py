@@ -139,3 +139,45 @@ def test_a_time_world_studys_report_cells_give_the_median_hold_next_to_danger_no
     # The hold is the care there: its median, not a level (a time world has none).
     assert cell.careful_next_to_terminal is None and holds
     assert cell.hold_ms_next_to_terminal == pytest.approx(float(np.median(holds)))
+
+
+def test_a_time_world_studys_care_figure_shows_each_participants_geometric_mean_hold_by_distance(tmp_path: Path):
+    """Not the duration bins as "carefulness levels": the hold in ms, geometric mean per distance, checked against
+    the recordings' own holds."""
+    from careful_tui.render.figures.study_figures import report_figures
+    from irl_core.players.experts import rollouts, session_header, write_rollouts
+    from irl_core.players.person_like import person_like
+    from irl_core.recordings.lines import StudyTag
+    from irl_core.recordings.summary import distance_to_terminal
+    from irl_core.studies.report import CellFit
+    from irl_core.studies.report_cells import gather
+    from irl_core.studies.study import load_study
+    from irl_core.worlds.mdp import build_mdp
+
+    (tmp_path / "study.toml").write_text('name = "t"\nworlds = ["mud-time"]\npractice_episodes = 0\nepisodes = 4\n'
+                                         'out = "data"\n')
+    study = load_study(tmp_path / "study.toml")
+    mdp = build_mdp(study.worlds[0])
+    player = person_like(mdp, "timing")
+    for i, who in enumerate(("p1", "p2")):
+        folder = study.participant_folder(who)
+        folder.mkdir(parents=True)
+        header = session_header(mdp, player=player.player, seed=i).model_copy(
+            update={"player": who, "study": StudyTag(name="t", participant=who, phase="main", world_index=0)})
+        write_rollouts(folder / f"{who}-0-w0-main.jsonl", mdp, rollouts(mdp, player.choose, episodes=4, seed=i),
+                       player=player.player, seed=i, header=header)
+    data = gather(study)
+    figures = dict(report_figures(data, [CellFit(error="none")] * len(data.cells)))
+    figure = figures["carefulness-w0-mud-time"]
+    assert "hold by distance to danger" in figure.get_suptitle() and "geometric mean hold" in figure.get_suptitle()
+    assert figure._supylabel.get_text() == "hold (ms), geometric mean"
+    p1 = next(ax for ax in figure.axes if ax.get_visible() and ax.get_title() == "p1")
+    assert p1.get_yscale() == "log"
+    distance = distance_to_terminal(study.worlds[0])
+    steps = read_recording(study.participant_folder("p1") / "p1-0-w0-main.jsonl").steps
+    by_distance: dict[int, list[float]] = {}
+    for step in steps:
+        by_distance.setdefault(distance[step.state], []).append(max(step.hold_ms, 1.0))
+    x, y = p1.containers[0].lines[0].get_data()  # the error bars' own line (the faint pooled one is also drawn)
+    expected = [float(np.exp(np.mean(np.log(by_distance[d])))) for d in sorted(by_distance)]
+    assert list(x) == sorted(by_distance) and np.allclose(y, expected)

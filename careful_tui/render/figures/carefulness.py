@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from careful_tui.render.figures.style import OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
 from irl_core.recordings.summary import distance_to_terminal
@@ -68,6 +68,58 @@ def carefulness_by_distance(counts: np.ndarray, distance: np.ndarray, *, levels:
     distance_, mean_, half_, steps_ = (np.array(column) for column in zip(*rows)) if rows else ([],) * 4
     return CarefulnessByDistance(np.asarray(distance_, dtype=int), np.asarray(mean_, dtype=float),
                                  np.asarray(half_, dtype=float), np.asarray(steps_, dtype=int))
+
+
+@dataclass(frozen=True)
+class HoldsByDistance:
+    """A time world's care per distance to the nearest terminal cell: the holds' geometric mean.
+
+    Attributes:
+        distance: (n,) int, the distances with at least one recorded hold, ascending.
+        geometric_mean: (n,) the geometric mean hold (ms) of the steps taken there.
+        low, high: (n,) its 95% interval (±1.96 standard errors of the mean log hold; NaN with one hold).
+        steps: (n,) how many holds.
+    """
+
+    distance: np.ndarray
+    geometric_mean: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    steps: np.ndarray
+
+
+def holds_by_distance(hold_steps: np.ndarray, distance: np.ndarray) -> HoldsByDistance:
+    """The geometric mean hold and its 95% interval per distance, as `carefulness_by_distance` for levels.
+
+    Args:
+        hold_steps: (m, 5) `Demonstrations.hold_steps` (state, direction, hold_ms, slipped, episode row).
+        distance: (S,) int distance of each state to danger; states at -1 are left out.
+    """
+    at = distance[hold_steps[:, 0].astype(int)] if hold_steps.size else np.zeros(0, dtype=int)
+    logs_all = np.log(np.maximum(hold_steps[:, 2], 1.0))  # a 0 ms hold (a repeat's) counts as 1 ms
+    distances = np.unique(at[at >= 0])
+    means, halves, steps = np.zeros(distances.size), np.zeros(distances.size), np.zeros(distances.size, dtype=int)
+    for i, d in enumerate(distances):
+        logs = logs_all[at == d]
+        means[i], steps[i] = logs.mean(), logs.size
+        halves[i] = Z_95 * logs.std(ddof=1) / np.sqrt(logs.size) if logs.size > 1 else np.nan
+    return HoldsByDistance(distances.astype(int), np.exp(means), np.exp(means - halves), np.exp(means + halves),
+                           steps)
+
+
+def draw_holds_by_distance(ax: Axes, data: HoldsByDistance, *, colour: str, title: str | None = None) -> None:
+    """Geometric mean hold (y, ms, log scale) against distance to danger (x) on `ax`, with its 95% interval."""
+    mean = data.geometric_mean
+    error = np.nan_to_num([mean - data.low, data.high - mean])
+    ax.errorbar(data.distance, mean, yerr=error, fmt="o-", color=colour, markersize=3, capsize=2,
+                elinewidth=0.8, linewidth=1.0)
+    ax.set_yscale("log")
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 100, not 10^2: read as ms
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+    if title:
+        ax.set_title(title, pad=3)
 
 
 def draw_carefulness(ax: Axes, series: Sequence[tuple[str, CarefulnessByDistance]], *, levels: int,

@@ -4,7 +4,8 @@
   and one colour bar for all, so the same colour is the same reward in every panel.
 - `carefulness_multiples`: mean carefulness against distance to danger per panel
   (`carefulness.draw_carefulness`), on shared axes, with a reference line (everyone pooled)
-  drawn faintly in each panel so that each participant reads against the group.
+  drawn faintly in each panel so that each participant reads against the group; on a time world
+  the geometric mean hold instead (`carefulness.draw_holds_by_distance`), on a log scale.
 Panels fill rows of `columns` from the top left; a page wide.
 """
 
@@ -21,7 +22,12 @@ from matplotlib.font_manager import FontProperties
 from matplotlib.textpath import text_to_path
 
 from careful_tui.render.figures.board import Board
-from careful_tui.render.figures.carefulness import CarefulnessByDistance, draw_carefulness
+from careful_tui.render.figures.carefulness import (
+    CarefulnessByDistance,
+    HoldsByDistance,
+    draw_carefulness,
+    draw_holds_by_distance,
+)
 from careful_tui.render.figures.heatmap import (
     COLOUR_BAR_WIDTH,
     TITLE_HEIGHT,
@@ -31,7 +37,7 @@ from careful_tui.render.figures.heatmap import (
     reward_limit,
     reward_norm,
 )
-from careful_tui.render.figures.style import PAGE_WIDTH, QUIET, figure_style, new_figure
+from careful_tui.render.figures.style import OKABE_ITO, PAGE_WIDTH, QUIET, figure_style, new_figure
 
 SUPTITLE_HEIGHT = 0.3  # inches
 CAREFULNESS_PANEL_HEIGHT = 0.95  # inches per row of carefulness panels
@@ -85,35 +91,44 @@ def reward_multiples(panels: Sequence[tuple[str, np.ndarray]], board: Board, *, 
     return figure
 
 
-def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance]], *, levels: int,
-                          reference: tuple[str, CarefulnessByDistance] | None = None, columns: int = 6,
-                          title: str | None = None) -> Figure:
-    """Mean carefulness against distance to danger, a panel per participant on shared axes.
+def carefulness_multiples(panels: Sequence[tuple[str, CarefulnessByDistance | HoldsByDistance]], *, levels: int,
+                          reference: tuple[str, CarefulnessByDistance | HoldsByDistance] | None = None,
+                          columns: int = 6, title: str | None = None) -> Figure:
+    """Mean carefulness (or, for `HoldsByDistance`, the geometric mean hold) against distance to danger, a panel
+    per participant on shared axes.
 
     Args:
-        panels: (title, data) per panel.
-        levels: L, the top of every y axis.
+        panels: (title, data) per panel, all of one kind.
+        levels: L, the top of every y axis (levels only).
         reference: (label, data) drawn faintly in every panel (e.g. everyone pooled).
     """
+    holds = isinstance(panels[0][1], HoldsByDistance)
     n_rows, n_cols = _grid_shape(len(panels), columns)
     height = n_rows * CAREFULNESS_PANEL_HEIGHT + AXIS_LABEL_HEIGHT + SUPTITLE_HEIGHT * 2
     with figure_style():
         figure = new_figure(PAGE_WIDTH, height)
         axes = figure.subplots(n_rows, n_cols, squeeze=False, sharex=True, sharey=True)
         for ax, (label, data) in zip(axes.ravel(), panels):
+            title_fitted = panel_title(label, PAGE_WIDTH / n_cols * 0.85)  # less the axis' labels
             if reference is not None:
-                ax.plot(reference[1].distance, reference[1].mean, color=QUIET, linewidth=1.6, alpha=0.6, zorder=1)
-            draw_carefulness(ax, [(label, data)], levels=levels,
-                             title=panel_title(label, PAGE_WIDTH / n_cols * 0.85))  # less the axis' labels
-            ax.get_legend().remove()
+                line = reference[1]
+                ax.plot(line.distance, line.geometric_mean if isinstance(line, HoldsByDistance) else line.mean,
+                        color=QUIET, linewidth=1.6, alpha=0.6, zorder=1)
+            if isinstance(data, HoldsByDistance):
+                draw_holds_by_distance(ax, data, colour=OKABE_ITO[1], title=title_fitted)
+            else:
+                draw_carefulness(ax, [(label, data)], levels=levels, title=title_fitted)
+                ax.get_legend().remove()
             ax.set_xlabel("")
             ax.set_ylabel("")
         for ax in axes.ravel()[len(panels):]:
             ax.set_visible(False)
         figure.supxlabel("steps to the nearest terminal cell", fontsize=7)
-        figure.supylabel("mean carefulness level", fontsize=7)
+        figure.supylabel("hold (ms), geometric mean" if holds else "mean carefulness level", fontsize=7)
         # The key goes under the title as words: a legend box collides with the title or the axis label.
-        key = "blue: the participant's mean carefulness ± 95% confidence interval (1.96 standard errors)"
+        key = ("blue: the participant's geometric mean hold ± 95% confidence interval (1.96 standard errors of the "
+               "mean log hold)" if holds else
+               "blue: the participant's mean carefulness ± 95% confidence interval (1.96 standard errors)")
         if reference is not None:
             key += f"; grey: {reference[0]}"
         figure.suptitle(f"{title}\n{key}" if title else key, fontsize=7, wrap=True)

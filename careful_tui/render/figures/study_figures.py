@@ -3,8 +3,8 @@
 Per world ``w<i>-<world>``:
 - ``rewards-...``: the fitted reward (point estimate) of each participant as small multiples, beside the
   world file's reward and the pooled fit, on one colour scale;
-- ``carefulness-...`` (worlds with carefulness levels): mean carefulness against distance to
-  danger, a panel per participant, everyone pooled as the faint reference line.
+- ``carefulness-...``: mean carefulness against distance to danger (on a time world the geometric
+  mean hold), a panel per participant, everyone pooled as the faint reference line.
 And ``intervals-pooled``: the pooled fit's interval per symbol, a panel per world, labelled with
 the kind of interval (one file per kind when worlds differ: ``intervals-pooled-identified``).
 """
@@ -14,7 +14,13 @@ from __future__ import annotations
 from matplotlib.figure import Figure
 
 from careful_tui.render.figures.board import Board
-from careful_tui.render.figures.carefulness import carefulness_by_distance, state_distances
+from careful_tui.render.figures.carefulness import (
+    CarefulnessByDistance,
+    HoldsByDistance,
+    carefulness_by_distance,
+    holds_by_distance,
+    state_distances,
+)
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure
 from careful_tui.render.figures.small_multiples import carefulness_multiples, reward_multiples
 from careful_tui.render.figures.style import plain, symbol_label
@@ -54,12 +60,14 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
         played = [(cell, cell.demos) for cell, _ in mine if cell.demos is not None]
         if world.levels > 1 and played:
             distances = state_distances(played[0][1].mdp)
-            series = {cell.participant: carefulness_by_distance(demos.counts, distances, levels=world.levels)
-                      for cell, demos in played}
+            series: dict[str, CarefulnessByDistance | HoldsByDistance] = {
+                cell.participant: holds_by_distance(demos.hold_steps, distances) if world.care == "time" else
+                carefulness_by_distance(demos.counts, distances, levels=world.levels) for cell, demos in played}
             pool = next((cell for cell, _ in played if cell.participant == POOLED), None)
             reference = (f"everyone pooled ({pool.participants})", series.pop(POOLED)) if pool else None
             if series:
-                title = f"{name}: carefulness by distance to danger, per participant (main episodes)"
+                what = "hold" if world.care == "time" else "carefulness"
+                title = f"{name}: {what} by distance to danger, per participant (main episodes)"
                 figures.append((f"carefulness-{key}", carefulness_multiples(
                     [(plain(who), line) for who, line in series.items()], levels=world.levels, reference=reference,
                     title=title)))
