@@ -23,7 +23,7 @@ from careful_tui.keys.kitty import KeyRelease, key_repeat
 from careful_tui.render.palette import GOOD, NOTE
 from careful_tui.screens.behind_input import TickBehindInput
 from careful_tui.widgets import Gauge, KeyBar
-from irl_core.play.game import level_costs
+from irl_core.play.game import level_costs, level_slip_chances
 from irl_core.play.motor_block import MOTOR_INTRO, MOTOR_TITLE, MotorBlock, result_words
 from irl_core.worlds.world import World
 
@@ -46,8 +46,9 @@ class MotorScreen(TickBehindInput, Screen[bool]):
             box.border_title = MOTOR_TITLE.lower()
             yield Static(Text(MOTOR_INTRO, style="dim"), id="motor-intro")
             with Horizontal(id="motor-row"):
-                gauge = Gauge(level_costs(self.world), id="motor-gauge")
-                gauge.border_title = "level · cost"
+                # The browser's gauge: each level's cost and chance of slipping, the target marked.
+                gauge = Gauge(level_costs(self.world), slips=level_slip_chances(self.world), id="motor-gauge")
+                gauge.border_title, gauge.border_subtitle = "carefulness", "points slip"  # as in play
                 yield gauge
                 yield Static(id="motor-text")
         yield KeyBar(id="keys")
@@ -98,6 +99,7 @@ class MotorScreen(TickBehindInput, Screen[bool]):
         gauge = self.query_one("#motor-gauge", Gauge)
         gauge.fill = view.hold.fill if view.hold is not None else 0.0
         gauge.level = view.hold.level if view.hold is not None else None
+        gauge.target = view.target
         text = Text()
         if view.done:
             if self.block.write_error is not None:

@@ -3,7 +3,8 @@
 
 It fills from the bottom while a key is held; `fill` is fractional so that the row being
 reached fills smoothly (lower-block characters), and the level a move would get now is
-marked. Play, replay and the fit view share it.
+marked, as is the level a calibration trial asks for (`target`, its number reversed). Play,
+replay, the fit view and the calibration block share it.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ class Gauge(Widget):
         fill: how far the gauge is filled, in levels: 0 is empty, 3.5 is levels 1-3 full and
             level 4 half full.
         level: the level a move would get now (marked), or None.
+        target: the level asked for (a calibration trial's; its number shown reversed), or None.
 
     It draws line by line and repaints only the rows a change touches, so that filling it
     60 times a second stays cheap.
@@ -44,6 +46,7 @@ class Gauge(Widget):
 
     fill: reactive[float] = reactive(0.0, repaint=False)
     level: reactive[int | None] = reactive(None, repaint=False)
+    target: reactive[int | None] = reactive(None, repaint=False)
 
     def __init__(self, costs: Sequence[float], *, slips: Sequence[float] | None = None, name: str | None = None,
                  id: str | None = None, classes: str | None = None) -> None:
@@ -60,18 +63,18 @@ class Gauge(Widget):
             label_width += 1 + chance_width
         self._number_width = len(str(self.levels))
         self._width = self._number_width + 1 + BAR_WIDTH + 1 + label_width + 2
-        self._rows = [(0, False)] * self.levels
+        self._rows = [(0, False, False)] * self.levels
 
     @property
     def levels(self) -> int:
         return len(self.costs)
 
-    def _row_state(self, c: int) -> tuple[int, bool]:
-        """(fill of level c's bar in eighths, is it the current level)."""
+    def _row_state(self, c: int) -> tuple[int, bool, bool]:
+        """(fill of level c's bar in eighths, is it the current level, is it the target)."""
         filled = min(1.0, max(0.0, self.fill - (c - 1)))
-        return math.floor(filled * 8), c == self.level
+        return math.floor(filled * 8), c == self.level, c == self.target
 
-    def _row_states(self) -> list[tuple[int, bool]]:
+    def _row_states(self) -> list[tuple[int, bool, bool]]:
         return [self._row_state(c) for c in range(self.levels, 0, -1)]
 
     def _watch_state(self) -> None:
@@ -81,14 +84,14 @@ class Gauge(Widget):
         if changed:
             self.refresh(*changed)
 
-    watch_fill = watch_level = _watch_state
+    watch_fill = watch_level = watch_target = _watch_state
 
     def render_line(self, y: int) -> Strip:
         if not 0 <= y < self.levels:
             return Strip.blank(self.content_size.width, self.visual_style.rich_style)
         c = self.levels - y
-        eighths, current = self._rows[y]
-        strip = _row_strip(c, self.levels, eighths, current, self._labels[c - 1], self._number_width)
+        eighths, current, target = self._rows[y]
+        strip = _row_strip(c, self.levels, eighths, current, target, self._labels[c - 1], self._number_width)
         return strip.apply_style(self.rich_style)
 
     def get_content_width(self, container, viewport) -> int:
@@ -101,9 +104,10 @@ class Gauge(Widget):
 _STRIPS: dict[tuple, Strip] = {}
 
 
-def _row_strip(c: int, levels: int, eighths: int, current: bool, label: str, number_width: int) -> Strip:
-    """One gauge row: level number, bar, cost and the current-level marker (cached)."""
-    key = (c, levels, eighths, current, label, number_width)
+def _row_strip(c: int, levels: int, eighths: int, current: bool, target: bool, label: str,
+               number_width: int) -> Strip:
+    """One gauge row: level number (reversed for the target), bar, cost and the current-level marker (cached)."""
+    key = (c, levels, eighths, current, target, label, number_width)
     strip = _STRIPS.get(key)
     if strip is None:
         colour = level_colour(c, levels)
@@ -113,8 +117,10 @@ def _row_strip(c: int, levels: int, eighths: int, current: bool, label: str, num
             bar = Segment(_PARTIAL[eighths] * BAR_WIDTH, Style(color=colour, bgcolor=EMPTY))
         else:
             bar = Segment(" " * BAR_WIDTH, Style(bgcolor=EMPTY))
+        number = [Segment(f"{c:>{number_width}}", Style(bold=True, reverse=True)), Segment(" ")] if target else \
+            [Segment(f"{c:>{number_width}} ", Style(bold=True) if current else Style(dim=True))]
         strip = Strip([
-            Segment(f"{c:>{number_width}} ", Style(bold=True) if current else Style(dim=True)),
+            *number,
             bar,
             Segment(f" {label}", Style(color=colour, bold=current, dim=not current)),
             Segment(" ◀" if current else "  ", Style(color=colour, bold=True)),

@@ -15,6 +15,7 @@ from textual.widgets import Static
 
 from careful_tui.screens.motor import MotorScreen
 from careful_tui.screens.play import PlayScreen
+from careful_tui.widgets import Gauge
 from irl_core.play.motor_block import MOTOR_DONE
 from irl_core.studies.study import load_study, read_protocol
 
@@ -23,6 +24,17 @@ def motor_text(app) -> str:
     console = Console(width=80, file=io.StringIO(), record=True)
     console.print(app.screen.query_one("#motor-text", Static).content)
     return console.export_text()
+
+
+def gauge_marks(app) -> list[int]:
+    """The levels whose number the calibration gauge draws reversed (the target's mark), read from its rows."""
+    gauge = app.screen.query_one("#motor-gauge", Gauge)
+    marked = []
+    for y in range(gauge.levels):
+        number = gauge.render_line(y)._segments[0]
+        if number.style is not None and number.style.reverse:
+            marked.append(int(number.text))
+    return marked
 
 
 def target_of(app) -> int:
@@ -42,6 +54,7 @@ def test_the_block_runs_between_instructions_and_practice(tmp_path: Path) -> Non
         made = []
         for i in range(3):
             target = target_of(pilot.app)
+            assert gauge_marks(pilot.app) == [target]  # the level asked for is marked on the gauge, as in the browser
             assert f"gauge shows {target}" not in motor_text(pilot.app)  # digits input: no gauge words
             assert f"level {target} move" in motor_text(pilot.app) and f"{i + 1} of 3" in motor_text(pilot.app)
             produced = max(1, target - 1)
