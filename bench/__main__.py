@@ -16,16 +16,21 @@ BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "be
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__,
+                                     epilog="One NAME may be followed by its own options: python -m bench "
+                                            "bench_people_big --sizes 24")
     parser.add_argument("only", nargs="*", metavar="NAME", help="run only these: " + ", ".join(BENCHMARKS))
-    names = parser.parse_args().only or BENCHMARKS
+    args, options = parser.parse_known_args()
+    names = args.only or BENCHMARKS
     unknown = set(names) - set(BENCHMARKS)
     if unknown:
         parser.error(f"unknown benchmark {', '.join(sorted(unknown))}")
+    if options and len(names) != 1:
+        parser.error(f"options ({' '.join(options)}) go to one benchmark: name exactly one")
     for name in names:
         print(f"\n=== {name} ===", flush=True)
         module = importlib.import_module(f"bench.{name}")
-        sys.argv = [f"bench.{name}"]  # each benchmark's own defaults, not this command's arguments
+        sys.argv = [f"bench.{name}", *options]  # its own options; without them its own defaults
         module.main()
 
 
