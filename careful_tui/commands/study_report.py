@@ -186,7 +186,7 @@ def table_caption(data: StudyData, fits: list[CellFit]) -> str:
     """What the table's brackets, columns and marks mean, as far as this report has them."""
     careful = "Careful: mean carefulness level one step from a terminal cell"
     if any(cell.hold_ms_next_to_terminal is not None for cell in data.cells):
-        careful += " (on a time world, the median hold)"
+        careful += " (on a time world, the geometric mean hold)"
     parts = [interval_caption(fits), careful,
              "Episodes quit or unfinished are counted, not fitted"]
     boxed = [f for f in fits if f.intervals is not None and at_bound(f.intervals, f.rmax).any()]
@@ -198,7 +198,7 @@ def table_caption(data: StudyData, fits: list[CellFit]) -> str:
 
 
 def careful_text(cell: Cell) -> str:
-    """The table's careful column: the mean level, or on a time world the median hold, one step from danger."""
+    """The table's careful column: the mean level, or on a time world the geometric mean hold, one step from danger."""
     if cell.hold_ms_next_to_terminal is not None:
         return f"{cell.hold_ms_next_to_terminal:.0f} ms"
     return "" if cell.careful_next_to_terminal is None else f"{cell.careful_next_to_terminal:.1f}"

@@ -48,8 +48,8 @@ class Cell:
             outcome code (``quit``, or ``unfinished``: no end recorded).
         careful_next_to_terminal: mean carefulness level of the steps taken next to a terminal cell
             (one grid step away), or None when there were none or the world is a time world (no levels).
-        hold_ms_next_to_terminal: on a time world, the median hold in ms of those steps (the hold is the
-            care there); else None.
+        hold_ms_next_to_terminal: on a time world, the geometric mean hold in ms of those steps (the hold is
+            the care there; as the report's figure shows it), else None.
         participants: how many participants the cell holds (1, or how many have episodes in the pool).
         members: in a pool, the participants whose episodes it holds, in the order of
             ``demos.episode_groups`` (group g is members[g]).
@@ -228,7 +228,7 @@ def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: li
     return Cell(participant=participant, world_index=world_index, demos=demos,
                 episodes=sum(len(r.episode_ends) for r in finished), steps=steps, outcomes=dict(outcomes),
                 interrupted_outcomes=dict(interrupted), careful_next_to_terminal=float(np.mean(levels)) if levels else None,
-                hold_ms_next_to_terminal=float(np.median(holds)) if holds else None)
+                hold_ms_next_to_terminal=float(np.exp(np.mean(np.log(np.maximum(holds, 1.0))))) if holds else None)
 
 
 def without_participants(pool: Cell, participants: set[str]) -> Cell:

@@ -4,6 +4,7 @@ and a terminal without key-ups is told so instead of having its holds guessed.""
 from __future__ import annotations
 
 import asyncio
+import statistics
 from pathlib import Path
 
 import numpy as np
@@ -113,7 +114,7 @@ def test_a_study_with_a_time_world_refuses_taps_and_a_terminal_without_key_ups(t
     assert "'mud-time' is a time world" in shown and "does not report key-ups" in shown
 
 
-def test_a_time_world_studys_report_cells_give_the_median_hold_next_to_danger_not_a_level(tmp_path: Path):
+def test_a_time_world_studys_report_cells_give_the_geometric_mean_hold_next_to_danger_not_a_level(tmp_path: Path):
     from irl_core.players.experts import rollouts, session_header, write_rollouts
     from irl_core.players.person_like import person_like
     from irl_core.recordings.lines import StudyTag
@@ -135,10 +136,10 @@ def test_a_time_world_studys_report_cells_give_the_median_hold_next_to_danger_no
     (cell,) = [c for c in gather(study).cells if c.participant == "p1"]
     steps = read_recording(folder / "p1-0-w0-main.jsonl").steps
     near = {(2, 1), (2, 2), (2, 3), (2, 4), (3, 0), (2, 5)}
-    holds = sorted(s.hold_ms for s in steps if s.state in near)
-    # The hold is the care there: its median, not a level (a time world has none).
+    holds = [max(s.hold_ms, 1.0) for s in steps if s.state in near]
+    # The hold is the care there: its geometric mean (as the report's figure), not a level (a time world has none).
     assert cell.careful_next_to_terminal is None and holds
-    assert cell.hold_ms_next_to_terminal == pytest.approx(float(np.median(holds)))
+    assert cell.hold_ms_next_to_terminal == pytest.approx(statistics.geometric_mean(holds))
 
 
 def test_a_time_world_studys_care_figure_shows_each_participants_geometric_mean_hold_by_distance(tmp_path: Path):

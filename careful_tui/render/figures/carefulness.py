@@ -96,7 +96,7 @@ def holds_by_distance(hold_steps: np.ndarray, distance: np.ndarray) -> HoldsByDi
         distance: (S,) int distance of each state to danger; states at -1 are left out.
     """
     at = distance[hold_steps[:, 0].astype(int)] if hold_steps.size else np.zeros(0, dtype=int)
-    logs_all = np.log(np.maximum(hold_steps[:, 2], 1.0))  # a 0 ms hold (a repeat's) counts as 1 ms
+    logs_all = np.log(np.maximum(hold_steps[:, 2], 1.0))  # a hold under 1 ms counts as 1 ms (no log of 0)
     distances = np.unique(at[at >= 0])
     means, halves, steps = np.zeros(distances.size), np.zeros(distances.size), np.zeros(distances.size, dtype=int)
     for i, d in enumerate(distances):
