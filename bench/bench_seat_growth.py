@@ -74,7 +74,9 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=10, help="200-step episodes in the block (default 10)")
     args = parser.parse_args()
     # A person's pace would take half an hour a block; the budget is the server's guard, not what is measured.
-    KeyBudget.__init__.__kwdefaults__.update(burst=10**9, rate=1e9)
+    defaults = KeyBudget.__init__.__kwdefaults__
+    assert defaults is not None, "KeyBudget takes burst and rate by keyword"
+    defaults.update(burst=10**9, rate=1e9)
     for kind in ("one process", "seats in files"):
         row = play(kind, args.episodes)
         print(f"{row['kind']:>15}: a move {row['early_ms']:.2f} ms early in the block (moves 100-300), "
