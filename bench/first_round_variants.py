@@ -1,6 +1,6 @@
 """What was tried to make a big world's first round of row generation cheaper, one variant per process.
 
-Run: .venv/bin/python -m bench.first_round_variants SIZE VARIANT [--limit SECONDS]
+Run: .venv/bin/python -m bench.first_round_variants SIZE VARIANT [--limit SECONDS] [--option NAME=VALUE ...]
 
 The per-cell lp fit's first round is solved from no basis, and on 128x128 it is where the fit
 stops (docs/benchmarks.md#how-cost-grows). Variants:
