@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bench.option_values import name_and_value
 from irl_core.irl import FitOptions, fit
 from irl_core.irl.result import FitError
 from irl_core.play.motor_block import calibration_targets
@@ -165,16 +166,9 @@ def table(done: list[Run]) -> str:
 
 def _option(text: str) -> tuple[str, object]:
     """``NAME=VALUE`` as a FitOptions field and its value: a number, true/false, or text."""
-    name, _, value = text.partition("=")
+    name, value = name_and_value(text)
     if name not in {f.name for f in dataclasses.fields(FitOptions)}:
         raise argparse.ArgumentTypeError(f"FitOptions has no field {name!r}")
-    if value.lower() in ("true", "false"):
-        return name, value.lower() == "true"
-    for kind in (int, float):
-        try:
-            return name, kind(value)
-        except ValueError:
-            pass
     return name, value
 
 

@@ -38,6 +38,8 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
+from bench.option_values import name_and_value
+
 VARIANTS = ("plain", "policy-start", "policy-start-sip", "policy-start-pami",
             "scale-terminal-distance", "scale-true-discount", "ipx", "ipx-crossover",
             "seed-none", "seed-careful", "seed-one")
@@ -78,24 +80,13 @@ def true_discount(mdp) -> np.ndarray:
     return w
 
 
-def _option(text: str) -> tuple[str, object]:
-    """NAME=VALUE as a HiGHS option: an int, else a float, else the word."""
-    name, _, value = text.partition("=")
-    for kind in (int, float):
-        try:
-            return name, kind(value)
-        except ValueError:
-            pass
-    return name, value
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("size")
     parser.add_argument("variant", choices=VARIANTS)
     parser.add_argument("--limit", type=float, default=600.0, help="HiGHS time_limit in seconds (default 600)")
     parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
-                        help="a HiGHS option for the solve (repeatable): an integer, a float, on/off or a word")
+                        help="a HiGHS option for the solve (repeatable): true/false, an integer, a float or a word")
     args = parser.parse_args()
 
     import irl_core.irl.lp as lp
@@ -110,7 +101,7 @@ def main() -> None:
     qmap = build_qmap(mdp, build_unknowns(mdp, reward_cells="special"))
     problem = lp.margin_lp(lp_constraints(qmap, demos.most_frequent, rmax=1000.0))
     n, d = qmap.n, problem.demonstrated
-    options = {**lp.margin_options(problem), "time_limit": args.limit, **dict(map(_option, args.option))}
+    options = {**lp.margin_options(problem), "time_limit": args.limit, **dict(map(name_and_value, args.option))}
     start = time.perf_counter()
     if args.variant.startswith("policy-start"):
         if args.variant != "policy-start":
