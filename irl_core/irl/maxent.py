@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg.lapack import dgesv
+from scipy.linalg.lapack import dgbsv, dgesv
 from scipy.optimize import minimize
 from threadpoolctl import ThreadpoolController
 
@@ -61,6 +61,7 @@ from irl_core.irl.qmap import Unknowns
 from irl_core.irl.result import SolverError
 from irl_core.support.stopping import stop_if_asked
 from irl_core.worlds.mdp import MDP
+from irl_core.worlds.moves import moves_of
 
 SOFT_TOLERANCE = 1e-13
 SOFT_MAX_ITER = 200
@@ -169,7 +170,7 @@ def log_likelihood_beta(
 
 def demonstration_drive(mdp: MDP, counts: np.ndarray) -> np.ndarray:
     """(S,) m - n: the demonstrations' discounted successors minus their visits (see the module's text)."""
-    return mdp.gamma * (counts.ravel() @ mdp.P) - counts.sum(axis=1)
+    return mdp.gamma * pulled_back(mdp, counts) - counts.sum(axis=1)
 
 
 def _likelihood(
@@ -212,62 +213,56 @@ def expected_next(mdp: MDP, V: np.ndarray) -> np.ndarray:
     return _dense_P(mdp) @ V
 
 
+def pulled_back(mdp: MDP, X: np.ndarray) -> np.ndarray:
+    """(S,) sum_{s, a} X(s, a) P(s' | s, a) for X (S, A): X.ravel() @ P (in direction form in large worlds)."""
+    if mdp.n_states > DENSE_STATES:
+        return moves_of(mdp).pulled_back(X)
+    return np.asarray(X, dtype=float).ravel() @ mdp.P
+
+
 def policy_system(mdp: MDP, pi: np.ndarray) -> np.ndarray | sp.csc_matrix:
-    """(S, S) I - gamma P^pi for the policy pi (S, A): dense in small worlds, sparse in large ones."""
+    """(S, S) I - gamma P^pi for the policy pi (S, A): dense in small worlds, sparse in large ones (built from the
+    world's moves in direction form, `irl_core.worlds.moves`: 2x faster than from P at 24x24)."""
     S = mdp.n_states
     if S > DENSE_STATES:
-        pattern = _system_pattern(mdp)
-        data = np.bincount(pattern.place, weights=-mdp.gamma * np.asarray(pi).ravel()[pattern.pair] * pattern.p,
-                           minlength=pattern.indices.size)
-        data[pattern.diagonal] += 1.0
-        return sp.csc_matrix((data, pattern.indices, pattern.indptr), shape=(S, S))
+        return moves_of(mdp).policy_system(pi, gamma=mdp.gamma)
     system = np.matmul(pi[:, None, :], _dense_P(mdp))[:, 0, :]  # row s: sum_a pi(s, a) P(. | s, a)
     system *= -mdp.gamma
     system[np.diag_indices(S)] += 1.0
     return system
 
 
-@dataclass(frozen=True)
-class _SystemPattern:
-    """Where each nonzero of P (S * A, S) lands in the CSC data of I - gamma P^pi (`place`), the pair (s, a) it
-    belongs to (`pair`), its probability (`p`), and the diagonal's places: the pattern is the world's, only the
-    policy's weights change, so a system is one weighted count instead of a sparse product (5x faster at 64x64)."""
-
-    place: np.ndarray
-    pair: np.ndarray
-    p: np.ndarray
-    diagonal: np.ndarray
-    indices: np.ndarray
-    indptr: np.ndarray
-
-
-_PATTERNS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _system_pattern(mdp: MDP) -> _SystemPattern:
-    pattern = _PATTERNS.get(mdp)
-    if pattern is None:
-        P = mdp.P.tocoo()
-        S, A = mdp.n_states, mdp.n_actions
-        rows = np.concatenate([P.row // A, np.arange(S)])
-        cols = np.concatenate([P.col, np.arange(S)])
-        # Column-major order of the (row, col) pairs, each once: the CSC matrix's data order.
-        keys, where = np.unique(cols.astype(np.int64) * S + rows, return_inverse=True)
-        indptr = np.searchsorted(keys // S, np.arange(S + 1)).astype(np.int32)
-        pattern = _PATTERNS[mdp] = _SystemPattern(
-            place=where[: P.nnz], pair=P.row.astype(np.int64), p=P.data.astype(float), diagonal=where[P.nnz :],
-            indices=(keys % S).astype(np.int32), indptr=indptr)
-    return pattern
+# A sparse system whose nonzeros lie within this many diagonals (below plus above) of the main one is solved
+# as a band matrix (LAPACK's dgbsv). A grid world's states are numbered row by row, so a move reaches at most
+# one row's width away: the band is about twice the width. Measured against SuperLU on generated worlds, one
+# solve: 0.17 ms against 0.68 at 24x24 (band 48), 0.40 against 1.38 at 32x32, 1.70 against 3.24 at 48x48,
+# 5.3 against 6.2 at 64x64 (band 128); wider bands go to SuperLU.
+MAX_BAND = 128
 
 
 def solve_system(system: np.ndarray | sp.spmatrix, b: np.ndarray) -> np.ndarray:
-    """x (S,) with system x = b for a `policy_system` (or its transpose): LAPACK when dense, SuperLU when sparse."""
+    """x (S,) with system x = b for a `policy_system` (or its transpose): LAPACK when dense or banded, SuperLU
+    otherwise."""
     if isinstance(system, np.ndarray):
         _, _, x, info = dgesv(system, b)
         if info != 0:
             raise SolverError(f"maxent's policy system is singular (LAPACK info {info})")
         return x
-    return spla.spsolve(system.tocsc(), b)
+    if not getattr(system, "has_canonical_format", False):
+        system = sp.csc_matrix(system, copy=True)
+        system.sum_duplicates()  # each entry once, so that placing them in the band below adds nothing up
+    entries = system.tocoo()
+    below, above = int((entries.row - entries.col).max()), int((entries.col - entries.row).max())
+    if below + above > MAX_BAND:
+        return spla.spsolve(system.tocsc(), b)
+    # dgbsv's layout: row (below + above + i - j) of column j holds entry (i, j), with `below` rows on top
+    # left free for the factorisation's fill.
+    band = np.zeros((2 * below + above + 1, system.shape[1]))
+    band[below + above + entries.row - entries.col, entries.col] = entries.data
+    _, _, x, info = dgbsv(below, above, band, b, overwrite_ab=True)
+    if info != 0:
+        raise SolverError(f"maxent's policy system is singular (LAPACK info {info})")
+    return x
 
 
 _BLAS: list[ThreadpoolController] = []

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.maxent import LOG_BETA_BOUNDS, expected_next, policy_system, solve_system
+from irl_core.irl.maxent import LOG_BETA_BOUNDS, expected_next, policy_system, pulled_back, solve_system
 from irl_core.irl.player_models import Player, PlayerModel
 from irl_core.irl.result import SolverError
 from irl_core.support.stopping import stop_if_asked
@@ -107,6 +107,13 @@ def level_kernel(levels: int, sigma: float, bias: float = 0.0) -> tuple[np.ndarr
     return K, K * (a - (K * a).sum(axis=1, keepdims=True))
 
 
+def _times(X: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """X (..., n) with its last axis grouped by level (n a multiple of L) times M (L, L), one level block at a
+    time, as one matrix product: numpy's stacked product of (4, L) blocks is 2.5x slower at 561 states."""
+    L = M.shape[0]
+    return (X.reshape(-1, L) @ M).reshape(X.shape)
+
+
 @dataclass(frozen=True)
 class PlayerPlan:
     """The model's fixed point for one reward: V (S,) and, at acting states, the intended policy
@@ -137,13 +144,13 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
 
     def improve(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         Q = R1 + mdp.gamma * expected_next(mdp, V)
-        QI = (Q.reshape(S, 4, L) @ K.T).reshape(S, A) if plans else Q
+        QI = _times(Q, K.T) if plans else Q
         top = QI.max(axis=1, keepdims=True)
         shifted = QI - top
         log_totals = np.log(np.exp(shifted).sum(axis=1, keepdims=True))
         log_pi = shifted - log_totals
         pi = np.exp(log_pi)
-        q = (pi.reshape(S, 4, L) @ K).reshape(S, A) if plans else pi.copy()
+        q = _times(pi, K) if plans else pi.copy()
         q[~acting] = uniform
         return Q, pi, log_pi, q, (top + log_totals)[:, 0]
 
@@ -174,7 +181,7 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
         log_observed = log_q
     log_observed = log_observed.reshape(S, A)
     log_observed[~acting] = np.log(uniform)
-    realised = q if plans else (pi.reshape(S, 4, L) @ K).reshape(S, A)
+    realised = q if plans else _times(pi, K)
     realised[~acting] = uniform
     plan = PlayerPlan(V=V, Q=Q, intended=pi, backup=q, realised=realised, observed=np.exp(log_observed),
                       log_observed=log_observed, iterations=iteration)
@@ -186,7 +193,7 @@ def _log_realised(pi3: np.ndarray, log_pi3: np.ndarray, K: np.ndarray) -> np.nda
     unlikely direction) those rows are done again in log space."""
     if K is IDENTITY.get(K.shape[0]):
         return log_pi3.copy()
-    q = pi3 @ K
+    q = _times(pi3, K)
     with np.errstate(divide="ignore"):
         log_q = np.log(q)
     low = (q < 1e-250).any(axis=2)
@@ -240,12 +247,12 @@ def log_likelihood(
     W3 = W.reshape(S, 4, L)
     U3 = (1 - lapse) * W3 + (lapse / 4) * W3.sum(axis=1, keepdims=True) if lapse > 0 else W3
     pi3 = plan.intended.reshape(S, 4, L)
-    Z3 = U3 @ K.T
+    Z3 = _times(U3, K.T)
     g3 = pi3 * (Z3 - (pi3 * Z3).sum(axis=(1, 2), keepdims=True))
     g3[~acting] = 0.0
-    D = (g3 @ K).reshape(S, A) if model.plans else g3.reshape(S, A)
-    m = mdp.gamma * (D.ravel() @ mdp.P)
-    y = solve_system(system.T if isinstance(system, np.ndarray) else system.T.tocsc(), m)
+    D = _times(g3, K).reshape(S, A) if model.plans else g3.reshape(S, A)
+    m = mdp.gamma * pulled_back(mdp, D)
+    y = solve_system(system.T, m)
     G1 = D + y[:, None] * plan.backup
     grad_R_S = beta * G1.sum(axis=1)
     grad_R_S[mdp.exit_state] = 0.0

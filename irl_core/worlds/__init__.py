@@ -1,5 +1,6 @@
 """Worlds (floor 1): the world file and the built-in worlds (`world`), the tabular MDP built from a
-world (`mdp`), value iteration and soft planning (`planning`) and the Gymnasium environment (`env`).
+world (`mdp`) and its transitions in direction form (`moves`), value iteration and soft planning
+(`planning`) and the Gymnasium environment (`env`).
 
 A new built-in world goes in `world.BUILTIN_WORLDS` (or as a ``.toml`` file beside this module).
 May import: `irl_core.support`.
