@@ -29,21 +29,25 @@ line), an input mode by its registry name. The file's modification time is when 
 heard from: a terminal session is refused while a page that has played was heard from within
 `irl_core.studies.participant_lock.SEAT_FRESH_S`.
 
-Bounds, as `careful_tui.web.seats` has them, except that the budget of new pages per client
-address is each worker's own (N workers take N times the burst) and the seats at once are counted
-from the files (a seat here holds no file descriptor between requests).
+Bounds, as `careful_tui.web.seats` has them, except that the seats at once are counted from the
+files (a seat here holds no file descriptor between requests) and the budget of new pages per client
+address lives in one file every worker shares, ``<out>/.pages-by-address``, under an exclusive
+`flock` for each new page: one line per address whose budget is not full again, the address's
+HMAC under the server's key (never the address itself: a participant's network is not the study's
+data), the tokens left and when they were counted (wall clock). A line that does not parse counts
+as a full budget.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import hmac
 import io
 import os
 import pickle
 import secrets
-import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -58,6 +62,7 @@ from irl_core.studies.participant_lock import SEAT_PLAYED, ParticipantBusy, part
 from irl_core.studies.study import LoadedStudy, StudyError, check_participant
 
 PAGE_HOLDER = "careful serve (a browser page)"
+ADDRESS_FILE = ".pages-by-address"
 # Another request of the same participant holds the lock for a few milliseconds; a sweep for longer.
 LOCK_WAIT_S = 5.0
 _OPEN, _FREE = b"open\n", b"free\n"
@@ -101,8 +106,6 @@ class SharedSeats:
         self.clock, self.wall = clock, wall
         self.silent_s, self.limit, self.address_seats = silent_s, limit, address_seats
         self.browser_study = browser_study(study)
-        self._addresses: dict[str, KeyBudget] = {}
-        self._addresses_lock = threading.Lock()
         # participant -> the MAC of the seat file this worker wrote last, its record and the record's writers:
         # while the file is still that one, the next request skips reading the session back.
         self._cache: dict[str, tuple[bytes, _Record, list[RecordingWriter]]] = {}
@@ -129,10 +132,7 @@ class SharedSeats:
                     self._write(participant, record)
                 if self._seated() >= self.limit:
                     raise SeatRefused(503, "The study is full just now. Please try again in a few minutes.")
-                burst, rate = self.address_seats
-                with self._addresses_lock:
-                    spent = self._addresses.setdefault(address, KeyBudget(burst=burst, rate=rate, clock=self.clock)).spend()
-                if not spent:
+                if not self._spend_for(address):
                     raise SeatRefused(429, "Too many pages opened from your network just now. "
                                            "Please try again in a minute.")
                 budget = self._budget(record)
@@ -220,9 +220,6 @@ class SharedSeats:
         """Release every page not heard from for `silent_s`, and forget seat files older than that."""
         for path, _ in self._files():
             self._sweep(path, "left (the page went silent)", only_silent=True)
-        with self._addresses_lock:
-            for address in [address for address, budget in self._addresses.items() if budget.full()]:
-                del self._addresses[address]
 
     def release_all(self, why: str) -> None:
         """Every page leaves (the server stops): sessions record what was running; the files go."""
@@ -268,6 +265,28 @@ class SharedSeats:
         if record is not None:
             budget.tokens, budget.at = record.tokens, record.at
         return budget
+
+    def _spend_for(self, address: str) -> bool:
+        """Whether `address` may open a new page now (its budget spent by one), counted across the workers in
+        ``<out>/.pages-by-address`` (see the module text); budgets full again are dropped from the file."""
+        burst, rate = self.address_seats
+        name = hmac.new(self.key, address.encode("utf-8", "replace"), hashlib.sha256).hexdigest()[:32]
+        fd = os.open(self.study.out / ADDRESS_FILE, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o600)
+        with os.fdopen(fd, "r+b") as file:
+            fcntl.flock(file, fcntl.LOCK_EX)
+            budgets: dict[str, KeyBudget] = {}
+            for line in file.read().decode("ascii", "replace").splitlines():
+                with contextlib.suppress(ValueError):
+                    key, tokens, at = line.split(" ")
+                    budgets[key] = KeyBudget(burst=burst, rate=rate, clock=self.wall)
+                    budgets[key].tokens, budgets[key].at = float(tokens), float(at)
+            spent = budgets.setdefault(name, KeyBudget(burst=burst, rate=rate, clock=self.wall)).spend()
+            kept = "".join(f"{key} {budget.tokens!r} {budget.at!r}\n" for key, budget in budgets.items()
+                           if not budget.full())
+            file.seek(0)
+            file.write(kept.encode("ascii"))
+            file.truncate()
+        return spent
 
     def _files(self) -> list[tuple[Path, bytes]]:
         """Every seat file with its first line."""

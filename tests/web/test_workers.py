@@ -23,7 +23,8 @@ from test_serve_command import Served, token_of
 from web.conftest import recorded_lines, write_web_study
 
 from careful_tui.cli import main
-from careful_tui.web.seat_files import SharedSeats
+from careful_tui.web.seat_files import ADDRESS_FILE, SharedSeats
+from careful_tui.web.seats import SeatRefused
 from careful_tui.web.session_adapter import WebSession
 from irl_core.recordings.demonstrations import read_recording
 from irl_core.studies.participant_lock import ParticipantBusy, participant_lock, seat_path
@@ -144,6 +145,27 @@ def begin_and_move(seats: SharedSeats, page: str) -> None:
         playing.session.space()
         playing.session.press("right", 0.0)
         playing.session.release("right", 80.0)
+
+
+def test_the_budget_of_new_pages_per_address_is_shared_by_the_workers_and_keeps_no_address(web_study) -> None:
+    now = [time.time()]
+    first, second = (shared(web_study, wall=lambda: now[0], address_seats=(3, 0.5)) for _ in range(2))
+
+    def open_page(seats: SharedSeats, participant: str, address: str = "203.0.113.7"):
+        return seats.claim(participant, lambda: WebSession(seats.study, participant, seed=0), address=address)
+
+    assert open_page(first, "p001") and open_page(second, "p002") and open_page(first, "p003")
+    with pytest.raises(SeatRefused) as refused:
+        open_page(second, "p004")  # the fourth page from one address, whichever worker takes it
+    assert refused.value.status == 429
+    assert open_page(second, "p004", address="198.51.100.2")  # another network has its own budget
+    kept = (web_study.out / ADDRESS_FILE).read_text()
+    assert "203.0.113" not in kept and "198.51" not in kept and len(kept.splitlines()) == 2
+    now[0] += 2.0  # one page back at 0.5 a second
+    assert open_page(second, "p005")
+    now[0] += 60.0  # both budgets full again: forgotten
+    assert open_page(first, "p006", address="192.0.2.1")
+    assert len((web_study.out / ADDRESS_FILE).read_text().splitlines()) == 1
 
 
 def test_a_seat_this_server_did_not_sign_is_never_unpickled(web_study, tmp_path) -> None:
