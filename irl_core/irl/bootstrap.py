@@ -58,8 +58,9 @@ RESAMPLE_VALUE_TOLERANCE = 1e-12
 
 
 class Refitter(Protocol):
-    """What the bootstrap refits with: a picklable callable from a resample's counts (S, A) to its p parameters
-    (`Refit` for maxent and loss, `people.PlayerRefit` for a model of people)."""
+    """What the bootstrap refits with: a picklable callable from a resample's counts (S, A) and its number to its
+    p parameters (`Refit` for maxent and loss, `people.PlayerRefit` for a model of people, which also resamples
+    a study's calibration trials, drawn by the resample's number so that any worker draws the same)."""
 
     @property
     def mdp(self) -> MDP: ...
@@ -70,7 +71,7 @@ class Refitter(Protocol):
     @property
     def size(self) -> int: ...
 
-    def __call__(self, counts: np.ndarray) -> np.ndarray: ...
+    def __call__(self, counts: np.ndarray, *, resample: int = 0) -> np.ndarray: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,8 +98,9 @@ class Refit:
         """p: the unknowns, and beta when it is estimated."""
         return self.unknowns.k + int(self.beta == "auto")
 
-    def __call__(self, counts: np.ndarray) -> np.ndarray:
-        """(p,) the unknowns fitted to `counts` (S, A), with beta appended when it is estimated."""
+    def __call__(self, counts: np.ndarray, *, resample: int = 0) -> np.ndarray:
+        """(p,) the unknowns fitted to `counts` (S, A), with beta appended when it is estimated (`resample`: its
+        number, which these methods do not need)."""
         return method(self.method).load_refit()(self, counts)
 
 
@@ -213,10 +215,10 @@ def bootstrap(
 
     if executor.workers <= 1 and not executor.remote:
         for i in range(resamples):
-            returned(np.array([i]), _refit_rows(refit, by_episode, weights[i : i + 1]))
+            returned(np.array([i]), _refit_rows(refit, by_episode, weights[i : i + 1], np.array([i])))
     else:
         chunks = _chunks(refit, by_episode, weights, executor, returned)
-        executor.run(_refit_rows, [(weights[chunk],) for chunk in chunks], shared=(refit, by_episode),
+        executor.run(_refit_rows, [(weights[chunk], chunk) for chunk in chunks], shared=(refit, by_episode),
                      on_result=lambda i, refits: returned(chunks[i], refits),
                      # A batch lost with its worker stays NaN: counted in `failed`, as a refit that raised.
                      on_lost=lambda i, reason: returned(chunks[i], np.full((chunks[i].size, full.size), np.nan)))
@@ -228,15 +230,15 @@ def bootstrap(
                            failed=int((~ok).sum()))
 
 
-def _refit_rows(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray) -> np.ndarray:
-    """(len(weights), p) the refits of resamples given as episode multiplicities (n, E); a row
-    of NaN where the solver failed (counted, not fatal: the other refits still bound)."""
+def _refit_rows(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray, numbers: np.ndarray) -> np.ndarray:
+    """(len(weights), p) the refits of resamples given as episode multiplicities (n, E) and their numbers (n,); a
+    row of NaN where the solver failed (counted, not fatal: the other refits still bound)."""
     shape = (refit.mdp.n_states, refit.mdp.n_actions)
     out = np.full((len(weights), refit.size), np.nan)
-    for i, w in enumerate(weights):
+    for i, (w, number) in enumerate(zip(weights, numbers)):
         counts = np.asarray(by_episode.T @ w).reshape(shape)
         try:
-            out[i] = refit(counts)
+            out[i] = refit(counts, resample=int(number))
         except Stopped:
             raise
         except Exception:  # noqa: BLE001 - one failed resample must not lose the others
@@ -259,7 +261,7 @@ def _chunks(refit: Refitter, by_episode: sp.csr_matrix, weights: np.ndarray, exe
     size = 1
     if executor.remote:
         start = time.perf_counter()
-        returned(rows[:1], _refit_rows(refit, by_episode, weights[:1]))
+        returned(rows[:1], _refit_rows(refit, by_episode, weights[:1], rows[:1]))
         size = int(np.ceil(MIN_TASK_S / max(time.perf_counter() - start, 1e-6)))
         rows = rows[1:]
     count = max(1, min(rows.size // max(size, 1), executor.workers * BATCHES_PER_WORKER))

@@ -393,7 +393,9 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         hand = measured.known()
         notes.append(Note("hand_calibrated", f"the hand from {measured.trials} calibration trials: bias "
                                              f"{measured.bias:+.2f} levels, sigma {measured.sigma:.2f} levels "
-                                             "(held fixed in every model with a hand)"))
+                                             "(held fixed in every model with a hand"
+                                             + ("; each resample of the intervals draws the trials again)"
+                                                if options.intervals else ")")))
     if model == PLAYER_AUTO:
         if demos.by_episode is None:
             raise BadInputError("player_model auto needs the demonstrations' episodes (held-out episodes choose it); "
@@ -619,7 +621,8 @@ def _player_refit(solution: PlayerFit, qmap: QMap, demos: Demonstrations, option
     """How the bootstrap refits a model of people: from its fit, over its variables' curvature there."""
     scale = people_curvature_scale(qmap.mdp, qmap.unknowns, demos.counts, solution, rmax=options.rmax)
     return PlayerRefit(qmap.mdp, qmap.unknowns, solution.model, options.rmax, (solution.theta, solution.player),
-                       solution.V1, scale)
+                       solution.V1, scale, trials=demos.calibration if demos.calibration.shape[0] else None,
+                       seed=options.seed)
 
 
 def _moved(bounds: np.ndarray, fitted: _Fitted, qmap: QMap, options: FitOptions, notes: list[Note]) -> bool:

@@ -70,3 +70,50 @@ def test_a_quick_slice_of_the_bench_hasty_on_mud_with_ten_calibration_trials():
     assert calibrated.error is None and calibrated.ordered, calibrated
     for symbol, truth in (("C", -1000.0), ("G", 100.0)):
         assert abs(np.log(calibrated.value[symbol] / truth)) < abs(np.log(abs(plain.value[symbol] / truth))), symbol
+
+
+def hasty_on_mud_with_trials(episodes: int = 12, trials: int = 10):
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    player = person_like(mdp, "hasty")
+    rng = np.random.default_rng(4)
+    demos = demonstrations_of(mdp, rollouts(mdp, player.choose, episodes=episodes, rng=rng))
+    return dataclasses.replace(demos, calibration=motor_trials(player, np.arange(trials) % 12 + 3, mdp.levels, rng))
+
+
+def test_each_resample_holds_the_hand_of_its_own_draw_of_the_trials():
+    """The bootstrap's refits hold a hand measured again from each resample's draw of the trials: over many
+    resamples its bias spreads as the trials' mean error does (sd / sqrt(n)), and a resample's draw is fixed by
+    the seed and its number, so any worker refits it alike."""
+    from irl_core.irl.people_fit import PlayerRefit
+    from irl_core.irl.player_models import PLAYER_MODELS, Player
+    from irl_core.irl.qmap import build_unknowns
+
+    demos = hasty_on_mud_with_trials(trials=30)
+    mdp, trials = demos.mdp, demos.calibration
+    hand = hand_from_trials(trials, mdp.levels)
+    refit = PlayerRefit(mdp, build_unknowns(mdp, reward_cells="special", tie=True), PLAYER_MODELS["person"].with_hand(
+        hand.known()), 1000.0, (np.zeros(3), Player(1.0)), trials=trials, seed=5)
+    biases = np.array([refit.model_for(r).known_hand[0] for r in range(300)])
+    error = trials[:, 1] - trials[:, 0]
+    assert biases.mean() == pytest.approx(hand.bias, abs=0.1)
+    assert biases.std() == pytest.approx(error.std() / np.sqrt(len(trials)), rel=0.3)
+    assert refit.model_for(17) == refit.model_for(17) != refit.model_for(18)
+    assert dataclasses.replace(refit, trials=None).model_for(17) == refit.model  # no trials: the hand as fitted
+
+
+def test_intervals_with_calibration_trials_carry_the_hands_error_and_do_not_depend_on_the_workers(monkeypatch):
+    """hasty fitted with the `naive` model (the one the bench's fits of hasty choose: a player who does not plan
+    for the hand, so the hand's bias sets the rewards' scale): the goal's interval with the trials drawn again in
+    each resample holds the one with the hand held as measured, and is wider by a third; one worker or two, the
+    same intervals."""
+    from irl_core.irl.people_fit import PlayerRefit
+
+    demos = hasty_on_mud_with_trials()
+    options = FitOptions(method="maxent", player_model="naive", intervals=True, resamples=40, seed=2, tie=True)
+    drawn = fit(demos, options, workers=1)
+    assert fit(demos, options, workers=2).intervals.tolist() == drawn.intervals.tolist()
+    monkeypatch.setattr(PlayerRefit, "model_for", lambda self, resample: self.model)  # the hand held as measured
+    held = fit(demos, options, workers=1)
+    goal = drawn.unknowns.labels.index("G")
+    (low, high), (held_low, held_high) = drawn.intervals[goal], held.intervals[goal]
+    assert low <= held_low and held_high <= high and high - low > 4 / 3 * (held_high - held_low), (drawn.intervals, held.intervals)

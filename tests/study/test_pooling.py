@@ -55,7 +55,7 @@ class _Share:
     beta: float = 1.0
     size: int = 1
 
-    def __call__(self, counts):
+    def __call__(self, counts, *, resample=0):
         return np.array([counts[:3].sum() / counts.sum()])
 
 
