@@ -4,8 +4,9 @@ It draws one `irl_core.play.motor_block.MotorBlock` (the flow's `calibration`): 
 gauge filling while an arrow is held, and what the last hold made, in the block's own words (the
 browser shows the same). Keys are timed as in play (`careful_tui.keys.arrival`, kitty releases
 when the terminal sends them, else the silence after the last autorepeat, judged behind the keys
-already read). When every target has a trial, space goes on to practice; q leaves, keeping the
-trials written so far (a participant run again is asked the rest).
+already read). When every target has a trial, space goes on to practice (or the game, in a study
+without practice); q leaves, keeping the trials written so far (a participant run again is asked
+the rest).
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ from __future__ import annotations
 from rich.text import Text
 from textual import events
 from textual.app import ComposeResult
-from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.screen import Screen
 from textual.widgets import Static
@@ -32,10 +32,10 @@ class MotorScreen(TickBehindInput, Screen[bool]):
     """The calibration block's targets, one at a time; dismissed with True when all are done, False
     when the participant leaves (q) or a trial cannot be written."""
 
-    BINDINGS = [Binding("space,enter", "go_on", "begin practice", key_display="space")]
-
     def __init__(self, block: MotorBlock, world: World, *, event_times: bool | None = None) -> None:
         super().__init__()
+        # The go-on key's words are the block's (practice next, or the game), as the browser shows them.
+        self._bindings.bind("space,enter", "go_on", block.view().begin, key_display="space")
         self.block = block
         self.world = world
         self.clock = block.clock
@@ -107,7 +107,7 @@ class MotorScreen(TickBehindInput, Screen[bool]):
                 text.append("Press space to leave.", style="dim")
             else:
                 text.append(f"{view.instruction}\n\n", style=f"bold {GOOD}")
-                text.append("Press space to begin practice. q leaves; what you did is kept.", style="dim")
+                text.append(f"Press space to {view.begin}. q leaves; what you did is kept.", style="dim")
         else:
             text.append(f"{view.number} of {view.count}\n\n", style=f"bold {NOTE}")
             text.append(f"{view.instruction}\n\n", style="bold")

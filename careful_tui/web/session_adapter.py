@@ -296,7 +296,8 @@ class WebSession:
         if self.stage == "calibration":
             view["calibration"] = self._calibration_view()
             held = [["←↑→↓", "hold until the gauge shows the level, then let go"]]
-            view["keys"] = ([["space", "begin practice"]] if view["calibration"]["done"] else held) + [["q", "leave"]]
+            calibration = view["calibration"]
+            view["keys"] = ([["space", calibration["begin"]]] if calibration["done"] else held) + [["q", "leave"]]
         elif self.stage == "play":
             view["play"] = self._play_view()
             if self._live():
@@ -334,6 +335,7 @@ class WebSession:
         return {
             "heading": f"{MOTOR_TITLE} · {min(now.number, now.count)} of {now.count}",
             "intro": MOTOR_INTRO, "instruction": now.instruction, "target": now.target, "done": now.done,
+            "begin": now.begin,
             "last": None if now.last is None else result_words(now.last),
             "levels": [{"level": c, "cost": format_value(-cost) if cost else "0", "slip": format_chance(p)}
                        for c, (cost, p) in enumerate(zip(level_costs(world), level_slip_chances(world)), start=1)],

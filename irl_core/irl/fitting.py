@@ -139,7 +139,7 @@ def fit(
     if unknowns.k:
         # Without intervals, the points stand for them: a catastrophe fitted no worse than the nuisance.
         spans = bounds if bounds is not None else np.column_stack([fitted.theta, fitted.theta])
-        notes.extend(_not_separated(unknowns.symbols, spans, demos.mdp.world.terminal))
+        notes.extend(_not_separated(unknowns.symbols, spans, demos.mdp.world.terminal, intervals=bounds is not None))
     check = _fit_check(fitted, demos, options, notes)
     held = fitted.held_upper is not None and ~np.isnan(fitted.held_upper)  # named in their own note
     bounded = [label for j, (label, value) in enumerate(zip(unknowns.labels, fitted.theta))
@@ -213,10 +213,12 @@ def _on_its_curve(demos: Demonstrations, options: FitOptions,
     return curve, dataclasses.replace(demos, mdp=build_mdp(curve.world(world)))
 
 
-def _not_separated(symbols: tuple[str, ...], bounds: np.ndarray, terminal: tuple[str, ...]) -> list[Note]:
+def _not_separated(symbols: tuple[str, ...], bounds: np.ndarray, terminal: tuple[str, ...], *,
+                   intervals: bool) -> list[Note]:
     """A note when the lowest terminal symbol's interval (over its cells: the catastrophe) reaches a non-terminal
     one's (a nuisance): the data then do not tell the catastrophe from the nuisance, which is what care was to
-    show. `bounds` (k, 2) are the intervals, or each point twice when there are none."""
+    show. `bounds` (k, 2) are the intervals (`intervals`), or each point twice when there are none: the words
+    then speak of the fitted rewards, whose span over a symbol's cells is no interval."""
     envelope: dict[str, tuple[float, float]] = {}
     for symbol, (low, high) in zip(symbols, np.asarray(bounds, dtype=float)):
         was = envelope.get(symbol, (np.inf, -np.inf))
@@ -228,12 +230,12 @@ def _not_separated(symbols: tuple[str, ...], bounds: np.ndarray, terminal: tuple
     pairs = [(h, n) for h in hazards for n in nuisances if envelope[h][1] >= envelope[n][0]]
     if not pairs:
         return []
-    points = all(low == high for low, high in envelope.values())
-    shown = (lambda s: f"{envelope[s][0]:.3g}") if points else (lambda s: f"{envelope[s][0]:.3g} to {envelope[s][1]:.3g}")
-    said = "; ".join(f"{h} {shown(h)} {'is no lower than' if points else 'reaches'} {n} {shown(n)}" for h, n in pairs)
-    what = "the fitted rewards do not put" if points else "the intervals do not separate"
-    return [Note("cliff_not_separated", f"{what} the catastrophe {'below ' if points else 'from '}the nuisance "
-                                        f"({said}): these recordings do not show which is worse")]
+    single = all(low == high for low, high in envelope.values())
+    shown = (lambda s: f"{envelope[s][0]:.3g}") if single else (lambda s: f"{envelope[s][0]:.3g} to {envelope[s][1]:.3g}")
+    said = "; ".join(f"{h} {shown(h)} {'is no lower than' if single else 'reaches'} {n} {shown(n)}" for h, n in pairs)
+    what = ("the intervals do not separate the catastrophe from" if intervals
+            else "the fitted rewards do not put the catastrophe below")
+    return [Note("cliff_not_separated", f"{what} the nuisance ({said}): these recordings do not show which is worse")]
 
 
 def _in_seconds(fitted: _Fitted, bounds: np.ndarray | None, R_S: np.ndarray,

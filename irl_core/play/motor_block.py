@@ -1,12 +1,13 @@
 """A study's motor calibration block, for any front end: "hold until the gauge shows k, then let go".
 
-Before practice a participant is asked for N levels, one at a time, with the gauge visible. Each
-hold ends as a move would (the same input mode and timing profile as play), but moves nothing:
-its level is the *produced* level, written at once as a ``calibration_trial`` line (target,
-produced, the hold's ms, whether its release was timed exactly) to the recorder's file. The
-people fit reads those lines to estimate the participant's hand (bias and noise of the produced
-level, `irl_core.irl.hand`) instead of guessing it from play. A front end feeds `press`,
-`release` and `tick` exactly as it does a `PlaySession`'s, and draws `view()`.
+Before the first block (practice, or the game when a study has none) a participant is asked for N
+levels, one at a time, with the gauge visible. Each hold ends as a move would (the same input mode
+and timing profile as play), but moves nothing: its level is the *produced* level, written at once
+as a ``calibration_trial`` line (target, produced, the hold's ms, whether its release was timed
+exactly) to the recorder's file. The people fit reads those lines to estimate the participant's
+hand (bias and noise of the produced level, `irl_core.irl.hand`) instead of guessing it from play.
+A front end feeds `press`, `release` and `tick` exactly as it does a `PlaySession`'s, and draws
+`view()`.
 """
 
 from __future__ import annotations
@@ -48,10 +49,12 @@ def target_words(target: int, *, times_holds: bool) -> str:
 
 # The block's words, the same in the terminal and the browser.
 MOTOR_TITLE = "Calibration"
-MOTOR_INTRO = ("Before practice: a few holds with no board. Each time, hold an arrow key until the gauge "
+MOTOR_INTRO = ("Before you play: a few holds with no board. Each time, hold an arrow key until the gauge "
                "shows the level asked for, then let go. This measures your hand, not your play: "
                "do your best, no answer is wrong.")
-MOTOR_DONE = "Calibration done. Practice comes next."
+# What follows the block, by the phase of the study's first block: the line shown, and the go-on key's words.
+MOTOR_NEXT = {"practice": ("Calibration done. Practice comes next.", "begin practice"),
+              "main": ("Calibration done. The game comes next.", "begin the game")}
 
 
 def result_words(trial: CalibrationTrial) -> str:
@@ -64,7 +67,8 @@ def result_words(trial: CalibrationTrial) -> str:
 @dataclass(frozen=True)
 class MotorView:
     """What a front end draws: the target (None once done), its number among `count`, the hold
-    being entered (for the gauge), the last trial and the line for the participant."""
+    being entered (for the gauge), the last trial, the line for the participant and, once done, what
+    the go-on key does (`begin`: "begin practice", or "begin the game" when the study has no practice)."""
 
     target: int | None
     number: int
@@ -73,6 +77,7 @@ class MotorView:
     last: CalibrationTrial | None
     instruction: str
     done: bool
+    begin: str
 
 
 class MotorBlock:
@@ -81,7 +86,11 @@ class MotorBlock:
     `write_error` says why a trial could not be written (then the block stops)."""
 
     def __init__(self, targets: Sequence[int], recorder: SessionRecorder, *, input_mode_name: str,
-                 profile: HoldProfile, clock: Clock = time.monotonic, done_before: int = 0) -> None:
+                 profile: HoldProfile, clock: Clock = time.monotonic, done_before: int = 0,
+                 next_phase: str = "practice") -> None:
+        if next_phase not in MOTOR_NEXT:
+            raise ValueError(f"next_phase must be one of {', '.join(MOTOR_NEXT)}, not {next_phase!r}")
+        self.next_phase = next_phase
         self.targets = list(targets)
         self.recorder = recorder
         self.mode = input_mode(input_mode_name)
@@ -141,11 +150,12 @@ class MotorBlock:
         hold = None if self.done else entering_view(self.input, self.mode, self.profile,
                                                     releases_seen=self.releases_seen,
                                                     last_key_at=self._last_key_at, now=self.clock())
-        instruction = (MOTOR_DONE if target is None
-                       else target_words(target, times_holds=self.mode.times_holds))
+        done_line, begin = MOTOR_NEXT[self.next_phase]
+        instruction = done_line if target is None else target_words(target, times_holds=self.mode.times_holds)
         return MotorView(target=target, number=self.done_before + min(len(self.trials), len(self.targets)) + 1,
                          count=self.done_before + len(self.targets), hold=hold,
-                         last=self.trials[-1] if self.trials else None, instruction=instruction, done=self.done)
+                         last=self.trials[-1] if self.trials else None, instruction=instruction, done=self.done,
+                         begin=begin)
 
     def close(self) -> None:
         """Close the file (safe to call more than once; a write failure is kept in `write_error`)."""

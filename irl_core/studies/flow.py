@@ -113,7 +113,7 @@ class StudyFlow:
         self.motor = MotorBlock(calibration_targets(world.levels, left, seed=seed),
                                 SessionRecorder(self.protocol.folder, header), input_mode_name=options.input_mode,
                                 profile=options.profile, clock=self.clock,
-                                done_before=self.protocol.calibration_trials)
+                                done_before=self.protocol.calibration_trials, next_phase=block.phase)
         self.stage = "calibration"
         return self.motor
 

@@ -15,8 +15,8 @@ from textual.widgets import Static
 
 from careful_tui.screens.motor import MotorScreen
 from careful_tui.screens.play import PlayScreen
-from careful_tui.widgets import Gauge
-from irl_core.play.motor_block import MOTOR_DONE
+from careful_tui.widgets import Gauge, KeyBar
+from irl_core.play.motor_block import MOTOR_NEXT
 from irl_core.studies.study import load_study, read_protocol
 
 
@@ -61,7 +61,7 @@ def test_the_block_runs_between_instructions_and_practice(tmp_path: Path) -> Non
             await pilot.press(str(produced), "up")
             await pilot.pause()
             made.append((target, produced))
-        assert MOTOR_DONE in motor_text(pilot.app)
+        assert MOTOR_NEXT["practice"][0] in motor_text(pilot.app)
         await pilot.press("space")
         await pilot.pause()
         assert isinstance(pilot.app.screen, PlayScreen)
@@ -72,6 +72,27 @@ def test_the_block_runs_between_instructions_and_practice(tmp_path: Path) -> Non
     lines = [json.loads(line) for line in first.read_text().splitlines()]
     assert [(t["target"], t["produced"]) for t in lines[1:]] == app.made
     assert all(t["kind"] == "calibration_trial" for t in lines[1:])
+
+
+def test_without_practice_the_block_says_the_game_comes_next(tmp_path: Path) -> None:
+    """A study with no practice: the block's last line and its go-on key name the game, not practice."""
+    path = write_study(tmp_path, practice=0, calibration=1)
+    app = new_app(path)
+
+    async def body(pilot) -> None:
+        await pilot.press("space")
+        await pilot.pause()
+        await pilot.press(str(target_of(pilot.app)), "up")
+        await pilot.pause()
+        done_line, begin = MOTOR_NEXT["main"]
+        assert done_line in motor_text(pilot.app) and f"Press space to {begin}." in motor_text(pilot.app)
+        assert "ractice" not in motor_text(pilot.app)
+        assert ("space", begin) in pilot.app.screen.query_one(KeyBar).keys
+        await pilot.press("space")
+        await pilot.pause()
+        assert isinstance(pilot.app.screen, PlayScreen)
+
+    run(app, body)
 
 
 def test_q_mid_block_keeps_the_trials_and_the_next_run_asks_the_rest(tmp_path: Path) -> None:

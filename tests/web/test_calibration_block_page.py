@@ -12,13 +12,14 @@ from web.conftest import SEAT_KINDS, Api, recorded_lines, seats_of_kind, start_s
 from web.test_page import wait_for
 
 from careful_tui.web.session_adapter import browser_profile
-from irl_core.play.motor_block import MOTOR_DONE, MOTOR_INTRO
+from irl_core.play.motor_block import MOTOR_INTRO, MOTOR_NEXT
 from irl_core.studies.study import load_study
 
 
-def calibrated_study(folder: Path, n: int = 3):
+def calibrated_study(folder: Path, n: int = 3, *, practice: int = 1):
     path = write_web_study(folder)
-    path.write_text(path.read_text().replace("practice_episodes = 1", f"practice_episodes = 1\ncalibration_block = {n}"))
+    path.write_text(path.read_text().replace("practice_episodes = 1",
+                                             f"practice_episodes = {practice}\ncalibration_block = {n}"))
     return load_study(path)
 
 
@@ -30,6 +31,20 @@ def hold_ms(level: int) -> float:
 def trials_of(study, participant: str) -> list[dict]:
     folder = study.participant_folder(participant)
     return [line for line in recorded_lines(folder) if line["kind"] == "calibration_trial"] if folder.exists() else []
+
+
+def test_without_practice_the_page_says_the_game_comes_next(tmp_path: Path) -> None:
+    study = calibrated_study(tmp_path, 1, practice=0)
+    app, tokens = web_app(study)
+    with TestClient(app) as client:
+        api = Api(client, token=tokens["p001"])
+        api.key("space")
+        api.hold("up", hold_ms(api.view["calibration"]["target"]))
+        done_line, begin = MOTOR_NEXT["main"]
+        assert api.view["calibration"]["instruction"] == done_line and api.view["calibration"]["begin"] == begin
+        assert ["space", begin] in api.view["keys"]
+        api.key("space")
+        assert api.view["stage"] == "play"
 
 
 @pytest.mark.parametrize("seats", SEAT_KINDS)
@@ -48,7 +63,7 @@ def test_the_api_runs_the_block_before_practice(tmp_path: Path, seats: str) -> N
             assert f"gauge shows {target}" in api.view["calibration"]["instruction"]
             asked.append(target)
             api.hold("up", hold_ms(target + 1))  # one level long each time
-        assert api.view["calibration"]["done"] and api.view["calibration"]["instruction"] == MOTOR_DONE
+        assert api.view["calibration"]["done"] and api.view["calibration"]["instruction"] == MOTOR_NEXT["practice"][0]
         api.key("space")
         assert api.view["stage"] == "play"
     trials = trials_of(study, "p001")
@@ -81,7 +96,7 @@ def test_in_chromium_the_gauge_shows_and_the_trials_are_recorded(tmp_path: Path,
             page.keyboard.up("ArrowUp")
             wait_for(lambda n=i + 1: len(trials_of(study, "p001")) >= n, "a trial to be recorded")
         page.wait_for_selector("#calib-text .good")
-        assert MOTOR_DONE in page.inner_text("#calib-text")
+        assert MOTOR_NEXT["practice"][0] in page.inner_text("#calib-text")
         page.keyboard.press(" ")
         page.wait_for_selector("#play:not([hidden])")
     finally:

@@ -277,7 +277,7 @@
     const rows = calib.levels.length;
     for (let i = 0; i < rows; i++) gauge.children[i * 5].classList.toggle("asked", rows - i === calib.target);
     const lines = [el("p", calib.done ? "good" : "target", calib.instruction)];
-    lines.push(el("p", "", calib.done ? "Press space to begin practice." : ""));
+    lines.push(el("p", "", calib.done ? `Press space to ${calib.begin}.` : ""));
     lines[1].id = "calib-now";
     if (calib.last && !calib.done) lines.push(el("p", "dim", "Last: " + calib.last));
     $("calib-text").replaceChildren(...lines);
