@@ -164,7 +164,7 @@ def test_the_fast_bootstrap_gives_the_intervals_of_the_reference_route(monkeypat
 
 
 def test_a_big_worlds_policy_system_is_i_minus_gamma_p_pi_built_the_slow_way():
-    # policy_system fills a fixed pattern by a weighted count; planning.policy_matrix is the independent route.
+    # policy_system fills its pattern from the moves in direction form; planning.policy_matrix is the independent route.
     import scipy.sparse as sp
 
     from bench.worlds import cliff_world
