@@ -127,7 +127,7 @@ class BootstrapResult:
         intervals: (p, 2) [low, high] per parameter at `confidence`.
         confidence: the confidence level.
         variant: ``percentile`` or ``basic``.
-        failed: resamples whose refit raised (left out of the intervals).
+        failed: resamples whose refit raised (left out of the intervals; when all did, every interval is NaN).
     """
 
     estimates: np.ndarray
@@ -223,6 +223,9 @@ def bootstrap(
                      # A batch lost with its worker stays NaN: counted in `failed`, as a refit that raised.
                      on_lost=lambda i, reason: returned(chunks[i], np.full((chunks[i].size, full.size), np.nan)))
     ok = ~np.isnan(estimates).any(axis=1)
+    if not ok.any():  # nothing to take quantiles of: every interval unknown (`failed` says why)
+        return BootstrapResult(estimates=estimates, intervals=np.full((full.size, 2), np.nan), confidence=confidence,
+                               variant=variant, failed=resamples)
     intervals = interval(estimates[ok], full, confidence=confidence, variant=variant)
     if bounds is not None:
         intervals[: refit.unknowns.k] = np.clip(intervals[: refit.unknowns.k], *bounds)

@@ -578,6 +578,10 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
     result = bootstrap(_refit(fitted, qmap, demos, options), demos.by_episode, full, confidence=options.confidence,
                        resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
                        progress=progress, workers=workers, groups=demos.episode_groups, executor=executor)
+    if result.failed == options.resamples:
+        notes.append(Note("intervals_not_computed", f"intervals not computed: every one of the {options.resamples} "
+                                                    "resamples failed to refit"))
+        return None
     if result.failed:
         notes.append(Note("resamples_failed", f"{result.failed} of {options.resamples} resamples failed to fit and "
                                               "were left out"))

@@ -117,3 +117,4 @@ def test_intervals_with_calibration_trials_carry_the_hands_error_and_do_not_depe
     goal = drawn.unknowns.labels.index("G")
     (low, high), (held_low, held_high) = drawn.intervals[goal], held.intervals[goal]
     assert low <= held_low and held_high <= high and high - low > 4 / 3 * (held_high - held_low), (drawn.intervals, held.intervals)
+

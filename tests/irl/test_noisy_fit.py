@@ -91,3 +91,19 @@ def test_refits_that_never_move_give_no_confidence_interval():
                 workers=1)
     assert noisy.interval_kind == "confidence" and (np.diff(noisy.intervals, axis=1) > 1.0).all()
     assert not any("stayed" in str(note) for note in noisy.notes)
+
+
+def test_when_every_resample_fails_to_refit_the_fit_says_so_and_claims_no_interval(monkeypatch):
+    """A refit that raises on every resample (a solver failing, a refitter built wrong) leaves nothing to take
+    quantiles of: no intervals and a note saying why, not a crash or intervals from nothing."""
+    from irl_core.irl.bootstrap import Refit
+
+    def fails(self, counts, *, resample=0):
+        raise RuntimeError("no refit")
+
+    monkeypatch.setattr(Refit, "__call__", fails)
+    options = FitOptions(method="maxent", player_model="boltzmann", intervals=True, resamples=20, seed=0)
+    result = fit(boltzmann("mud", 1.0, 20, 0), options, workers=1)
+    assert result.intervals is None
+    (note,) = [note for note in result.notes if note.code == "intervals_not_computed"]
+    assert "every one of the 20 resamples failed to refit" in note.sentence
