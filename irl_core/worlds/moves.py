@@ -6,10 +6,11 @@ gives the chosen direction 1 - 3e and each other direction e (e = the level's sl
     P(s' | s, (d, c)) = chosen[c] [s' = neighbour(s, d)] + even[c] sum_k [s' = neighbour(s, k)],
 
 chosen[c] = 1 - 4e and even[c] = e; a terminal cell and the exit lead to the exit under every action.
-A product with P then touches 4 neighbours per state instead of 4 per action (56 actions in a 14-level
-world), and a policy's system I - gamma P^pi has 4 entries per row to add up instead of 4 * A. Large
-worlds' maximum-entropy and people fits use it (`irl_core.irl.maxent`); `MDP.P` stays the definition,
-and `tests/core/test_moves.py` checks every product here against it.
+A pull-back X @ P then adds up 4 weights per state instead of 4 per action (56 actions in a 14-level
+world), and so does a policy's system I - gamma P^pi. Large worlds' maximum-entropy and people fits use
+both (`irl_core.irl.maxent`); `MDP.P` stays the definition, and `tests/core/test_moves.py` checks every
+product here against it. (P @ V, each action's expected next value, gains nothing this way: `P`'s sparse
+product is as fast.)
 """
 
 from __future__ import annotations
@@ -51,15 +52,6 @@ class Moves:
     @property
     def n_states(self) -> int:
         return self.neighbour.shape[0]
-
-    def next_values(self, V: np.ndarray) -> np.ndarray:
-        """(S, A) sum_s' P(s' | s, a) V(s') for values V (S,)."""
-        S, L = self.n_states, self.levels
-        around = np.asarray(V, dtype=float)[self.neighbour]  # (S, 4)
-        out = around[:, :, None] * self.chosen + around.sum(axis=1)[:, None, None] * self.even
-        out = out.reshape(S, 4 * L)
-        out[~self.acting] = V[self.exit_state]
-        return out
 
     def weights(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For X (S, A): (S, 4) sum_a X(s, a) P(neighbour(s, k) | s, a) counted once per direction k at acting
