@@ -122,6 +122,6 @@ def test_the_bootstraps_workers_stop_their_refits_too(monkeypatch):
             stop=stop, progress=lambda stage, done, total: reports.append(done))
     # Told 5 evaluations into the first chunks (13 resamples each, over a hundred evaluations): no chunk
     # came back, and the workers' last evaluation ended within a poll and a second of being told (in
-    # evaluations that depends on their speed: 51 once the big worlds' solves got 4x faster).
+    # evaluations that depends on their speed: 51 once the big worlds' solves went to band matrices).
     assert reports == []
     assert last_in_workers.value - told[0] < pool_module.STOP_POLL_S + 1.0, (in_workers.value, told[0])
