@@ -395,9 +395,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         hand = measured.known()
         notes.append(Note("hand_calibrated", f"the hand from {measured.trials} calibration trials: bias "
                                              f"{measured.bias:+.2f} levels, sigma {measured.sigma:.2f} levels "
-                                             "(held fixed in every model with a hand"
-                                             + ("; each resample of the intervals draws the trials again)"
-                                                if options.intervals else ")")))
+                                             "(held fixed in every model with a hand)"))
     if model == PLAYER_AUTO:
         if demos.by_episode is None:
             raise BadInputError("player_model auto needs the demonstrations' episodes (held-out episodes choose it); "
@@ -575,7 +573,8 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
         full = np.append(fitted.theta, fitted.beta)
     else:
         full = fitted.theta
-    result = bootstrap(_refit(fitted, qmap, demos, options), demos.by_episode, full, confidence=options.confidence,
+    refit = _refit(fitted, qmap, demos, options)
+    result = bootstrap(refit, demos.by_episode, full, confidence=options.confidence,
                        resamples=options.resamples, seed=options.seed, bounds=(-options.rmax, options.rmax),
                        progress=progress, workers=workers, groups=demos.episode_groups, executor=executor)
     if result.failed == options.resamples:
@@ -598,6 +597,10 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
         bounds[held] = np.column_stack([np.full(held.sum(), -options.rmax), fitted.held_upper[held]])
     if not _moved(bounds, fitted, qmap, options, notes):
         return None
+    if isinstance(refit, PlayerRefit) and refit.draws_trials:
+        notes.append(Note("hand_resampled", f"each resample drew the {len(demos.calibration)} calibration trials "
+                                            "again and held the hand they measure, so the intervals carry the "
+                                            "hand's sampling error"))
     if fitted.beta_auto and fitted.people is None:
         low, high = result.intervals[-1]
         notes.append(Note("beta_interval", f"beta's {options.confidence:.0%} confidence interval: {low:.3g} to "

@@ -35,6 +35,7 @@ CODES: dict[str, str] = {
     "player_model": "maxent's model of the player, and why it was chosen",
     "player_estimated": "the player model's parameters as estimated",
     "hand_calibrated": "the hand's bias and noise, measured by a study's motor calibration trials",
+    "hand_resampled": "the intervals' resamples drew the calibration trials again (the hand's sampling error)",
     "planning_not_identified": "whether the player plans for the hand's noise is not identified",
     "one_sided": "rewards the data bound on one side only",
     "unreached": "rewards no recorded action can lead into: held at -rmax, bounded above only",

@@ -239,9 +239,14 @@ class PlayerRefit:
         """p: the unknowns, beta, and sigma and the lapse where the model has them."""
         return self.unknowns.k + 1 + self.model.extra_parameters
 
+    @property
+    def draws_trials(self) -> bool:
+        """Whether each resample draws the trials again: there are trials, and the model holds their hand."""
+        return self.trials is not None and self.model.known_hand is not None
+
     def model_for(self, resample: int) -> PlayerModel:
         """The model that resample `resample` is refitted with: the hand of its draw of the trials, if any."""
-        if self.trials is None or self.model.known_hand is None:
+        if not self.draws_trials:
             return self.model
         trials = np.asarray(self.trials).reshape(-1, 2)
         draw = np.random.default_rng((self.seed, TRIALS_STREAM, resample)).integers(0, len(trials), len(trials))

@@ -118,3 +118,17 @@ def test_intervals_with_calibration_trials_carry_the_hands_error_and_do_not_depe
     (low, high), (held_low, held_high) = drawn.intervals[goal], held.intervals[goal]
     assert low <= held_low and held_high <= high and high - low > 4 / 3 * (held_high - held_low), (drawn.intervals, held.intervals)
 
+
+def test_the_fit_says_the_trials_were_drawn_again_only_where_they_were():
+    """The note `hand_resampled` is there for a model that holds the trials' hand and has intervals; not for a
+    model without a hand (its resamples have no hand to measure), nor without intervals."""
+    demos = hasty_on_mud_with_trials()
+
+    def codes(**options) -> set[str]:
+        result = fit(demos, FitOptions(method="maxent", resamples=20, seed=0, tie=True, **options), workers=1)
+        return {note.code for note in result.notes}
+
+    assert "hand_resampled" in codes(player_model="naive", intervals=True)
+    assert "hand_resampled" not in codes(player_model="ends", intervals=True)
+    assert "hand_resampled" not in codes(player_model="naive", intervals=False)
+
