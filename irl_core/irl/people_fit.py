@@ -213,6 +213,10 @@ def curvature_scale(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: Playe
 
 
 
+# Mixed into the seed of a resample's draw of the calibration trials, so that it is not the episodes' stream.
+TRIALS_STREAM = 7
+
+
 @dataclass(frozen=True, eq=False)
 class PlayerRefit:
     """How the bootstrap refits one resample's counts (S, A) with a player model: from the full fit's answer,
@@ -257,9 +261,3 @@ class PlayerRefit:
                           start=self.start, start_V=self.start_V, scale=self.scale,
                           value_tolerance=RESAMPLE_VALUE_TOLERANCE, gradient_tolerance=RESAMPLE_GRADIENT_TOLERANCE,
                           max_iter=REFIT_MAX_ITER).parameters()
-
-
-# Mixed into the seed of a resample's draw of the calibration trials, so that it is not the episodes' stream.
-TRIALS_STREAM = 7
-
-
