@@ -29,6 +29,7 @@ replicates gives. A 200 MB recording's fit had simulated all 200 replicates at o
 from __future__ import annotations
 
 from collections import deque
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,7 +96,19 @@ class FitCheck:
 
 
 def terminal_distance(mdp: MDP) -> np.ndarray:
-    """(S,) moves from each state to the nearest terminal cell (0 there, -1 for the exit and where none can be reached)."""
+    """(S,) moves from each state to the nearest terminal cell (0 there, -1 for the exit and where none can be reached);
+    worked out once per MDP (each replicate of the check asks), read-only."""
+    distance = _DISTANCE.get(mdp)
+    if distance is None:
+        distance = _DISTANCE[mdp] = _walk_back(mdp)
+        distance.flags.writeable = False
+    return distance
+
+
+_DISTANCE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _walk_back(mdp: MDP) -> np.ndarray:
     distance = np.full(mdp.n_states, -1, dtype=np.int64)
     queue = deque(int(s) for s in np.flatnonzero(mdp.terminal))
     distance[list(queue)] = 0
@@ -168,13 +181,14 @@ def _replicate_statistics(mdp: MDP, policy: np.ndarray, starts: np.ndarray, coun
     simulated = rollouts(mdp, policy if player is None else player, starts=np.tile(starts, count),
                          episodes=n * count, rng=rng)
     pairs = simulated.state * mdp.n_actions + simulated.action
+    # Row by row: the whole (count, S * A) array was a third of a 24x24 world's check.
     per_replicate = sp.csr_matrix((np.ones(pairs.size), (simulated.episode // n, pairs)),
-                                  shape=(count, mdp.n_states * mdp.n_actions)).toarray()
+                                  shape=(count, mdp.n_states * mdp.n_actions))
     symbols = mdp.symbols + ("",)
     ends = ["step_limit" if cut else symbols[s] for s, cut in zip(simulated.final_state.tolist(), simulated.truncated.tolist())]
     values = {name: np.empty(count) for name in names}
     for r in range(count):
-        these = _statistics_of_counts(mdp, policy, per_replicate[r])
+        these = _statistics_of_counts(mdp, policy, per_replicate[r].toarray().ravel())
         these.update(_ending_statistics(mdp, ends[r * n:(r + 1) * n], simulated.length[r * n:(r + 1) * n]))
         for name in names:
             values[name][r] = these.get(name, np.nan)

@@ -50,13 +50,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from irl_core.irl.maxent import LOG_BETA_BOUNDS, expected_next, policy_system, pulled_back, solve_system
 from irl_core.irl.player_models import Player, PlayerModel
 from irl_core.irl.result import SolverError
 from irl_core.support.stopping import stop_if_asked
 from irl_core.worlds.mdp import MDP
+from irl_core.worlds.moves import PolicySystem
 
 # The hand's noise, sigma in levels: at the lower end the kernel is the identity to double precision
 # (exp(-1 / (2 * 0.05^2)) = 1e-87), so "no hand noise" is inside the search range.
@@ -132,7 +132,7 @@ class PlayerPlan:
 
 
 def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: float, plans: bool,
-             V0: np.ndarray | None) -> tuple[PlayerPlan, np.ndarray | sp.spmatrix]:
+             V0: np.ndarray | None) -> tuple[PlayerPlan, np.ndarray | PolicySystem]:
     """Soft policy iteration over intended actions (beta 1), then the recorded-action policy. A player who
     `plans` for the hand values an intended action by the realised ones (Q_I = K Q, the values following
     q); one who does not values it as if it were realised (Q_I = Q, the values following pi_I)."""
