@@ -28,8 +28,8 @@ replicates gives. A 200 MB recording's fit had simulated all 200 replicates at o
 
 from __future__ import annotations
 
-from collections import deque
 import weakref
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,7 +101,7 @@ def terminal_distance(mdp: MDP) -> np.ndarray:
     distance = _DISTANCE.get(mdp)
     if distance is None:
         distance = _DISTANCE[mdp] = _walk_back(mdp)
-        distance.flags.writeable = False
+        distance.setflags(write=False)
     return distance
 
 

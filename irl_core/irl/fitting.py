@@ -24,6 +24,7 @@ from irl_core.irl.evaluation import evaluate
 from irl_core.irl.fit_check import FitCheck, fit_check
 from irl_core.irl.hand import hand_from_trials
 from irl_core.irl.intervals import reward_intervals
+from irl_core.irl.laplace import MAX_COMBINED, NEARLY_FLAT, pinned_together
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp import Progress, solve_margin_lp
 from irl_core.irl.margin import lp_constraints
@@ -70,6 +71,7 @@ class _Fitted:
     people: PlayerFit | None = None
     rival: PlayerFit | None = None
     held_upper: np.ndarray | None = None  # (k,) a held reward's upper bound (`people_flat.held_upper_bounds`)
+    together: np.ndarray | None = None  # (k, 2) a reward's range along a combination the data do not pin (`laplace`)
     curve: SlipCurve | None = None  # the timing fit's slip curve, estimated with the rewards
     own_intervals: np.ndarray | None = None  # (k, 2) the timing fit's sandwich intervals
     chooser: Chooser | None = None  # the timing model's player over continuous holds, for the fit check
@@ -437,11 +439,25 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                  for label, value, side in zip(unknowns.labels, solution.theta, flat) if side]
         notes.append(Note("one_sided", "bounded on one side only (moving them to the bound, {rmax}, costs the "
                                        f"likelihood less than {FLAT_DROP:g}): " + "; ".join(sides)))
+    held = solution.held if solution.held.size else np.zeros(unknowns.k, dtype=bool)
+    together = pinned_together(mdp, unknowns, demos.counts, solution, rmax=options.rmax, settled=held | (flat != 0))
+    if together is None:
+        notes.append(Note("combinations_unchecked", f"with over {MAX_COMBINED} free rewards, whether the data pin "
+                                                    "some of them only in combination was not checked"))
+    elif (~np.isnan(together[:, 0])).any():
+        ranges = [f"{label} {value:.3g} ({low:.3g} to {high:.3g})" for label, value, (low, high)
+                  in zip(unknowns.labels, solution.theta, together) if not np.isnan(low)]
+        notes.append(Note("pinned_together", "pinned only loosely, in combination with each other: along a mix of "
+                                             f"them the likelihood's curvature is under {NEARLY_FLAT:g} of the best "
+                                             "pinned mix's, so each point is where the search stopped; each can move "
+                                             f"along it this far at a cost under {FLAT_DROP:g} (point, then range): "
+                                             + "; ".join(ranges)))
     V = solution.V1 / player.beta
     return _Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
-                   people=solution, rival=rival, held_upper=held_upper)
+                   people=solution, rival=rival, held_upper=held_upper,
+                   together=together)
 
 
 def timing_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None) -> _Fitted:
@@ -595,6 +611,11 @@ def _confidence(fitted: _Fitted, qmap: QMap, demos: Demonstrations, options: Fit
     if fitted.held_upper is not None:
         held = ~np.isnan(fitted.held_upper)
         bounds[held] = np.column_stack([np.full(held.sum(), -options.rmax), fitted.held_upper[held]])
+    if fitted.together is not None:
+        # The refits start where the full fit stopped, and nothing moves them along a flat combination.
+        along = ~np.isnan(fitted.together[:, 0])
+        bounds[along] = np.column_stack([np.minimum(bounds[along, 0], fitted.together[along, 0]),
+                                         np.maximum(bounds[along, 1], fitted.together[along, 1])])
     if not _moved(bounds, fitted, qmap, options, notes):
         return None
     if isinstance(refit, PlayerRefit) and refit.draws_trials:

@@ -29,6 +29,7 @@ from scipy.stats import norm
 from irl_core.irl.maxent import one_blas_thread
 from irl_core.irl.people_fit import PlayerFit
 from irl_core.irl.people_flat import flat_toward_bound
+from irl_core.irl.people_held import BOUND_STEPS, FLAT_DROP
 from irl_core.irl.people_likelihood import LAPSE_BOUNDS, SIGMA_BOUNDS, beta_bounds, log_likelihood
 from irl_core.irl.player_models import Player
 from irl_core.irl.qmap import Unknowns
@@ -114,6 +115,85 @@ def covariance(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit,
     idx = np.flatnonzero(free)
     cov[np.ix_(idx, idx)] = inner
     return cov
+
+
+# A reward direction whose standardised curvature is below this share of the largest is tried along its
+# whole length (`pinned_together`); the likelihood itself then decides.
+NEARLY_FLAT = 1e-4
+# Beyond this many free rewards the curvature (2 fixed points each) is not worked out for `pinned_together`.
+MAX_COMBINED = 80
+# A reward with at least this share of a flat direction's largest component moves along it.
+ON_DIRECTION = 0.05
+
+
+def pinned_together(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, *, rmax: float,
+                    settled: np.ndarray) -> np.ndarray | None:
+    """(k, 2) for each reward the data pin only loosely, in a combination with others, the range it covers along
+    that combination at a cost to the log likelihood under `FLAT_DROP` (NaN rows elsewhere), or None when there
+    are over `MAX_COMBINED` free rewards to look at.
+
+    Among the rewards not `settled` (k,) (held or one-sided, read by their own notes) nor at ±rmax, the
+    curvature of the log likelihood over the rewards (the player held; standardised, so that each reward's own
+    curvature is 1) can have directions far flatter than the others, under `NEARLY_FLAT` of the largest: two
+    mud cells of which the data fix little more than the sum. Along such a direction the search stops wherever
+    its patience ends (issue 32's walled 24x24 world: two mud cells at -146 and -150 in one run, -117 and -180
+    in another, their likelihoods within 1e-6 nats), so each is followed both ways, by bisection, to where the
+    likelihood has fallen by `FLAT_DROP` (or ±rmax), and the rewards that move along it get that range."""
+    counts = np.asarray(counts, dtype=float)
+    k = unknowns.k
+    out = np.full((k, 2), np.nan)
+    z, _ = variables(fit)
+    free = np.zeros(z.size, dtype=bool)
+    free[:k] = ~np.asarray(settled, dtype=bool) & (np.abs(fit.theta) < rmax * (1 - 1e-9))
+    rewards = np.flatnonzero(free)
+    if rewards.size < 2:
+        return out
+    if rewards.size > MAX_COMBINED:
+        return None
+    info = -hessian(mdp, unknowns, counts, fit, free=free)[np.ix_(rewards, rewards)]
+    info = (info + info.T) / 2
+    d = np.sqrt(np.maximum(np.diag(info), 0.0))
+    d_safe = np.where(d > 0, d, 1.0)
+    values, vectors = np.linalg.eigh(info / np.outer(d_safe, d_safe))
+    best = None
+    for e in np.flatnonzero(values <= NEARLY_FLAT * max(1.0, float(values.max(initial=0.0)))):
+        direction = vectors[:, e] / d_safe
+        direction /= np.abs(direction).max()
+        theta = fit.theta[rewards]
+        moving = np.abs(direction) >= ON_DIRECTION
+        v, at = direction[moving], theta[moving]
+        # How far each way until the first reward that moves reaches ±rmax.
+        up = np.where(v > 0, (rmax - at) / v, (-rmax - at) / v)
+        down = np.where(v > 0, (-rmax - at) / v, (rmax - at) / v)
+        reach = [float(down.max()), float(up.min())]
+        if best is None:
+            best = log_likelihood(mdp, counts, unknowns.state_rewards(fit.theta), model=fit.model, player=fit.player,
+                                  V0=fit.V1, gradient=False).value
+        flat_ends = [_reach_along(mdp, unknowns, counts, fit, rewards, direction, edge, best=best, rmax=rmax)
+                     for edge in reach]
+        if min(flat_ends) == 0 and max(flat_ends) == 0:
+            continue
+        for j in np.flatnonzero(moving):
+            ends = np.clip(theta[j] + np.array(flat_ends) * direction[j], -rmax, rmax)
+            row = out[rewards[j]]
+            out[rewards[j]] = [np.fmin(row[0], ends.min()), np.fmax(row[1], ends.max())]
+    return out
+
+
+def _reach_along(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, rewards: np.ndarray,
+                 direction: np.ndarray, edge: float, *, best: float, rmax: float) -> float:
+    """How far along `direction` (over the `rewards`) toward `edge` the log likelihood stays within `FLAT_DROP` of
+    `best`, by bisection (`BOUND_STEPS` steps), each step's soft values from the last one's."""
+    near, far, V = 0.0, edge, fit.V1
+    for _ in range(BOUND_STEPS):
+        middle = (near + far) / 2
+        moved = fit.theta.copy()
+        moved[rewards] = np.clip(fit.theta[rewards] + middle * direction, -rmax, rmax)
+        got = log_likelihood(mdp, counts, unknowns.state_rewards(moved), model=fit.model, player=fit.player, V0=V,
+                             gradient=False)
+        V = got.plan.V
+        near, far = (middle, far) if best - got.value < FLAT_DROP else (near, middle)
+    return near
 
 
 def variables(fit: PlayerFit) -> tuple[np.ndarray, np.ndarray]:

@@ -38,6 +38,8 @@ CODES: dict[str, str] = {
     "hand_resampled": "the intervals' resamples drew the calibration trials again (the hand's sampling error)",
     "planning_not_identified": "whether the player plans for the hand's noise is not identified",
     "one_sided": "rewards the data bound on one side only",
+    "pinned_together": "rewards the data pin only in combination: each point is where the search stopped",
+    "combinations_unchecked": "too many free rewards to check which the data pin only in combination",
     "unreached": "rewards no recorded action can lead into: held at -rmax, bounded above only",
     "fit_check_failed": "the fitted player does not reproduce the recordings",
     "fit_check_passed": "the fitted player reproduces the recordings",

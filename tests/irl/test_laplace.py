@@ -94,3 +94,34 @@ def test_a_pool_of_people_who_differ_gets_a_wider_interval_than_one_who_plays_it
     cliff = unknowns.symbols.index("C")
     assert np.diff(pooled[cliff]) > 1.5 * np.diff(alone[cliff])
     assert np.all(np.diff(pooled, axis=1) >= np.diff(alone, axis=1))
+
+
+def test_two_unknowns_of_one_cell_are_pinned_only_together_and_reach_the_bound_along_their_difference():
+    # Two unknowns that are the reward of the same cell: the data fix their sum, never each one. A third
+    # pinned reward (the goal) must not be named.
+    import dataclasses
+
+    import scipy.sparse as sp
+
+    from irl_core.irl.laplace import pinned_together
+    from irl_core.irl.people_fit import fit_player
+
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    tied = build_unknowns(mdp, tie=True)
+    mud = tied.labels.index("U")
+    basis = sp.hstack([tied.basis, tied.basis[:, mud]], format="csr")
+    unknowns = dataclasses.replace(tied, labels=(*tied.labels, "U again"), basis=basis,
+                                   weight=np.append(tied.weight, tied.weight[mud]), symbols=(*tied.symbols, "U"))
+    counts = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, "loose").choose, episodes=20, seed=1)).counts
+    rmax = 100.0
+    fit = fit_player(mdp, unknowns, counts, model=player_model("boltzmann"), rmax=rmax)
+    assert np.abs(fit.theta).max() < rmax  # inside the box, where the check looks
+    ranges = pinned_together(mdp, unknowns, counts, fit, rmax=rmax, settled=np.zeros(unknowns.k, dtype=bool))
+    named = [label for label, (low, _) in zip(unknowns.labels, ranges) if not np.isnan(low)]
+    assert named == ["U", "U again"]
+    # Along the difference the likelihood does not change at all: they move until one of them meets -rmax, the
+    # other then at their sum + rmax (the sum is negative: mud).
+    total = fit.theta[mud] + fit.theta[-1]
+    for j in (mud, unknowns.k - 1):
+        assert ranges[j, 0] <= fit.theta[j] <= ranges[j, 1]
+        np.testing.assert_allclose(ranges[j], [-rmax, total + rmax], atol=0.1)
