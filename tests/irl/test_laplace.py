@@ -125,3 +125,30 @@ def test_two_unknowns_of_one_cell_are_pinned_only_together_and_reach_the_bound_a
     for j in (mud, unknowns.k - 1):
         assert ranges[j, 0] <= fit.theta[j] <= ranges[j, 1]
         np.testing.assert_allclose(ranges[j], [-rmax, total + rmax], atol=0.1)
+
+
+def test_a_reward_pinned_only_in_combination_is_named_and_its_interval_holds_its_range(monkeypatch):
+    # The fit's wiring: whatever `pinned_together` finds is named in the note and held by the bootstrap's interval,
+    # whose refits, started where the fit stopped, would not move along the flat combination.
+    from irl_core.irl import FitOptions, fit, fitting
+
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    demos = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, "loose").choose, episodes=12, seed=0))
+    options = FitOptions(method="maxent", player_model="ends", intervals=True, resamples=20, seed=0, tie=True)
+    plain = fit(demos, options, workers=1)
+    mud = plain.unknowns.labels.index("U")
+    assert "pinned_together" not in {note.code for note in plain.notes}
+    assert plain.intervals[mud, 0] > -300 or plain.intervals[mud, 1] < 300  # the check below can fail
+
+    def pinned(mdp, unknowns, counts, fit, *, rmax, settled):
+        out = np.full((unknowns.k, 2), np.nan)
+        out[mud] = [-300.0, 300.0]
+        return out
+
+    monkeypatch.setattr(fitting, "pinned_together", pinned)
+    flagged = fit(demos, options, workers=1)
+    note = next(note for note in flagged.notes if note.code == "pinned_together")
+    assert "U " in str(note) and "(-300 to 300)" in str(note)
+    assert flagged.intervals[mud, 0] <= -300 and flagged.intervals[mud, 1] >= 300
+    others = [j for j in range(len(plain.unknowns.labels)) if j != mud]
+    assert flagged.intervals[others].tolist() == plain.intervals[others].tolist()
