@@ -18,6 +18,7 @@ from irl_core.irl.notes import Note
 from irl_core.irl.people_likelihood import log_likelihood
 from irl_core.irl.player_models import Player, PlayerModel
 from irl_core.irl.qmap import Unknowns
+from irl_core.support.executor import map_calls
 from irl_core.worlds.mdp import MDP
 
 # A reward moved to its bound whose log likelihood falls by less than this (chi-square(1) at 95%, halved)
@@ -39,35 +40,43 @@ BOUND_STEPS = 12
 
 
 def held_upper_bounds(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, model: PlayerModel,
-                      player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None) -> np.ndarray:
+                      player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None,
+                      workers: int = 1) -> np.ndarray:
     """(k,) for each held unknown (`held`, at -rmax in `theta`), the highest value to which it can be raised, the
     others kept, before the log likelihood falls by `FLAT_DROP` (NaN elsewhere): its interval is [-rmax, that].
 
-    One by one up to `MAX_ONE_BY_ONE` held unknowns; beyond, all together (a common bound, at most as high as each's
-    own: the interval is then narrower than one by one would give, said by `jointly`)."""
+    One by one up to `MAX_ONE_BY_ONE` held unknowns (on up to `workers` processes); beyond, all together (a common
+    bound, at most as high as each's own: the interval is then narrower than one by one would give, said by
+    `jointly`)."""
     counts = np.asarray(counts, dtype=float)
-
-    def ll(values: np.ndarray, start: np.ndarray | None) -> tuple[float, np.ndarray]:
-        got = log_likelihood(mdp, counts, unknowns.state_rewards(values), model=model, player=player, V0=start,
-                             gradient=False)
-        return got.value, got.plan.V
-
-    best, V_fit = ll(theta, V0)
+    fitted = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player, V0=V0,
+                            gradient=False)
     out = np.full(unknowns.k, np.nan)
     groups = [[j] for j in np.flatnonzero(held)] if held.sum() <= MAX_ONE_BY_ONE else [list(np.flatnonzero(held))]
-    for group in groups:
-        low, high = -rmax, rmax
-        # Each step's soft values start from the last step's, whose reward is half as far away as the one
-        # before (on walled-24, 6.2 soft solves a step instead of 7.8 from the fit's values).
-        V = V_fit
-        for _ in range(BOUND_STEPS):
-            middle = (low + high) / 2
-            moved = theta.copy()
-            moved[group] = middle
-            value, V = ll(moved, V)
-            low, high = (middle, high) if best - value < FLAT_DROP else (low, middle)
-        out[group] = low
+    shared = (mdp, unknowns, counts, theta, model, player, rmax, fitted.value, fitted.plan.V)
+    for group, bound in zip(groups, map_calls(_upper_bound, [(group,) for group in groups], shared=shared,
+                                              workers=workers)):
+        out[group] = bound
     return out
+
+
+def _upper_bound(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, theta: np.ndarray, model: PlayerModel,
+                 player: Player, rmax: float, best: float, V_fit: np.ndarray, group: list[int]) -> float:
+    """The highest value the `group` of held unknowns can take together before the log likelihood falls by
+    `FLAT_DROP` from `best`, by bisection (`BOUND_STEPS` steps)."""
+    low, high = -rmax, rmax
+    # Each step's soft values start from the last step's, whose reward is half as far away as the one
+    # before (on walled-24, 6.2 soft solves a step instead of 7.8 from the fit's values).
+    V = V_fit
+    for _ in range(BOUND_STEPS):
+        middle = (low + high) / 2
+        moved = theta.copy()
+        moved[group] = middle
+        got = log_likelihood(mdp, counts, unknowns.state_rewards(moved), model=model, player=player, V0=V,
+                             gradient=False)
+        V = got.plan.V
+        low, high = (middle, high) if best - got.value < FLAT_DROP else (low, middle)
+    return low
 
 
 def jointly(held: np.ndarray) -> bool:
@@ -76,10 +85,11 @@ def jointly(held: np.ndarray) -> bool:
 
 
 def held_note(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, model: PlayerModel,
-              player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None) -> tuple[np.ndarray, Note]:
+              player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None,
+              workers: int = 1) -> tuple[np.ndarray, Note]:
     """(k,) the upper bounds of the held rewards (`held_upper_bounds`, NaN elsewhere), and the note naming them."""
     upper = held_upper_bounds(mdp, unknowns, counts, theta=theta, model=model, player=player, held=held, rmax=rmax,
-                              V0=V0)
+                              V0=V0, workers=workers)
     named = "; ".join(f"{label} {value:.3g}" for label, value, on in zip(unknowns.labels, upper, held) if on)
     how = "all together" if jointly(held) else "each alone"
     return upper, Note("unreached", f"not bounded below by the data (no recorded action can lead there), held at the "

@@ -31,7 +31,7 @@ import os
 import re
 import socket
 from collections.abc import Callable, Sequence
-from typing import Any, Protocol, TypeVar
+from typing import Any, Protocol, TypeVar, cast
 
 from irl_core.support.pool import STOP_POLL_S, run_in_pool
 from irl_core.support.stopping import stop_if_asked
@@ -85,6 +85,15 @@ class LocalPool:
         """See `Executor.run`; a worker process that dies breaks the pool, which raises (no rerun here)."""
         run_in_pool(_with_shared, [(function, call) for call in calls], workers=self.workers, on_result=on_result,
                     initializer=_install_shared, initargs=(shared,), preload=(function.__module__,))
+
+
+def map_calls(function: Callable[..., T], calls: Sequence[tuple], *, shared: tuple = (), workers: int = 1) -> list[T]:
+    """[function(*shared, *call) for call in calls], on a `LocalPool` of up to `workers` processes (here with one)."""
+    if workers <= 1 or len(calls) <= 1:
+        return [function(*shared, *call) for call in calls]
+    out: list[T | None] = [None] * len(calls)
+    LocalPool(min(workers, len(calls))).run(function, calls, on_result=out.__setitem__, shared=shared)
+    return cast("list[T]", out)
 
 
 _SHARED: tuple = ()  # in a worker of `LocalPool`: the run's shared data

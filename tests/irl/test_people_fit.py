@@ -123,3 +123,22 @@ def test_lp_infeasible_only_within_a_small_bound_still_advises_raising_it():
     with pytest.raises(InfeasibleError) as caught:
         fit(demos, method="lp", rmax=1.0)
     assert "{rmax}" in caught.value.sentence
+
+
+def test_a_big_worlds_people_fit_on_two_processes_is_the_fit_on_one():
+    # The candidates' default starts, the folds' refits and the held rewards' bounds go to a process pool from
+    # PEOPLE_PARALLEL_STATES states: the same numbers, to the last digit, and the same notes.
+    from bench.worlds import cliff_world
+    from irl_core.irl import FitOptions
+    from irl_core.irl.fitting import PEOPLE_PARALLEL_STATES
+    from irl_core.players.experts import demonstrations_of, rollouts
+    from irl_core.players.person_like import person_like
+
+    mdp = build_mdp(cliff_world(10, 12))
+    assert mdp.n_states >= PEOPLE_PARALLEL_STATES
+    demos = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, "loose").choose, episodes=30, seed=0))
+    one, two = (fit(demos, FitOptions(), workers=workers) for workers in (1, 2))
+    assert one.player_model == two.player_model
+    assert one.theta.tolist() == two.theta.tolist()
+    assert [str(note) for note in one.notes] == [str(note) for note in two.notes]
+    assert any(note.code == "unreached" for note in one.notes)  # held rewards' bounds were computed
