@@ -1,7 +1,7 @@
 """What asking "should I stop?" costs a fit's evaluation, and how long it goes without asking.
 
-After every fit, `evaluate` plans for the fitted reward and for the true one (value iteration,
-asking the stop check before every sweep) and follows each plan to its ends (`policy_ends`,
+After every fit, `evaluate` plans for the fitted reward and for the true one (policy iteration,
+asking the stop check before every policy solve) and follows each plan to its ends (`policy_ends`,
 asking before and after its sparse solves). On a 64x64 cliff world (`cliff_world(64, 64)`,
 20 optimal episodes from `demonstrations_for`), with the reward of a maxent fit at beta 1:
 

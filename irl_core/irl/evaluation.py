@@ -25,7 +25,7 @@ import scipy.sparse.linalg as spla
 
 from irl_core.support.stopping import stop_if_asked
 from irl_core.worlds.mdp import MDP
-from irl_core.worlds.planning import policy_evaluation, policy_matrix, value_iteration
+from irl_core.worlds.planning import policy_evaluation, policy_iteration, policy_matrix
 
 
 @dataclass(frozen=True)
@@ -126,8 +126,11 @@ def policy_ends(mdp: MDP, actions: np.ndarray) -> Ends:
     return Ends(ends=ends, never=max(0.0, 1.0 - sum(ends.values())), expected_return=expected)
 
 
-def evaluate(mdp: MDP, fitted_R_S: np.ndarray) -> Evaluation:
-    """The agent that plans optimally for `fitted_R_S` (S,), and the true optimum, in the true world."""
-    agent = value_iteration(mdp, R_S=np.asarray(fitted_R_S, dtype=float)).greedy
-    optimal = value_iteration(mdp).greedy
+def evaluate(mdp: MDP, fitted_R_S: np.ndarray, *, start: np.ndarray | None = None) -> Evaluation:
+    """The agent that plans optimally for `fitted_R_S` (S,), and the true optimum, in the true world.
+
+    Both are planned by policy iteration: the agent from `start` (S,) actions (the fit's own policy, where
+    there is one), the optimum from the agent's policy, each a solve or two."""
+    agent = policy_iteration(mdp, R_S=np.asarray(fitted_R_S, dtype=float), start=start).greedy
+    optimal = policy_iteration(mdp, start=agent).greedy
     return Evaluation(agent=policy_ends(mdp, agent), optimal=policy_ends(mdp, optimal))

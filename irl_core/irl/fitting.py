@@ -48,6 +48,7 @@ from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
 from irl_core.worlds.mdp import MDP, build_mdp
+from irl_core.worlds.planning import greedy_actions
 
 METHODS = fit_methods.FITTED
 
@@ -153,7 +154,8 @@ def fit(
         notes.append(Note("at_bound", f"at ±rmax: {', '.join(bounded)}; there the bound, not the demonstrations, "
                                       "set the value"))
     R_S = unknowns.state_rewards(fitted.theta)
-    evaluation = evaluate(recorded_mdp, R_S)
+    fitted_Q = recorded_mdp.reward_matrix(R_S) + recorded_mdp.gamma * recorded_mdp.expected_next(fitted.V)
+    evaluation = evaluate(recorded_mdp, R_S, start=greedy_actions(fitted_Q))
     if options.cost == "unknown":
         fitted, bounds, R_S, demos = _in_seconds(fitted, bounds, R_S, demos)
     return FitResult(

@@ -106,3 +106,19 @@ def test_one_hot_is_a_policy():
     policy = one_hot(np.array([0, 3, 1]), 4)
     np.testing.assert_allclose(policy.sum(axis=1), 1.0)
     assert policy[1, 3] == 1.0
+
+
+@pytest.mark.parametrize("name", ["mud", "cliffwalking", "mud-time"])
+def test_policy_iteration_finds_value_iterations_optimum_from_nothing_and_from_a_start(name):
+    from irl_core.worlds.planning import policy_evaluation, policy_iteration, value_iteration
+
+    mdp = build_mdp(BUILTIN_WORLDS[name])
+    swept = value_iteration(mdp, tol=1e-12)
+    rng = np.random.default_rng(0)
+    for start in (None, swept.greedy, rng.integers(0, mdp.n_actions, mdp.n_states)):
+        plan = policy_iteration(mdp, start=start)
+        assert plan.converged
+        np.testing.assert_allclose(plan.V, swept.V, atol=1e-9)
+        # Its policy is worth the optimum, followed exactly.
+        np.testing.assert_allclose(policy_evaluation(mdp, plan.greedy), swept.V, atol=1e-9)
+    assert policy_iteration(mdp, start=swept.greedy).iterations == 1

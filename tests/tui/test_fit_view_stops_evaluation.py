@@ -1,5 +1,5 @@
 """Closing the fit view while the fit evaluates its answer (planning for the fitted reward and
-following the plan, 3 to 6 s on a 64x64 world) ends the fit there, instead of the app waiting
+following the plan, once 3 to 6 s on a 64x64 world) ends the fit there, instead of the app waiting
 for an evaluation nobody will see. Counted in sweeps, not seconds."""
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def test_closing_the_view_during_the_evaluation_ends_the_fit(monkeypatch):
     evaluating = threading.Event()
     watched = watch_view_fits(monkeypatch)
 
-    def held_evaluate(*args):
+    def held_evaluate(*args, **kwargs):
         # The view closes while the evaluation is under way: hold it at its start until then.
         evaluating.set()
         for _ in range(1000):
@@ -35,7 +35,7 @@ def test_closing_the_view_during_the_evaluation_ends_the_fit(monkeypatch):
                 break
             threading.Event().wait(0.01)
         sweeps[0] = 0
-        return real_evaluate(*args)
+        return real_evaluate(*args, **kwargs)
 
     monkeypatch.setattr(fit_module, "evaluate", held_evaluate)
     app = CarefulApp(FitScreen(demos, FitOptions(method="lp")))  # no result yet: the view fits on opening
@@ -43,4 +43,4 @@ def test_closing_the_view_during_the_evaluation_ends_the_fit(monkeypatch):
     reached = close_the_view_when(app, evaluating.is_set, seen=evaluating.is_set)
     assert watched.over.wait(60)
     assert reached is True
-    assert watched.ended == ["stopped"] and sweeps[0] == 0  # not one sweep of its planning after the view closed
+    assert watched.ended == ["stopped"] and sweeps[0] == 0  # not one solve of its planning after the view closed
