@@ -9,13 +9,14 @@ plans for the fitted reward falls off the cliff (target <= 1%; the optimum's rat
 check on the data (in-model data: it should pass), and how many cliff cells the fit pins, bounds on one
 side, or leaves unreached.
 
-Run: .venv/bin/python -m bench bench_people_big [--sizes 24,64] [--out FILE]
+Run: .venv/bin/python -m bench bench_people_big [--sizes 24,64] [--workers N] [--out FILE]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import resource
 import time
 
 import numpy as np
@@ -50,18 +51,18 @@ def world_for(size: int) -> World:
     return walled_world(size) if size < 64 else cliff_world(size, size)
 
 
-def measure(size: int, *, episodes: int = 100, seed: int = 0) -> dict:
+def measure(size: int, *, episodes: int = 100, seed: int = 0, workers: int | None = None) -> dict:
     mdp = build_mdp(world_for(size))
     one_vi = best_of(3, lambda: value_iteration(mdp))
     demos = demonstrations_of(mdp, rollouts(mdp, boltzmann_policy(mdp, beta=1.0), episodes=episodes, seed=seed))
-    start = time.perf_counter()
-    result = fit(demos)
-    seconds = time.perf_counter() - start
+    start, cpu = time.perf_counter(), _cpu_seconds()
+    result = fit(demos, workers=workers)
+    seconds, cpu = time.perf_counter() - start, _cpu_seconds() - cpu
     codes = [note.code for note in result.notes]
     cliff = [i for i, label in enumerate(result.unknowns.labels) if label.startswith("C")]
     unpinned = [str(note) for note in result.notes if note.code in ("one_sided", "unreached")]
     return {
-        "world": mdp.world.name, "states": mdp.n_states, "status": result.status, "seconds": seconds,
+        "world": mdp.world.name, "states": mdp.n_states, "status": result.status, "seconds": seconds, "cpu_seconds": cpu,
         "vi_seconds": one_vi, "vi_ratio": seconds / one_vi, "player_model": result.player_model,
         "agent_cliff": result.evaluation.agent.ends.get("C", 0.0),
         "optimal_cliff": result.evaluation.optimal.ends.get("C", 0.0),
@@ -72,12 +73,19 @@ def measure(size: int, *, episodes: int = 100, seed: int = 0) -> dict:
     }
 
 
+def _cpu_seconds() -> float:
+    """CPU seconds of this process and of its children that have ended (the fit's pools)."""
+    mine, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return mine.ru_utime + mine.ru_stime + children.ru_utime + children.ru_stime
+
+
 def line(row: dict) -> str:
     verdicts = [f"{'meets' if row['vi_ratio'] <= TARGET_VI else 'misses'} {TARGET_VI:g}x VI",
                 f"{'meets' if row['agent_cliff'] <= TARGET_FALL else 'misses'} <= {TARGET_FALL:.0%} falls",
                 f"fit check {'passed' if row['fit_check'] else 'failed' if row['fit_check'] is False else 'not run'}"]
     return (f"{row['world']} ({row['states']} states): {row['status']} in {row['seconds']:.1f} s = "
-            f"{row['vi_ratio']:.0f}x one VI ({row['vi_seconds']:.3f} s), model {row['player_model']}; agent falls "
+            f"{row['vi_ratio']:.0f}x one VI ({row['vi_seconds']:.3f} s; CPU {row['cpu_seconds']:.1f} s in all processes), "
+            f"model {row['player_model']}; agent falls "
             f"{100 * row['agent_cliff']:.2f}% (optimum {100 * row['optimal_cliff']:.2f}%); "
             f"{row['cliff_at_bound']} of {row['cliff_cells']} cliff cells at the bound; " + "; ".join(verdicts))
 
@@ -86,9 +94,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(prog="bench_people_big", description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", default="24,64", help="comma-separated sizes (24: the walled world)")
     parser.add_argument("--out", default=None, help="also write the rows as JSON lines here")
+    parser.add_argument("--workers", type=int, default=None, help="processes for the fit (default: every core)")
     args = parser.parse_args()
     for size in (int(s) for s in args.sizes.split(",")):
-        row = measure(size)
+        row = measure(size, workers=args.workers)
         print(line(row), flush=True)
         for text in row["unpinned"]:
             print(f"  {text[:300]}", flush=True)
