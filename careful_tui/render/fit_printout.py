@@ -70,10 +70,10 @@ def reward_scale(result: FitResult) -> float:
     return scale if scale > 0 else 1.0
 
 
-def reward_grids(result: FitResult, *, width: int) -> Table:
+def reward_grids(result: FitResult, *, width: int) -> Table | Group:
     """The fitted R_S and, when the world defines rewards, the true R_S beside it (one colour scale).
 
-    Side by side when `width` allows, else one above the other.
+    Side by side when `width` allows, else one above the other (each in strips of columns if wider still).
     """
     world = result.world
     scale = reward_scale(result)
@@ -86,15 +86,12 @@ def reward_grids(result: FitResult, *, width: int) -> Table:
     gap = 4
     grid_width = world.cols * WorldGrid(world).cell_width
     side_by_side = len(grids) * grid_width + (len(grids) - 1) * gap <= width
+    if not side_by_side:
+        return Group(*grids)
     table = Table.grid(padding=(0, gap))
-    if side_by_side:
-        for _ in grids:
-            table.add_column(min_width=grid_width)
-        table.add_row(*grids)
-    else:
+    for _ in grids:
         table.add_column(min_width=grid_width)
-        for grid in grids:
-            table.add_row(grid)
+    table.add_row(*grids)
     return table
 
 

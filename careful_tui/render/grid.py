@@ -149,16 +149,24 @@ class WorldGrid:
         ]
 
     def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
-        for r in range(self.world.rows):
-            row = [self.cell_segments((r, c), console) for c in range(self.world.cols)]
-            for i in range(self.cell_height):
-                for lines in row:
-                    yield from lines[i]
-                yield Segment.line()
+        # A world wider than the space is drawn in strips of whole columns, one under the other, each
+        # named; cut at the edge, a 24-wide world's printout showed 11 columns and said nothing of the rest.
+        cols = self.world.cols
+        strips = math.ceil(cols / max(1, options.max_width // self.cell_width))
+        per_strip = math.ceil(cols / strips)  # strips of about one width: 8, 8, 8 rather than 11, 11, 2
+        for first in range(0, cols, per_strip):
+            last = min(cols, first + per_strip)
+            if strips > 1:
+                yield Text(f"columns {first} to {last - 1} (of 0 to {cols - 1})", style="dim")
+            for r in range(self.world.rows):
+                row = [self.cell_segments((r, c), console) for c in range(first, last)]
+                for i in range(self.cell_height):
+                    for lines in row:
+                        yield from lines[i]
+                    yield Segment.line()
 
     def __rich_measure__(self, console: Console, options: ConsoleOptions):
-        width = self.world.cols * self.cell_width
-        return Measurement(width, width)
+        return Measurement(self.cell_width, self.world.cols * self.cell_width)
 
 
 def symbol_legend(world: World) -> Text:

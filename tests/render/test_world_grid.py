@@ -1,0 +1,33 @@
+"""A world wider than the console is printed in strips of whole columns, each named, none cut off."""
+
+import io
+
+import numpy as np
+from rich.console import Console
+
+from careful_tui.render.grid import WorldGrid
+from irl_core.worlds.world import World
+
+
+def _printed(grid: WorldGrid, width: int) -> str:
+    console = Console(file=io.StringIO(), width=width, color_system=None)
+    console.print(grid)
+    return console.file.getvalue()
+
+
+def test_a_wide_world_comes_in_named_strips_of_whole_columns_and_every_value_is_printed():
+    cols = 24
+    world = World(name="wide", layout="." * (cols - 1) + "G\n", levels=1, rewards={"G": 10.0})
+    values = np.arange(cols, dtype=float)[None, :] * 11  # each column's own number: 0, 11, ..., 253
+    text = _printed(WorldGrid(world, values=values), width=80)
+    assert max(len(line) for line in text.splitlines()) <= 80
+    assert [line for line in text.splitlines() if line.startswith("columns")] == [
+        "columns 0 to 7 (of 0 to 23)", "columns 8 to 15 (of 0 to 23)", "columns 16 to 23 (of 0 to 23)"]
+    for value in values[0]:
+        assert f"{value:.0f}" in text.split()
+
+
+def test_a_world_that_fits_is_printed_whole_without_strips():
+    world = World(name="narrow", layout="....G\n", levels=1, rewards={"G": 10.0})
+    text = _printed(WorldGrid(world), width=80)
+    assert "columns" not in text and len(text.splitlines()) == 3
