@@ -88,6 +88,9 @@ def error_message(error: Exception) -> str:
 
 
 SCROLL = Binding.Group("scroll")
+SIDEWAYS = Binding.Group("sideways")
+# The view's own text needs this many columns; a board wider than the rest scrolls sideways.
+MIN_VIEW_WIDTH = 60
 
 
 def method_bindings(group: Binding.Group) -> list[Binding]:
@@ -162,6 +165,9 @@ class FitScreen(Screen[None]):
         # The body scrolls with PageUp/PageDown (Textual's own); listed so the key bar says so.
         Binding("pageup", "scroll_body('up')", "scroll", key_display="PgUp", priority=True, group=SCROLL),
         Binding("pagedown", "scroll_body('down')", "scroll", key_display="PgDn", priority=True, group=SCROLL),
+        # A world wider than the terminal scrolls sideways (shown only then, `check_action`).
+        Binding("left", "scroll_body('left')", "sideways", key_display="←", priority=True, group=SIDEWAYS),
+        Binding("right", "scroll_body('right')", "sideways", key_display="→", priority=True, group=SIDEWAYS),
     ]
 
     def __init__(
@@ -187,6 +193,7 @@ class FitScreen(Screen[None]):
         self._progress = ""
         self._save_first = svg is not None
         self._too_small = False
+        self._too_wide = False
         self._failed_method = ""
         self._redraw_asked = False
 
@@ -231,8 +238,11 @@ class FitScreen(Screen[None]):
         """Boards side by side when two fit, else stacked; the board sizes; the too-small check."""
         world = self.world
         smallest = board_width(world.cols, 0)
-        self._too_small = self.query_one(TooSmall).check(width, height, (smallest + 4, 12), command="careful fit")
+        self._too_small = self.query_one(TooSmall).check(width, height, (min(smallest + 4, MIN_VIEW_WIDTH), 12),
+                                                         command="careful fit")
         room = width - 3  # the body's padding and scroll bar
+        self._too_wide = room < smallest
+        self.query_one("#body").set_class(self._too_wide, "-wide")
         two = bool(world.rewards) and room >= 2 * smallest + GAP
         each = board_width(world.cols, (room - GAP) // 2 if two else room)
         for board in self.query(Board):
@@ -312,7 +322,13 @@ class FitScreen(Screen[None]):
 
     def action_scroll_body(self, direction: str) -> None:
         body = self.query_one("#body", VerticalScroll)
-        body.scroll_page_up() if direction == "up" else body.scroll_page_down()
+        {"up": body.scroll_page_up, "down": body.scroll_page_down, "left": body.scroll_page_left,
+         "right": body.scroll_page_right}[direction]()
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        if action == "scroll_body" and parameters and parameters[0] in ("left", "right"):
+            return self._too_wide
+        return True
 
     def action_toggle_intervals(self) -> None:
         """Show the intervals (computing them if the shown fit has none) or hide them."""

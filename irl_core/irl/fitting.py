@@ -467,11 +467,11 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     elif (~np.isnan(together[:, 0])).any():
         ranges = [f"{label} {value:.3g} ({low:.3g} to {high:.3g})" for label, value, (low, high)
                   in zip(unknowns.labels, solution.theta, together) if not np.isnan(low)]
-        notes.append(Note("pinned_together", "pinned only loosely, in combination with each other: along a mix of "
-                                             f"them the likelihood's curvature is under {NEARLY_FLAT:g} of the best "
-                                             "pinned mix's, so each point is where the search stopped; each can move "
-                                             f"along it this far at a cost under {FLAT_DROP:g} (point, then range): "
-                                             + "; ".join(ranges)))
+        notes.append(Note("pinned_together", "pinned only loosely, together: the likelihood hardly changes along a "
+                                             f"mix of them (its curvature there under {NEARLY_FLAT:g} of the "
+                                             "best-pinned mix's), so each point is where the search stopped; along "
+                                             f"that mix each can move this far at a cost under {FLAT_DROP:g} (point, "
+                                             "then range): " + "; ".join(ranges)))
     V = solution.V1 / player.beta
     return _Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
                    status="optimal" if solution.converged else "not_converged", notes=notes,

@@ -359,3 +359,37 @@ def test_each_change_redraws_the_view_once(mud_file, monkeypatch):
         await pilot.pause()
         assert len(draws) == 4 and "press i" in shown(app, "#intervals")
     drive(app, body, size=(100, 40))
+
+
+def test_a_world_wider_than_the_terminal_opens_and_scrolls_sideways(tmp_path):
+    # A 24-wide world needs 170 columns of board: at 100 the view opened only to say the terminal was too
+    # small. Now its boards keep their size, the body scrolls sideways, and the key bar says how.
+    from bench.worlds import cliff_world
+
+    world_file = tmp_path / "wide.toml"
+    world_file.write_text(cliff_world(4, 24).to_toml(), encoding="utf-8")
+    recording = tmp_path / "wide.jsonl"
+    assert main(["simulate", "--world", str(world_file), "--policy", "optimal", "--episodes", "10", "--seed", "0",
+                 "--out", str(recording)]) == 0
+    app = make_app(recording, "--method", "lp")
+
+    async def body(pilot):
+        assert not app.screen.has_class("-too-small")
+        assert ("←→", "sideways") in app.query_one(KeyBar).keys
+        fitted = app.query_one("#fitted")
+        assert fitted.region.width == board_width(24, 0)  # whole, not squeezed
+        scroller = app.query_one("#body")
+        assert scroller.max_scroll_x > 0 and scroller.scroll_x == 0
+        await pilot.press("right")
+        await pilot.pause()
+        assert scroller.scroll_x > 0
+        await pilot.press("left")
+        await pilot.pause()
+        assert scroller.scroll_x == 0
+    drive(app, body, size=(100, 35))
+    narrow = make_app(recording, "--method", "lp")
+
+    async def body_roomy(pilot):
+        assert all(label != "sideways" for _, label in narrow.query_one(KeyBar).keys)
+        assert narrow.query_one("#body").max_scroll_x == 0
+    drive(narrow, body_roomy, size=(200, 60))
