@@ -48,3 +48,19 @@ def test_a_narrow_system_is_solved_as_a_band_and_a_wide_one_by_superlu_to_the_sa
     assert not twice.has_canonical_format
     np.testing.assert_allclose(solve_system(twice, b), spla.spsolve(sp.csc_matrix(twice), b), rtol=1e-12)
     assert not np.allclose(solve_system(twice, b), solve_system(narrow, b))
+
+
+@pytest.mark.parametrize("world", [WALLED, BUILTIN_WORLDS["cliffwalking"]], ids=["walled", "cliffwalking"])
+def test_a_policy_system_and_its_transpose_solve_from_the_worlds_band_as_dense_lapack_does(world):
+    mdp = build_mdp(world)
+    S, A = mdp.n_states, mdp.n_actions
+    rng = np.random.default_rng(5)
+    pi = rng.random((S, A))
+    pi /= pi.sum(axis=1, keepdims=True)
+    system = moves_of(mdp).policy_system(pi, gamma=mdp.gamma)
+    dense = system.toarray()
+    assert moves_of(mdp).below + moves_of(mdp).above <= MAX_BAND  # the band route, not SuperLU
+    b = rng.normal(size=S)
+    np.testing.assert_allclose(solve_system(system, b), np.linalg.solve(dense, b), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(solve_system(system.T, b), np.linalg.solve(dense.T, b), rtol=1e-10, atol=1e-12)
+    np.testing.assert_array_equal(system.T.toarray(), dense.T)
