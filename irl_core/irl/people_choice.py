@@ -12,7 +12,7 @@ from irl_core.irl.people_fit import REFIT_MAX_ITER, PlayerFit, fit_player
 from irl_core.irl.people_likelihood import START_LAPSE, START_SIGMA
 from irl_core.irl.player_models import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
 from irl_core.irl.qmap import Unknowns
-from irl_core.support.executor import map_calls
+from irl_core.support.executor import map_calls, run_calls
 from irl_core.worlds.mdp import MDP
 
 FOLDS = 5
@@ -73,26 +73,20 @@ def choose_player_model(
                            f"player model ends, without a held-out choice: {E} episode{'s' if E != 1 else ''} "
                            f"cannot be split into folds (a choice needs {MIN_EPISODES_TO_CHOOSE})")
     fits: dict[str, PlayerFit] = {}
-    # Each from the default start, and a richer model also from where the one before it ended: the likelihood is
-    # not concave, and either start alone can stop in a poorer optimum. The default starts depend on nothing
-    # else, so they run side by side (on walled-24 they were 6.45 s of a 10.6 s fit).
-    from_default = map_calls(_fit_from_default, [(model,) for model in models], shared=(mdp, unknowns, counts, rmax),
-                         workers=workers)
-    for model, default in zip(models, from_default):
-        tries = [default]
-        previous = fits[models[models.index(model) - 1].name] if fits else None
-        if previous is not None:
-            start = (previous.theta, Player(previous.player.beta, previous.player.sigma or START_SIGMA,
-                                            previous.player.lapse or START_LAPSE))
-            tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
-        # And, as `fit_given_model` does, from the ends model's answer with a fresh hand: a hand model's
-        # sigma, started from the simpler hand's small one, can stay in the optimum where beta explains the
-        # spread of levels (on a time world that optimum put the cliff at half its size).
-        ends = fits.get("ends")
-        if model.hand and ends is not None and previous is not ends:
-            start = (ends.theta, Player(ends.player.beta, START_SIGMA, START_LAPSE))
-            tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
-        fits[model.name] = max(tries, key=lambda fit: fit.mean_log_likelihood)
+    from_default: dict[int, PlayerFit] = {}
+
+    def arrived(i: int, default: PlayerFit) -> None:
+        # Each model's other starts come from the model before it: as soon as that one and this model's default
+        # start are in, its fit is settled here while the workers go on with the later default starts.
+        from_default[i] = default
+        while len(fits) < len(models) and len(fits) in from_default:
+            j = len(fits)
+            fits[models[j].name] = _best_of_starts(mdp, unknowns, counts, models, j, from_default[j], fits, rmax=rmax)
+
+    # The default starts depend on nothing else, so they run side by side (on walled-24 they were 6.45 s of a
+    # 10.6 s fit).
+    run_calls(_fit_from_default, [(model,) for model in models], shared=(mdp, unknowns, counts, rmax),
+              workers=workers, on_result=arrived)
     k = min(folds, E)
     fold_of = np.random.default_rng(seed).permutation(np.arange(E) % k)
     per_episode = {model.name: np.zeros(E) for model in models}
@@ -113,6 +107,27 @@ def choose_player_model(
     if chosen != best:
         why += f" ({best} is no better by more than {SIMPLER_MARGIN:g} nats in all, so the simpler model stands)"
     return ModelChoice(chosen, held_out, k, fits, why, per_episode)
+
+
+def _best_of_starts(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, models: list[PlayerModel], j: int,
+                    default: PlayerFit, fits: dict[str, PlayerFit], *, rmax: float) -> PlayerFit:
+    """Model j's best fit: from the default start (`default`), and for a richer model also from where the one before
+    it ended (in `fits`): the likelihood is not concave, and either start alone can stop in a poorer optimum."""
+    model = models[j]
+    tries = [default]
+    previous = fits[models[j - 1].name] if j else None
+    if previous is not None:
+        start = (previous.theta, Player(previous.player.beta, previous.player.sigma or START_SIGMA,
+                                        previous.player.lapse or START_LAPSE))
+        tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
+    # And, as `fit_given_model` does, from the ends model's answer with a fresh hand: a hand model's
+    # sigma, started from the simpler hand's small one, can stay in the optimum where beta explains the
+    # spread of levels (on a time world that optimum put the cliff at half its size).
+    ends = fits.get("ends")
+    if model.hand and ends is not None and previous is not ends:
+        start = (ends.theta, Player(ends.player.beta, START_SIGMA, START_LAPSE))
+        tries.append(fit_player(mdp, unknowns, counts, model=model, rmax=rmax, start=start))
+    return max(tries, key=lambda fit: fit.mean_log_likelihood)
 
 
 def _fit_from_default(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, rmax: float, model: PlayerModel) -> PlayerFit:

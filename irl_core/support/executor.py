@@ -87,12 +87,21 @@ class LocalPool:
                     initializer=_install_shared, initargs=(shared,), preload=(function.__module__,))
 
 
+def run_calls(function: Callable[..., T], calls: Sequence[tuple], *, on_result: Callable[[int, T], None],
+              shared: tuple = (), workers: int = 1) -> None:
+    """`function(*shared, *calls[i])` for every i, on a `LocalPool` of up to `workers` processes (here, in order, with
+    one); `on_result(i, result)` here as each comes back, while the others go on."""
+    if workers <= 1 or len(calls) <= 1:
+        for i, call in enumerate(calls):
+            on_result(i, function(*shared, *call))
+        return
+    LocalPool(min(workers, len(calls))).run(function, calls, on_result=on_result, shared=shared)
+
+
 def map_calls(function: Callable[..., T], calls: Sequence[tuple], *, shared: tuple = (), workers: int = 1) -> list[T]:
     """[function(*shared, *call) for call in calls], on a `LocalPool` of up to `workers` processes (here with one)."""
-    if workers <= 1 or len(calls) <= 1:
-        return [function(*shared, *call) for call in calls]
     out: list[T | None] = [None] * len(calls)
-    LocalPool(min(workers, len(calls))).run(function, calls, on_result=out.__setitem__, shared=shared)
+    run_calls(function, calls, on_result=out.__setitem__, shared=shared, workers=workers)
     return cast("list[T]", out)
 
 
