@@ -55,9 +55,11 @@ def print_fit(console: Console, demos: Demonstrations, result: FitResult, *, sof
 
 
 def fit_page_svg(demos: Demonstrations, result: FitResult, *, width: int, title: str) -> str:
-    """The whole fit as an SVG page, `width` columns wide: `careful fit --svg`, and the fit view's
-    `s` (the view's screen shows only the part scrolled into sight)."""
-    # A page, not a terminal: its sentences wrap at its width instead of being cut there.
+    """The whole fit as an SVG page, `width` columns wide (wider for a world wider than that): `careful fit --svg`,
+    and the fit view's `s` (the view's screen shows only the part scrolled into sight)."""
+    # A page, not a terminal: its sentences wrap at its width instead of being cut there, and it is at least as
+    # wide as the world, whose grids would otherwise come in strips of columns.
+    width = max(width, result.world.cols * WorldGrid(result.world).cell_width)
     page = Console(record=True, file=io.StringIO(), width=width, highlight=False)
     print_fit(page, demos, result, soft_wrap=False)
     return page.export_svg(title=title)

@@ -31,3 +31,17 @@ def test_a_world_that_fits_is_printed_whole_without_strips():
     world = World(name="narrow", layout="....G\n", levels=1, rewards={"G": 10.0})
     text = _printed(WorldGrid(world), width=80)
     assert "columns" not in text and len(text.splitlines()) == 3
+
+
+def test_a_saved_page_is_as_wide_as_the_world_so_its_grids_stay_whole():
+    from bench.worlds import cliff_world
+    from careful_tui.render.fit_printout import fit_page_svg
+    from irl_core.irl import fit
+    from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
+    from irl_core.worlds.mdp import build_mdp
+
+    mdp = build_mdp(cliff_world(4, 24))
+    demos = demonstrations_of(mdp, rollouts(mdp, optimal_policy(mdp), episodes=5, seed=0))
+    svg = fit_page_svg(demos, fit(demos, method="lp"), width=80, title="wide").replace("&#160;", " ")
+    assert "columns" not in svg  # no strips: one picture of the world
+    assert "fitted R_S" in svg and "demonstrated policy" in svg
