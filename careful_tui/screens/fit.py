@@ -89,7 +89,8 @@ def error_message(error: Exception) -> str:
 
 SCROLL = Binding.Group("scroll")
 SIDEWAYS = Binding.Group("sideways")
-# The view's own text needs this many columns; a board wider than the rest scrolls sideways.
+# The fit view opens from this many columns, whatever the world's width: its sentences wrap there, and a board
+# wider than the terminal keeps its size while the body scrolls sideways.
 MIN_VIEW_WIDTH = 60
 
 
