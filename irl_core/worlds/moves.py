@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -37,7 +38,8 @@ class Moves:
             the CSC data of a policy system; diagonal (S,): where its diagonal lands; indices, indptr: the CSC
             structure.
         below, above: how many diagonals below and above the main one the system's nonzeros reach.
-        in_band: (nnz,) where each CSC entry lands in LAPACK's band storage of the system (`PolicySystem.band`).
+        in_band: (2, nnz) where each CSC entry lands in LAPACK's band storage of the system, then of its transpose
+            (`PolicySystem.band`).
     """
 
     neighbour: np.ndarray
@@ -58,6 +60,15 @@ class Moves:
     def n_states(self) -> int:
         return self.neighbour.shape[0]
 
+    @cached_property
+    def _even_by_action(self) -> np.ndarray:
+        """(4 L,) each action's even share, `even` repeated over the four directions."""
+        return np.tile(self.even, 4)
+
+    @cached_property
+    def _one_by_action(self) -> np.ndarray:
+        return np.ones(4 * self.levels)
+
     def weights(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For X (S, A): (S, 4) sum_a X(s, a) P(neighbour(s, k) | s, a) counted once per direction k at acting
         states (0 elsewhere), and (S,) sum_a X(s, a), what each state not acting sends to the exit (0 where
@@ -65,9 +76,9 @@ class Moves:
         S, L = self.n_states, self.levels
         X = np.asarray(X, dtype=float).reshape(S, 4 * L)
         # Products, not sums over the middle axis: numpy's sum there was half the time of this function.
-        toward = (X.reshape(S, 4, L) @ self.chosen) + (X @ np.tile(self.even, 4))[:, None]
+        toward = (X.reshape(S, 4, L) @ self.chosen) + (X @ self._even_by_action)[:, None]
         toward[~self.acting] = 0.0
-        to_exit = np.where(self.acting, 0.0, X @ np.ones(4 * L))
+        to_exit = np.where(self.acting, 0.0, X @ self._one_by_action)
         return toward, to_exit
 
     def pulled_back(self, X: np.ndarray) -> np.ndarray:
