@@ -45,6 +45,7 @@ from irl_core.irl.slip_curve import SlipCurve, fit_slip_curve
 from irl_core.irl.timing_fit import fit_timing, timing_chooser, timing_policy
 from irl_core.players.experts import Chooser
 from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.allocator import keep_freed_memory
 from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
 from irl_core.worlds.mdp import MDP, build_mdp
@@ -113,6 +114,7 @@ def fit(
     if demos.counts.sum() <= 0:
         raise BadInputError("the recordings contain no steps: there is nothing to fit", code="no_steps")
     start = time.perf_counter()
+    keep_freed_memory()
     recorded_mdp = demos.mdp
     notes: list[Note] = []
     curve, demos = _on_its_curve(demos, options, notes)

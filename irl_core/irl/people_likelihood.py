@@ -175,7 +175,7 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
     system = policy_system(mdp, q)
     log_q = _log_realised(pi.reshape(S, 4, L), log_pi.reshape(S, 4, L), K)
     if lapse > 0:
-        log_level = np.logaddexp.reduce(log_q, axis=1, keepdims=True) - np.log(4.0)  # log (Lq)
+        log_level = _log_sum_of_directions(log_q) - np.log(4.0)  # log (Lq)
         log_observed = np.logaddexp(np.log1p(-lapse) + log_q, np.log(lapse) + log_level)
     else:
         log_observed = log_q
@@ -186,6 +186,15 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
     plan = PlayerPlan(V=V, Q=Q, intended=pi, backup=q, realised=realised, observed=np.exp(log_observed),
                       log_observed=log_observed, iterations=iteration)
     return plan, system
+
+
+def _log_sum_of_directions(log_x: np.ndarray) -> np.ndarray:
+    """(S, 1, L) log sum_d x(s, d, c) for log x (S, 4, L): np.logaddexp.reduce over the directions, written out
+    (the same sums in the same order; numpy's reduce over a middle axis takes 1.5x as long)."""
+    total = np.logaddexp(log_x[:, 0], log_x[:, 1])
+    np.logaddexp(total, log_x[:, 2], out=total)
+    np.logaddexp(total, log_x[:, 3], out=total)
+    return total[:, None, :]
 
 
 def _log_realised(pi3: np.ndarray, log_pi3: np.ndarray, K: np.ndarray) -> np.ndarray:

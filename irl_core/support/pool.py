@@ -33,6 +33,7 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import TypeVar
 
+from irl_core.support.allocator import keep_freed_memory
 from irl_core.support.stopping import stop_if_asked, stop_when
 
 # While the workers run, this process asks its stop check this often (seconds).
@@ -87,6 +88,7 @@ def _start_worker(owner: int, stopping: multiprocessing.synchronize.Event,
                   initializer: Callable[..., None] | None, initargs: tuple) -> None:
     global _STOPPING
     die_with(owner)
+    keep_freed_memory()  # the workers' fits make and free many mid-sized arrays
     _STOPPING = stopping.is_set
     if initializer is not None:
         initializer(*initargs)
