@@ -188,6 +188,12 @@ def _forward(mdp: MDP, R1: np.ndarray, K: np.ndarray, *, ends: bool, lapse: floa
     return plan, system
 
 
+def _sum_of_directions(x: np.ndarray) -> np.ndarray:
+    """(S, 1, L) sum_d x(s, d, c) for x (S, 4, L): x.sum(axis=1) written out (the same sums in the same order, in
+    a third of the time)."""
+    return (x[:, 0] + x[:, 1] + x[:, 2] + x[:, 3])[:, None, :]
+
+
 def _log_sum_of_directions(log_x: np.ndarray) -> np.ndarray:
     """(S, 1, L) log sum_d x(s, d, c) for log x (S, 4, L): np.logaddexp.reduce over the directions, written out
     (the same sums in the same order; numpy's reduce over a middle axis takes 1.5x as long)."""
@@ -254,7 +260,7 @@ def log_likelihood(
     seen = acting[:, None] & (counts > 0)
     W[seen] = counts[seen] * np.exp(np.minimum(-plan.log_observed[seen], MAX_LOG_RATIO))
     W3 = W.reshape(S, 4, L)
-    U3 = (1 - lapse) * W3 + (lapse / 4) * W3.sum(axis=1, keepdims=True) if lapse > 0 else W3
+    U3 = (1 - lapse) * W3 + (lapse / 4) * _sum_of_directions(W3) if lapse > 0 else W3
     pi3 = plan.intended.reshape(S, 4, L)
     Z3 = _times(U3, K.T)
     g3 = pi3 * (Z3 - (pi3 * Z3).sum(axis=(1, 2), keepdims=True))
@@ -278,6 +284,6 @@ def log_likelihood(
     grad_lapse = 0.0
     if model.lapses:
         q3 = plan.realised.reshape(S, 4, L)
-        grad_lapse = float((W3 * (q3.sum(axis=1, keepdims=True) / 4 - q3))[acting].sum())
+        grad_lapse = float((W3 * (_sum_of_directions(q3) / 4 - q3))[acting].sum())
     return Likelihood(value, grad_R_S, grad_log_beta, grad_log_sigma, grad_lapse, plan)
 
