@@ -25,18 +25,18 @@ from irl_core.irl.evaluation import evaluate
 from irl_core.irl.fit_check import FitCheck, fit_check
 from irl_core.irl.hand import hand_from_trials
 from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.laplace import MAX_COMBINED, NEARLY_FLAT, pinned_together
+from irl_core.irl.laplace import MAX_COMBINED, NEARLY_FLAT
 from irl_core.irl.loss import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp import Progress, solve_margin_lp
 from irl_core.irl.margin import lp_constraints
 from irl_core.irl.maxent import MaxEntSolution, curvature_scale, fit_maxent, identification, soft_bellman
 from irl_core.irl.notes import Note
 from irl_core.irl.options import FitOptions
+from irl_core.irl.people_checks import people_checks
 from irl_core.irl.people_choice import ModelChoice, choose_player_model, fit_given_model, significantly_better
 from irl_core.irl.people_fit import PlayerFit, PlayerRefit
 from irl_core.irl.people_fit import curvature_scale as people_curvature_scale
-from irl_core.irl.people_flat import flat_toward_bound
-from irl_core.irl.people_held import FLAT_DROP, held_note
+from irl_core.irl.people_held import FLAT_DROP, note_of_bounds
 from irl_core.irl.player_models import AUTO as PLAYER_AUTO
 from irl_core.irl.player_models import Player, player_model
 from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
@@ -78,6 +78,7 @@ class _Fitted:
     curve: SlipCurve | None = None  # the timing fit's slip curve, estimated with the rewards
     own_intervals: np.ndarray | None = None  # (k, 2) the timing fit's sandwich intervals
     chooser: Chooser | None = None  # the timing model's player over continuous holds, for the fit check
+    fit_check: FitCheck | None = None  # the fit check, where the fitter worked it out beside its other checks
 
 
 def fit(
@@ -271,8 +272,9 @@ def _fit_check(fitted: _Fitted, demos: Demonstrations, options: FitOptions, note
     if demos.by_episode is None or demos.episode_facts is None:
         notes.append(Note("fit_check_not_run", "fit check not run: these demonstrations do not keep their episodes"))
         return None
-    check = fit_check(demos.mdp, fitted.observed_policy, demos.by_episode, demos.episode_facts, seed=options.seed,
-                      player=fitted.chooser)
+    check = fitted.fit_check if fitted.fit_check is not None else fit_check(
+        demos.mdp, fitted.observed_policy, demos.by_episode, demos.episode_facts, seed=options.seed,
+        player=fitted.chooser)
     code = {True: "fit_check_passed", False: "fit_check_failed", None: "fit_check_not_run"}[check.passed]
     sentence = check.summary()
     if check.passed is False:
@@ -449,20 +451,18 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         notes.append(Note("not_identified", f"beta ran to the end of its range ({player.beta:.3g}): the intended "
                                             "choices look deterministic, so the data bound the rewards rather than "
                                             "pin them; read the intervals, not the points"))
-    held_upper = None
-    if solution.held.any():
-        held_upper, note = held_note(mdp, unknowns, demos.counts, theta=solution.theta, model=solution.model,
-                                     player=solution.player, held=solution.held, rmax=options.rmax, V0=solution.V1,
-                                     workers=workers)
-        notes.append(note)
-    flat = flat_toward_bound(mdp, unknowns, demos.counts, solution, rmax=options.rmax)
+    episodes = (demos.by_episode, demos.episode_facts) \
+        if demos.by_episode is not None and demos.episode_facts is not None else None
+    checks = people_checks(mdp, unknowns, demos.counts, solution, rmax=options.rmax, episodes=episodes,
+                           seed=options.seed, workers=workers)
+    if checks.held_upper is not None:
+        notes.append(note_of_bounds(unknowns, checks.held_upper, solution.held))
+    flat, together = checks.flat, checks.together
     if flat.any():
         sides = [f"{label} {'at most' if side < 0 else 'at least'} {value:.3g}"
                  for label, value, side in zip(unknowns.labels, solution.theta, flat) if side]
         notes.append(Note("one_sided", "bounded on one side only (moving them to the bound, {rmax}, costs the "
                                        f"likelihood less than {FLAT_DROP:g}): " + "; ".join(sides)))
-    held = solution.held if solution.held.size else np.zeros(unknowns.k, dtype=bool)
-    together = pinned_together(mdp, unknowns, demos.counts, solution, rmax=options.rmax, settled=held | (flat != 0))
     if together is None:
         notes.append(Note("combinations_unchecked", f"with over {MAX_COMBINED} free rewards, whether the data pin "
                                                     "some of them only in combination was not checked"))
@@ -478,8 +478,8 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     return _Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
-                   people=solution, rival=rival, held_upper=held_upper,
-                   together=together)
+                   people=solution, rival=rival, held_upper=checks.held_upper,
+                   together=together, fit_check=checks.fit_check)
 
 
 def timing_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, progress: Progress | None,

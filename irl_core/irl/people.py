@@ -15,6 +15,7 @@ nested so that maxent's expert is their special case. Each job has its module:
 `people_choice`       choosing a model on held-out episodes
 `people_held`         the rewards no recorded action can lead into, held at -rmax, and their upper bounds
 `people_flat`         the rewards the data bound on one side only
+`people_checks`       what is read off the chosen fit (those bounds, the fit check), side by side
 ====================  ========================================================================
 
 Code in the project imports from those modules; this one keeps every public name importable from

@@ -49,21 +49,34 @@ def held_upper_bounds(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta
     bound, at most as high as each's own: the interval is then narrower than one by one would give, said by
     `jointly`)."""
     counts = np.asarray(counts, dtype=float)
+    groups = bound_groups(held)
     fitted = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player, V0=V0,
                             gradient=False)
-    out = np.full(unknowns.k, np.nan)
-    groups = [[j] for j in np.flatnonzero(held)] if held.sum() <= MAX_ONE_BY_ONE else [list(np.flatnonzero(held))]
     shared = (mdp, unknowns, counts, theta, model, player, rmax, fitted.value, fitted.plan.V)
-    for group, bound in zip(groups, map_calls(_upper_bound, [(group,) for group in groups], shared=shared,
-                                              workers=workers)):
+    bounds = map_calls(upper_bound, [(group,) for group in groups], shared=shared, workers=workers)
+    return bounds_of(unknowns.k, groups, bounds)
+
+
+def bound_groups(held: np.ndarray) -> list[list[int]]:
+    """The unknowns `held_upper_bounds` bounds together: each held one alone, or all in one group beyond
+    `MAX_ONE_BY_ONE`."""
+    indices = [int(j) for j in np.flatnonzero(held)]
+    return [[j] for j in indices] if len(indices) <= MAX_ONE_BY_ONE else [indices]
+
+
+def bounds_of(k: int, groups: list[list[int]], bounds: list[float]) -> np.ndarray:
+    """(k,) each group's bound at its unknowns, NaN elsewhere."""
+    out = np.full(k, np.nan)
+    for group, bound in zip(groups, bounds):
         out[group] = bound
     return out
 
 
-def _upper_bound(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, theta: np.ndarray, model: PlayerModel,
-                 player: Player, rmax: float, best: float, V_fit: np.ndarray, group: list[int]) -> float:
+def upper_bound(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, theta: np.ndarray, model: PlayerModel,
+                player: Player, rmax: float, best: float, V_fit: np.ndarray, group: list[int]) -> float:
     """The highest value the `group` of held unknowns can take together before the log likelihood falls by
-    `FLAT_DROP` from `best`, by bisection (`BOUND_STEPS` steps)."""
+    `FLAT_DROP` from `best` (its value at `theta`, whose soft values are `V_fit`), by bisection (`BOUND_STEPS`
+    steps)."""
     low, high = -rmax, rmax
     # Each step's soft values start from the last step's, whose reward is half as far away as the one
     # before (on walled-24, 6.2 soft solves a step instead of 7.8 from the fit's values).
@@ -84,13 +97,9 @@ def jointly(held: np.ndarray) -> bool:
     return int(np.sum(held)) > MAX_ONE_BY_ONE
 
 
-def held_note(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, model: PlayerModel,
-              player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None,
-              workers: int = 1) -> tuple[np.ndarray, Note]:
-    """(k,) the upper bounds of the held rewards (`held_upper_bounds`, NaN elsewhere), and the note naming them."""
-    upper = held_upper_bounds(mdp, unknowns, counts, theta=theta, model=model, player=player, held=held, rmax=rmax,
-                              V0=V0, workers=workers)
+def note_of_bounds(unknowns: Unknowns, upper: np.ndarray, held: np.ndarray) -> Note:
+    """The note naming the held rewards and their upper bounds (k,)."""
     named = "; ".join(f"{label} {value:.3g}" for label, value, on in zip(unknowns.labels, upper, held) if on)
     how = "all together" if jointly(held) else "each alone"
-    return upper, Note("unreached", f"not bounded below by the data (no recorded action can lead there), held at the "
-                                    f"lowest reward {{rmax}} allows; the data allow at most ({how}): {named}")
+    return Note("unreached", f"not bounded below by the data (no recorded action can lead there), held at the "
+                             f"lowest reward {{rmax}} allows; the data allow at most ({how}): {named}")

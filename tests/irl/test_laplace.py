@@ -130,7 +130,7 @@ def test_two_unknowns_of_one_cell_are_pinned_only_together_and_reach_the_bound_a
 def test_a_reward_pinned_only_in_combination_is_named_and_its_interval_holds_its_range(monkeypatch):
     # The fit's wiring: whatever `pinned_together` finds is named in the note and held by the bootstrap's interval,
     # whose refits, started where the fit stopped, would not move along the flat combination.
-    from irl_core.irl import FitOptions, fit, fitting
+    from irl_core.irl import FitOptions, fit, people_checks
 
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     demos = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, "loose").choose, episodes=12, seed=0))
@@ -145,7 +145,7 @@ def test_a_reward_pinned_only_in_combination_is_named_and_its_interval_holds_its
         out[mud] = [-300.0, 300.0]
         return out
 
-    monkeypatch.setattr(fitting, "pinned_together", pinned)
+    monkeypatch.setattr(people_checks, "pinned_together", pinned)
     flagged = fit(demos, options, workers=1)
     note = next(note for note in flagged.notes if note.code == "pinned_together")
     assert "U " in str(note) and "(-300 to 300)" in str(note)

@@ -126,8 +126,8 @@ def test_lp_infeasible_only_within_a_small_bound_still_advises_raising_it():
 
 
 def test_a_big_worlds_people_fit_on_two_processes_is_the_fit_on_one():
-    # The candidates' default starts, the folds' refits and the held rewards' bounds go to a process pool from
-    # PEOPLE_PARALLEL_STATES states: the same numbers, to the last digit, and the same notes.
+    # The candidates' default starts, the folds' refits and the checks after the fit (held bounds, fit check) go to
+    # a process pool from PEOPLE_PARALLEL_STATES states: the same numbers, to the last digit, and the same notes.
     from bench.worlds import cliff_world
     from irl_core.irl import FitOptions
     from irl_core.irl.fitting import PEOPLE_PARALLEL_STATES

@@ -72,3 +72,33 @@ def test_holding_finds_a_likelihood_at_least_as_high_as_the_free_search(top_rows
     free = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=RMAX, hold=False)
     held = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=RMAX)
     assert held.mean_log_likelihood >= free.mean_log_likelihood - 1e-9
+
+
+def test_the_checks_side_by_side_are_each_functions_own_answer(top_rows):
+    # people_checks runs the held bounds, the one-sided and combination checks and the fit check as one batch on
+    # the fit's processes: each answer must be what its own function gives, on one process or two.
+    from irl_core.irl.fit_check import fit_check
+    from irl_core.irl.laplace import pinned_together
+    from irl_core.irl.people_checks import people_checks
+    from irl_core.irl.people_flat import flat_toward_bound
+
+    mdp, unknowns, counts = top_rows
+    solution = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=RMAX)
+    demos = demonstrations_of(mdp, rollouts(mdp, boltzmann_policy(mdp, beta=1.0), episodes=12, seed=3))
+    episodes = (demos.by_episode, demos.episode_facts)
+    flat = flat_toward_bound(mdp, unknowns, counts, solution, rmax=RMAX)
+    own = {
+        "held": held_upper_bounds(mdp, unknowns, counts, theta=solution.theta, model=solution.model,
+                                  player=solution.player, held=solution.held, rmax=RMAX, V0=solution.V1),
+        "flat": flat,
+        "together": pinned_together(mdp, unknowns, counts, solution, rmax=RMAX, settled=solution.held | (flat != 0)),
+        "check": fit_check(mdp, solution.plan.observed, *episodes, seed=7),
+    }
+    assert solution.held.any() and own["check"].statistics
+    for workers in (1, 2):
+        checks = people_checks(mdp, unknowns, counts, solution, rmax=RMAX, episodes=episodes, seed=7, workers=workers)
+        np.testing.assert_array_equal(checks.held_upper, own["held"])
+        np.testing.assert_array_equal(checks.flat, own["flat"])
+        np.testing.assert_array_equal(checks.together, own["together"])
+        assert checks.fit_check == own["check"]
+    assert people_checks(mdp, unknowns, counts, solution, rmax=RMAX, episodes=None, seed=7).fit_check is None
