@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg.lapack import dgbsv, dgesv
+from scipy.linalg.lapack import dgbsv, dgbtrs, dgesv, dgetrs
 from scipy.optimize import minimize
 from threadpoolctl import ThreadpoolController
 
@@ -244,15 +244,42 @@ MAX_BAND = 128
 def solve_system(system: np.ndarray | PolicySystem | sp.spmatrix, b: np.ndarray) -> np.ndarray:
     """x (S,) with system x = b for a `policy_system` (or its transpose): LAPACK when dense or banded, SuperLU
     otherwise."""
+    return solve_and_factor(system, b)[0]
+
+
+@dataclass(frozen=True)
+class Factors:
+    """The LU factors LAPACK left from solving a system A x = b (`solve_and_factor`), to solve A or its transpose
+    again at the cost of two triangular solves: dense (`dgesv`'s) or banded (`dgbsv`'s, with the band's `below`
+    and `above`)."""
+
+    lu: np.ndarray
+    pivots: np.ndarray
+    below: int | None = None
+    above: int | None = None
+
+    def solve(self, b: np.ndarray, *, transposed: bool = False) -> np.ndarray:
+        """x (S,) with A x = b, or A^T x = b when `transposed`."""
+        if self.below is None:
+            x, info = dgetrs(self.lu, self.pivots, b, trans=int(transposed))
+        else:
+            x, info = dgbtrs(self.lu, self.below, self.above, b, self.pivots, trans=int(transposed))
+        if info != 0:
+            raise SolverError(f"LAPACK could not solve with the policy system's factors (info {info})")
+        return x
+
+
+def solve_and_factor(system: np.ndarray | PolicySystem | sp.spmatrix, b: np.ndarray) -> tuple[np.ndarray, Factors | None]:
+    """`solve_system`'s x (S,), and the factors it leaves to solve with again (None where SuperLU solved it)."""
     if isinstance(system, np.ndarray):
-        _, _, x, info = dgesv(system, b)
+        lu, pivots, x, info = dgesv(system, b)
         if info != 0:
             raise SolverError(f"maxent's policy system is singular (LAPACK info {info})")
-        return x
+        return x, Factors(lu, pivots)
     if isinstance(system, PolicySystem):
         # The world's pattern knows its band: nothing to look for (a third of a 24x24 world's solve).
         if system.moves.below + system.moves.above > MAX_BAND:
-            return spla.spsolve(system.tocsc(), b)
+            return spla.spsolve(system.tocsc(), b), None
         below, above, band = system.band()
         return _banded(below, above, band, b)
     if not getattr(system, "has_canonical_format", False):
@@ -261,7 +288,7 @@ def solve_system(system: np.ndarray | PolicySystem | sp.spmatrix, b: np.ndarray)
     entries = system.tocoo()
     below, above = int((entries.row - entries.col).max()), int((entries.col - entries.row).max())
     if below + above > MAX_BAND:
-        return spla.spsolve(system.tocsc(), b)
+        return spla.spsolve(system.tocsc(), b), None
     # dgbsv's layout: row (below + above + i - j) of column j holds entry (i, j), with `below` rows on top
     # left free for the factorisation's fill.
     band = np.zeros((2 * below + above + 1, system.shape[1]))
@@ -269,11 +296,11 @@ def solve_system(system: np.ndarray | PolicySystem | sp.spmatrix, b: np.ndarray)
     return _banded(below, above, band, b)
 
 
-def _banded(below: int, above: int, band: np.ndarray, b: np.ndarray) -> np.ndarray:
-    _, _, x, info = dgbsv(below, above, band, b, overwrite_ab=True)
+def _banded(below: int, above: int, band: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, Factors]:
+    lu, pivots, x, info = dgbsv(below, above, band, b, overwrite_ab=True)
     if info != 0:
         raise SolverError(f"maxent's policy system is singular (LAPACK info {info})")
-    return x
+    return x, Factors(lu, pivots, below, above)
 
 
 _BLAS: list[ThreadpoolController] = []

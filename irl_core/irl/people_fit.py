@@ -17,6 +17,7 @@ from irl_core.irl.people_likelihood import (
     START_LAPSE,
     START_SIGMA,
     PlayerPlan,
+    WarmStart,
     beta_bounds,
     log_likelihood,
 )
@@ -170,19 +171,20 @@ def _unpack(model: PlayerModel, k: int, z: np.ndarray) -> tuple[np.ndarray, Play
 
 class _Objective:
     """The mean negative log likelihood and its gradient over the search's variables, warm-starting each
-    soft Bellman fixed point from the last (`V`)."""
+    soft Bellman fixed point from the last (`warm`; the first from `V`)."""
 
     def __init__(self, mdp: MDP, unknowns: Unknowns, counts: np.ndarray, model: PlayerModel,
                  V: np.ndarray | None) -> None:
         self.mdp, self.unknowns, self.counts, self.model, self.V = mdp, unknowns, counts, model, V
+        self.warm: WarmStart | None = None
         self.total = counts.sum()
         self.basis_T = unknowns.basis.T.tocsr()
 
     def __call__(self, z: np.ndarray) -> tuple[float, np.ndarray]:
         theta, player = _unpack(self.model, self.unknowns.k, z)
         got = log_likelihood(self.mdp, self.counts, self.unknowns.state_rewards(theta), model=self.model,
-                             player=player, V0=self.V)
-        self.V = got.plan.V
+                             player=player, V0=self.V, warm=self.warm)
+        self.V, self.warm = got.plan.V, got.warm
         grad = [self.basis_T @ got.R_S, [got.log_beta]]
         if self.model.searches_hand:
             grad.append([got.log_sigma])
