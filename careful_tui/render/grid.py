@@ -136,8 +136,11 @@ class WorldGrid:
             lines[top + i] = line
         if cell in self.highlight:
             frame = Style(color=self.highlight[cell], bgcolor=bg, bold=True)
-            lines[0] = Text("▛" + "▀" * (w - 2) + "▜", style=frame) if h >= 3 else lines[0]
-            lines[-1] = Text("▙" + "▄" * (w - 2) + "▟", style=frame) if h >= 3 else lines[-1]
+            if h >= 3:
+                lines[0] = Text("▛" + "▀" * (w - 2) + "▜", style=frame)
+                lines[-1] = Text("▙" + "▄" * (w - 2) + "▟", style=frame)
+            else:  # too low for a frame: a bar at each end of each line
+                lines = [Text("▐", style=frame) + line[1:w - 1] + Text("▌", style=frame) for line in lines]
         return lines
 
     def cell_segments(self, cell: Cell, console: Console) -> list[list[Segment]]:

@@ -8,6 +8,8 @@ stylesheet gives it.
 
 from __future__ import annotations
 
+import math
+
 from rich.text import Text
 from textual.app import ComposeResult
 from textual.containers import Horizontal, Vertical
@@ -16,7 +18,7 @@ from textual.widgets import Static
 
 from careful_tui.render.session import legend
 from careful_tui.widgets import Board, Gauge, KeyBar
-from careful_tui.widgets.board import MIN_CELL
+from careful_tui.widgets.board import SMALLEST_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.play.game import level_costs, level_slip_chances
 from irl_core.support.safe_text import printable
@@ -24,6 +26,9 @@ from irl_core.support.words import plural
 from irl_core.worlds.world import World
 
 STATUS_LINES = 3
+# The status under the board needs this many columns whatever the board's width (a 6-column world's board
+# of 7-wide cells, which its sentences were written for).
+STATUS_WIDTH = 44
 
 
 def carefulness_gauge(world: World, *, slips: bool = False) -> Gauge:
@@ -66,18 +71,20 @@ def compose_game(world: World, *, panel: Widget | None = None, slips: bool = Fal
     yield KeyBar(id="keys")
 
 
-def minimum_size(world: World, *, side_padding: int, panel_width: int = 0, side_lines: int = 0,
-                 slips: bool = False) -> tuple[int, int]:
+def minimum_size(world: World, *, side_padding: int, panel_width: int = 0, panel_share: float = 0.0,
+                 side_lines: int = 0, slips: bool = False) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the layout fits in, for `world`.
 
     `side_padding`: columns the gauge's border, padding and margin add to it; `panel_width`: the
-    columns of a panel on the right; `side_lines`: lines under the gauge that must show; `slips`:
+    least columns of a panel on the right, and `panel_share` the share of the columns beside the
+    gauge it takes where that is more; `side_lines`: lines under the gauge that must show; `slips`:
     the gauge shows slip chances.
     """
     gauge_width = carefulness_gauge(world, slips=slips).get_content_width(None, None)
-    cell_width, cell_height = MIN_CELL
+    cell_width, cell_height = SMALLEST_CELL
     # A title bar and a key bar; the board's border and the status lines under it.
     levels = 0 if world.care == "time" else world.levels
-    width = (gauge_width + side_padding) + (world.cols * cell_width + 2) + panel_width
+    board = max(world.cols * cell_width + 2, STATUS_WIDTH)
+    width = (gauge_width + side_padding) + max(board + panel_width, math.ceil(board / (1 - panel_share)))
     height = 2 + max(levels + 2 + side_lines, world.rows * cell_height + 2 + STATUS_LINES)
     return width, height

@@ -50,6 +50,9 @@ SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 # Ticks an episode's end stays on screen while playing (the outcome is worth a look).
 END_TICKS = 3
 PANEL_WIDTH = 19
+# The session panel's share of the columns beside the gauge (the stylesheet's 1fr to the board's 3fr), past its
+# least width.
+PANEL_SHARE = 0.25
 # Files left out that the notice on screen names (stderr names them all).
 SKIPPED_SHOWN = 3
 
@@ -70,7 +73,7 @@ def realised_direction(step: Step) -> str | None:
 def minimum_size(world: World) -> tuple[int, int]:
     """The smallest terminal (columns, rows) the replay screen fits in, for `world`."""
     # As in replay.tcss: the gauge's border only; the session panel; the hold info under the gauge.
-    return game_minimum_size(world, side_padding=2, panel_width=PANEL_WIDTH, side_lines=3)
+    return game_minimum_size(world, side_padding=2, panel_width=PANEL_WIDTH, panel_share=PANEL_SHARE, side_lines=3)
 
 
 class ReplayScreen(Screen[None]):

@@ -2,7 +2,8 @@
 chosen, growing with the carefulness level. Play, replay and the fit view share it.
 
 The cell size follows the space the widget gets: 7x3 characters at the least (an 80x24
-terminal), up to 15x7.
+terminal), up to 15x7; a board that has no room for 7x3 cells (a big world in a usual
+terminal) gets smaller ones, down to 3x1.
 """
 
 from __future__ import annotations
@@ -29,6 +30,9 @@ from irl_core.worlds.world import Cell, World
 Mark = tuple[str, Style]
 
 MIN_CELL = (7, 3)
+# Where MIN_CELL cells do not fit, cells shrink down to these: a symbol between two spaces on one line, the
+# arrow's length then told mostly by its colour and shaft (a 24x24 world needed 197x79 for its 7x3 cells).
+SMALLEST_CELL = (3, 1)
 MAX_CELL = (15, 7)
 PLAYER_GLYPH = "●"
 PLAYER_STYLE = Style(color=WHITE, bold=True)
@@ -175,6 +179,11 @@ class Board(Widget):
         """(width, height) of a cell in characters, fitted to the widget's size (odd, to centre)."""
         rows, cols = self.world.rows, self.world.cols
         size = self.content_size
+        room_w, room_h = size.width // cols, size.height // rows
+        if room_w < MIN_CELL[0] or room_h < MIN_CELL[1]:
+            w = max(SMALLEST_CELL[0], min(room_w, MIN_CELL[0]))
+            h = max(SMALLEST_CELL[1], min(room_h, MIN_CELL[1], (w + 1) // 2))
+            return (w if w % 2 else w - 1), (h if h % 2 else h - 1)
         w = min(MAX_CELL[0], max(MIN_CELL[0], size.width // cols))
         h = min(MAX_CELL[1], max(MIN_CELL[1], size.height // rows))
         # Keep cells about twice as wide as tall (a character is about twice as tall as wide).

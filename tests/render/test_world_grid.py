@@ -45,3 +45,14 @@ def test_a_saved_page_is_as_wide_as_the_world_so_its_grids_stay_whole():
     svg = fit_page_svg(demos, fit(demos, method="lp"), width=80, title="wide").replace("&#160;", " ")
     assert "columns" not in svg  # no strips: one picture of the world
     assert "fitted R_S" in svg and "demonstrated policy" in svg
+
+
+def test_a_one_line_cell_is_highlighted_by_a_bar_at_each_end() -> None:
+    # A slip's frame needs three lines; on a board of 3x1 cells (a big world) the cell shows a bar at each end.
+    from irl_core.worlds.world import load_world
+
+    grid = WorldGrid(load_world("paper"), cell_width=3, cell_height=1, highlight={(0, 0): "#ff8800"})
+    [line] = grid.cell_lines((0, 0))
+    assert line.plain[0] == "▐" and line.plain[-1] == "▌" and len(line.plain) == 3
+    [plain] = grid.cell_lines((0, 1))
+    assert "▐" not in plain.plain

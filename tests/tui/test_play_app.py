@@ -350,3 +350,29 @@ def test_the_command_refuses_a_folder_it_cannot_write(tmp_path: Path, capsys) ->
     assert "is a file, not a folder" in capsys.readouterr().err
     assert main(["play", "--out", str(blocker / "recordings")]) == 2
     assert "cannot write recordings" in capsys.readouterr().err
+
+
+def test_a_big_world_plays_in_a_usual_terminal_on_smaller_cells(tmp_path: Path) -> None:
+    # 7x3 cells made a 24x24 world need 197x79; where they do not fit the cells shrink down to 3x1, and the
+    # too-small message comes only below what those need.
+    from bench.bench_people_big import walled_world
+
+    world = walled_world(24)
+    app, clock = new_app(tmp_path, world=world)
+    need = minimum_size(world)
+    assert need[0] <= 110 and need[1] <= 35
+
+    async def body(pilot: Pilot) -> None:
+        board = app.query_one(Board)
+        assert not app.screen.has_class("-too-small")
+        assert board.cell_size() == (3, 1)
+        shown = "\n".join(board.render_line(y).text for y in range(board.content_size.height))
+        assert shown.count("C") == world.cols - 2 and shown.count("G") == 1  # the whole cliff row is on the board
+        await hold(pilot, clock, "up", 0.6)
+        assert app.first_screen.game.t == 1
+        await pilot.resize_terminal(need[0] - 1, need[1])
+        await pilot.pause()
+        assert app.screen.has_class("-too-small")
+        assert f"needs {need[0]}x{need[1]}" in str(app.query_one("#too-small", Static).render())
+
+    run(app, body, size=need)

@@ -301,3 +301,26 @@ def test_a_slip_into_the_edge_is_shown_with_the_way_it_went(tmp_path: Path, real
         assert shown in text(app, "#status")
 
     run(app, body)
+
+
+def test_a_big_worlds_replay_shows_its_whole_board_at_the_least_size_it_asks_for(tmp_path: Path) -> None:
+    # The board's column gets three quarters of the room beside the gauge (the session panel the rest): at the
+    # size the replay asks for, a 24x24 world's board of 3x1 cells is whole, its goal in the last column.
+    from bench.bench_people_big import walled_world
+    from irl_core.players.experts import optimal_policy, rollouts, write_rollouts
+    from irl_core.worlds.mdp import build_mdp
+
+    mdp = build_mdp(walled_world(24))
+    path = write_rollouts(tmp_path / "big.jsonl", mdp, rollouts(mdp, optimal_policy(mdp), episodes=1, seed=0),
+                          player="tester", seed=0)
+    app = new_app(path)
+    need = minimum_size(mdp.world)
+
+    async def body(pilot: Pilot) -> None:
+        board = app.query_one(Board)
+        assert not app.screen.has_class("-too-small") and board.cell_size() == (3, 1)
+        assert board.content_size.width >= 3 * 24
+        shown = "\n".join(board.render_line(y).text for y in range(board.content_size.height))
+        assert shown.count("G") == 1
+
+    run(app, body, size=need)
