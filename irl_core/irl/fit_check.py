@@ -145,7 +145,7 @@ def fit_check(
         return FitCheck(None, (), 0, "no recorded episode ran to its end (every one was quit or cut short)")
     rows = sp.csr_matrix(by_episode)[np.flatnonzero(finished)]
     starts = facts.start[finished]
-    recorded = _statistics_of_counts(mdp, observed_policy, np.asarray(rows.sum(axis=0)).ravel())
+    recorded = _statistics_of_counts(mdp, _likeliest_direction(mdp, observed_policy), np.asarray(rows.sum(axis=0)).ravel())
     recorded_ends = [facts.end[e] for e in np.flatnonzero(finished)]
     recorded.update(_ending_statistics(mdp, recorded_ends, facts.length[finished]))
 
@@ -187,8 +187,9 @@ def _replicate_statistics(mdp: MDP, policy: np.ndarray, starts: np.ndarray, coun
     symbols = mdp.symbols + ("",)
     ends = ["step_limit" if cut else symbols[s] for s, cut in zip(simulated.final_state.tolist(), simulated.truncated.tolist())]
     values = {name: np.empty(count) for name in names}
+    likeliest = _likeliest_direction(mdp, policy)
     for r in range(count):
-        these = _statistics_of_counts(mdp, policy, per_replicate[r].toarray().ravel())
+        these = _statistics_of_counts(mdp, likeliest, per_replicate[r].toarray().ravel())
         these.update(_ending_statistics(mdp, ends[r * n:(r + 1) * n], simulated.length[r * n:(r + 1) * n]))
         for name in names:
             values[name][r] = these.get(name, np.nan)
@@ -206,8 +207,14 @@ def _steps_by_distance(mdp: MDP, pair_counts: np.ndarray) -> dict[str, float]:
     return {_distance_label(d): float(per_state[distance == d].sum()) for d in range(1, FARTHEST_DISTANCE + 1)}
 
 
-def _statistics_of_counts(mdp: MDP, policy: np.ndarray, pair_counts: np.ndarray) -> dict[str, float]:
-    """Carefulness by distance and the share of steps in the policy's likeliest direction, from counts (S * A,)."""
+def _likeliest_direction(mdp: MDP, policy: np.ndarray) -> np.ndarray:
+    """(S,) the index of each state's likeliest direction under `policy` (S, A), its levels added up."""
+    return policy.reshape(mdp.n_states, 4, mdp.levels).sum(axis=2).argmax(axis=1)
+
+
+def _statistics_of_counts(mdp: MDP, likeliest: np.ndarray, pair_counts: np.ndarray) -> dict[str, float]:
+    """Carefulness by distance and the share of steps in the fitted policy's `likeliest` direction (S,), from counts
+    (S * A,)."""
     counts = pair_counts.reshape(mdp.n_states, mdp.n_actions)
     out: dict[str, float] = {}
     distance = np.minimum(terminal_distance(mdp), FARTHEST_DISTANCE)
@@ -217,7 +224,6 @@ def _statistics_of_counts(mdp: MDP, policy: np.ndarray, pair_counts: np.ndarray)
         here = distance == d
         if steps[here].sum() > 0:
             out[_distance_label(d)] = float(care[here].sum() / steps[here].sum())
-    likeliest = policy.reshape(mdp.n_states, 4, mdp.levels).sum(axis=2).argmax(axis=1)
     by_direction = counts.reshape(mdp.n_states, 4, mdp.levels).sum(axis=2)
     if steps.sum() > 0:
         out["share of steps in the fitted likeliest direction"] = float(
