@@ -3,8 +3,9 @@
 Four things depend only on the chosen fit, not on each other's answers: the fit check (the recordings
 against simulations of the fitted player, `fit_check`), the rewards bounded on one side only
 (`people_flat`) with those pinned only in combination (`laplace.pinned_together`), and each held reward's
-upper bound (`people_held`). One after the other they were 1.2 s of a 24x24 world's 5 s fit, with one
-core idle; here they are one batch of calls on the fit's processes, the longest first. Each answer is the
+upper bound (`people_held`). One after the other they took 1.5 s of a 24x24 world's 5.4 s fit (an instrumented
+run), the bounds on two processes and the rest on one; here they are one batch of calls on the fit's processes,
+the longest first (1.0 s). Each answer is the
 one its own function gives (the fit check draws from its own seeded stream), on any number of processes.
 """
 

@@ -231,7 +231,7 @@ def _log_realised(pi3: np.ndarray, log_pi3: np.ndarray, K: np.ndarray) -> np.nda
 
 
 # Over this many states (where the policy systems are banded) each evaluation of a search starts from the last one's
-# values moved to first order (`WarmStart`): 10% off a walled-24 people fit. Smaller worlds start from the last
+# values moved to first order (`WarmStart`): walled-24's people fit 4.6-5.2 s to 4.1-4.5 s. Smaller worlds start from the last
 # values as they are, which keeps the answers bench_people measured on them: the step moves L-BFGS-B's path at
 # the level of its tolerance, and on `walls` 5 of 60 runs then stopped elsewhere, 2 at another model's optimum of
 # near-equal likelihood (docs/benchmarks.md).
@@ -243,7 +243,8 @@ class WarmStart:
     """Where the next evaluation's soft values start: this one's V (S,) for rewards R1 (S, A) (beta 1), moved to first
     order in the rewards' change. With the values following the backup policy q, dV = (I - gamma P^q)^-1 sum_a q dR1,
     solved with the factors the gradient left of the transposed system (two triangular solves): soft policy iteration
-    then starts a Newton step nearer and needs about one solve fewer per evaluation (3.2 to 2.4 on walled-24)."""
+    then starts a Newton step nearer and needs about one solve fewer per evaluation (on walled-24, 3.2-3.6 solves to
+    2.2-2.6 for every model but person, whose hand's sigma also moves the values, which the step leaves out)."""
 
     V: np.ndarray
     R1: np.ndarray
@@ -252,7 +253,7 @@ class WarmStart:
 
     def values_for(self, R1: np.ndarray) -> np.ndarray:
         """(S,) the start for rewards R1 (S, A)."""
-        if self.transposed_factors is None or R1.shape != self.R1.shape:
+        if self.transposed_factors is None:
             return self.V
         change = (self.backup * (R1 - self.R1)).sum(axis=1)
         return self.V + self.transposed_factors.solve(change, transposed=True)

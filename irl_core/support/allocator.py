@@ -25,6 +25,7 @@ M_TRIM_THRESHOLD = -1
 M_MMAP_THRESHOLD = -3
 # glibc's largest mmap threshold on 64-bit systems (a 64x64 world's (S, A) array is 1.8 MB).
 MMAP_THRESHOLD = 32 * 2**20
+# Well over what one evaluation of a 64x64 world frees at once (some tens of its 1.8 MB arrays).
 TRIM_THRESHOLD = 256 * 2**20
 
 _kept: bool | None = None
