@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg.lapack import dgbsv, dgbtrs, dgesv, dgetrs
+from scipy.linalg.lapack import dgbsv, dgbtrs, dgesv
 from scipy.optimize import minimize
 from threadpoolctl import ThreadpoolController
 
@@ -249,33 +249,30 @@ def solve_system(system: np.ndarray | PolicySystem | sp.spmatrix, b: np.ndarray)
 
 @dataclass(frozen=True)
 class Factors:
-    """The LU factors LAPACK left from solving a system A x = b (`solve_and_factor`), to solve A or its transpose
-    again at the cost of two triangular solves: dense (`dgesv`'s) or banded (`dgbsv`'s, with the band's `below`
-    and `above`)."""
+    """The band LU factors LAPACK's `dgbsv` left from solving a system A x = b (`solve_and_factor`), with the
+    band's `below` and `above`, to solve A or its transpose again at the cost of two triangular solves."""
 
     lu: np.ndarray
     pivots: np.ndarray
-    below: int | None = None
-    above: int | None = None
+    below: int
+    above: int
 
     def solve(self, b: np.ndarray, *, transposed: bool = False) -> np.ndarray:
         """x (S,) with A x = b, or A^T x = b when `transposed`."""
-        if self.below is None:
-            x, info = dgetrs(self.lu, self.pivots, b, trans=int(transposed))
-        else:
-            x, info = dgbtrs(self.lu, self.below, self.above, b, self.pivots, trans=int(transposed))
+        x, info = dgbtrs(self.lu, self.below, self.above, b, self.pivots, trans=int(transposed))
         if info != 0:
             raise SolverError(f"LAPACK could not solve with the policy system's factors (info {info})")
         return x
 
 
 def solve_and_factor(system: np.ndarray | PolicySystem | sp.spmatrix, b: np.ndarray) -> tuple[np.ndarray, Factors | None]:
-    """`solve_system`'s x (S,), and the factors it leaves to solve with again (None where SuperLU solved it)."""
+    """`solve_system`'s x (S,), and the band factors it leaves to solve with again (None where the system was dense
+    or SuperLU solved it)."""
     if isinstance(system, np.ndarray):
-        lu, pivots, x, info = dgesv(system, b)
+        _, _, x, info = dgesv(system, b)
         if info != 0:
             raise SolverError(f"maxent's policy system is singular (LAPACK info {info})")
-        return x, Factors(lu, pivots)
+        return x, None
     if isinstance(system, PolicySystem):
         # The world's pattern knows its band: nothing to look for (a third of a 24x24 world's solve).
         if system.moves.below + system.moves.above > MAX_BAND:

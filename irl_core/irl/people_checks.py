@@ -5,8 +5,8 @@ against simulations of the fitted player, `fit_check`), the rewards bounded on o
 (`people_flat`) with those pinned only in combination (`laplace.pinned_together`), and each held reward's
 upper bound (`people_held`). One after the other they took 1.5 s of a 24x24 world's 5.4 s fit (an instrumented
 run), the bounds on two processes and the rest on one; here they are one batch of calls on the fit's processes,
-the longest first (1.0 s). Each answer is the
-one its own function gives (the fit check draws from its own seeded stream), on any number of processes.
+the longest first (1.0 s). Each answer is the one its own function gives (the fit check draws from its own seeded
+stream), on any number of processes.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def people_checks(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerF
     """The checks of `fit` to counts N (S, A), on up to `workers` processes; `episodes`: the recordings' episodes
     (rows (E, S * A)) and their facts, for the fit check (seeded by `seed`)."""
     counts = np.asarray(counts, dtype=float)
-    held = fit.held if fit.held.size else np.zeros(unknowns.k, dtype=bool)
+    held = _held(fit, unknowns.k)
     groups = bound_groups(held) if held.any() else []
     best, V_best = np.nan, fit.V1
     if groups:
@@ -73,6 +73,10 @@ def _check(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, fit: PlayerFit, rma
         return fit_check(mdp, fit.plan.observed, *episodes, seed=seed)
     if kind == SIDES:
         flat = flat_toward_bound(mdp, unknowns, counts, fit, rmax=rmax)
-        held = fit.held if fit.held.size else np.zeros(unknowns.k, dtype=bool)
-        return flat, pinned_together(mdp, unknowns, counts, fit, rmax=rmax, settled=held | (flat != 0))
+        return flat, pinned_together(mdp, unknowns, counts, fit, rmax=rmax, settled=_held(fit, unknowns.k) | (flat != 0))
     return upper_bound(mdp, unknowns, counts, fit.theta, fit.model, fit.player, rmax, best, V_best, group)
+
+
+def _held(fit: PlayerFit, k: int) -> np.ndarray:
+    """(k,) which rewards the fit held at -rmax (none when it did not hold any)."""
+    return fit.held if fit.held.size else np.zeros(k, dtype=bool)
