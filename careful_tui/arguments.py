@@ -78,6 +78,13 @@ def positive_int(text: str) -> int:
     return value
 
 
+def non_negative_int(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more, got {text}")
+    return value
+
+
 @dataclass(frozen=True)
 class Flag:
     """A `FitOptions` field's flag on `careful fit`: its name and argparse's keyword arguments."""

@@ -21,6 +21,7 @@ from careful_tui.arguments import (
     add_fit_options,
     finite_float,
     non_negative_float,
+    non_negative_int,
     positive_float,
     positive_int,
     probability,
@@ -29,6 +30,7 @@ from careful_tui.arguments import (
 )
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError, missing_extra, missing_extra_line
 from careful_tui.version import app_version
+from irl_core.irl.player_models import LEVEL_MODELS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
 from irl_core.support.safe_files import InputError, OutputError
@@ -220,8 +222,9 @@ def _add_study_plan(study_commands: Any) -> None:
                                      description=(
         "Simulate whole studies before running one: for each world of the study, with the hypothesised rewards "
         "(--truth), and each grid point (--participants x --episodes), --repeats studies of person-like "
-        "participants (--players in turn, each with their own parameters, spread by --spread), each participant "
-        "fitted with a model of people and a Laplace interval, then pooled. Prints, per grid point, the share of "
+        "participants (--players in turn, each with their own parameters, spread by --spread, first holding "
+        "--calibration targets when the study has a calibration block), each participant fitted with a model of "
+        "people and a Laplace interval, then pooled. Prints, per grid point, the share of "
         "studies whose pooled cliff interval lies below the nuisance's (the report's 'separates catastrophe from "
         "nuisance'), the share whose pooled intervals hold the hypothesised rewards, and the median interval "
         "widths; writes plan.csv and plan.pdf/plan.png to <out>/plan/."),
@@ -240,6 +243,14 @@ def _add_study_plan(study_commands: Any) -> None:
     plan.add_argument("--spread", type=non_negative_float, default=0.3, metavar="S",
                       help="between participants, each player parameter is its default times exp(N(0, S)) "
                            "(default 0.3)")
+    plan.add_argument("--calibration", type=non_negative_int, default=None, metavar="N",
+                      help="motor calibration targets each participant holds before playing, their hand then held "
+                           "fixed in the fit as study report does (default: the study file's calibration_block; 0: "
+                           "none, the hand estimated from play)")
+    plan.add_argument("--player-model", choices=LEVEL_MODELS, default="person",
+                      help="the model of the player every simulated participant is fitted with (default person; "
+                           "naive for players who do not make up for their hand, as study report chose for "
+                           "under-holders with a calibration block)")
     plan.add_argument("--pool-model", choices=["population", "shared"], default="population",
                       help="population (default, as study report pools): each participant's fit, pooled as a "
                            "population of participants; shared: one fit of everyone's episodes with an interval "

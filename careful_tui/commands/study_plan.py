@@ -21,7 +21,7 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.render.grid import SYMBOL_NAMES
-from irl_core.studies.plan import PlanError, PlanGrid, PlanPoint, plan_study, planned_worlds
+from irl_core.studies.plan import TIME_WORLDS_NOT_PLANNED, PlanError, PlanGrid, PlanPoint, plan_study, planned_worlds
 from irl_core.studies.study import StudyError, load_study, world_files
 from irl_core.support.csv_cells import csv_text, text_cell
 from irl_core.support.safe_files import check_output_folder, write_output
@@ -65,10 +65,16 @@ def run_study_plan(args: argparse.Namespace) -> int:
         grid = PlanGrid(participants=parse_sizes(args.participants, option="--participants"),
                         episodes=parse_sizes(args.episodes, option="--episodes"),
                         players=tuple(p.strip() for p in args.players.split(",")), repeats=args.repeats,
-                        spread=args.spread, seed=args.seed, pool=args.pool_model)
+                        spread=args.spread, seed=args.seed, pool=args.pool_model, model=args.player_model,
+                        calibration=study.study.calibration_block if args.calibration is None else args.calibration)
         worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
         raise UsageError(f"--{exc.field}: {exc.reason}") from None
+    left_out = [world for world in worlds if world.care == "time"]
+    worlds = tuple(world for world in worlds if world.care != "time")
+    if not worlds:
+        raise UsageError(f"{printable(str(study.path), limit=160)}: every world of the study is a time world; "
+                         f"and {TIME_WORLDS_NOT_PLANNED}")
     out = check_output_folder((args.out if args.out is not None else study.out) / PLAN_FOLDER, option="--out")
     err = Console(stderr=True, highlight=False)
     started = time.perf_counter()
@@ -90,18 +96,22 @@ def run_study_plan(args: argparse.Namespace) -> int:
     out_console.print(plan_table(points, grid))
     for line in plan_findings(points, confidence=grid.confidence):
         out_console.print(Text(line), soft_wrap=True)
+    for world in left_out:
+        line = f"{printable(world.name, limit=30)}: a time world, left out ({TIME_WORLDS_NOT_PLANNED})."
+        out_console.print(Text(line), soft_wrap=True)
     err.print(Text(f"wrote {len(written)} files to {printable(str(out), limit=160)} (plan.csv and the figure) in "
                    f"{time.perf_counter() - started:.0f} s"), soft_wrap=True)
     return EXIT_OK
 
 
 def plan_rows(points: list[PlanPoint]) -> tuple[list[str], list[list[str]]]:
-    """plan.csv: world, participants, episodes, studies, separated, covered, then per symbol (hazard first)
+    """plan.csv: world, participants, episodes, studies, calibration (targets per participant), separated,
+    covered, then per symbol (hazard first)
     its hypothesised reward (``truth_X``), the share of pooled intervals holding it (``covered_X``) and
     their median width (``width_X``). Shares are fractions; ``separated`` is empty without a nuisance."""
     symbols = sorted({s for p in points for s in p.symbols},
                      key=lambda s: min(t for p in points for q, t in zip(p.symbols, p.truth) if q == s))
-    columns = ["world", "participants", "episodes", "studies", "separated", "covered",
+    columns = ["world", "participants", "episodes", "studies", "calibration", "separated", "covered",
                *(f"{kind}_{s}" for s in symbols for kind in ("truth", "covered", "width"))]
     rows = []
     for p in points:
@@ -109,7 +119,7 @@ def plan_rows(points: list[PlanPoint]) -> tuple[list[str], list[list[str]]]:
         cells = []
         for s in symbols:
             cells += ([f"{truth[s]:g}", f"{p.covered_each[s]:.4g}", f"{p.width[s]:.6g}"] if s in truth else ["", "", ""])
-        rows.append([text_cell(p.world), str(p.participants), str(p.episodes), str(p.studies),
+        rows.append([text_cell(p.world), str(p.participants), str(p.episodes), str(p.studies), str(p.calibration),
                      "" if p.separated is None else f"{p.separated:.4g}", f"{p.covered:.4g}", *cells])
     return columns, rows
 
@@ -132,9 +142,11 @@ def write_plan(points: list[PlanPoint], worlds, out: Path, *, inputs: list[Path]
 def plan_table(points: list[PlanPoint], grid: PlanGrid) -> Table:
     """A row per world and grid point: the shares and the median width of each pooled interval."""
     symbols = list(dict.fromkeys(s for p in points for s in p.symbols))
+    hand = (f"a calibration block of {grid.calibration} targets each, the hand held fixed" if grid.calibration
+            else "the hand estimated from play")
     table = Table(title=Text(f"study plan: {grid.repeats} simulated studies per row (players "
-                             f"{', '.join(grid.players)}, spread {grid.spread:g}; {grid.model} model, Laplace intervals, "
-                             f"{grid.pool} pool)"),
+                             f"{', '.join(grid.players)}, spread {grid.spread:g}; {hand}; {grid.model} model, Laplace "
+                             f"intervals, {grid.pool} pool)"),
                   caption=Text("separated: the pooled hazard interval lies below the nuisance's; covered: every "
                                "pooled interval holds its hypothesised reward; width: the median width of the pooled "
                                f"{grid.confidence:.0%} interval"),

@@ -72,6 +72,8 @@ class Player:
         return {"beta": self.beta, "sigma": self.sigma, "lapse": self.lapse, "bias": self.bias}
 
 
+# The models of a levels world's player (the timing model reads time worlds' holds).
+LEVEL_MODELS: tuple[str, ...] = tuple(name for name in PLAYER_MODELS if name != "timing")
 AUTO = "auto"
 # Candidates for `player_model="auto"`, simplest first (equally simple ones in order of preference).
 CANDIDATES: tuple[str, ...] = ("boltzmann", "ends", "hand", "person", "naive")

@@ -3,8 +3,9 @@
 For each world of the study, with the hypothesised rewards (`planned_worlds`), and each grid point
 (participants n, main episodes e), `plan_study` simulates `PlanGrid.repeats` studies: n person-like
 participants (`irl_core.players.person_like`, the kinds `PlanGrid.players` in turn, each of their
-parameters scaled by exp(N(0, `PlanGrid.spread`)): people differ), each playing e episodes; it fits
-each participant's episodes with a model of people (`PlanGrid.model`) and the cheap Laplace interval
+parameters scaled by exp(N(0, `PlanGrid.spread`)): people differ), each playing e episodes (and, with
+`PlanGrid.calibration`, first a motor calibration block whose hand the fit holds fixed, as the report does);
+it fits each participant's episodes with a model of people (`PlanGrid.model`) and the cheap Laplace interval
 (`irl_core.irl.laplace`), pooled as the study report pools (`POOLS`: by default the population of
 participants, `irl_core.studies.population`, over each participant's fit; or one shared fit of
 everyone's episodes with the cluster-robust interval over participants), and counts
@@ -29,12 +30,14 @@ import numpy as np
 from pydantic import ValidationError
 
 from irl_core.experiment.claims import order_words
+from irl_core.irl.hand import hand_from_trials
 from irl_core.irl.laplace import laplace_intervals
 from irl_core.irl.people_choice import fit_given_model
-from irl_core.irl.player_models import player_model
+from irl_core.irl.player_models import LEVEL_MODELS, player_model
 from irl_core.irl.qmap import Unknowns, build_unknowns
+from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import Rollouts, demonstrations_of, rollouts
-from irl_core.players.person_like import KINDS, PersonLike, person_like
+from irl_core.players.person_like import KINDS, PersonLike, motor_trials, person_like
 from irl_core.studies.population import pool_participants
 from irl_core.support.pool import run_in_pool
 from irl_core.worlds.mdp import MDP, build_mdp
@@ -44,6 +47,8 @@ from irl_core.worlds.world import World
 MAX_PARTICIPANTS = 500
 MAX_EPISODES = 500
 MAX_REPEATS = 10_000
+# A study file's own bound on its calibration block.
+MAX_CALIBRATION = 100
 # How a simulated study's participants are pooled, as `study report` pools them:
 POOLS = {
     "population": "each participant's own fit and Laplace interval, pooled as the report's population "
@@ -51,6 +56,11 @@ POOLS = {
     "shared": "one fit of everyone's episodes (the rewards and the player shared), its interval the cluster-robust "
               "Laplace interval over participants (as the report's shared pool resamples participants)",
 }
+
+
+# Why a study's time worlds (care = "time") are left out: their report fits the timing model, which learns the
+# slip curve from the holds, and the plan's players and `person`-family fits are those of a world with levels.
+TIME_WORLDS_NOT_PLANNED = "the plan's simulated players and fits are those of worlds with levels"
 
 
 class PlanError(ValueError):
@@ -65,7 +75,8 @@ class PlanError(ValueError):
 class PlanGrid:
     """What `plan_study` simulates: the grid (participants, episodes), the person-like `players` drawn
     in turn, the between-participant `spread` (sd of log of each player parameter's factor), the
-    simulated studies per grid point, and the fits' settings."""
+    simulated studies per grid point, the motor `calibration` targets each participant holds before playing
+    (a study's ``calibration_block``; 0: none, the hand estimated from play), and the fits' settings."""
 
     participants: tuple[int, ...] = (5, 10, 20)
     episodes: tuple[int, ...] = (5, 10, 20)
@@ -73,6 +84,7 @@ class PlanGrid:
     repeats: int = 20
     spread: float = 0.3
     seed: int = 0
+    calibration: int = 0
     model: str = "person"
     pool: str = "population"
     confidence: float = 0.95
@@ -94,12 +106,12 @@ class PlanGrid:
                             if unknown else "give at least one player")
         if self.pool not in POOLS:
             raise PlanError("pool", f"{self.pool!r} is not one of {', '.join(POOLS)}")
+        if not 0 <= self.calibration <= MAX_CALIBRATION:
+            raise PlanError("calibration", f"{self.calibration} is outside 0..{MAX_CALIBRATION}")
         if not 0 <= self.spread < 5:
             raise PlanError("spread", f"{self.spread:g} is outside 0..5")
-        try:
-            player_model(self.model)
-        except ValueError as exc:
-            raise PlanError("model", str(exc)) from None
+        if self.model not in LEVEL_MODELS:
+            raise PlanError("model", f"{self.model!r} is not one of {', '.join(LEVEL_MODELS)}")
 
 
 def planned_worlds(worlds: tuple[World, ...], truth: dict[str, float], *,
@@ -126,7 +138,8 @@ def planned_worlds(worlds: tuple[World, ...], truth: dict[str, float], *,
 
 @dataclass(frozen=True)
 class PlanPoint:
-    """One (world, participants, episodes) of the plan over `studies` simulated studies.
+    """One (world, participants, episodes) of the plan over `studies` simulated studies, each participant first
+    holding `calibration` motor calibration targets.
 
     Attributes:
         separated: the share whose pooled hazard interval lies below the nuisance's (None: the world
@@ -140,6 +153,7 @@ class PlanPoint:
     participants: int
     episodes: int
     studies: int
+    calibration: int
     symbols: tuple[str, ...]
     truth: tuple[float, ...]
     separated: float | None
@@ -195,7 +209,8 @@ def _point(world: World, n: int, e: int, studies: list[_Study], grid: PlanGrid) 
         h, u = pair
         separated = float(np.mean([order_words(tuple(i[h]), tuple(i[u])) == "below" for i in intervals]))
     widths = np.median(intervals[:, :, 1] - intervals[:, :, 0], axis=0)
-    return PlanPoint(world=world.name, participants=n, episodes=e, studies=len(studies), symbols=symbols,
+    return PlanPoint(world=world.name, participants=n, episodes=e, studies=len(studies),
+                     calibration=calibration_trials(world, grid), symbols=symbols,
                      truth=tuple(float(t) for t in truth), separated=separated, covered=float(holds.all(axis=1).mean()),
                      covered_each={s: float(c) for s, c in zip(symbols, holds.mean(axis=0))},
                      width={s: float(w) for s, w in zip(symbols, widths)})
@@ -219,20 +234,25 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     unknowns = build_unknowns(mdp, tie=True)
     n_most, episodes = max(grid.participants), sorted(set(grid.episodes))
     seeds = np.random.SeedSequence([grid.seed, repeat, sum(map(ord, world.name))]).spawn(n_most)
-    played = []
+    played, trials = [], []
     for i, seed in enumerate(seeds):
         rng = np.random.default_rng(seed)
-        kind = grid.players[i % len(grid.players)]
-        played.append(rollouts(mdp, drawn_player(mdp, kind, grid.spread, rng).choose, episodes=max(episodes), rng=rng))
+        person = drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
+        played.append(rollouts(mdp, person.choose, episodes=max(episodes), rng=rng))
+        # Drawn after the episodes, so that a plan without a block simulates the same play.
+        trials.append(calibration_block(person, world, calibration_trials(world, grid), rng))
     counts = {e: [demonstrations_of(mdp, _first_episodes(r, e)).counts for r in played] for e in episodes}
     sizes = sorted(set(grid.participants))
     out = {}
     if grid.pool == "shared":
         for n in sizes:
+            # One shared player, so one hand: every participant's trials, as the report's shared pool.
+            hand = _hand(np.concatenate(trials[:n]), world)
             for e in episodes:
-                out[(n, e)] = _Study(pooled_interval(mdp, unknowns, np.stack(counts[e][:n]), grid))
+                out[(n, e)] = _Study(pooled_interval(mdp, unknowns, np.stack(counts[e][:n]), grid, hand=hand))
         return out
-    fits = {e: [fit_participant(mdp, unknowns, c, grid) for c in counts[e]] for e in episodes}
+    hands = [_hand(t, world) for t in trials]
+    fits = {e: [fit_participant(mdp, unknowns, c, grid, hand=h) for c, h in zip(counts[e], hands)] for e in episodes}
     for n in sizes:
         for e in episodes:
             intervals = np.stack([f[1] for f in fits[e][:n]])
@@ -241,11 +261,32 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     return out
 
 
-def pooled_interval(mdp: MDP, unknowns: Unknowns, groups: np.ndarray, grid: PlanGrid) -> np.ndarray:
+def calibration_trials(world: World, grid: PlanGrid) -> int:
+    """How many calibration targets each of `world`'s simulated participants holds (none where there are no
+    levels to hold for: a time world, or one level)."""
+    return grid.calibration if world.care == "levels" and world.levels >= 2 else 0
+
+
+def calibration_block(person: PersonLike, world: World, targets: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, 2) (target, produced) of `person`'s motor calibration block of `targets` targets on `world`'s levels,
+    drawn as a study asks them (`calibration_targets`); none in a world without levels to hold for."""
+    if not targets:
+        return np.zeros((0, 2), dtype=np.int64)
+    asked = np.array(calibration_targets(world.levels, targets, seed=int(rng.integers(2**32))))
+    return motor_trials(person, asked, world.levels, rng)
+
+
+def _hand(trials: np.ndarray, world: World) -> tuple[float, float] | None:
+    """The (bias, sigma) the calibration `trials` (n, 2) measure, or None without trials."""
+    return hand_from_trials(trials, world.levels).known() if trials.size else None
+
+
+def pooled_interval(mdp: MDP, unknowns: Unknowns, groups: np.ndarray, grid: PlanGrid, *,
+                    hand: tuple[float, float] | None = None) -> np.ndarray:
     """(k, 2) the shared pool's intervals: one fit of the summed counts of groups (n, S, A), and the
-    cluster-robust Laplace interval over its n participants."""
+    cluster-robust Laplace interval over its n participants; `hand` (bias, sigma): the hand held fixed."""
     counts = groups.sum(axis=0)
-    fitted = fit_given_model(mdp, unknowns, counts, model=player_model(grid.model), rmax=grid.rmax)
+    fitted = fit_given_model(mdp, unknowns, counts, model=player_model(grid.model).with_hand(hand), rmax=grid.rmax)
     return laplace_intervals(mdp, unknowns, counts, fitted, rmax=grid.rmax, confidence=grid.confidence,
                              groups=groups)
 
@@ -267,9 +308,11 @@ def _first_episodes(played: Rollouts, e: int) -> Rollouts:
                     length=played.length[:e], final_state=played.final_state[:e], truncated=played.truncated[:e])
 
 
-def fit_participant(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, grid: PlanGrid) -> tuple[np.ndarray, np.ndarray]:
+def fit_participant(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, grid: PlanGrid, *,
+                    hand: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One simulated participant's rewards (k,) and Laplace intervals (k, 2) from their counts (S, A), fitted
     from the starts a model given by name is (`fit_given_model`; a warm start from the same participant's
-    fit on fewer episodes is faster, but stopped in a poorer optimum in 2 of 12 trials on mud)."""
-    fitted = fit_given_model(mdp, unknowns, counts, model=player_model(grid.model), rmax=grid.rmax)
+    fit on fewer episodes is faster, but stopped in a poorer optimum in 2 of 12 trials on mud); `hand`
+    (bias, sigma): their calibration block's hand, held fixed (the interval does not carry its noise)."""
+    fitted = fit_given_model(mdp, unknowns, counts, model=player_model(grid.model).with_hand(hand), rmax=grid.rmax)
     return fitted.theta, laplace_intervals(mdp, unknowns, counts, fitted, rmax=grid.rmax, confidence=grid.confidence)

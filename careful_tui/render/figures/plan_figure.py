@@ -24,7 +24,11 @@ def plan_figure(points: list[PlanPoint], worlds: tuple[World, ...]) -> Figure:
             world = next(w for w in worlds if w.name == name)
             _row(axes[row], mine, world, first=row == 0, last=row == len(names) - 1)
         studies = points[0].studies if points else 0
-        figure.suptitle(f"Simulated studies ({studies} per point): what a study of this size would show", color=INK)
+        blocks = sorted({p.calibration for p in points if p.calibration})
+        block = (f"\neach participant first holding a calibration block of {blocks[0]} targets"
+                 if len(blocks) == 1 else "")
+        figure.suptitle(f"Simulated studies ({studies} per point): what a study of this size would show{block}",
+                        color=INK)
     return figure
 
 
