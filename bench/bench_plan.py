@@ -11,6 +11,7 @@
    draws them, written to disk as recordings. Target: within 15 points.
 
 Run: .venv/bin/python -m bench bench_plan [--part time|check|predict|both] [--studies N] [--resamples R]
+     [--calibration N] [--models NAME,...] [--point NxE]
 """
 
 from __future__ import annotations
@@ -26,8 +27,9 @@ import numpy as np
 from irl_core.experiment.claims import order_words
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, rollouts, session_header, write_rollouts
-from irl_core.recordings.lines import StudyTag
-from irl_core.studies.plan import POOLS, PlanGrid, drawn_player, fit_participant, plan_study
+from irl_core.recordings.lines import CalibrationTrial, StudyTag
+from irl_core.recordings.writer import RecordingWriter
+from irl_core.studies.plan import POOLS, PlanGrid, calibration_block, drawn_player, fit_participant, plan_study
 from irl_core.studies.report import POOLED, fit_report, gather, report_options
 from irl_core.studies.study import load_study
 from irl_core.worlds.mdp import build_mdp
@@ -60,11 +62,14 @@ def time_default_grid(workers: int) -> None:
 
 
 def write_study(folder: Path, participants: int, episodes: int, seed: int, grid: PlanGrid) -> Path:
-    """A study file of mud and `participants` drawn as the plan draws them, `episodes` main episodes each."""
+    """A study file of mud and `participants` drawn as the plan draws them, `episodes` main episodes each (after
+    a calibration block of `grid.calibration` targets, in a file of its own, when there is one)."""
     path = folder / "study.toml"
-    path.write_text(f'name = "bench"\nworlds = ["mud"]\npractice_episodes = 0\nepisodes = {episodes}\nout = "data"\n')
+    path.write_text(f'name = "bench"\nworlds = ["mud"]\npractice_episodes = 0\nepisodes = {episodes}\nout = "data"\n'
+                    f"calibration_block = {grid.calibration}\n")
     study = load_study(path)
-    mdp = build_mdp(study.worlds[0])
+    world = study.worlds[0]
+    mdp = build_mdp(world)
     for i in range(participants):
         rng = np.random.default_rng([seed, i, 7])
         player = drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
@@ -73,14 +78,22 @@ def write_study(folder: Path, participants: int, episodes: int, seed: int, grid:
         out.mkdir(parents=True)
         tag = StudyTag(name="bench", participant=who, phase="main", world_index=0)
         header = session_header(mdp, player=player.player, seed=seed).model_copy(update={"player": who, "study": tag})
-        write_rollouts(out / f"{who}-0-w0-main.jsonl", mdp, rollouts(mdp, player.choose, episodes=episodes, rng=rng),
-                       player=player.player, seed=seed, header=header)
+        played = rollouts(mdp, player.choose, episodes=episodes, rng=rng)
+        trials = calibration_block(player, world, grid.calibration, rng)  # after the episodes, as the plan draws them
+        if trials.size:
+            with RecordingWriter(out / f"{who}-0-w0-main.jsonl", header) as writer:
+                for target, produced in trials.tolist():
+                    writer.write_trial(CalibrationTrial(target=target, produced=produced))
+        write_rollouts(out / f"{who}-1-w0-main.jsonl", mdp, played, player=player.player, seed=seed, header=header)
     return path
 
 
-def reported_separation(participants: int, episodes: int, studies: int, resamples: int, workers: int) -> float:
-    grid = PlanGrid()
-    separated = []
+def reported_separation(participants: int, episodes: int, studies: int, resamples: int, workers: int, *,
+                        calibration: int = 0) -> tuple[float, float]:
+    """The share of `studies` full reports whose pooled cliff interval lies below the mud's, and the share whose
+    every pooled interval holds the world's own reward."""
+    grid = PlanGrid(calibration=calibration)
+    separated, covered = [], []
     for s in range(studies):
         with tempfile.TemporaryDirectory() as folder:
             data = gather(load_study(write_study(Path(folder), participants, episodes, 1000 + s, grid)))
@@ -88,28 +101,35 @@ def reported_separation(participants: int, episodes: int, studies: int, resample
         pooled = next(f for c, f in zip(data.cells, fits) if c.participant == POOLED)
         if pooled.intervals is None:
             separated.append(False)
+            covered.append(False)
             continue
         cliff, mud = pooled.symbols.index("C"), pooled.symbols.index("U")
         separated.append(order_words(tuple(pooled.intervals[cliff]), tuple(pooled.intervals[mud])) == "below")
+        rewards = BUILTIN_WORLDS["mud"].rewards
+        covered.append(all(low <= rewards[symbol] <= high for symbol, (low, high) in zip(pooled.symbols, pooled.intervals)))
         print(f"    study {s}: pooled cliff {pooled.intervals[cliff].round(0).tolist()}, mud "
               f"{pooled.intervals[mud].round(1).tolist()} ({pooled.player_model}): "
-              f"{'separated' if separated[-1] else 'not separated'}", flush=True)
-    return float(np.mean(separated))
+              f"{'separated' if separated[-1] else 'not separated'}, "
+              f"{'every interval holds the truth' if covered[-1] else 'not covered'}", flush=True)
+    return float(np.mean(separated)), float(np.mean(covered))
 
 
-def check(studies: int, resamples: int, workers: int, *, measure: bool = True) -> None:
+def check(studies: int, resamples: int, workers: int, *, measure: bool = True, calibration: int = 0,
+          models: tuple[str, ...] = ("person",), points: tuple[tuple[int, int], ...] = POINTS) -> None:
     world = BUILTIN_WORLDS["mud"]
-    for n, e in POINTS:
-        for pool in POOLS:
-            grid = PlanGrid(participants=(n,), episodes=(e,), pool=pool)
-            predicted = plan_study((world,), grid, workers=workers)[0].separated
-            print(f"{n} participants x {e} episodes: the plan ({pool} pool) predicts separation in {predicted:.0%} "
-                  f"({grid.repeats} simulated studies)", flush=True)
+    for n, e in points:
+        for model in models:
+            for pool in POOLS:
+                grid = PlanGrid(participants=(n,), episodes=(e,), pool=pool, calibration=calibration, model=model)
+                predicted = plan_study((world,), grid, workers=workers)[0]
+                print(f"{n} participants x {e} episodes, calibration {calibration}: the plan ({model} model, {pool} "
+                      f"pool) predicts separation in {predicted.separated:.0%}, coverage {predicted.covered:.0%} "
+                      f"({grid.repeats} simulated studies)", flush=True)
         if not measure:
             continue
-        measured = reported_separation(n, e, studies, resamples, workers)
-        print(f"{n} participants x {e} episodes: measured by {studies} full reports (--resamples {resamples}) "
-              f"{measured:.0%} (target: a prediction within 15 points)", flush=True)
+        measured, held = reported_separation(n, e, studies, resamples, workers, calibration=calibration)
+        print(f"{n} participants x {e} episodes: measured by {studies} full reports (--resamples {resamples}): "
+              f"separation {measured:.0%} (target: a prediction within 15 points), coverage {held:.0%}", flush=True)
 
 
 def main() -> None:
@@ -119,11 +139,21 @@ def main() -> None:
     parser.add_argument("--studies", type=int, default=20)
     parser.add_argument("--resamples", type=int, default=200)
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--calibration", type=int, default=0, metavar="N",
+                        help="the check's participants first hold N calibration targets (default 0: none)")
+    parser.add_argument("--models", default="person", metavar="NAME,...",
+                        help="the plan's player models to predict with (default person)")
+    parser.add_argument("--point", default=None, metavar="NxE", help="one grid point instead of 5x5 and 5x10")
     args = parser.parse_args()
+    points: tuple[tuple[int, int], ...] = POINTS
+    if args.point is not None:
+        n, e = (int(v) for v in args.point.split("x"))
+        points = ((n, e),)
     if args.part in ("time", "both"):
         time_default_grid(args.workers)
     if args.part in ("check", "predict", "both"):
-        check(args.studies, args.resamples, args.workers, measure=args.part != "predict")
+        check(args.studies, args.resamples, args.workers, measure=args.part != "predict", calibration=args.calibration,
+              models=tuple(args.models.split(",")), points=points)
 
 
 if __name__ == "__main__":

@@ -7,6 +7,8 @@ and main episodes per world) and whose files carry the ``study`` header field, w
 id as the player and the expert in the header's ``input.expert``. One file per block:
 ``<out>/<ID>/<ID>-<block>-w<world_index>-<phase>.jsonl``, ``<block>`` counting the blocks in the
 order a participant plays them, so that name order is play order.
+With the study's ``calibration_block`` each first writes that motor calibration block, in a file of its own
+tagged as their first block (targets on the first world's levels, produced by their own hand).
 The same participants and seed write the same bytes. `write_person_like_study` writes a whole
 study, its file included, of person-like participants and one reckless one (level 1 everywhere,
 a quarter of moves random), for `careful study report` to be tried on.
@@ -19,11 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
+from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import Chooser, boltzmann_policy, expert_name, rollouts, session_header, write_rollouts
-from irl_core.players.person_like import person_like
-from irl_core.recordings.lines import StudyTag
+from irl_core.players.person_like import motor_trials, person_like
+from irl_core.recordings.lines import CalibrationTrial, StudyTag
+from irl_core.recordings.writer import RecordingWriter
 from irl_core.studies.study import LoadedStudy, Phase, load_study, world_order
 from irl_core.worlds.mdp import MDP, build_mdp
+
+# The seed stream of a participant's calibration block, apart from their blocks' (world index, phase).
+CALIBRATION_STREAM = 99
 
 
 @dataclass(frozen=True)
@@ -78,7 +85,11 @@ def write_simulated_participant(study: LoadedStudy, who: SimulatedParticipant, *
     folder.mkdir(parents=True, exist_ok=True)
     targets = {"practice": study.study.practice_episodes, "main": study.study.episodes}
     written: list[Path] = []
-    for world_index in world_order(study.study, who.participant):
+    order = world_order(study.study, who.participant)
+    first: Phase = "practice" if study.study.practice_episodes else "main"
+    if study.study.calibration_block and first in phases:  # the block comes before the first block
+        written.append(_write_calibration_block(study, who, order[0], folder, phase=first))
+    for world_index in order:
         mdp = build_mdp(study.worlds[world_index])
         policy, player = who.player(mdp)
         for phase_number, phase in enumerate(("practice", "main")):
@@ -94,10 +105,32 @@ def write_simulated_participant(study: LoadedStudy, who: SimulatedParticipant, *
     return written
 
 
+def _write_calibration_block(study: LoadedStudy, who: SimulatedParticipant, world_index: int, folder: Path, *,
+                             phase: Phase) -> Path:
+    """`who`'s motor calibration block, in a file of its own tagged as their first block, as a study writes it: the
+    study's `calibration_block` targets on the first world's levels, each produced by their own hand (a Boltzmann
+    expert's hand is exact)."""
+    world = study.worlds[world_index]
+    mdp = build_mdp(world)
+    seed = int(np.random.SeedSequence([who.seed, CALIBRATION_STREAM]).generate_state(1)[0])
+    asked = np.array(calibration_targets(world.levels, study.study.calibration_block, seed=seed), dtype=np.int64)
+    trials = np.column_stack([asked, asked]) if who.kind == "boltzmann" else \
+        motor_trials(person_like(mdp, who.kind), asked, world.levels, np.random.default_rng(seed))
+    tag = StudyTag(name=study.study.name, participant=who.participant, phase=phase, world_index=world_index)
+    _, player = who.player(mdp)
+    header = session_header(mdp, player=player, seed=seed).model_copy(update={"player": who.participant, "study": tag})
+    path = folder / f"{who.participant}-0-w{world_index}-{phase}.jsonl"
+    with RecordingWriter(path, header) as writer:
+        for target, produced in trials.tolist():
+            writer.write_trial(CalibrationTrial(target=target, produced=produced))
+    return path
+
+
 def write_person_like_study(folder: str | Path, *, participants: int = 12, worlds: tuple[str, ...] = ("mud", "walls"),
-                            episodes: int = 30, reckless: int = 1, seed: int = 0) -> Path:
+                            episodes: int = 30, reckless: int = 1, seed: int = 0, calibration: int = 0) -> Path:
     """Write ``folder/study.toml`` and its data: `participants` person-like participants (loose, timed
-    and hasty in turn) and `reckless` reckless ones, `episodes` main episodes per world and no practice.
+    and hasty in turn) and `reckless` reckless ones, `episodes` main episodes per world and no practice,
+    after a motor calibration block of `calibration` targets (0: none).
     Returns the study file, for ``careful study report``.
 
     Raises:
@@ -108,7 +141,7 @@ def write_person_like_study(folder: str | Path, *, participants: int = 12, world
     entries = ", ".join(f'"{world}"' for world in worlds)
     with path.open("x", encoding="utf-8") as file:
         file.write(f'name = "person-like"\nworlds = [{entries}]\npractice_episodes = 0\nepisodes = {episodes}\n'
-                   'out = "data"\n')
+                   f'calibration_block = {calibration}\nout = "data"\n')
     study = load_study(path)
     for who in person_like_participants(participants, reckless=reckless, seed=seed):
         write_simulated_participant(study, who, phases=("main",))

@@ -163,3 +163,29 @@ def test_the_report_gives_each_participant_their_own_trials_and_the_pool_everyon
         calibration = by[participant].demos.calibration
         assert calibration.shape == (2, 2) and (calibration[:, 0] - calibration[:, 1] == short).all()
     assert by["pooled"].demos.calibration.shape == (4, 2)
+
+
+@pytest.mark.parametrize("practice", [1, 0])
+def test_a_simulated_participant_holds_the_studys_block_first(tmp_path: Path, practice: int) -> None:
+    """Simulated participants (to try a study's report before running people) make the study's calibration block
+    too, in a file of its own tagged as their first block, with their own hand: a hasty one two levels short."""
+    from irl_core.studies.report_cells import gather
+    from irl_core.studies.simulated import SimulatedParticipant, write_simulated_participant
+
+    path = tmp_path / "motor.toml"
+    path.write_text(STUDY.format(n=26).replace("practice_episodes = 1", f"practice_episodes = {practice}"))
+    study = load_study(path)
+    written = write_simulated_participant(study, SimulatedParticipant("p01", None, 5, "hasty"))
+    first = read_recording(written[0])
+    assert len(first.calibration_trials) == 26 and not first.steps
+    assert first.header.study is not None and first.header.study.phase == ("practice" if practice else "main")
+    protocol = read_protocol(study, "p01")
+    assert protocol.calibration_left == 0 and protocol.finished
+    trials = next(cell for cell in gather(study).cells if cell.participant == "p01").demos.calibration
+    assert trials.shape == (26, 2) and -3.0 < (trials[:, 1] - trials[:, 0]).mean() < -1.0
+    # A study without a block: no trials file.
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    (plain / "motor.toml").write_text(STUDY.format(n=0))
+    files = write_simulated_participant(load_study(plain / "motor.toml"), SimulatedParticipant("p01", None, 5, "hasty"))
+    assert all(not read_recording(f).calibration_trials for f in files)
