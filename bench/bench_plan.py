@@ -80,8 +80,9 @@ def write_study(folder: Path, participants: int, episodes: int, seed: int, grid:
         header = session_header(mdp, player=player.player, seed=seed).model_copy(update={"player": who, "study": tag})
         played = rollouts(mdp, player.choose, episodes=episodes, rng=rng)
         trials = calibration_block(player, world, grid.calibration, rng)  # after the episodes, as the plan draws them
-        if trials.size:
-            with RecordingWriter(out / f"{who}-0-w0-main.jsonl", header) as writer:
+        if trials.size:  # a session of its own (its own seed), not a copy of the episodes' header
+            block = header.model_copy(update={"seed": seed + 1})
+            with RecordingWriter(out / f"{who}-0-w0-main.jsonl", block) as writer:
                 for target, produced in trials.tolist():
                     writer.write_trial(CalibrationTrial(target=target, produced=produced))
         write_rollouts(out / f"{who}-1-w0-main.jsonl", mdp, played, player=player.player, seed=seed, header=header)
