@@ -22,15 +22,17 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import itertools
 import multiprocessing
 import multiprocessing.synchronize
 import os
+import pickle
 import signal
 import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import TypeVar
 
 from irl_core.support.allocator import keep_freed_memory
@@ -38,6 +40,9 @@ from irl_core.support.stopping import stop_if_asked, stop_when
 
 # While the workers run, this process asks its stop check this often (seconds).
 STOP_POLL_S = 0.1
+# Calls handed to the pool ahead of the workers, per worker: each is pickled as it is handed over, and the rest wait
+# as they are, not as a second copy.
+IN_FLIGHT = 2
 # A worker whose parent has gone ends within this many seconds (where the kernel does not end it first).
 WATCHDOG_S = 0.25
 _PR_SET_PDEATHSIG = 1
@@ -61,20 +66,30 @@ def run_in_pool(function: Callable[..., T], calls: list[tuple], *, workers: int,
     context = process_context()
     if context.get_start_method() == "forkserver":
         context.set_forkserver_preload([__name__, function.__module__, *preload])
+    waiting = iter(enumerate(calls))
+    futures: dict[Future, int] = {}
+
+    def send(count: int) -> None:
+        # Each call is pickled here, so that one that cannot be raises in this thread: pickled by the pool's
+        # feeder thread, its error left shutdown(cancel_futures=True) waiting for ever (CPython gh-116685).
+        for i, call in itertools.islice(waiting, count):
+            futures[pool.submit(_heeding_the_stop, pickle.dumps((function, call), pickle.HIGHEST_PROTOCOL))] = i
+
     with contextlib.ExitStack() as stack:
         with _stderr_with_a_descriptor():  # the pool (and the stop signal's semaphore) start their helpers here
             stopping = context.Event()
             pool = stack.enter_context(ProcessPoolExecutor(
                 max_workers=workers, mp_context=context, initializer=_start_worker,
                 initargs=(os.getpid(), stopping, initializer, initargs)))
-            futures = {pool.submit(_heeding_the_stop, function, call): i for i, call in enumerate(calls)}
         try:
-            pending = set(futures)
-            while pending:
-                finished, pending = wait(pending, timeout=STOP_POLL_S, return_when=FIRST_COMPLETED)
+            with _stderr_with_a_descriptor():
+                send(IN_FLIGHT * workers)  # at least one call per worker: every worker starts here
+            while futures:
+                finished, _ = wait(set(futures), timeout=STOP_POLL_S, return_when=FIRST_COMPLETED)
                 stop_if_asked()
                 for future in finished:
-                    on_result(futures[future], future.result())
+                    on_result(futures.pop(future), future.result())
+                send(len(finished))
         except BaseException:
             stopping.set()
             pool.shutdown(cancel_futures=True)
@@ -94,8 +109,10 @@ def _start_worker(owner: int, stopping: multiprocessing.synchronize.Event,
         initializer(*initargs)
 
 
-def _heeding_the_stop(function: Callable[..., T], call: tuple) -> T:
+def _heeding_the_stop(pickled: bytes) -> object:
+    """The pickled (function, call)'s function(*call), stopped at its solvers' next check once the parent asks."""
     assert _STOPPING is not None
+    function, call = pickle.loads(pickled)
     with stop_when(_STOPPING):
         return function(*call)
 

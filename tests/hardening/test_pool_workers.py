@@ -103,3 +103,31 @@ def test_study_report_killed_mid_fits_leaves_no_worker(tmp_path):
                                env=os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)},
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     kill_and_check(process, 2, signal.SIGKILL)
+
+
+# Calls that cannot be pickled (a lambda among their arguments) between ones that can.
+UNPICKLABLE_SCRIPT = """
+import time
+from irl_core.support.pool import run_in_pool
+got = []
+try:
+    run_in_pool(time.sleep, [(0.01,), (lambda: 1,)] * 4, workers=2, on_result=lambda i, r: got.append(i))
+except Exception as error:
+    print("raised", type(error).__name__)
+"""
+
+
+def test_a_call_that_cannot_be_pickled_raises_and_the_process_ends():
+    # The pool once pickled the calls in its own thread, and the error left its shutdown waiting for ever.
+    done = subprocess.run([sys.executable, "-c", UNPICKLABLE_SCRIPT], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() in ("raised PicklingError", "raised AttributeError")  # as pickle words it
+
+
+def test_results_come_back_for_every_call_of_a_long_list():
+    # Calls go to the pool a few at a time: every one still runs once and is handed back with its index.
+    from irl_core.support.pool import run_in_pool
+
+    got: dict[int, int] = {}
+    run_in_pool(pow, [(i, 2) for i in range(40)], workers=2, on_result=got.__setitem__)
+    assert got == {i: i * i for i in range(40)}
