@@ -173,8 +173,9 @@ def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: f
         best = max(p.covered for p in mine)
         shares = f"{worst:.0%}" if f"{worst:.0%}" == f"{best:.0%}" else f"{worst:.0%} to {best:.0%}"
         cover = (f"every pooled interval held the hypothesised rewards in {shares} of studies"
-                 + ("" if worst >= target else f": the pooled intervals miss the truth more often than "
-                    f"their {confidence:.0%} says{_most_missed(mine)}"))
+                 + ("" if worst >= target else f": the plan's Laplace intervals miss the truth more often than "
+                    f"their {confidence:.0%} says{_most_missed(mine)}; read the share as a floor for a report, whose "
+                    "bootstrap intervals are wider"))
         if mine[0].separated is None:
             lines.append(f"{name}: no hazard and nuisance to separate; {cover}.")
             continue

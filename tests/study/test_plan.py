@@ -200,3 +200,20 @@ def test_a_study_of_time_worlds_only_is_refused_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "every world of the study is a time world" in err
     assert not (tmp_path / "data" / "plan").exists()
+
+
+def test_the_findings_say_the_plans_coverage_is_a_floor_for_a_report():
+    from careful_tui.commands.study_plan import plan_findings
+    from irl_core.studies.plan import PlanPoint
+
+    def point(covered):
+        return PlanPoint(world="mud", participants=5, episodes=10, studies=20, calibration=0, symbols=("C", "U"),
+                         truth=(-1000.0, -30.0), separated=0.9, covered=covered,
+                         covered_each={"C": covered, "U": 1.0}, width={"C": 500.0, "U": 20.0})
+
+    low, = plan_findings([point(0.15)])
+    assert "5 participants of 10 episodes separate catastrophe from nuisance in 90%" in low
+    assert "the plan's Laplace intervals miss the truth more often than their 95% says" in low
+    assert "the cliff's held -1000 in 15%" in low and "read the share as a floor for a report" in low
+    high, = plan_findings([point(0.9)])
+    assert "in 90% of studies." in high and "floor" not in high
