@@ -226,7 +226,11 @@ def _log_realised(pi3: np.ndarray, log_pi3: np.ndarray, K: np.ndarray) -> np.nda
             log_K = np.log(K)
         joint = log_pi3[low][:, :, None] + log_K[None, :, :]
         top = joint.max(axis=1, keepdims=True)
-        log_q[low] = (top + np.log(np.exp(joint - top).sum(axis=1, keepdims=True)))[:, 0, :]
+        # A level no intended level can produce (a precise, biased hand's kernel column underflows to 0) has
+        # log q = -inf, not -inf - (-inf).
+        top[np.isneginf(top)] = 0.0
+        with np.errstate(divide="ignore"):
+            log_q[low] = (top + np.log(np.exp(joint - top).sum(axis=1, keepdims=True)))[:, 0, :]
     return log_q
 
 
@@ -297,7 +301,9 @@ def log_likelihood(
     plan, system = _forward(mdp, R1, K, ends=model.ends, lapse=lapse, plans=model.plans, V0=V0)
     acting = mdp.nonterminal
     counts = np.asarray(counts, dtype=float)
-    value = float((counts[acting] * plan.log_observed[acting]).sum())
+    # Only recorded moves count: one the model gives no chance (log -inf) and nobody made adds 0, not 0 x -inf.
+    with np.errstate(invalid="ignore"):
+        value = float(np.where(counts[acting] > 0, counts[acting] * plan.log_observed[acting], 0.0).sum())
     if not gradient:
         return Likelihood(value, np.zeros(mdp.n_states), 0.0, 0.0, 0.0, plan)
     S, A, L = mdp.n_states, mdp.n_actions, mdp.levels

@@ -132,3 +132,28 @@ def test_the_fit_says_the_trials_were_drawn_again_only_where_they_were():
     assert "hand_resampled" not in codes(player_model="ends", intervals=True)
     assert "hand_resampled" not in codes(player_model="naive", intervals=False)
 
+
+
+@pytest.mark.parametrize("model_name", ["hand", "person"])
+def test_a_precise_biased_hand_gives_a_finite_likelihood(model_name):
+    # A calibration block can measure a hand so precise and so biased that some levels are never produced (their
+    # kernel column underflows to 0): the likelihood of the moves recorded was NaN there, and the fit's search
+    # broke on it (bootstrap resamples of a study report with a block).
+    from irl_core.irl.people_likelihood import _times, log_likelihood
+    from irl_core.irl.player_models import PLAYER_MODELS, Player
+    from irl_core.irl.qmap import build_unknowns
+
+    mdp = build_mdp(BUILTIN_WORLDS["mud"])
+    K, _ = level_kernel(mdp.levels, 0.05, -5.4)
+    assert (K[:, -1] == 0).all(), "the top level is never produced by this hand"
+    rng = np.random.default_rng(0)
+    counts = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, "reckless").choose, episodes=5, rng=rng)).counts
+    model = PLAYER_MODELS[model_name].with_hand((-5.4, 0.05))
+    player = Player(1.0, 0.05, 0.1 if model.lapses else 0.0, -5.4)
+    unknowns = build_unknowns(mdp, tie=True)
+    got = log_likelihood(mdp, counts, unknowns.state_rewards(unknowns.true_theta(mdp)), model=model, player=player)
+    assert np.isfinite(got.value) and np.isfinite(got.R_S).all()
+    if not model.lapses:  # the same sum by plain arithmetic: the realised policy is the intended one times K
+        realised = _times(got.plan.intended, K)
+        seen = mdp.nonterminal[:, None] & (counts > 0)
+        assert got.value == pytest.approx(float((counts[seen] * np.log(realised[seen])).sum()), rel=1e-9)
