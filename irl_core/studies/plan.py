@@ -210,7 +210,7 @@ def _point(world: World, n: int, e: int, studies: list[_Study], grid: PlanGrid) 
         separated = float(np.mean([order_words(tuple(i[h]), tuple(i[u])) == "below" for i in intervals]))
     widths = np.median(intervals[:, :, 1] - intervals[:, :, 0], axis=0)
     return PlanPoint(world=world.name, participants=n, episodes=e, studies=len(studies),
-                     calibration=calibration_trials(world, grid), symbols=symbols,
+                     calibration=block_targets(world, grid), symbols=symbols,
                      truth=tuple(float(t) for t in truth), separated=separated, covered=float(holds.all(axis=1).mean()),
                      covered_each={s: float(c) for s, c in zip(symbols, holds.mean(axis=0))},
                      width={s: float(w) for s, w in zip(symbols, widths)})
@@ -240,7 +240,7 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
         person = drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
         played.append(rollouts(mdp, person.choose, episodes=max(episodes), rng=rng))
         # Drawn after the episodes, so that a plan without a block simulates the same play.
-        trials.append(calibration_block(person, world, calibration_trials(world, grid), rng))
+        trials.append(calibration_block(person, world, block_targets(world, grid), rng))
     counts = {e: [demonstrations_of(mdp, _first_episodes(r, e)).counts for r in played] for e in episodes}
     sizes = sorted(set(grid.participants))
     out = {}
@@ -261,7 +261,7 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     return out
 
 
-def calibration_trials(world: World, grid: PlanGrid) -> int:
+def block_targets(world: World, grid: PlanGrid) -> int:
     """How many calibration targets each of `world`'s simulated participants holds (none where there are no
     levels to hold for: a time world, or one level)."""
     return grid.calibration if world.care == "levels" and world.levels >= 2 else 0

@@ -11,8 +11,8 @@ from careful_tui.cli import main
 from irl_core.studies.plan import (
     PlanError,
     PlanGrid,
+    block_targets,
     calibration_block,
-    calibration_trials,
     drawn_player,
     plan_study,
     planned_worlds,
@@ -133,8 +133,8 @@ def test_a_calibration_block_measures_each_simulated_hand():
     assert set(trials[:, 0]) == set(range(2, world.levels + 1))  # every level asked, as a study asks them
     assert -3.0 < (trials[:, 1] - trials[:, 0]).mean() < -1.0  # hasty holds two levels short
     # No levels to hold for: no block.
-    assert calibration_trials(BUILTIN_WORLDS["paper-time"], PlanGrid(calibration=10)) == 0
-    assert calibration_trials(BUILTIN_WORLDS["paper-simple"], PlanGrid(calibration=10)) == 0
+    assert block_targets(BUILTIN_WORLDS["paper-time"], PlanGrid(calibration=10)) == 0
+    assert block_targets(BUILTIN_WORLDS["paper-simple"], PlanGrid(calibration=10)) == 0
 
 
 @pytest.mark.parametrize("pool", ["population", "shared"])
