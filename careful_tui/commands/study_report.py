@@ -24,6 +24,7 @@ from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
 from irl_core.irl import at_bound
+from irl_core.irl.notes import CODES
 from irl_core.irl.options import FitOptions
 from irl_core.studies.report import (
     POOLED,
@@ -151,7 +152,7 @@ def write_report(data: StudyData, fits: list[CellFit], out: Path) -> list[Path]:
     inputs = [data.study.path, *world_files(data.study)]  # recordings are refused by the guard anyway
     out.mkdir(parents=True, exist_ok=True)
     columns, rows = report_rows(data, fits)
-    written = [write_output(out / "report.csv", csv_text(columns, rows), option="--out", inputs=inputs)]
+    written = [write_output(out / REPORT_CSV, csv_text(columns, rows), option="--out", inputs=inputs)]
     from careful_tui.render.figures.study_figures import report_figures
     from careful_tui.render.figures.style import save_figure
 
@@ -296,16 +297,30 @@ def fit_notes(data: StudyData, fits: list[CellFit]) -> list[str]:
     identified, ...), each once with the rows it applies to: "only 4 episodes: ...: p1 · paper, p2 · paper".
     Notes of what the table shows already (why auto chose the method, beta) are left out; the CSV keeps them
     all, beta's interval too."""
-    where: dict[str, list[str]] = {}
+    where: dict[str, dict[str, list[str]]] = {}  # code -> text -> rows
     for cell, result in zip(data.cells, fits):
         world = printable(data.study.worlds[cell.world_index].name, limit=40)
         for note in result.notes:
             if note.code not in TABLE_NOTES:
-                where.setdefault(str(note), []).append(f"{cell.participant} · {world}")
+                where.setdefault(note.code, {}).setdefault(str(note), []).append(f"{cell.participant} · {world}")
         if result.error and cell.participant != POOLED and fit_text(result) != result.error:
             # The table shows the reason's first clause; a pool's whole reason is its finding.
-            where.setdefault(f"not fitted: {result.error}", []).append(f"{cell.participant} · {world}")
-    return [f"{printable(note, limit=300)}: {_first_rows(rows)}" for note, rows in where.items()]
+            where.setdefault("", {}).setdefault(f"not fitted: {result.error}", []).append(f"{cell.participant} · {world}")
+    lines = []
+    for code, texts in where.items():
+        if len(texts) > SPELLED_OUT and code in CODES:
+            # Each row's own numbers (a hand from its trials, a fit check's statistic): one line, not one per row.
+            rows = [row for rows in texts.values() for row in rows]
+            lines.append(f"{CODES[code]} ({plural(len(rows), 'row')}, each with its own numbers in {REPORT_CSV}'s "
+                         f"note column): {_first_rows(rows)}")
+        else:
+            lines += [f"{printable(text, limit=300)}: {_first_rows(rows)}" for text, rows in texts.items()]
+    return lines
+
+
+REPORT_CSV = "report.csv"
+# A note whose words differ on more rows than this (each row's own numbers) is said once for all of them.
+SPELLED_OUT = 3
 
 
 def _first_rows(rows: list[str], shown: int = 6) -> str:

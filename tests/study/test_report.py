@@ -295,6 +295,33 @@ def test_the_printed_caveats_are_chosen_by_code_not_by_wording(study):
     assert fit_notes(data, fits) == ["beta's interval is rough: only 2 episodes: p1 · paper"]
 
 
+def test_a_caveat_with_each_rows_own_numbers_is_one_line_for_many_rows(study):
+    """A calibrated hand's note carries each participant's own bias and noise: a study of many would print a line
+    per participant, so past a few they are one line that says where the numbers are."""
+    from careful_tui.commands.study_report import SPELLED_OUT, fit_notes
+    from irl_core.irl.notes import CODES
+
+    ids = [f"p{i}" for i in range(1, SPELLED_OUT + 3)]
+    for participant in ids:
+        write_block(study, participant, 0, "main", name="a.jsonl", finished=2)
+    data = gather(study)
+    fits = []
+    for cell in data.cells:
+        if cell.world_index == 0 and cell.participant != POOLED:
+            n = ids.index(cell.participant)
+            fits.append(CellFit(method="maxent", beta=0.5, beta_auto=True, notes=(
+                Note("hand_calibrated", f"the hand from 10 calibration trials: bias -{n}.5 levels"),
+                Note("few_episodes", "only 2 episodes" if n % 2 else "only 2 episodes, rough"))))
+        else:
+            fits.append(CellFit(error="none"))
+    rows = ", ".join(f"{p} · paper" for p in ids[:6]) + (f" and {len(ids) - 6} more" if len(ids) > 6 else "")
+    assert fit_notes(data, fits) == [
+        f"{CODES['hand_calibrated']} ({len(ids)} rows, each with its own numbers in report.csv's note column): {rows}",
+        "only 2 episodes, rough: " + ", ".join(f"{p} · paper" for p in ids[::2]),
+        "only 2 episodes: " + ", ".join(f"{p} · paper" for p in ids[1::2]),
+    ]
+
+
 def test_outcomes_are_worded_as_replay_and_play_word_them(study, capsys):
     # Two falls, then a quit mid-episode; another file's episode cut off without an end.
     write_block(study, "p1", 0, "main", name="a.jsonl", finished=2, then="quit")
