@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from irl_core.irl import FitError, FitOptions, Note, fit
+from irl_core.irl.player_models import player_model
 from irl_core.studies.population import pool_participants
 from irl_core.studies.report_cells import POOLED, Cell, StudyData, leave_out, without_participants
 from irl_core.studies.study import Exclusions
@@ -159,12 +160,17 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
         result = fit(cell.demos, options, workers=workers, stop=stop, executor=executor)
     except FitError as exc:
         return CellFit(error=str(exc))
+    notes = tuple(result.notes)
+    if cell.player_model is not None:  # the report chose it on the world's pool; nobody asked for it
+        notes = tuple(Note("player_model", f"player model {cell.player_model}, the one chosen on the pool of every "
+                                           f"participant's episodes in this world: {player_model(cell.player_model).summary}")
+                      if note.code == "player_model" else note for note in notes)
     return CellFit(method=result.method, beta=result.beta, beta_auto=result.beta_auto,
                    symbols=tuple(result.unknowns.symbols), estimate=result.theta.copy(),
                    intervals=None if result.intervals is None else np.asarray(result.intervals, dtype=float),
                    truth=result.unknowns.true_theta(result.mdp), interval_kind=result.interval_kind,
                    confidence=options.confidence, rmax=options.rmax, reward_grid=result.reward_grid,
-                   notes=tuple(result.notes), player_model=result.player_model,
+                   notes=notes, player_model=result.player_model,
                    elapsed_s=result.elapsed_s,
                    fit_check_passed=None if result.fit_check is None else result.fit_check.passed,
                    rival_model=result.rival_model, rival_estimate=result.rival_theta)
