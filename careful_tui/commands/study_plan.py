@@ -73,7 +73,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
     left_out = [world for world in worlds if world.care == "time"]
     worlds = tuple(world for world in worlds if world.care != "time")
     if not worlds:
-        raise UsageError(f"{printable(str(study.path), limit=160)}: every world of the study is a time world; "
+        raise UsageError(f"{printable(str(study.path), limit=160)}: every world of the study is a time world, "
                          f"and {TIME_WORLDS_NOT_PLANNED}")
     out = check_output_folder((args.out if args.out is not None else study.out) / PLAN_FOLDER, option="--out")
     err = Console(stderr=True, highlight=False)
