@@ -27,10 +27,10 @@ import numpy as np
 from irl_core.experiment.claims import order_words
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, rollouts, session_header, write_rollouts
-from irl_core.recordings.lines import CalibrationTrial, StudyTag
-from irl_core.recordings.writer import RecordingWriter
+from irl_core.recordings.lines import StudyTag
 from irl_core.studies.plan import POOLS, PlanGrid, calibration_block, drawn_player, fit_participant, plan_study
 from irl_core.studies.report import POOLED, fit_report, gather, report_options
+from irl_core.studies.simulated import write_calibration_file
 from irl_core.studies.study import load_study
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS
@@ -81,10 +81,7 @@ def write_study(folder: Path, participants: int, episodes: int, seed: int, grid:
         played = rollouts(mdp, player.choose, episodes=episodes, rng=rng)
         trials = calibration_block(player, world, grid.calibration, rng)  # after the episodes, as the plan draws them
         if trials.size:  # a session of its own (its own seed), not a copy of the episodes' header
-            block = header.model_copy(update={"seed": seed + 1})
-            with RecordingWriter(out / f"{who}-0-w0-main.jsonl", block) as writer:
-                for target, produced in trials.tolist():
-                    writer.write_trial(CalibrationTrial(target=target, produced=produced))
+            write_calibration_file(out / f"{who}-0-w0-main.jsonl", header.model_copy(update={"seed": seed + 1}), trials)
         write_rollouts(out / f"{who}-1-w0-main.jsonl", mdp, played, player=player.player, seed=seed, header=header)
     return path
 

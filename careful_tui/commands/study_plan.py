@@ -21,7 +21,15 @@ from rich.text import Text
 
 from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.render.grid import SYMBOL_NAMES
-from irl_core.studies.plan import TIME_WORLDS_NOT_PLANNED, PlanError, PlanGrid, PlanPoint, plan_study, planned_worlds
+from irl_core.studies.plan import (
+    TIME_WORLDS_NOT_PLANNED,
+    PlanError,
+    PlanGrid,
+    PlanPoint,
+    plan_study,
+    planned_worlds,
+    without_time_worlds,
+)
 from irl_core.studies.study import StudyError, load_study, world_files
 from irl_core.support.csv_cells import csv_text, text_cell
 from irl_core.support.safe_files import check_output_folder, write_output
@@ -70,8 +78,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
         worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
         raise UsageError(f"--{exc.field}: {exc.reason}") from None
-    left_out = [world for world in worlds if world.care == "time"]
-    worlds = tuple(world for world in worlds if world.care != "time")
+    worlds, left_out = without_time_worlds(worlds)
     if not worlds:
         raise UsageError(f"{printable(str(study.path), limit=160)}: every world of the study is a time world, "
                          f"and {TIME_WORLDS_NOT_PLANNED}")

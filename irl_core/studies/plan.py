@@ -63,6 +63,11 @@ POOLS = {
 TIME_WORLDS_NOT_PLANNED = "the plan's simulated players and fits are those of worlds with levels"
 
 
+def without_time_worlds(worlds: tuple[World, ...]) -> tuple[tuple[World, ...], tuple[World, ...]]:
+    """The worlds a plan simulates, and the study's time worlds it leaves out (`TIME_WORLDS_NOT_PLANNED`)."""
+    return tuple(w for w in worlds if w.care != "time"), tuple(w for w in worlds if w.care == "time")
+
+
 class PlanError(ValueError):
     """A plan's input that cannot be used: `field` names the option, the message says why."""
 

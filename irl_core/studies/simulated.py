@@ -24,7 +24,7 @@ import numpy as np
 from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import Chooser, boltzmann_policy, expert_name, rollouts, session_header, write_rollouts
 from irl_core.players.person_like import motor_trials, person_like
-from irl_core.recordings.lines import CalibrationTrial, StudyTag
+from irl_core.recordings.lines import CalibrationTrial, SessionHeader, StudyTag
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.studies.study import LoadedStudy, Phase, load_study, world_order
 from irl_core.worlds.mdp import MDP, build_mdp
@@ -114,12 +114,19 @@ def _write_calibration_block(study: LoadedStudy, who: SimulatedParticipant, worl
     mdp = build_mdp(world)
     seed = int(np.random.SeedSequence([who.seed, CALIBRATION_STREAM]).generate_state(1)[0])
     asked = np.array(calibration_targets(world.levels, study.study.calibration_block, seed=seed), dtype=np.int64)
-    trials = np.column_stack([asked, asked]) if who.kind == "boltzmann" else \
-        motor_trials(person_like(mdp, who.kind), asked, world.levels, np.random.default_rng(seed))
+    if who.kind == "boltzmann":
+        trials, player = np.column_stack([asked, asked]), who.player(mdp)[1]
+    else:
+        person = person_like(mdp, who.kind)
+        trials, player = motor_trials(person, asked, world.levels, np.random.default_rng(seed)), person.player
     tag = StudyTag(name=study.study.name, participant=who.participant, phase=phase, world_index=world_index)
-    _, player = who.player(mdp)
     header = session_header(mdp, player=player, seed=seed).model_copy(update={"player": who.participant, "study": tag})
-    path = folder / f"{who.participant}-0-w{world_index}-{phase}.jsonl"
+    return write_calibration_file(folder / f"{who.participant}-0-w{world_index}-{phase}.jsonl", header, trials)
+
+
+def write_calibration_file(path: Path, header: SessionHeader, trials: np.ndarray) -> Path:
+    """A new recording `path` of `header` and one ``calibration_trial`` line per (target, produced) of `trials`
+    (n, 2), as a study's calibration block writes it; never overwriting."""
     with RecordingWriter(path, header) as writer:
         for target, produced in trials.tolist():
             writer.write_trial(CalibrationTrial(target=target, produced=produced))
