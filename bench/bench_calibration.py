@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from irl_core.irl import FitOptions, fit
-from irl_core.irl.bootstrap import VARIANTS, Refit, bootstrap, interval
+from irl_core.irl.intervals.bootstrap import VARIANTS, Refit, bootstrap, interval
 from irl_core.irl.maxent import curvature_scale
 from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.worlds.mdp import build_mdp

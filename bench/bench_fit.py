@@ -25,10 +25,10 @@ from scipy.optimize import linprog
 
 from bench.timing import best_of
 from irl_core.irl import fit
-from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.loss import fit_loss
-from irl_core.irl.loss_model import loss_constraints, loss_problem
-from irl_core.irl.margin import lp_constraints, margin_lp
+from irl_core.irl.intervals.identified import reward_intervals
+from irl_core.irl.loss.model import loss_constraints, loss_problem
+from irl_core.irl.loss.solve import fit_loss
+from irl_core.irl.lp.margin import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.recordings.demonstrations import Demonstrations

@@ -3,7 +3,7 @@
 For each person-like player and world, N seeds of E episodes are fitted with the ``person`` model
 (`fit_given_model`); each fit gets three 95% intervals per symbol (tied unknowns): the bootstrap
 (`fit(...)`, 200 resamples of episodes, refitted), and the Laplace interval
-(`irl_core.irl.laplace`) on the log and on the reward scale. Per (player, world, interval) it prints,
+(`irl_core.irl.people.laplace`) on the log and on the reward scale. Per (player, world, interval) it prints,
 as a Markdown table, the share of seeds whose interval holds the world's reward, per symbol, the
 median width per symbol, and the median seconds per fit's interval; the bootstrap's time over the
 Laplace's is the speed-up (both measured here, in the same process).
@@ -21,9 +21,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from irl_core.irl import FitOptions, fit
-from irl_core.irl.laplace import laplace_intervals
-from irl_core.irl.people_choice import fit_given_model
-from irl_core.irl.player_models import player_model
+from irl_core.irl.choices import player_model
+from irl_core.irl.people import fit_given_model, laplace_intervals
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, rollouts
 from irl_core.players.person_like import person_like

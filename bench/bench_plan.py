@@ -25,10 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from irl_core.experiment.claims import order_words
+from irl_core.irl.choices import POOL_MODELS
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, rollouts, session_header, write_rollouts
 from irl_core.recordings.lines import StudyTag
-from irl_core.studies.plan import POOLS, PlanGrid, calibration_block, drawn_player, fit_participant, plan_study
+from irl_core.studies.plan import PlanGrid, calibration_block, drawn_player, fit_participant, plan_study
 from irl_core.studies.report import POOLED, fit_report, gather, report_options
 from irl_core.studies.simulated import write_calibration_file
 from irl_core.studies.study import load_study
@@ -117,7 +118,7 @@ def check(studies: int, resamples: int, workers: int, *, measure: bool = True, c
     world = BUILTIN_WORLDS["mud"]
     for n, e in points:
         for model in models:
-            for pool in POOLS:
+            for pool in POOL_MODELS:
                 grid = PlanGrid(participants=(n,), episodes=(e,), pool=pool, calibration=calibration, model=model)
                 predicted = plan_study((world,), grid, workers=workers)[0]
                 print(f"{n} participants x {e} episodes, calibration {calibration}: the plan ({model} model, {pool} "

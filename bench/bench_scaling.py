@@ -67,8 +67,8 @@ def check(size: str) -> None:
     """Row generation against HiGHS's simplex on the whole slack-form LP: the same optimum? And
     the per-cell intervals: every LP answered, each interval holding the true and the fitted reward."""
     from bench.fit_stage import demonstrations_for
-    from irl_core.irl.lp import solve_margin_lp
-    from irl_core.irl.margin import lp_constraints
+    from irl_core.irl.lp.margin import lp_constraints
+    from irl_core.irl.lp.solve import solve_margin_lp
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(size)
@@ -86,7 +86,7 @@ def check(size: str) -> None:
           f"row generation / whole LP time {times[True] / times[False]:.3f}")
     # Every per-cell interval LP answered (on the landed main 4 of 62 at 32x32 ended "unknown"),
     # each interval holding the true reward and the fitted one.
-    from irl_core.irl.intervals import reward_intervals
+    from irl_core.irl.intervals.identified import reward_intervals
 
     start = time.perf_counter()
     intervals, _ = reward_intervals(constraints)
@@ -108,9 +108,9 @@ def conditioning(size: str, *, whole: list[str]) -> None:
     a state, whose distance from the goal (steps, Manhattan on these wall-less worlds) is given.
     """
     from bench.fit_stage import demonstrations_for
-    from irl_core.irl.highs import HighsModel
-    from irl_core.irl.lp import MARGIN_OPTIONS, RowGeneration
-    from irl_core.irl.margin import lp_constraints, margin_lp
+    from irl_core.irl.lp.highs import HighsModel
+    from irl_core.irl.lp.margin import lp_constraints, margin_lp
+    from irl_core.irl.lp.solve import MARGIN_OPTIONS, RowGeneration
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(size)

@@ -89,11 +89,11 @@ def main() -> None:
                         help="a HiGHS option for the solve (repeatable): true/false, an integer, a float or a word")
     args = parser.parse_args()
 
-    import irl_core.irl.lp as lp
+    import irl_core.irl.lp.solve as lp
     from bench.bench_scaling import _setup
     from bench.fit_stage import demonstrations_for
-    from irl_core.irl.highs import HighsModel, LinearProgram
-    from irl_core.irl.margin import lp_constraints
+    from irl_core.irl.lp.highs import HighsModel, LinearProgram
+    from irl_core.irl.lp.margin import lp_constraints
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(args.size)

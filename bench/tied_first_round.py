@@ -11,7 +11,7 @@ import time
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from irl_core.irl.highs import Options
+    from irl_core.irl.lp.highs import Options
 
 SETTINGS: dict[str, Options] = {
     "dual-dantzig": {"simplex_dual_edge_weight_strategy": 0},
@@ -36,8 +36,8 @@ def main() -> None:
 
     from bench.bench_scaling import _setup
     from bench.fit_stage import demonstrations_for
-    from irl_core.irl.lp import RowGeneration
-    from irl_core.irl.margin import lp_constraints, margin_lp
+    from irl_core.irl.lp.margin import lp_constraints, margin_lp
+    from irl_core.irl.lp.solve import RowGeneration
     from irl_core.irl.qmap import build_qmap, build_unknowns
 
     mdp = _setup(args.size)

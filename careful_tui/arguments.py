@@ -10,8 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import irl_core.irl.fit_methods as fit_methods
-import irl_core.irl.player_models as player_models
+import irl_core.irl.choices as choices
 from irl_core.irl import FitOptions
 
 
@@ -95,17 +94,17 @@ class Flag:
 
 
 FIT_FLAGS: tuple[Flag, ...] = (
-    Flag("method", "--method", dict(choices=fit_methods.NAMES, default=fit_methods.DEFAULT, help="; ".join(
-        f"{m.name}{' (default)' if m.name == fit_methods.DEFAULT else ''}: {m.summary}"
-        for m in fit_methods.METHODS.values()))),
+    Flag("method", "--method", dict(choices=choices.NAMES, default=choices.DEFAULT, help="; ".join(
+        f"{m.name}{' (default)' if m.name == choices.DEFAULT else ''}: {m.summary}"
+        for m in choices.METHODS.values()))),
     Flag("rmax", "--rmax", dict(type=positive_float, default=1000.0, help="bound |R_S| <= rmax (default 1000)")),
     Flag("lam", "--lambda", dict(type=non_negative_float, default=0.0, help="L1 penalty on R_S (default 0)")),
     Flag("beta", "--beta", dict(type=beta_value, default=None, metavar="X|auto", help=(
         "maxent inverse temperature, or auto to estimate it with the rewards (default: 1.0 with --method "
         "maxent, auto when --method auto picks maxent)"))),
-    Flag("player_model", "--player-model", dict(choices=(player_models.AUTO, *player_models.PLAYER_MODELS), default=None,
+    Flag("player_model", "--player-model", dict(choices=(choices.AUTO, *choices.PLAYER_MODELS), default=None,
          help="maxent's model of the player: auto chooses by held-out episodes (the default when --method auto "
-         "picks maxent); " + "; ".join(f"{m.name}: {m.summary}" for m in player_models.PLAYER_MODELS.values())
+         "picks maxent); " + "; ".join(f"{m.name}: {m.summary}" for m in choices.PLAYER_MODELS.values())
          + " (boltzmann is the default with --method maxent)")),
     Flag("reward_cells", "--reward-cells", dict(choices=["special", "all"], default="special",
          help="special: fit non-ground cells, ground is 0 (default); all: fit every cell")),

@@ -30,7 +30,7 @@ from careful_tui.arguments import (
 )
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError, missing_extra, missing_extra_line
 from careful_tui.version import app_version
-from irl_core.irl.player_models import LEVEL_MODELS
+from irl_core.irl.choices import DEFAULT_POOL_MODEL, LEVEL_MODELS, POOL_MODELS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
 from irl_core.support.safe_files import InputError, OutputError
@@ -210,9 +210,8 @@ def _add_study_report(study_commands: Any) -> None:
                              "careful[cluster] (docs/studies.md, \"On a cluster\"); the numbers are the same")
     report.add_argument("--rmax", type=positive_float, default=5000.0, metavar="X",
                         help="bound |R_S| <= rmax for every fit (default 5000, so a cliff at -1000 lies well inside)")
-    report.add_argument("--pool-model", choices=("population", "shared"), default="population",
-                        help="population (default): each participant with their own player, pooled as a population "
-                             "of people; shared: one fit of everyone's episodes, rewards and player shared")
+    report.add_argument("--pool-model", choices=tuple(POOL_MODELS), default=DEFAULT_POOL_MODEL,
+                        help=_pool_help("the report pools them"))
     report.add_argument("--no-exclusions", action="store_true",
                         help="pool every participant, ignoring the study file's [exclusions] (to show what they change)")
 
@@ -251,10 +250,8 @@ def _add_study_plan(study_commands: Any) -> None:
                       help="the model of the player every simulated participant is fitted with (default person; "
                            "naive for players who do not make up for their hand, as study report chose for "
                            "under-holders with a calibration block)")
-    plan.add_argument("--pool-model", choices=["population", "shared"], default="population",
-                      help="population (default, as study report pools): each participant's fit, pooled as a "
-                           "population of participants; shared: one fit of everyone's episodes with an interval "
-                           "over participants (study report --pool-model shared)")
+    plan.add_argument("--pool-model", choices=tuple(POOL_MODELS), default=DEFAULT_POOL_MODEL,
+                      help=_pool_help("simulated as study report pools them"))
     plan.add_argument("--repeats", type=positive_int, default=20, metavar="N",
                       help="simulated studies per grid point (default 20)")
     plan.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the simulations (default 0)")
@@ -286,6 +283,12 @@ def _add_serve(commands: Any) -> None:
     serve.add_argument("--workers", type=positive_int, default=1, metavar="N",
                        help="worker processes serving on the one port (default 1; at most 4 per core): any of them "
                        "serves any request, each page's seat kept in <out>/.<participant>.seat")
+
+
+def _pool_help(how: str) -> str:
+    """--pool-model's help from its registry: each pool model, the default first (`how`: what pools them)."""
+    return f"how participants are pooled ({how}): " + "; ".join(
+        f"{name}{' (default)' if name == DEFAULT_POOL_MODEL else ''}: {what}" for name, what in POOL_MODELS.items())
 
 
 def port_number(text: str) -> int:

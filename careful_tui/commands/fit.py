@@ -20,7 +20,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
-import irl_core.irl.fit_methods as fit_methods
+import irl_core.irl.choices as choices
 from careful_tui.arguments import options_from_args
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.commands.reading import read_with_progress
@@ -63,7 +63,7 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
     problem = options.problem()
     if problem:
         raise UsageError(said(problem))
-    chooser = fit_methods.method(options.method).chooser
+    chooser = choices.method(options.method).chooser
     if printout and not chooser:
         for warning in ignored_options(options, options.method):
             warn(err, warning)
@@ -102,8 +102,8 @@ def ignored_options(options: FitOptions, method: str) -> list[str]:
     them all (its keys switch methods and turn intervals on), so only the printout asks.
     """
     default = FitOptions()
-    used = fit_methods.method(method)
-    chosen = f" (method auto chose {method})" if fit_methods.method(options.method).chooser else ""
+    used = choices.method(method)
+    chosen = f" (method auto chose {method})" if choices.method(options.method).chooser else ""
     resampling = [flag for flag, name in RESAMPLING if getattr(options, name) != getattr(default, name)]
     warnings = []
     if resampling and not options.intervals:
@@ -124,7 +124,7 @@ def _names(*, kind: str | None = None, uses_beta: bool | None = None, uses_lambd
            owning: bool = False) -> str:
     """The fitting methods with an interval `kind`, or that use beta or lambda: "lp and loss", "loss's and maxent's"."""
     ending = "'s" if owning else ""
-    names = [m.name + ending for m in fit_methods.METHODS.values() if not m.chooser
+    names = [m.name + ending for m in choices.METHODS.values() if not m.chooser
              and (kind is None or m.interval_kind == kind)
              and (uses_beta is None or m.uses_beta == uses_beta)
              and (uses_lambda is None or m.uses_lambda == uses_lambda)]

@@ -19,6 +19,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn
 from rich.table import Table
 from rich.text import Text
 
+import irl_core.irl.choices as choices
 from careful_tui.errors import EXIT_OK, UsageError
 from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
@@ -31,7 +32,6 @@ from irl_core.studies.report import (
     Cell,
     CellFit,
     StudyData,
-    check_pool_model,
     fit_report,
     gather,
     pooled_finding,
@@ -70,7 +70,7 @@ class Timings:
 def run_study_report(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     options = report_options(resamples=args.resamples, seed=args.seed, rmax=args.rmax)
-    pool_model = check_pool_model(args.pool_model)
+    pool_model = choices.pool_model(args.pool_model)
     if problem := options.problem():
         raise UsageError(said(problem))
     try:

@@ -19,7 +19,7 @@ from careful_tui.option_words import said
 from careful_tui.render.grid import ARROWS, SYMBOL_NAMES, WorldGrid, format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table
 from irl_core.irl import FitResult
-from irl_core.irl.fit_methods import METHODS
+from irl_core.irl.choices import METHODS
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.safe_text import printable
 from irl_core.support.words import plural

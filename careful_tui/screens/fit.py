@@ -6,7 +6,7 @@ It shows the fitted R_S coloured on the diverging log scale of `careful_tui.rend
 world's own R_S beside it on the same scale, how far the demonstrations pin each reward
 (`IntervalChart` and a sentence per symbol), the demonstrated policy, the status and notes.
 
-Keys switch the method (one per entry of `irl_core.irl.fit_methods`: a for auto, l, o, m; tab cycles),
+Keys switch the method (one per entry of `irl_core.irl.choices`: a for auto, l, o, m; tab cycles),
 toggle the intervals (i), save an SVG of the view (s) and quit (q). A refit runs in a thread worker
 while the last result stays on screen, dimmed, under a "fitting…" status; the thread posts
 `FitScreen.Progress` while it works and hands back a `FitScreen.Fitted`. A newer request, or closing
@@ -37,6 +37,7 @@ from textual.screen import Screen
 from textual.widgets import Static
 from textual.worker import get_current_worker
 
+import irl_core.irl.choices as choices
 from careful_tui.option_words import said
 from careful_tui.render.fit_printout import (
     FIT_CHECK_CODES,
@@ -57,7 +58,7 @@ from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
-from irl_core.irl.fit_methods import METHODS
+from irl_core.irl.choices import METHODS
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.recordings.writer import slug
 from irl_core.support.safe_files import OutputError, write_output
@@ -95,7 +96,7 @@ MIN_VIEW_WIDTH = 60
 
 
 def method_bindings(group: Binding.Group) -> list[Binding]:
-    """A key per method (`irl_core.irl.fit_methods`), in its order."""
+    """A key per method (`irl_core.irl.choices`), in its order."""
     return [Binding(m.key, f"method('{m.name}')", m.name, priority=True, group=group) for m in METHODS.values()]
 
 
@@ -314,10 +315,10 @@ class FitScreen(Screen[None]):
         shown = self.result is not None and self._asked_method() == method and self.error is None
         if (shown and not self.busy) or (self.fitting is not None and self.fitting.method == method):
             return
-        self._start(dataclasses.replace(self._wanted(), method=method))
+        self._start(dataclasses.replace(self._wanted(), method=choices.method(method).name))
 
     def action_next_method(self) -> None:
-        """The next method in the keys' order (`irl_core.irl.fit_methods.METHODS`), after the one asked for."""
+        """The next method in the keys' order (`irl_core.irl.choices.METHODS`), after the one asked for."""
         cycle = tuple(METHODS)
         self.action_method(cycle[(cycle.index(self._wanted().method) + 1) % len(cycle)])
 

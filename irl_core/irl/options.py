@@ -13,11 +13,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Literal
 
-import irl_core.irl.fit_methods as fit_methods
+import irl_core.irl.choices as choices
+from irl_core.irl.choices import AUTO as PLAYER_AUTO
+from irl_core.irl.choices import MethodName, PlayerModelName, RewardCells, player_model
 from irl_core.irl.notes import Note
-from irl_core.irl.player_models import AUTO as PLAYER_AUTO
-from irl_core.irl.player_models import player_model
-from irl_core.irl.qmap import RewardCells
 
 MIN_RESAMPLES = 20
 DEFAULT_BETA = 1.0
@@ -28,12 +27,12 @@ class FitOptions:
     """One fit's settings, as `careful fit` names them (`lam` is ``--lambda``).
 
     Attributes:
-        method: a name in `irl_core.irl.fit_methods` (``auto``, ``lp``, ``loss``, ``maxent``);
+        method: a name in `irl_core.irl.choices` (``auto``, ``lp``, ``loss``, ``maxent``);
             ``auto`` by default, as for `careful fit`.
         rmax: the bound |R_S| <= rmax.
         lam: the L1 penalty lambda on R_S (lp and loss).
         beta: maxent's inverse temperature, ``"auto"`` to estimate it, or None for the default.
-        player_model: maxent's model of the player (`irl_core.irl.player_models`: ``boltzmann``, the paper's
+        player_model: maxent's model of the player (`irl_core.irl.choices`: ``boltzmann``, the paper's
             expert; ``ends``, ``hand``, ``person``, ``naive``, models of people), ``"auto"`` to choose one by
             held-out episodes, or None for the default: ``auto`` after method auto, ``boltzmann`` for maxent.
         reward_cells: ``special`` or ``all``.
@@ -46,11 +45,11 @@ class FitOptions:
         cost: on a time world, ``known`` (rewards in points) or ``unknown`` (rewards in seconds of holding).
     """
 
-    method: str = fit_methods.DEFAULT
+    method: MethodName = choices.DEFAULT
     rmax: float = 1000.0
     lam: float = 0.0
     beta: float | Literal["auto"] | None = None
-    player_model: str | None = None
+    player_model: PlayerModelName | Literal["auto"] | None = None
     reward_cells: RewardCells = "special"
     tie: bool = False
     intervals: bool = False
@@ -61,7 +60,7 @@ class FitOptions:
     cost: Literal["known", "unknown"] = "known"
 
     def __post_init__(self) -> None:
-        fit_methods.method(self.method)
+        choices.method(self.method)
         if not self.rmax > 0:
             raise ValueError("rmax must be positive")
         if not self.lam >= 0:
@@ -78,7 +77,7 @@ class FitOptions:
 
         `fit` does not refuse them (the fit view switches methods freely); the command line does.
         """
-        if self.beta == "auto" and not fit_methods.method(self.method).uses_beta:
+        if self.beta == "auto" and not choices.method(self.method).uses_beta:
             return Note("beta_needs_maxent", f"{{beta=auto}} needs {{method=maxent}} or auto: {self.method} has no "
                                              "temperature to estimate")
         if isinstance(self.beta, (int, float)) and self.player_model not in (None, "boltzmann"):
@@ -90,13 +89,6 @@ class FitOptions:
             return Note("too_few_resamples", f"{{resamples}} must be at least {MIN_RESAMPLES} for a usable interval, "
                                              f"not {self.resamples}")
         return None
-
-    def maxent_player_model(self, *, chosen_by_auto: bool) -> str:
-        """The player model maxent fits: the given one, else auto's choice by held-out episodes after `auto`,
-        else the paper's Boltzmann expert (so that ``method="maxent"`` is the paper's baseline)."""
-        if self.player_model is not None:
-            return self.player_model
-        return PLAYER_AUTO if chosen_by_auto and not isinstance(self.beta, (int, float)) else "boltzmann"
 
     def maxent_beta(self, *, chosen_by_auto: bool) -> float | Literal["auto"]:
         """The beta maxent runs with: the given one, else auto after `auto`, else 1.0."""

@@ -28,15 +28,13 @@ The known action cost R_A is never fitted. The exit state's reward is always 0.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
 
+from irl_core.irl.choices import RewardCells
 from irl_core.worlds.mdp import MDP
 from irl_core.worlds.world import GROUND
-
-RewardCells = Literal["special", "all"]
 
 
 @dataclass(frozen=True, eq=False)

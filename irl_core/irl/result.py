@@ -13,13 +13,13 @@ from typing import Any, overload
 
 import numpy as np
 
+from irl_core.irl.choices import Player
 from irl_core.irl.evaluation import Evaluation
 from irl_core.irl.fit_check import FitCheck
 from irl_core.irl.notes import Note, worded
 from irl_core.irl.options import DEFAULT_BETA, FitOptions
-from irl_core.irl.player_models import Player
 from irl_core.irl.qmap import Unknowns
-from irl_core.irl.slip_curve import SlipCurve
+from irl_core.irl.timing.slip_curve import SlipCurve
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.worlds.mdp import MDP, action_parts
 from irl_core.worlds.world import WALL, World
@@ -100,7 +100,7 @@ class FitResult:
     """A fitted reward and everything needed to show or save it.
 
     Attributes:
-        method: the method used, a fitting entry of `irl_core.irl.fit_methods` (``auto`` chooses one).
+        method: the method used, a fitting entry of `irl_core.irl.choices` (``auto`` chooses one).
         options: the fit's settings as asked (`FitOptions`; ``options.method`` may be ``auto``).
         beta: maxent's beta (estimated with ``beta_auto``); None for lp and loss.
         beta_auto: whether beta was estimated.
@@ -117,7 +117,7 @@ class FitResult:
         elapsed_s: wall-clock seconds the fit took (intervals included).
         notes: what the reader should know (`Note`: a code and a sentence): the method auto chose,
             non-uniqueness, rewards at the bound, ...
-        player_model: maxent's model of the player (`irl_core.irl.player_models`), None for lp and loss.
+        player_model: maxent's model of the player (`irl_core.irl.choices`), None for lp and loss.
         player: that model's parameters besides the rewards (beta, the hand's sigma, the lapse rate).
         fit_check: whether the fitted player reproduces the recordings (`irl_core.irl.fit_check`),
             None where no check was made (lp and loss, whose answers are not a model of play).

@@ -5,7 +5,7 @@ levels, one at a time, with the gauge visible. Each hold ends as a move would (t
 and timing profile as play), but moves nothing: its level is the *produced* level, written at once
 as a ``calibration_trial`` line (target, produced, the hold's ms, whether its release was timed
 exactly) to the recorder's file. The people fit reads those lines to estimate the participant's
-hand (bias and noise of the produced level, `irl_core.irl.hand`) instead of guessing it from play.
+hand (bias and noise of the produced level, `irl_core.irl.people.hand`) instead of guessing it from play.
 A front end feeds `press`, `release` and `tick` exactly as it does a `PlaySession`'s, and draws
 `view()`.
 """

@@ -309,7 +309,7 @@ class Demonstrations:
             (n = 0 without any): the people fit estimates the hand from them.
         hold_steps: (m, 5) on a time world each step with a recorded hold as (state, chosen direction index,
             hold_ms, slipped 0/1, row of `by_episode`), in file order: the slips teach the slip curve
-            (`irl_core.irl.slip_curve`), the holds the timing fit (`irl_core.irl.timing_fit`); m = 0 on a
+            (`irl_core.irl.timing.slip_curve`), the holds the timing fit (`irl_core.irl.timing.fit`); m = 0 on a
             world with levels.
     """
 

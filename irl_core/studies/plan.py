@@ -6,7 +6,7 @@ participants (`irl_core.players.person_like`, the kinds `PlanGrid.players` in tu
 parameters scaled by exp(N(0, `PlanGrid.spread`)): people differ), each playing e episodes (and, with
 `PlanGrid.calibration`, first a motor calibration block whose hand the fit holds fixed, as the report does);
 it fits each participant's episodes with a model of people (`PlanGrid.model`) and the cheap Laplace interval
-(`irl_core.irl.laplace`), pooled as the study report pools (`POOLS`: by default the population of
+(`irl_core.irl.people.laplace`), pooled as the study report pools (`POOL_MODELS`: by default the population of
 participants, `irl_core.studies.population`, over each participant's fit; or one shared fit of
 everyone's episodes with the cluster-robust interval over participants), and counts
 
@@ -30,10 +30,8 @@ import numpy as np
 from pydantic import ValidationError
 
 from irl_core.experiment.claims import order_words
-from irl_core.irl.hand import hand_from_trials
-from irl_core.irl.laplace import laplace_intervals
-from irl_core.irl.people_choice import fit_given_model
-from irl_core.irl.player_models import LEVEL_MODELS, player_model
+from irl_core.irl.choices import LEVEL_MODELS, POOL_MODELS, player_model
+from irl_core.irl.people import fit_given_model, hand_from_trials, laplace_intervals
 from irl_core.irl.qmap import Unknowns, build_unknowns
 from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import Rollouts, demonstrations_of, rollouts
@@ -49,15 +47,6 @@ MAX_EPISODES = 500
 MAX_REPEATS = 10_000
 # A study file's own bound on its calibration block.
 MAX_CALIBRATION = 100
-# How a simulated study's participants are pooled, as `study report` pools them:
-POOLS = {
-    "population": "each participant's own fit and Laplace interval, pooled as the report's population "
-                  "(`irl_core.studies.population`, random effects over participants)",
-    "shared": "one fit of everyone's episodes (the rewards and the player shared), its interval the cluster-robust "
-              "Laplace interval over participants (as the report's shared pool resamples participants)",
-}
-
-
 # Why a study's time worlds (care = "time") are left out: their report fits the timing model, which learns the
 # slip curve from the holds, and the plan's players and `person`-family fits are those of a world with levels.
 TIME_WORLDS_NOT_PLANNED = "the plan's simulated players and fits are those of worlds with levels"
@@ -109,8 +98,8 @@ class PlanGrid:
         if unknown or not self.players:
             raise PlanError("players", f"unknown player {unknown[0]!r}; the players are {', '.join(KINDS)}"
                             if unknown else "give at least one player")
-        if self.pool not in POOLS:
-            raise PlanError("pool", f"{self.pool!r} is not one of {', '.join(POOLS)}")
+        if self.pool not in POOL_MODELS:
+            raise PlanError("pool", f"{self.pool!r} is not one of {', '.join(POOL_MODELS)}")
         if not 0 <= self.calibration <= MAX_CALIBRATION:
             raise PlanError("calibration", f"{self.calibration} is outside 0..{MAX_CALIBRATION}")
         if not 0 <= self.spread < 5:
@@ -234,7 +223,7 @@ def hazard_and_nuisance(world: World, symbols: tuple[str, ...], truth: np.ndarra
 
 def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int, int], _Study]:
     """One repeat of every grid point of `world`: the largest study simulated once, each grid point's
-    participants its first n and their first e episodes, pooled as `grid.pool` says (see `POOLS`)."""
+    participants its first n and their first e episodes, pooled as `grid.pool` says (see `POOL_MODELS`)."""
     mdp = build_mdp(world)
     unknowns = build_unknowns(mdp, tie=True)
     n_most, episodes = max(grid.participants), sorted(set(grid.episodes))

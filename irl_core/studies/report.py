@@ -10,6 +10,7 @@ The report's face; each job has its module:
 ================  ===================================================================================
 """
 
+from irl_core.irl.choices import DEFAULT_POOL_MODEL, POOL_MODELS
 from irl_core.studies.report_cells import (
     POOLED,
     Cell,
@@ -21,11 +22,8 @@ from irl_core.studies.report_cells import (
     without_participants,
 )
 from irl_core.studies.report_fits import (
-    DEFAULT_POOL_MODEL,
-    POOL_MODELS,
     CellFit,
     Influence,
-    check_pool_model,
     excluded_why,
     fit_cell,
     fit_report,
@@ -37,6 +35,6 @@ from irl_core.studies.report_fits import (
 from irl_core.studies.report_table import REWARD_COLUMNS, pooled_finding, report_rows, report_symbols
 
 __all__ = ["DEFAULT_POOL_MODEL", "POOLED", "POOL_MODELS", "REWARD_COLUMNS", "Cell", "CellFit", "Influence",
-           "StudyData", "check_pool_model", "excluded_why", "fit_cell", "fit_report", "gather", "influence_cells",
+           "StudyData", "excluded_why", "fit_cell", "fit_report", "gather", "influence_cells",
            "influence_of", "leave_out", "participant_ids", "pooled_finding", "report_options", "report_rows",
            "report_symbols", "run_fits", "with_influence", "without_participants"]

@@ -28,27 +28,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from irl_core.irl import FitError, FitOptions, Note, fit
-from irl_core.irl.player_models import player_model
+from irl_core.irl.choices import DEFAULT_POOL_MODEL, player_model
+from irl_core.irl.choices import pool_model as pool_model_named
 from irl_core.studies.population import pool_participants
 from irl_core.studies.report_cells import POOLED, Cell, StudyData, leave_out, without_participants
 from irl_core.studies.study import Exclusions
 from irl_core.support.executor import Executor, LocalPool
 from irl_core.support.stopping import stop_check
 
-POOL_MODELS = {
-    "population": "the population of participants, each with their own player (random effects over their fits)",
-    "shared": "one fit of everyone's episodes, rewards and player shared (a fixed-effect pool)",
-}
-DEFAULT_POOL_MODEL = "population"
 # A population needs this many included participants with a fit.
 MIN_POPULATION = 2
-
-
-def check_pool_model(name: str) -> str:
-    """`name` if it is a pool model (`POOL_MODELS`); raises ValueError naming the choices otherwise."""
-    if name not in POOL_MODELS:
-        raise ValueError(f"pool_model must be one of {', '.join(POOL_MODELS)}, not {name!r}")
-    return name
 
 
 def report_options(*, resamples: int = 200, seed: int = 0, rmax: float = 5000.0) -> FitOptions:
@@ -155,7 +144,7 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
     if cell.without is not None or cell.rival:
         options = dataclasses.replace(options, intervals=False)
     if cell.player_model is not None:
-        options = dataclasses.replace(options, player_model=cell.player_model)
+        options = dataclasses.replace(options, player_model=player_model(cell.player_model).name)
     try:
         result = fit(cell.demos, options, workers=workers, stop=stop, executor=executor)
     except FitError as exc:
@@ -246,7 +235,7 @@ def fit_report(data: StudyData, options: FitOptions, *, pool_model: str = DEFAUL
         executor: where the fits run (`irl_core.support.executor`: a Dask cluster); default this machine's
             process pool of `workers`. The numbers are the same either way.
     """
-    check_pool_model(pool_model)
+    pool_model_named(pool_model)
     exclusions = data.study.study.exclusions if exclusions is None else exclusions
     tally = _Tally(progress)
     pools = {i: cell for i, cell in enumerate(data.cells) if cell.participant == POOLED}

@@ -12,12 +12,12 @@ from pathlib import Path
 
 import pytest
 from hardening_checks import fill, tiny_filesystem
+from starlette.testclient import TestClient
 from web.conftest import Api, web_app, write_web_study
 
 from careful_tui.cli import main
 from careful_tui.web.links import LINKS_FILE, read_links
 from irl_core.studies.study import load_study
-from starlette.testclient import TestClient
 
 
 @pytest.fixture

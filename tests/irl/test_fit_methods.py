@@ -11,8 +11,8 @@ import pytest
 from careful_tui.cli import build_parser
 from careful_tui.option_words import FLAGS, said
 from careful_tui.screens.fit import FitScreen
-from irl_core.irl import FitOptions, InfeasibleError, Note, SolverError, fit, fit_methods
-from irl_core.irl.bootstrap import Refit
+from irl_core.irl import FitOptions, InfeasibleError, Note, SolverError, choices, fit
+from irl_core.irl.intervals.bootstrap import Refit
 from irl_core.irl.notes import CODES
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
@@ -34,25 +34,35 @@ def test_an_unknown_method_is_refused_where_it_enters():
 
 
 def test_every_reader_of_a_method_name_takes_it_from_the_registry():
-    # Each entry's fitter and refit import as named; a bootstrap interval has a refit, nothing else does.
-    for entry in fit_methods.METHODS.values():
-        assert callable(entry.load_fitter())
-        assert (entry.refit is not None) == (entry.interval_kind == "confidence")
-        if entry.refit is not None:
-            assert callable(entry.load_refit())
+    # One fitter per registry entry, one refit per resampled method; a bootstrap interval has a refit, nothing else.
+    from irl_core.irl.fitters import FITTERS
+    from irl_core.irl.intervals.bootstrap import REFITS
+
+    assert set(FITTERS) == set(choices.METHODS) and all(callable(f) for f in FITTERS.values())
+    assert set(REFITS) == set(choices.RESAMPLED)
+    for entry in choices.METHODS.values():
+        assert entry.resampled == (entry.interval_kind == "confidence")
     method_flag = next(a for a in build_parser()._subparsers._group_actions[0].choices["fit"]._actions
                        if a.dest == "method")
-    assert tuple(method_flag.choices) == fit_methods.NAMES and method_flag.default == fit_methods.DEFAULT
+    assert tuple(method_flag.choices) == choices.NAMES and method_flag.default == choices.DEFAULT
     keys = {b.key: b.action for b in FitScreen.BINDINGS if b.action.startswith("method(")}
-    assert keys == {m.key: f"method('{m.name}')" for m in fit_methods.METHODS.values()}
+    assert keys == {m.key: f"method('{m.name}')" for m in choices.METHODS.values()}
 
 
-def test_an_entry_naming_a_fitter_that_is_not_there_fails_when_loaded():
-    import dataclasses
+def test_the_registries_names_are_their_literal_types():
+    from typing import get_args
 
-    broken = dataclasses.replace(fit_methods.METHODS["lp"], fitter="irl_core.irl.fitting:no_such_fitter")
-    with pytest.raises(AttributeError, match="no_such_fitter"):
-        broken.load_fitter()
+    assert set(get_args(choices.MethodName)) == set(choices.METHODS)
+    assert set(get_args(choices.PlayerModelName)) == set(choices.PLAYER_MODELS)
+
+
+@pytest.mark.parametrize(("given", "after_auto", "fixed_beta", "holds", "runs"), [
+    (None, True, False, False, "auto"), (None, True, True, False, "boltzmann"), (None, False, False, False, "boltzmann"),
+    (None, True, False, True, "timing"), (None, False, True, True, "timing"), ("person", False, False, True, "person"),
+    ("timing", True, False, False, "timing"), ("naive", True, False, False, "naive"),
+])
+def test_one_place_decides_the_player_model(given, after_auto, fixed_beta, holds, runs):
+    assert choices.player_model_for(given, after_auto=after_auto, fixed_beta=fixed_beta, holds=holds) == runs
 
 
 def test_the_library_defaults_to_auto_as_the_command_line_does():

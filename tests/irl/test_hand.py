@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from irl_core.irl import FitOptions, fit
-from irl_core.irl.hand import hand_from_trials, trials_log_likelihood
-from irl_core.irl.people_likelihood import level_kernel
+from irl_core.irl.people.hand import hand_from_trials, trials_log_likelihood
+from irl_core.irl.people.likelihood import level_kernel
 from irl_core.players.experts import demonstrations_of, rollouts
 from irl_core.players.person_like import motor_trials, person_like
 from irl_core.worlds.mdp import build_mdp
@@ -84,8 +84,8 @@ def test_each_resample_holds_the_hand_of_its_own_draw_of_the_trials():
     """The bootstrap's refits hold a hand measured again from each resample's draw of the trials: over many
     resamples its bias spreads as the trials' mean error does (sd / sqrt(n)), and a resample's draw is fixed by
     the seed and its number, so any worker refits it alike."""
-    from irl_core.irl.people_fit import PlayerRefit
-    from irl_core.irl.player_models import PLAYER_MODELS, Player
+    from irl_core.irl.choices import PLAYER_MODELS, Player
+    from irl_core.irl.people.fit import PlayerRefit
     from irl_core.irl.qmap import build_unknowns
 
     demos = hasty_on_mud_with_trials(trials=30)
@@ -106,7 +106,7 @@ def test_intervals_with_calibration_trials_carry_the_hands_error_and_do_not_depe
     for the hand, so the hand's bias sets the rewards' scale): the goal's interval with the trials drawn again in
     each resample holds the one with the hand held as measured, and is wider by a third; one worker or two, the
     same intervals."""
-    from irl_core.irl.people_fit import PlayerRefit
+    from irl_core.irl.people.fit import PlayerRefit
 
     demos = hasty_on_mud_with_trials()
     options = FitOptions(method="maxent", player_model="naive", intervals=True, resamples=40, seed=2, tie=True)
@@ -139,8 +139,8 @@ def test_a_precise_biased_hand_gives_a_finite_likelihood(model_name):
     # A calibration block can measure a hand so precise and so biased that some levels are never produced (their
     # kernel column underflows to 0): the likelihood of the moves recorded was NaN there, and the fit's search
     # broke on it (bootstrap resamples of a study report with a block).
-    from irl_core.irl.people_likelihood import _times, log_likelihood
-    from irl_core.irl.player_models import PLAYER_MODELS, Player
+    from irl_core.irl.choices import PLAYER_MODELS, Player
+    from irl_core.irl.people.likelihood import _times, log_likelihood
     from irl_core.irl.qmap import build_unknowns
 
     mdp = build_mdp(BUILTIN_WORLDS["mud"])

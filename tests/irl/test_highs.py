@@ -12,9 +12,9 @@ import scipy.sparse as sp
 
 from bench.worlds import cliff_world
 from irl_core.irl import InfeasibleError, SolverError, Stopped, fit
-from irl_core.irl import highs as highs_module
-from irl_core.irl.highs import OUTCOMES, HighsModel, linear_program
-from irl_core.irl.margin import lp_constraints, margin_lp
+from irl_core.irl.lp import highs as highs_module
+from irl_core.irl.lp.highs import OUTCOMES, HighsModel, linear_program
+from irl_core.irl.lp.margin import lp_constraints, margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts, write_rollouts
 from irl_core.support.stopping import stop_when
@@ -98,7 +98,7 @@ def test_stdout_of_careful_fit_carries_only_its_output(tmp_path):
     )
     assert "HiGHS" not in run.stdout and "licence" not in run.stdout
     library = subprocess.run(
-        [sys.executable, "-c", "from irl_core.irl.highs import HighsModel, linear_program; import scipy.sparse as sp; "
+        [sys.executable, "-c", "from irl_core.irl.lp.highs import HighsModel, linear_program; import scipy.sparse as sp; "
          "HighsModel(linear_program(sp.csr_matrix([[1.0]]), [0], [1], [0], [1], [1])).solve(); print('ok')"],
         capture_output=True, text=True, timeout=60, check=True,
     )

@@ -5,8 +5,8 @@ import pytest
 from scipy.optimize import linprog
 
 from irl_core.irl import fit
-from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.margin import lp_constraints
+from irl_core.irl.intervals.identified import reward_intervals
+from irl_core.irl.lp.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts
 from irl_core.recordings.demonstrations import Demonstrations

@@ -4,10 +4,10 @@ itself (an independent route), and intervals that hold what the curvature says."
 import numpy as np
 import pytest
 
-from irl_core.irl.laplace import covariance, hessian, laplace_intervals, variables
-from irl_core.irl.people_choice import fit_given_model
-from irl_core.irl.people_likelihood import log_likelihood
-from irl_core.irl.player_models import Player, player_model
+from irl_core.irl.choices import Player, player_model
+from irl_core.irl.people.choice import fit_given_model
+from irl_core.irl.people.laplace import covariance, hessian, laplace_intervals, variables
+from irl_core.irl.people.likelihood import log_likelihood
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import demonstrations_of, rollouts
 from irl_core.players.person_like import person_like
@@ -103,8 +103,8 @@ def test_two_unknowns_of_one_cell_are_pinned_only_together_and_reach_the_bound_a
 
     import scipy.sparse as sp
 
-    from irl_core.irl.laplace import pinned_together
-    from irl_core.irl.people_fit import fit_player
+    from irl_core.irl.people.fit import fit_player
+    from irl_core.irl.people.laplace import pinned_together
 
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     tied = build_unknowns(mdp, tie=True)
@@ -130,7 +130,8 @@ def test_two_unknowns_of_one_cell_are_pinned_only_together_and_reach_the_bound_a
 def test_a_reward_pinned_only_in_combination_is_named_and_its_interval_holds_its_range(monkeypatch):
     # The fit's wiring: whatever `pinned_together` finds is named in the note and held by the bootstrap's interval,
     # whose refits, started where the fit stopped, would not move along the flat combination.
-    from irl_core.irl import FitOptions, fit, people_checks
+    from irl_core.irl import FitOptions, fit
+    from irl_core.irl.people import checks as people_checks
 
     mdp = build_mdp(BUILTIN_WORLDS["mud"])
     demos = demonstrations_of(mdp, rollouts(mdp, person_like(mdp, "loose").choose, episodes=12, seed=0))

@@ -8,8 +8,8 @@ import pytest
 
 from careful_tui.option_words import said
 from irl_core.irl import fit
-from irl_core.irl.loss import fit_loss
-from irl_core.irl.loss_model import loss_constraints, loss_problem, loss_value, relu_terms
+from irl_core.irl.loss.model import loss_constraints, loss_problem, loss_value, relu_terms
+from irl_core.irl.loss.solve import fit_loss
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
 from irl_core.recordings.demonstrations import Demonstrations

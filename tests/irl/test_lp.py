@@ -5,7 +5,7 @@ import pytest
 
 from careful_tui.option_words import said
 from irl_core.irl import InfeasibleError, fit
-from irl_core.irl.margin import lp_constraints
+from irl_core.irl.lp.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.players.experts import optimal_policy, rollouts
 from irl_core.recordings.demonstrations import Demonstrations

@@ -12,10 +12,11 @@ import pytest
 
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
-from irl_core.irl import fit, lp
-from irl_core.irl.highs import INTERIOR, HighsModel
-from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.margin import lp_constraints
+from irl_core.irl import fit
+from irl_core.irl.lp import solve as lp
+from irl_core.irl.intervals.identified import reward_intervals
+from irl_core.irl.lp.highs import INTERIOR, HighsModel
+from irl_core.irl.lp.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.worlds.mdp import build_mdp
 

@@ -15,9 +15,9 @@ from scipy.optimize import linprog
 
 from bench.worlds import cliff_world
 from irl_core.irl import InfeasibleError, fit
-from irl_core.irl.intervals import reward_intervals
-from irl_core.irl.lp import margin_options, solve_margin_lp
-from irl_core.irl.margin import lp_constraints, margin_lp
+from irl_core.irl.intervals.identified import reward_intervals
+from irl_core.irl.lp.margin import lp_constraints, margin_lp
+from irl_core.irl.lp.solve import margin_options, solve_margin_lp
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.worlds.mdp import build_mdp

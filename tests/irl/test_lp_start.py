@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import irl_core.irl.lp as lp
+import irl_core.irl.lp.solve as lp
 from bench.worlds import cliff_world
-from irl_core.irl.margin import lp_constraints
+from irl_core.irl.lp.margin import lp_constraints
 from irl_core.irl.qmap import build_qmap, build_unknowns
 from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
 from irl_core.worlds.mdp import build_mdp

@@ -15,7 +15,7 @@ from maxent_evaluations import count_evaluations
 from bench.fit_stage import demonstrations_for
 from bench.worlds import cliff_world
 from irl_core.irl import Stopped, fit, maxent
-from irl_core.irl.bootstrap import Refit, bootstrap
+from irl_core.irl.intervals.bootstrap import Refit, bootstrap
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.support import pool as pool_module

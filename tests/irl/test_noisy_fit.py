@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from irl_core.irl import FitOptions, fit
-from irl_core.irl.bootstrap import interval, resample_weights
+from irl_core.irl.intervals.bootstrap import interval, resample_weights
 from irl_core.irl.maxent import fit_maxent, log_likelihood
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
@@ -96,7 +96,7 @@ def test_refits_that_never_move_give_no_confidence_interval():
 def test_when_every_resample_fails_to_refit_the_fit_says_so_and_claims_no_interval(monkeypatch):
     """A refit that raises on every resample (a solver failing, a refitter built wrong) leaves nothing to take
     quantiles of: no intervals and a note saying why, not a crash or intervals from nothing."""
-    from irl_core.irl.bootstrap import Refit
+    from irl_core.irl.intervals.bootstrap import Refit
 
     def fails(self, counts, *, resample=0):
         raise RuntimeError("no refit")

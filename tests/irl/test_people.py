@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from irl_core.irl import maxent
-from irl_core.irl.people_likelihood import level_kernel, log_likelihood
-from irl_core.irl.player_models import PLAYER_MODELS, Player, player_model
+from irl_core.irl.choices import PLAYER_MODELS, Player, player_model
+from irl_core.irl.people.likelihood import level_kernel, log_likelihood
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import World
 
@@ -90,17 +90,24 @@ def test_an_unknown_player_model_is_refused_by_name():
         player_model("robot")
 
 
-def test_every_name_the_people_module_had_before_its_split_still_imports_from_it():
-    import irl_core.irl.people as people
-    from irl_core.irl import people_choice, people_fit, people_flat
+def test_the_people_package_is_reached_through_its_face():
+    # Its public names import from the package; code outside it never imports its modules.
+    import ast
+    from pathlib import Path
 
-    before_split = {"choose_player_model", "fit_player", "log_likelihood", "PlayerFit", "PlayerRefit", "ModelChoice",
-                    "flat_toward_bound", "curvature_scale", "fit_given_model", "significantly_better", "level_kernel",
-                    "FLAT_DROP", "PLAYER_MODELS", "Player", "player_model", "beta_bounds", "PlayerPlan"}
-    assert before_split <= set(people.__all__)
+    import irl_core.irl.people as people
+
     assert all(hasattr(people, name) for name in people.__all__)
-    assert people.fit_player is people_fit.fit_player and people.flat_toward_bound is people_flat.flat_toward_bound
-    assert people.choose_player_model is people_choice.choose_player_model
+    root = Path(people.__file__).resolve().parents[3]
+    reaching_in = []
+    for path in [*root.joinpath("irl_core").rglob("*.py"), *root.joinpath("careful_tui").rglob("*.py"),
+                 *root.joinpath("bench").rglob("*.py")]:
+        if "people" in path.relative_to(root).parts[:3] and path.parent.name == "people":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("irl_core.irl.people."):
+                reaching_in.append(f"{path.relative_to(root)}: {node.module}")
+    assert reaching_in == []
 
 
 def test_a_warm_start_moves_the_values_to_first_order_and_changes_no_answer():
@@ -108,7 +115,7 @@ def test_a_warm_start_moves_the_values_to_first_order_and_changes_no_answer():
     # the answer is the same fixed point as from a cold start, and the step is first order (its error shrinks with
     # the square of the rewards' change), found with the factors the gradient left. Small worlds have none.
     from bench.worlds import cliff_world
-    from irl_core.irl.people_likelihood import WARM_STEP_STATES
+    from irl_core.irl.people.likelihood import WARM_STEP_STATES
 
     small = build_mdp(cliff_world(3, 4))
     assert log_likelihood(small, _counts(small, 1), small.R_S * 0.05, model=PLAYER_MODELS["person"],

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from irl_core.irl import fit
+from irl_core.irl.choices import PLAYER_MODELS, Player
 from irl_core.irl.fit_check import fit_check, terminal_distance
-from irl_core.irl.people_choice import choose_player_model
-from irl_core.irl.people_fit import fit_player
-from irl_core.irl.people_likelihood import log_likelihood
-from irl_core.irl.player_models import PLAYER_MODELS, Player
+from irl_core.irl.people.choice import choose_player_model
+from irl_core.irl.people.fit import fit_player
+from irl_core.irl.people.likelihood import log_likelihood
 from irl_core.irl.qmap import build_unknowns
 from irl_core.irl.result import InfeasibleError
 from irl_core.players.experts import demonstrations_of, optimal_policy, rollouts
@@ -130,7 +130,7 @@ def test_a_big_worlds_people_fit_on_two_processes_is_the_fit_on_one():
     # a process pool from PEOPLE_PARALLEL_STATES states: the same numbers, to the last digit, and the same notes.
     from bench.worlds import cliff_world
     from irl_core.irl import FitOptions
-    from irl_core.irl.fitting import PEOPLE_PARALLEL_STATES
+    from irl_core.irl.fitters import PEOPLE_PARALLEL_STATES
     from irl_core.players.experts import demonstrations_of, rollouts
     from irl_core.players.person_like import person_like
 

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from bench.worlds import cliff_world
-from irl_core.irl.people_fit import fit_player
-from irl_core.irl.people_held import BOUND_STEPS, FLAT_DROP, held_upper_bounds, unreached
-from irl_core.irl.people_likelihood import log_likelihood
-from irl_core.irl.player_models import PLAYER_MODELS
+from irl_core.irl.choices import PLAYER_MODELS
+from irl_core.irl.people.fit import fit_player
+from irl_core.irl.people.held import BOUND_STEPS, FLAT_DROP, held_upper_bounds, unreached
+from irl_core.irl.people.likelihood import log_likelihood
 from irl_core.irl.qmap import build_unknowns
 from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
 from irl_core.worlds.mdp import build_mdp
@@ -78,9 +78,9 @@ def test_the_checks_side_by_side_are_each_functions_own_answer(top_rows):
     # people_checks runs the held bounds, the one-sided and combination checks and the fit check as one batch on
     # the fit's processes: each answer must be what its own function gives, on one process or two.
     from irl_core.irl.fit_check import fit_check
-    from irl_core.irl.laplace import pinned_together
-    from irl_core.irl.people_checks import people_checks
-    from irl_core.irl.people_flat import flat_toward_bound
+    from irl_core.irl.people.checks import people_checks
+    from irl_core.irl.people.flat import flat_toward_bound
+    from irl_core.irl.people.laplace import pinned_together
 
     mdp, unknowns, counts = top_rows
     solution = fit_player(mdp, unknowns, counts, model=PLAYER_MODELS["ends"], rmax=RMAX)

@@ -11,7 +11,7 @@ import pytest
 
 from irl_core.play.hold import HoldProfile
 from irl_core.players.experts import Rollouts, optimal_plan, rollouts
-from irl_core.players.person_like import KINDS, LEVEL_KINDS, intended_hold_ms, level_of_hold, person_like
+from irl_core.players.person_like import LEVEL_KINDS, intended_hold_ms, level_of_hold, person_like
 from irl_core.recordings.summary import distance_to_terminal
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS

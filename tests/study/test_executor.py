@@ -10,7 +10,7 @@ import pytest
 from study.conftest import write_study
 
 from careful_tui.cli import main
-from irl_core.irl.bootstrap import bootstrap
+from irl_core.irl.intervals.bootstrap import bootstrap
 from irl_core.studies.report import POOLED, fit_report, gather, report_options, run_fits
 from irl_core.studies.simulated import simulated_participants, write_simulated_participant
 from irl_core.studies.study import load_study
@@ -177,7 +177,7 @@ class _allowed_failures:
 
 def test_the_bootstrap_through_the_local_pool_executor_is_the_bootstraps_own():
     # The seam changes nothing for the default: LocalPool(2) and workers=2 give the same refits.
-    from irl_core.irl.bootstrap import Refit
+    from irl_core.irl.intervals.bootstrap import Refit
     from irl_core.irl.qmap import build_unknowns
     from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
     from irl_core.worlds.mdp import build_mdp

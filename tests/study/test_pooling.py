@@ -15,7 +15,7 @@ from study.conftest import write_block, write_study
 
 from careful_tui.cli import main
 from careful_tui.commands.study_report import INFLUENTIAL_MARK, OUTLIER_MARK, mark_legends, report_table
-from irl_core.irl.bootstrap import bootstrap, two_level_weights
+from irl_core.irl.intervals.bootstrap import bootstrap, two_level_weights
 from irl_core.players.experts import boltzmann_policy, optimal_policy, rollouts, session_header, write_rollouts
 from irl_core.recordings.lines import StudyTag
 from irl_core.studies.report import POOLED, CellFit, gather, pooled_finding, report_rows, with_influence

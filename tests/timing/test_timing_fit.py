@@ -13,8 +13,8 @@ import pytest
 from careful_tui.cli import main
 from irl_core.irl import fit
 from irl_core.irl.qmap import build_unknowns
-from irl_core.irl.slip_curve import fit_slip_curve
-from irl_core.irl.timing_fit import timing_plan
+from irl_core.irl.timing.fit import timing_plan
+from irl_core.irl.timing.slip_curve import fit_slip_curve
 from irl_core.players.experts import demonstrations_of, optimal_plan, rollouts
 from irl_core.players.person_like import best_holds, person_like
 from irl_core.worlds.mdp import build_mdp
@@ -169,8 +169,8 @@ def test_the_fit_figure_of_a_time_world_draws_the_slip_curve_and_the_holds(caref
 
 
 def test_on_play_drawn_from_the_timing_model_itself_the_fit_check_passes_and_the_rewards_return():
-    from irl_core.irl.slip_curve import SlipCurve
-    from irl_core.irl.timing_fit import TimingFit, timing_chooser
+    from irl_core.irl.timing.fit import TimingFit, timing_chooser
+    from irl_core.irl.timing.slip_curve import SlipCurve
 
     mdp = build_mdp(MUD_TIME)
     plan = timing_plan(mdp, mdp.R_S, p0=0.5, p_inf=0.0, tau_ms=400.0, cost_per_second=5.0)

@@ -8,7 +8,7 @@ panel; "score 200" wrapped on its own (issue 31).
 from __future__ import annotations
 
 import pytest
-from web.conftest import CHROMIUM_ARGS, start_server
+from web.conftest import start_server
 
 from irl_core.studies.study import load_study
 

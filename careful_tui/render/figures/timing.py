@@ -22,7 +22,7 @@ from matplotlib.ticker import MaxNLocator
 from careful_tui.render.figures.carefulness import Z_95, state_distances
 from careful_tui.render.figures.style import OKABE_ITO, QUIET
 from irl_core.irl import FitResult
-from irl_core.irl.timing_fit import timing_plan
+from irl_core.irl.timing.fit import timing_plan
 from irl_core.worlds.world import SHORTEST_HOLD_MS
 
 # Recorded holds are grouped into this many log-spaced groups for their slip rates.

@@ -3,7 +3,7 @@
 Such a reward (`unreached`: every recorded (s, a) has P(cell | s, a) = 0) is not bounded below by the data.
 Lowering it only makes unrecorded actions, those that risk the cell, less likely, so the likelihood rises
 toward a limit as it falls and its maximum within the box is at -rmax: the fit holds it there
-(`people_fit.fit_player`, which frees it again if the gradient there says otherwise) instead of walking
+(`fit.fit_player`, which frees it again if the gradient there says otherwise) instead of walking
 L-BFGS-B down a flat direction until its iteration limit (issue 32: a 24x24 world's fit "not converged in
 124.9 s", its cliff cells left wherever the walk stopped, an agent falling 11%). `held_upper_bounds` then
 says how high each held reward can be before the data object: its interval is [-rmax, that bound].
@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from irl_core.irl.choices import Player, PlayerModel
 from irl_core.irl.notes import Note
-from irl_core.irl.people_likelihood import log_likelihood
-from irl_core.irl.player_models import Player, PlayerModel
+from irl_core.irl.people.likelihood import log_likelihood
 from irl_core.irl.qmap import Unknowns
 from irl_core.support.executor import map_calls
 from irl_core.worlds.mdp import MDP

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.highs import LinearProgram, linear_program
+from irl_core.irl.lp.highs import LinearProgram, linear_program
 from irl_core.irl.qmap import QMap
 
 

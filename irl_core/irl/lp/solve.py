@@ -58,8 +58,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from irl_core.irl.highs import INTERIOR, HighsModel, Options
-from irl_core.irl.margin import (
+from irl_core.irl.lp.highs import INTERIOR, HighsModel, Options
+from irl_core.irl.lp.margin import (
     LPConstraints,
     MarginLP,
     first_round_rows,

@@ -31,7 +31,7 @@ from scipy.optimize import minimize
 from scipy.stats import norm
 
 from irl_core.irl.qmap import Unknowns
-from irl_core.irl.slip_curve import SlipCurve
+from irl_core.irl.timing.slip_curve import SlipCurve
 from irl_core.worlds.mdp import MDP
 from irl_core.worlds.world import SHORTEST_HOLD_MS
 

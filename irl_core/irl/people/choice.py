@@ -8,9 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.people_fit import REFIT_MAX_ITER, PlayerFit, fit_player
-from irl_core.irl.people_likelihood import START_LAPSE, START_SIGMA
-from irl_core.irl.player_models import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
+from irl_core.irl.choices import CANDIDATES, PLAYER_MODELS, Player, PlayerModel, player_model
+from irl_core.irl.people.fit import REFIT_MAX_ITER, PlayerFit, fit_player
+from irl_core.irl.people.likelihood import START_LAPSE, START_SIGMA
 from irl_core.irl.qmap import Unknowns
 from irl_core.support.executor import map_calls, run_calls
 from irl_core.worlds.mdp import MDP
@@ -89,13 +89,13 @@ def choose_player_model(
               workers=workers, on_result=arrived)
     k = min(folds, E)
     fold_of = np.random.default_rng(seed).permutation(np.arange(E) % k)
-    per_episode = {model.name: np.zeros(E) for model in models}
+    per_episode: dict[str, np.ndarray] = {model.name: np.zeros(E) for model in models}
     refits = [(model, fits[model.name], by_episode[fold_of != f], by_episode[fold_of == f])
               for f in range(k) for model in models]
     tested = map_calls(_held_out_refit, refits, shared=(mdp, unknowns, rmax), workers=workers)
     for (model, _, _, _), f, values in zip(refits, np.repeat(np.arange(k), len(models)), tested):
         per_episode[model.name][fold_of == f] = values
-    held_out = {name: float(values.sum()) for name, values in per_episode.items()}
+    held_out: dict[str, float] = {name: float(values.sum()) for name, values in per_episode.items()}
     best = max(held_out, key=held_out.__getitem__)
     standing = [m for m in models if held_out[best] - held_out[m.name] <= SIMPLER_MARGIN]
     fewest = min(m.extra_parameters for m in standing)
@@ -176,3 +176,15 @@ def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
     """(S, A) counts summed over episode rows (n, S * A)."""
     return np.asarray(rows.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
 
+
+def planning_rival(choice: ModelChoice) -> PlayerFit | None:
+    """The fit of the other planning assumption (``person`` or ``naive``) when held-out episodes cannot tell it
+    from the chosen model, else None."""
+    pair = {"person": "naive", "naive": "person"}
+    other = pair.get(choice.name)
+    if other is None or choice.held_out is None or other not in choice.held_out:
+        return None
+    assert choice.per_episode is not None
+    if significantly_better(choice.per_episode[choice.name], choice.per_episode[other]):
+        return None
+    return choice.fits[other]

@@ -1,5 +1,5 @@
 """Fitting a model of people: the rewards and the player by maximum likelihood (L-BFGS-B over the exact
-gradient of `people_likelihood`), the curvature that scales a refit, and the bootstrap's refit."""
+gradient of `likelihood`), the curvature that scales a refit, and the bootstrap's refit."""
 
 from __future__ import annotations
 
@@ -8,10 +8,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize
 
-from irl_core.irl.hand import hand_from_trials
+from irl_core.irl.choices import Player, PlayerModel
 from irl_core.irl.maxent import one_blas_thread
-from irl_core.irl.people_held import unreached
-from irl_core.irl.people_likelihood import (
+from irl_core.irl.people.hand import hand_from_trials
+from irl_core.irl.people.held import unreached
+from irl_core.irl.people.likelihood import (
     LAPSE_BOUNDS,
     SIGMA_BOUNDS,
     START_LAPSE,
@@ -21,7 +22,6 @@ from irl_core.irl.people_likelihood import (
     beta_bounds,
     log_likelihood,
 )
-from irl_core.irl.player_models import Player, PlayerModel
 from irl_core.irl.qmap import Unknowns
 from irl_core.worlds.mdp import MDP
 
@@ -49,7 +49,7 @@ RELEASES = 3
 class PlayerFit:
     """The rewards theta (k,) and the player that maximise the likelihood, V (S,) at beta 1 there,
     the mean log likelihood per recorded step, L-BFGS-B's report, and `held` (k,): the unknowns held at
-    -rmax because no recorded action can lead into them (`people_flat.unreached`)."""
+    -rmax because no recorded action can lead into them (`flat.unreached`)."""
 
     model: PlayerModel
     theta: np.ndarray
@@ -102,7 +102,7 @@ def fit_player(
     `scale` (p,): the variables' natural sizes (`curvature_scale`), over which the search runs (a warm
     start then converges in a few steps); without it the rewards move in units of rmax / 100.
 
-    With `hold`, the unknowns no recorded action can lead into (`people_flat.unreached`) are held at -rmax,
+    With `hold`, the unknowns no recorded action can lead into (`flat.unreached`) are held at -rmax,
     where the likelihood's maximum in the box lies for them, and released (up to `RELEASES` times) where the
     gradient there says the likelihood rises upward; `PlayerFit.held` says which stayed held.
 

@@ -1,7 +1,7 @@
 """A participant's hand from a study's motor calibration trials: the bias and noise of the produced level.
 
 Each trial asked for a level (the target) and recorded the level the hold produced. The hand is the
-people model's (`people_likelihood.level_kernel`): produced c given target c* with probability
+people model's (`likelihood.level_kernel`): produced c given target c* with probability
 K(c | c*) ~ exp(-(c - c* - b)^2 / (2 sigma^2)) on 1..L. `hand_from_trials` maximises the trials'
 likelihood over the bias b and sigma, on the same kernel the fit then holds fixed, so an under-holder
 (b < 0) is told apart from a player who fears less.
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from irl_core.irl.people_likelihood import SIGMA_BOUNDS, level_kernel
+from irl_core.irl.people.likelihood import SIGMA_BOUNDS, level_kernel
 
 
 @dataclass(frozen=True)

@@ -2,8 +2,8 @@
 
 Four things depend only on the chosen fit, not on each other's answers: the fit check (the recordings
 against simulations of the fitted player, `fit_check`), the rewards bounded on one side only
-(`people_flat`) with those pinned only in combination (`laplace.pinned_together`), and each held reward's
-upper bound (`people_held`). One after the other they took 1.5 s of a 24x24 world's 5.4 s fit (an instrumented
+(`flat`) with those pinned only in combination (`laplace.pinned_together`), and each held reward's
+upper bound (`held`). One after the other they took 1.5 s of a 24x24 world's 5.4 s fit (an instrumented
 run), the bounds on two processes and the rest on one; here they are one batch of calls on the fit's processes,
 the longest first (1.0 s). Each answer is the one its own function gives (the fit check draws from its own seeded
 stream), on any number of processes.
@@ -17,11 +17,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from irl_core.irl.fit_check import FitCheck, fit_check
-from irl_core.irl.laplace import pinned_together
-from irl_core.irl.people_fit import PlayerFit
-from irl_core.irl.people_flat import flat_toward_bound
-from irl_core.irl.people_held import bound_groups, bounds_of, upper_bound
-from irl_core.irl.people_likelihood import log_likelihood
+from irl_core.irl.people.fit import PlayerFit
+from irl_core.irl.people.flat import flat_toward_bound
+from irl_core.irl.people.held import bound_groups, bounds_of, upper_bound
+from irl_core.irl.people.laplace import pinned_together
+from irl_core.irl.people.likelihood import log_likelihood
 from irl_core.irl.qmap import Unknowns
 from irl_core.recordings.demonstrations import EpisodeFacts
 from irl_core.support.executor import map_calls

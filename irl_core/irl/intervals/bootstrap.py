@@ -40,9 +40,9 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.fit_methods import method
-from irl_core.irl.loss import fit_loss
-from irl_core.irl.lp import Progress
+from irl_core.irl.choices import RESAMPLED
+from irl_core.irl.loss.solve import fit_loss
+from irl_core.irl.lp.solve import Progress
 from irl_core.irl.maxent import fit_maxent
 from irl_core.irl.qmap import Unknowns, build_qmap
 from irl_core.support.executor import Executor, LocalPool
@@ -76,7 +76,7 @@ class Refitter(Protocol):
 
 @dataclass(frozen=True, eq=False)
 class Refit:
-    """How to refit one resample's counts (S, A): the method (one whose `fit_methods` entry has a refit;
+    """How to refit one resample's counts (S, A): the method (one in `REFITS`;
     any other raises ValueError here), its settings, the warm start (theta, beta) and, for maxent,
     the variables' scale at the full-data fit."""
 
@@ -91,7 +91,8 @@ class Refit:
     start_V: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        method(self.method).load_refit()
+        if self.method not in RESAMPLED:
+            raise ValueError(f"no bootstrap refit for method {self.method!r}: one of {', '.join(RESAMPLED)}")
 
     @property
     def size(self) -> int:
@@ -101,7 +102,7 @@ class Refit:
     def __call__(self, counts: np.ndarray, *, resample: int = 0) -> np.ndarray:
         """(p,) the unknowns fitted to `counts` (S, A), with beta appended when it is estimated (`resample`: its
         number, which these methods do not need)."""
-        return method(self.method).load_refit()(self, counts)
+        return REFITS[self.method](self, counts)
 
 
 def maxent_refit(refit: Refit, counts: np.ndarray) -> np.ndarray:
@@ -116,6 +117,10 @@ def loss_refit(refit: Refit, counts: np.ndarray) -> np.ndarray:
     frequencies = np.divide(counts, totals, out=np.zeros_like(counts), where=totals > 0)
     solution = fit_loss(build_qmap(refit.mdp, refit.unknowns), frequencies, rmax=refit.rmax, lam=refit.lam)
     return np.asarray(solution.x[: refit.unknowns.k], dtype=float)
+
+
+# Each resampled method's refit under its registry name (a test holds the keys equal to `choices.RESAMPLED`).
+REFITS = {"maxent": maxent_refit, "loss": loss_refit}
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ minus an affine term is convex; ReLU of a convex function is convex; exp is conv
 non-decreasing. `loss_problem` states exactly this in cvxpy, which accepts it as DCP.
 
 This module states the problem (its constraints, the cvxpy model, the loss evaluated
-directly); `irl_core.irl.loss` solves it.
+directly); `irl_core.irl.loss.solve` solves it.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.irl.highs import LinearProgram, linear_program
-from irl_core.irl.margin import check_bounds
+from irl_core.irl.lp.highs import LinearProgram, linear_program
+from irl_core.irl.lp.margin import check_bounds
 from irl_core.irl.qmap import QMap
 
 if TYPE_CHECKING:

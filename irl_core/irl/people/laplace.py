@@ -4,7 +4,7 @@ A bootstrap interval (`bootstrap`) refits every resample: 200 fits per fit. A pl
 hundreds of studies cannot pay that. The Laplace approximation reads the interval off the curvature
 of the log likelihood at its maximum: the observed information I = -d^2 LL / dz^2 over the fit's
 variables z (the rewards, log beta, and log sigma and logit lapse where the model has them), by
-central differences of the exact gradient (`people_likelihood.log_likelihood`: 2p fixed points for
+central differences of the exact gradient (`likelihood.log_likelihood`: 2p fixed points for
 p variables). The covariance is I^-1; a reward's interval is its estimate +- z_(1+c)/2 sqrt of its
 variance, on one of two scales (`SCALES`):
 
@@ -15,7 +15,7 @@ variance, on one of two scales (`SCALES`):
 
 Variables at the end of their range (beta at its cap, the hand's sigma at 0.05, the lapse at its
 floor) are held where they are: the curvature there is not the likelihood's shape. A reward the data
-bound on one side only (`people_flat.flat_toward_bound`) reaches the bound on that side, as the
+bound on one side only (`flat.flat_toward_bound`) reaches the bound on that side, as the
 bootstrap's does. For a pool of people, `groups` gives the cluster-robust (sandwich) covariance, which
 counts each person's episodes as one draw, as the pool's bootstrap resamples people. docs/people.md
 ("Laplace intervals") compares both scales with the bootstrap on the same fits.
@@ -26,12 +26,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import norm
 
+from irl_core.irl.choices import Player
 from irl_core.irl.maxent import one_blas_thread
-from irl_core.irl.people_fit import PlayerFit
-from irl_core.irl.people_flat import flat_toward_bound
-from irl_core.irl.people_held import BOUND_STEPS, FLAT_DROP
-from irl_core.irl.people_likelihood import LAPSE_BOUNDS, SIGMA_BOUNDS, beta_bounds, log_likelihood
-from irl_core.irl.player_models import Player
+from irl_core.irl.people.fit import PlayerFit
+from irl_core.irl.people.flat import flat_toward_bound
+from irl_core.irl.people.held import BOUND_STEPS, FLAT_DROP
+from irl_core.irl.people.likelihood import LAPSE_BOUNDS, SIGMA_BOUNDS, beta_bounds, log_likelihood
 from irl_core.irl.qmap import Unknowns
 from irl_core.worlds.mdp import MDP
 

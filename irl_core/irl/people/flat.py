@@ -1,14 +1,14 @@
 """Which rewards of a model of people the data bound on one side only, after the fit: moved to their bound,
 they cost the likelihood less than a chi-square's 95% (their value is the optimiser's patience, not the
-data's). Those no recorded action can lead into are found before the fit (`people_held`)."""
+data's). Those no recorded action can lead into are found before the fit (`held`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from irl_core.irl.people_fit import PlayerFit
-from irl_core.irl.people_held import FLAT_DROP, MAX_ONE_BY_ONE
-from irl_core.irl.people_likelihood import log_likelihood
+from irl_core.irl.people.fit import PlayerFit
+from irl_core.irl.people.held import FLAT_DROP, MAX_ONE_BY_ONE
+from irl_core.irl.people.likelihood import log_likelihood
 from irl_core.irl.qmap import Unknowns
 from irl_core.worlds.mdp import MDP
 

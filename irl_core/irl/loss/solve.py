@@ -1,6 +1,6 @@
-"""The paper's loss IRL agent, the solver: the convex loss of `irl_core.irl.loss_model`, minimised exactly.
+"""The paper's loss IRL agent, the solver: the convex loss of `irl_core.irl.loss.model`, minimised exactly.
 
-Hanslope & Aitchison, section "Game and Loss IRL agent"; `irl_core.irl.loss_model` states
+Hanslope & Aitchison, section "Game and Loss IRL agent"; `irl_core.irl.loss.model` states
 the loss L(R_S) = sum over demonstrated s of exp(ReLU(z_s)) + lambda ||R_S||_1, its
 constraints and why it is convex.
 
@@ -8,9 +8,9 @@ Solving it. cvxpy hands the exponential cones to an interior-point solver, and t
 fragile here: Clarabel stops with "insufficient progress" on 17 of 20 noisy instances on
 the paper's world with the rival maxima written directly (14 carefulness levels make the
 rows Q(s, (d, c)) nearly parallel), still on 9 of 120 across the built-in worlds with the
-compact rival rows of `loss_model`, and a lexicographic second stage has no interior at all.
+compact rival rows of `loss.model`, and a lexicographic second stage has no interior at all.
 So `fit_loss` solves the same convex problem exactly by outer approximation with HiGHS;
-`loss_model.loss_problem` (the cvxpy model) states it, cvxpy certifies it DCP, and the tests
+`loss.model.loss_problem` (the cvxpy model) states it, cvxpy certifies it DCP, and the tests
 check both give the same minimum. With r_s >= z_s and r_s >= 0 the objective sum_s exp(r_s) is
 separable, one dimension per state, and each exp is replaced by tangents
 w_s >= e^rho (1 + r_s - rho). Every round solves the LP (from the previous basis), adds a
@@ -42,9 +42,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.special import logsumexp
 
-from irl_core.irl.highs import HighsModel, LinearProgram, linear_program
-from irl_core.irl.loss_model import LossConstraints, loss_constraints, relu_terms
-from irl_core.irl.margin import check_bounds
+from irl_core.irl.loss.model import LossConstraints, loss_constraints, relu_terms
+from irl_core.irl.lp.highs import HighsModel, LinearProgram, linear_program
+from irl_core.irl.lp.margin import check_bounds
 from irl_core.irl.notes import Note
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import InfeasibleError, SolverError

@@ -30,9 +30,9 @@ import dataclasses
 
 import numpy as np
 
-from irl_core.irl.highs import INTERIOR, LinearProgram, Options
-from irl_core.irl.lp import Progress, RowGeneration, margin_options
-from irl_core.irl.margin import LPConstraints, margin_lp
+from irl_core.irl.lp.highs import INTERIOR, LinearProgram, Options
+from irl_core.irl.lp.margin import LPConstraints, margin_lp
+from irl_core.irl.lp.solve import Progress, RowGeneration, margin_options
 
 # The first LP starts from no basis and is solved as the margin is (`lp.margin_options`: the
 # dual simplex with Dantzig pricing), and so is any LP retried from scratch. After a new cost

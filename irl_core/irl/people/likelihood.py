@@ -16,7 +16,7 @@ end          ``ends``    the soft backup stops at the episode's end: a terminal 
 hand         sigma       the player intends level c* and the hand realises c with
                          K(c | c*) ~ exp(-(c - c* - b)^2 / (2 sigma^2)) on 1..L, b the hand's
                          bias (0, or known with sigma from a study's calibration trials,
-                         `irl_core.irl.hand`: then neither is searched); the move's slip
+                         `irl_core.irl.people.hand`: then neither is searched); the move's slip
                          and cost are the realised level's, and the player plans for the hand:
                          Q_I(s, d, c*) = sum_c K(c | c*) Q(s, d, c)
 lapse        epsilon     with probability epsilon the direction is uniformly random, the level
@@ -51,6 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irl_core.irl.choices import Player, PlayerModel
 from irl_core.irl.maxent import (
     DENSE_STATES,
     LOG_BETA_BOUNDS,
@@ -61,7 +62,6 @@ from irl_core.irl.maxent import (
     solve_and_factor,
     solve_system,
 )
-from irl_core.irl.player_models import Player, PlayerModel
 from irl_core.irl.result import SolverError
 from irl_core.support.stopping import stop_if_asked
 from irl_core.worlds.mdp import MDP
