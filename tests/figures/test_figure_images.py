@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from careful_tui.render.figures.board import Board
-from careful_tui.render.figures.carefulness import CarefulnessByDistance, carefulness_by_distance, carefulness_figure
+from careful_tui.render.figures.carefulness import CarefulnessByDistance, carefulness_by_distance, draw_carefulness
 from careful_tui.render.figures.heatmap import (
     add_colour_bar,
     draw_reward,
@@ -18,7 +18,7 @@ from careful_tui.render.figures.heatmap import (
 )
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure, kind_label, worst_first
 from careful_tui.render.figures.policy import PolicyPanel, policy_figure
-from careful_tui.render.figures.style import figure_style, new_figure
+from careful_tui.render.figures.style import PANEL_WIDTH, figure_style, new_figure
 from irl_core.worlds.world import BUILTIN_WORLDS
 
 # The optimal policy of `paper` (up, right, down, left = 0..3; -1 at terminal cells) and its levels.
@@ -67,8 +67,10 @@ def test_carefulness_by_distance(matches_baseline):
                                   np.array([1.6, 0.6, 0.8, 1.0]), np.array([17, 20, 17, 5]))
     expert = CarefulnessByDistance(np.array([1, 2, 3, 4]), np.array([5.9, 3.0, 2.3, 2.0]),
                                    np.array([0.2, 0.05, 0.05, 0.0]), np.array([180, 120, 60, 20]))
-    matches_baseline(carefulness_figure([("person", human), ("optimal expert", expert)], levels=14),
-                     "carefulness-by-distance")
+    with figure_style():  # one panel of its own, as the study's and the fit's figures draw it among others
+        figure = new_figure(PANEL_WIDTH, PANEL_WIDTH * 0.75)
+        draw_carefulness(figure.subplots(), [("person", human), ("optimal expert", expert)], levels=14)
+    matches_baseline(figure, "carefulness-by-distance")
 
 
 def test_a_changed_value_fails_the_baseline(matches_baseline, mud_world, mud_fitted):
