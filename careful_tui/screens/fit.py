@@ -60,9 +60,9 @@ from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopp
 from irl_core.irl.fit_methods import METHODS
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.recordings.writer import slug
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import OutputError, write_output
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.
 CELL_HEIGHT = MIN_CELL[1]
@@ -269,11 +269,11 @@ class FitScreen(Screen[None]):
         # (instead of minutes more on a big world's intervals, with the app waiting to exit).
         worker = get_current_worker()
 
-        def heard(stage: str, done: int, total: int | None) -> None:
+        def post_progress(stage: str, done: int, total: int | None) -> None:
             self.post_message(FitScreen.Progress(request, progress_phrase(stage, done, total)))
 
         try:
-            result, error = fit(self.demos, options, progress=heard, stop=lambda: worker.is_cancelled), None
+            result, error = fit(self.demos, options, progress=post_progress, stop=lambda: worker.is_cancelled), None
         except Stopped:
             return
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened

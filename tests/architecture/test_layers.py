@@ -23,6 +23,7 @@ LAYERS = (
     ("careful_tui.errors", 1),
     ("careful_tui.version", 1),
     ("careful_tui.arguments", 1),
+    ("careful_tui.option_words", 1),
     ("careful_tui.render", 2),
     ("careful_tui.keys", 3),
     ("careful_tui.widgets", 4),

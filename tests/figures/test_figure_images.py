@@ -39,14 +39,14 @@ MUD_SIMPLE_ROWS = [
 
 
 def test_reward_heatmap_fitted_beside_true(matches_baseline, mud_world, mud_fitted):
-    board = Board.of(mud_world)
+    board = Board.for_world(mud_world)
     figure = reward_figure([("fitted", mud_fitted), ("true", board.rewards(mud_world))], board)
     matches_baseline(figure, "reward-fitted-true")
 
 
 def test_policy_demonstrated_beside_optimal(matches_baseline):
     world = BUILTIN_WORLDS["paper"]
-    board = Board.of(world)
+    board = Board.for_world(world)
     count = np.array([[5, 1, 2, 9, 12, 14], [0, 0, 0, 20, 31, 38], [3, 14, 22, 30, 36, 40], [0, 0, 0, 0, 0, 0]])
     demonstrated = PolicyPanel("demonstrated", np.where(count > 0, PAPER_OPTIMAL_DIRECTION, -1),
                                np.minimum(PAPER_OPTIMAL_LEVEL + 1, 14), count)
@@ -75,7 +75,7 @@ def test_carefulness_by_distance(matches_baseline):
 
 def test_a_changed_value_fails_the_baseline(matches_baseline, mud_world, mud_fitted):
     """The tolerance is tight enough to catch one cell's value changing (-946 to -94.6)."""
-    board = Board.of(mud_world)
+    board = Board.for_world(mud_world)
     mud_fitted[3, 2] = -94.6
     figure = reward_figure([("fitted", mud_fitted), ("true", board.rewards(mud_world))], board)
     with pytest.raises(AssertionError, match="did not match"):
@@ -97,7 +97,7 @@ def pixel(pixels: np.ndarray, figure, xy_display: tuple[float, float]) -> np.nda
 
 
 def test_the_cliff_cell_has_the_colour_bars_colour_for_minus_1000(mud_world, mud_fitted):
-    board = Board.of(mud_world)
+    board = Board.for_world(mud_world)
     with figure_style():
         figure = new_figure(3.0, 2.0)
         ax = figure.subplots()
