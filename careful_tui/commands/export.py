@@ -27,9 +27,9 @@ from irl_core.recordings.export import (
     write_csv,
     write_minari,
 )
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output
 from irl_core.support.safe_text import for_markup, printable
-from irl_core.support.words import plural
 
 # Inputs at least this large (in bytes, all files together) get progress bars.
 PROGRESS_FROM_BYTES = 1_000_000

@@ -30,9 +30,9 @@ from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import fit_page_svg, print_fit
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output, write_output
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 
 
 def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
@@ -73,12 +73,12 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
     with Progress(*columns, console=err, transient=True) as progress:
         task = progress.add_task(f"fitting ({options.describe()}) to {plural(demos.steps, 'step')}", total=None)
 
-        def heard(stage: str, done: int, total: int | None) -> None:
+        def show_progress(stage: str, done: int, total: int | None) -> None:
             what = {"rounds": "lp rounds", "intervals": "interval LPs", "resamples": "resampling episodes"}[stage]
             progress.update(task, description=what, completed=done, total=total)
 
         try:
-            result = fit(demos, options, progress=heard)
+            result = fit(demos, options, progress=show_progress)
         except BadInputError as exc:
             raise UsageError(said(exc)) from None
     if options.intervals and result.intervals is None:

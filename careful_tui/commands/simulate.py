@@ -14,9 +14,9 @@ from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import EXIT_OK, UsageError
 from irl_core.players.experts import Chooser, NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
 from irl_core.players.person_like import KINDS, person_like
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output
 from irl_core.support.safe_text import one_line
-from irl_core.support.words import plural
 from irl_core.worlds.mdp import MDP, build_mdp
 from irl_core.worlds.world import load_world
 

@@ -42,9 +42,9 @@ from irl_core.studies.report import (
 from irl_core.studies.study import Exclusions, LoadedStudy, StudyError, load_study, world_files
 from irl_core.support.csv_cells import csv_text
 from irl_core.support.executor import Executor, SchedulerError, close, scheduler
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output_folder, write_output
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 
 FIGURE_FORMATS = (".png", ".pdf")
 # The codes of the fits' notes on what the table shows already (the method, beta) or that say all is well.
@@ -126,7 +126,7 @@ def _report(args: argparse.Namespace, study: LoadedStudy, out: Path, options: Fi
     out_console.print(report_table(data, fits))
     for legend in mark_legends(fits):
         out_console.print(Text(legend), soft_wrap=True)
-    for line in exclusion_lines(data, fits, ignored=args.no_exclusions and study.study.exclusions.any):
+    for line in exclusion_lines(data, fits, ignored=args.no_exclusions and study.study.exclusions.any_set):
         out_console.print(Text(line), soft_wrap=True)
     for finding in findings(data, fits):
         out_console.print(Text(finding), soft_wrap=True)

@@ -13,8 +13,8 @@ from careful_tui.keys.kitty import KittyDriver
 from irl_core.recordings.writer import check_writable
 from irl_core.studies.participant_lock import participant_lock
 from irl_core.studies.study import LoadedStudy, StudyError, check_participant, load_study, read_protocol
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 
 
 def run_study_run(args: argparse.Namespace) -> int:

@@ -53,10 +53,6 @@ from textual._xterm_parser import SPECIAL_KEY_TO_CHARACTER, XTermParser
 from textual.drivers.linux_driver import KITTY_REPORT_EVENT_TYPES, LinuxDriver
 from textual.keys import Keys, _character_to_key
 
-# The Textual release whose private API this module was written against (pyproject pins it);
-# a test fails when the installed Textual differs, so that an upgrade re-reads the list above.
-WRITTEN_FOR_TEXTUAL = "8.2.8"
-
 EventType = Literal["press", "repeat", "release"]
 
 _EVENT_TYPES: dict[str, EventType] = {"": "press", "1": "press", "2": "repeat", "3": "release"}

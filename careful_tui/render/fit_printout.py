@@ -21,8 +21,8 @@ from careful_tui.render.intervals import IntervalChart, interval_readings, inter
 from irl_core.irl import FitResult
 from irl_core.irl.choices import METHODS
 from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 
 
 def print_fit(console: Console, demos: Demonstrations, result: FitResult, *, soft_wrap: bool = True) -> None:

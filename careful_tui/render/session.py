@@ -15,8 +15,8 @@ from careful_tui.render.palette import BAD, GOOD, HERE, NOTE, SLIP, WARN, level_
 from irl_core.recordings.demonstrations import Recording
 from irl_core.recordings.lines import EpisodeEnd
 from irl_core.recordings.summary import SessionSummary, outcome_code
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import VALUE_LIMIT, for_markup, printable
-from irl_core.support.words import plural
 from irl_core.worlds.world import World
 
 MEAN_BAR = 5

@@ -8,8 +8,8 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.render.grid import WorldGrid, format_value, symbol_legend
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import VALUE_LIMIT, printable
-from irl_core.support.words import plural
 from irl_core.worlds.world import BUILTIN_WORLDS, WORLD_PURPOSES, World
 
 

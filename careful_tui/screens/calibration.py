@@ -27,7 +27,7 @@ from careful_tui.render.palette import BAR, EMPTY, GOOD, NOTE, ON_NOTE, SLIP
 from careful_tui.screens.behind_input import TickBehindInput
 from irl_core.play.calibration import HOLD_S, Calibrating
 from irl_core.play.hold import HoldProfile
-from irl_core.support.words import plural
+from irl_core.support.plural import plural
 
 BAR_WIDTH = 30
 KEY_CHIP = f"bold {ON_NOTE} on {NOTE}"

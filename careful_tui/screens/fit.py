@@ -14,8 +14,9 @@ the view, stops the fit that is running (`fit(stop=...)`), so only the latest is
 fails (an lp with no solution on noisy demonstrations, a solver that gives up) is reported in the
 status line, in the command line's words (`careful_tui.option_words`), and the view keeps the last result.
 
-The words and numbers drawn come from `careful_tui.render.fit_printout` and `careful_tui.render.intervals`
-(shared with the printout) and the boards are the shared `Board`; this module is layout and keys.
+The words and numbers drawn come from `careful_tui.render.fit_panels` (the body's panels),
+`careful_tui.render.fit_printout` and `careful_tui.render.intervals` (shared with the printout), and the
+boards are the shared `Board`; this module is layout and keys.
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from rich.console import Group
 from rich.text import Text
 from textual import events, on, work
 from textual.app import ComposeResult
@@ -39,19 +39,9 @@ from textual.worker import get_current_worker
 
 import irl_core.irl.choices as choices
 from careful_tui.option_words import said
-from careful_tui.render.fit_printout import (
-    FIT_CHECK_CODES,
-    evaluation_line,
-    fit_check_text,
-    fit_page_svg,
-    policy_labels,
-    progress_phrase,
-    reward_scale,
-    status_text,
-    unknown_phrase,
-)
-from careful_tui.render.grid import format_value
-from careful_tui.render.intervals import IntervalChart, interval_readings, interval_title, scale_legend
+from careful_tui.render.fit_panels import intervals_panel, notes_panel, policy_key, settings_line
+from careful_tui.render.fit_printout import fit_page_svg, policy_labels, progress_phrase, reward_scale, status_text
+from careful_tui.render.intervals import interval_title, scale_legend
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
 from careful_tui.render.session import legend
 from careful_tui.widgets import Board, KeyBar
@@ -61,9 +51,9 @@ from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopp
 from irl_core.irl.choices import METHODS
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.recordings.writer import slug
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import OutputError, write_output
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.
 CELL_HEIGHT = MIN_CELL[1]
@@ -224,7 +214,7 @@ class FitScreen(Screen[None]):
     def on_mount(self) -> None:
         self.query_one("#true", Board).display = bool(self.world.rewards)
         policy = self.query_one("#policy", Board)
-        self.query_one("#policy-key", Static).update(self._policy_key())
+        self.query_one("#policy-key", Static).update(policy_key(self.world))
         self._layout(*self.app.size)
         self.query_one("#body").focus()
         if self.result is None:
@@ -270,11 +260,11 @@ class FitScreen(Screen[None]):
         # (instead of minutes more on a big world's intervals, with the app waiting to exit).
         worker = get_current_worker()
 
-        def heard(stage: str, done: int, total: int | None) -> None:
+        def post_progress(stage: str, done: int, total: int | None) -> None:
             self.post_message(FitScreen.Progress(request, progress_phrase(stage, done, total)))
 
         try:
-            result, error = fit(self.demos, options, progress=heard, stop=lambda: worker.is_cancelled), None
+            result, error = fit(self.demos, options, progress=post_progress, stop=lambda: worker.is_cancelled), None
         except Stopped:
             return
         except Exception as exc:  # noqa: BLE001 - a refit must not take the view down: the view says what happened
@@ -431,11 +421,11 @@ class FitScreen(Screen[None]):
         true.border_subtitle = legend(self.world, scale=scale)  # its swatches in the colours its cells have
         for board in self.query(Board):
             board.redraw()
-        self.query_one("#notes", Static).update(self._notes(result))
+        self.query_one("#notes", Static).update(notes_panel(result))
         intervals = self.query_one("#intervals", Static)
         intervals.border_title = (interval_title(result) if self.options.intervals and result.intervals is not None
                                   else "how sure the fit is of each reward")
-        intervals.update(self._intervals(result))
+        intervals.update(intervals_panel(result, self.options))
         if self._save_first:
             # After the refresh that lays out what was just drawn.
             self.call_after_refresh(self._save_first_svg)
@@ -466,57 +456,4 @@ class FitScreen(Screen[None]):
         if self.result is None:
             return Text()
         return Text.assemble(("✓ ", f"bold {GOOD}"), status_text(self.result, times=self.show_times, notes=False),
-                             (f"   {self._settings(self.result)}", "dim"))
-
-    @staticmethod
-    def _settings(result: FitResult) -> str:
-        """The fit's settings in a few words: "rmax 1000 · λ 0 · β 1 · special cells"."""
-        options = result.options
-        parts = [f"rmax {format_value(options.rmax)}", f"λ {format_value(options.lam)}"]
-        if result.beta is not None:
-            parts.append(f"β {result.beta:.3g}{' (estimated)' if result.beta_auto else ''}")
-        parts.append(f"{options.reward_cells} cells{', tied' if options.tie else ''}")
-        return " · ".join(parts)
-
-    def _notes(self, result: FitResult) -> Group:
-        check = [fit_check_text(result)] if result.fit_check is not None else []
-        return Group(Text(evaluation_line(result), style="bold"), *check,
-                     *(Text(f"• {said(note)}", style=WARN) for note in result.notes if note.code not in FIT_CHECK_CODES),
-                     Text(unknown_phrase(result), style="dim"))
-
-    def _intervals(self, result: FitResult) -> Group | Text:
-        if not self.options.intervals:
-            what = (f"every value the demonstrations allow ({result.method})"
-                    if METHODS[result.method].interval_kind == "identified"
-                    else f"a {self.options.confidence:.0%} confidence interval (the likelihood's curvature)"
-                    if result.player_model == "timing"
-                    else f"a {self.options.confidence:.0%} confidence interval (resampling episodes)")
-            return Text.assemble(("press ", "dim"), ("i", "bold"), (f" to bound every fitted reward: {what}", "dim"))
-        if result.intervals is None:
-            return Text("The intervals could not be computed: see the notes above.", style=WARN)
-        if not len(result.intervals):
-            return Text("nothing was fitted, so there is nothing to bound", style="dim")
-        readings = [Text(f"{line[0].upper()}{line[1:]}.") for line in interval_readings(result)]
-        for line in readings:
-            line.stylize("bold", 0, line.plain.index(":"))
-        return Group(IntervalChart(result), Text(), *readings)
-
-    def _policy_key(self) -> Text:
-        world = self.world
-        if world.care == "time":
-            return Text.assemble(
-                ("The most frequent action in each cell\n", "bold"),
-                ("  →  ", "bold"), "the direction\n",
-                (" .65s ", "bold"), "the hold, its duration bin's mid-point\n",
-                (" ×38 ", "bold"), "how often it was taken there\n",
-                (f"Holding costs {format_value(world.cost_per_second)} a second; a longer hold slips less.", "dim"),
-            )
-        level = f"the carefulness level (1-{world.levels})" if world.levels > 1 else "the level (one level)"
-        slip = ("a level-c move slips with probability 2^-c" if world.slip == "halving" else "moves never slip")
-        return Text.assemble(
-            ("The most frequent action in each cell\n", "bold"),
-            ("  →  ", "bold"), "the direction\n",
-            ("  8  ", "bold"), f"{level}\n",
-            (" ×38 ", "bold"), "how often it was taken there\n",
-            (f"Each level costs {format_value(world.cost_per_level)}; {slip}.", "dim"),
-        )
+                             (f"   {settings_line(self.result)}", "dim"))

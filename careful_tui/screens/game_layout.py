@@ -21,8 +21,8 @@ from careful_tui.widgets import Board, Gauge, KeyBar
 from careful_tui.widgets.board import SMALLEST_CELL
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.play.game import level_costs, level_slip_chances
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 from irl_core.worlds.world import World
 
 STATUS_LINES = 3

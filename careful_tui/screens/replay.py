@@ -40,8 +40,8 @@ from irl_core.recordings.demonstrations import Recording
 from irl_core.recordings.lines import Step
 from irl_core.recordings.replay_cursor import Frame, ReplayCursor, ReplayFiles
 from irl_core.recordings.summary import distance_to_terminal, outcome_code, summarise
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import VALUE_LIMIT, printable
-from irl_core.support.words import plural
 from irl_core.worlds.mdp import DIRECTIONS, OFFSETS
 from irl_core.worlds.world import World
 

@@ -31,7 +31,7 @@ from textual.screen import Screen
 from textual.widgets import Static
 
 from careful_tui.render.palette import NOTE
-from careful_tui.render.words import as_group
+from careful_tui.render.study_words import as_group
 from careful_tui.screens.motor import MotorScreen
 from careful_tui.screens.play import PlayScreen
 from careful_tui.widgets import KeyBar
@@ -132,7 +132,7 @@ class StudyScreen(Screen[None]):
             return
         motor = self.flow.calibration()
         if motor is not None:
-            block = self.flow.protocol.next
+            block = self.flow.protocol.next_block
             assert block is not None, "calibration() is None for a finished participant"
             self.app.push_screen(MotorScreen(motor, self.flow.protocol.world(block), event_times=self.event_times),
                                  self.calibration_ended)

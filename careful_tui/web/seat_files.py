@@ -144,7 +144,7 @@ class SharedSeats:
                 _let_go(writers)
             return seat
 
-    def heard(self, page: object) -> bool:
+    def keep_alive(self, page: object) -> bool:
         """The page's heartbeat: whether it holds its seat (its file's time is then now)."""
         parsed = _parse(page)
         if parsed is None:

@@ -170,7 +170,7 @@ class Seats:
                 seat.seen = self.clock()
             return seat
 
-    def heard(self, page: object) -> bool:
+    def keep_alive(self, page: object) -> bool:
         """The page's heartbeat: whether it still holds a seat (hearing from it keeps it)."""
         return self.page(page) is not None
 

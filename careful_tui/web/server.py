@@ -263,8 +263,8 @@ async def key(request: Request, data: dict[str, Any]) -> Response:
 @json_endpoint
 async def alive(request: Request, data: dict[str, Any]) -> Response:
     """POST /api/alive: the page's heartbeat."""
-    heard = await run_in_threadpool(served_by(request).seats.heard, data.get("page"))
-    return Response(status_code=204 if heard else 410)
+    seated = await run_in_threadpool(served_by(request).seats.keep_alive, data.get("page"))
+    return Response(status_code=204 if seated else 410)
 
 
 @json_endpoint

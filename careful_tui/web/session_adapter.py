@@ -52,8 +52,8 @@ from irl_core.recordings.summary import outcome_code
 from irl_core.studies import words
 from irl_core.studies.flow import StudyFlow
 from irl_core.studies.study import LoadedStudy, Protocol, read_protocol
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 from irl_core.worlds.mdp import DIRECTIONS
 
 # A hold longer than this is a key left down, not a choice; it is refused (no move).
@@ -264,7 +264,7 @@ class WebSession:
         if session is None:
             self.stage = "end"
             return
-        block = self.protocol.next
+        block = self.protocol.next_block
         assert block is not None
         recorder = session.recorder
         recorder.set_header(recorder.header.model_copy(update={
@@ -277,7 +277,7 @@ class WebSession:
     def _end_block(self) -> None:
         assert self.session is not None
         self.session.quit()
-        finished = self.protocol.next
+        finished = self.protocol.next_block
         stage = self.flow.block_ended()
         self.session = None
         if finished is not None:
@@ -329,7 +329,7 @@ class WebSession:
         motor = self.motor
         assert motor is not None
         now = motor.view()
-        block = self.protocol.next
+        block = self.protocol.next_block
         assert block is not None, "the calibration block comes before a block"
         world = self.protocol.world(block)
         return {

@@ -121,17 +121,10 @@ class HoldProfile:
         """The carefulness level a hold of `hold_ms` milliseconds gives (see the class table)."""
         if hold_ms < self.tap_ms:
             return 1
-        # The epsilon keeps level_for(hold_ms_for(k)) == k when T and m are not integers.
+        # The epsilon keeps a hold of exactly level k's start, T + (k - 2) m, at level k when T and m are
+        # not integers.
         steps = math.floor((hold_ms - self.tap_ms) / self.ms_per_level + 1e-9)
         return min(self.levels, 2 + steps)
-
-    def hold_ms_for(self, level: int) -> float:
-        """The shortest hold, in milliseconds, that gives `level` (1..levels)."""
-        if not 1 <= level <= self.levels:
-            raise ValueError(f"level must be in 1..{self.levels}, got {level}")
-        if level == 1:
-            return 0.0
-        return self.tap_ms + (level - 2) * self.ms_per_level
 
     def to_header(self) -> dict[str, object]:
         """The timing profile for the session header's `"input"` object."""

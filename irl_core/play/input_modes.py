@@ -113,8 +113,3 @@ def input_mode(name: str) -> InputMode:
         return INPUT_MODES[name]
     except KeyError:
         raise ValueError(f"unknown input mode {name!r}: use one of {', '.join(INPUT_MODE_NAMES)}") from None
-
-
-def make_input(mode: str, profile: HoldProfile, *, clock: Clock = time.monotonic) -> MoveInput:
-    """The input of the mode called `mode`, on `profile` and `clock`."""
-    return input_mode(mode).make(profile, clock)

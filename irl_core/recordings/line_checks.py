@@ -15,8 +15,8 @@ into `file:line: field: problem`.
 from __future__ import annotations
 
 from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, Step
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 from irl_core.worlds.mdp import DIRECTIONS, MDP
 
 

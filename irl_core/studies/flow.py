@@ -101,7 +101,7 @@ class StudyFlow:
         """The motor calibration block's remaining targets, for the front end to play before
         `next_block`; None when the study has none or the participant's files hold them all."""
         left = self.protocol.calibration_left
-        block = self.protocol.next
+        block = self.protocol.next_block
         if left <= 0 or block is None:
             return None
         seed = secrets.randbelow(2**32) if self.seed is None else self.seed
@@ -126,7 +126,7 @@ class StudyFlow:
     def next_block(self) -> PlaySession | None:
         """The next block's session, for the front end to play (`start` it); None when nothing is
         left, and the stage is then ``end``."""
-        block = self.protocol.next
+        block = self.protocol.next_block
         if block is None:
             self.stage = "end"
             return None
@@ -149,7 +149,7 @@ class StudyFlow:
         if self.protocol.finished:
             self.stage = "end"
         else:
-            following = self.protocol.next
+            following = self.protocol.next_block
             practice_over = (following is not None and following.world_index == block.world_index
                              and following.phase == "main")
             self.stage = "practice_over" if practice_over else "next_world"

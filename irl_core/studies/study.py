@@ -41,9 +41,9 @@ from irl_core.play.input_modes import DEFAULT_INPUT_MODE, input_mode
 from irl_core.recordings.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
 from irl_core.recordings.lines import StudyTag
 from irl_core.recordings.writer import slug
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import InputError, read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, printable
-from irl_core.support.words import plural
 from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world
 
 Phase = Literal["practice", "main"]
@@ -79,7 +79,8 @@ class Exclusions(BaseModel):
     max_quit_share: float = Field(1.0, ge=0.0, le=1.0, strict=False)
 
     @property
-    def any(self) -> bool:
+    def any_set(self) -> bool:
+        """Whether the file sets any exclusion (a field off its default)."""
         return self != Exclusions()
 
 
@@ -391,13 +392,13 @@ class Protocol:
         return 0 if self.finished else max(0, self.study.study.calibration_block - self.calibration_trials)
 
     @property
-    def next(self) -> Block | None:
+    def next_block(self) -> Block | None:
         """The first block with episodes still to play, or None when the participant has finished."""
         return next((block for block in self.blocks if block.remaining), None)
 
     @property
     def finished(self) -> bool:
-        return self.next is None
+        return self.next_block is None
 
     @property
     def progress(self) -> tuple[int, int]:

@@ -1,7 +1,7 @@
 """The words a study's participant reads between blocks, for any front end: paragraphs of spans with tones.
 
 A tone names what a span is, not how it looks; each front end draws the tones its own way (the
-terminal with its palette, `careful_tui.render.words`; the browser with its stylesheet's classes):
+terminal with its palette, `careful_tui.render.study_words`; the browser with its stylesheet's classes):
 
 ========  ==============================================================
 tone      used for
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 from irl_core.play.input_modes import input_mode
 from irl_core.studies.study import Block, Protocol
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.support.words import plural
 
 TONES = ("", "title", "good", "warn", "dim", "bold")
 PROBLEMS_SHOWN = 3
@@ -54,7 +54,7 @@ def paragraph(text: str, tone: str = "") -> Paragraph:
 
 def where_next(protocol: Protocol) -> str:
     """The next block, as the participant is told: "World 2 of 2 (mud): episode 3 of 5.\""""
-    block = protocol.next
+    block = protocol.next_block
     assert block is not None
     world = protocol.world(block)
     word = "practice episode" if block.phase == "practice" else "episode"
@@ -115,7 +115,7 @@ def opening(protocol: Protocol, *, input_name: str | None = None, experimenter: 
 def between(protocol: Protocol, finished: Block) -> list[Paragraph]:
     """Between blocks: practice over (same world, main episodes next), a world done, or a block that ended
     without every episode recorded as finished."""
-    block = protocol.next
+    block = protocol.next_block
     assert block is not None
     done, total = protocol.progress
     if block.world_index == finished.world_index and block.phase == finished.phase:

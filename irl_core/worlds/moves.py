@@ -115,6 +115,8 @@ class PolicySystem:
 
     @property
     def T(self) -> PolicySystem:
+        """The transpose, under numpy's and scipy's name for it: a fit's policy system is a dense array in small
+        worlds and this in large ones, and its solver takes `.T` of either alike."""
         return replace(self, transposed=not self.transposed)
 
     @property

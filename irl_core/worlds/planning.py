@@ -153,28 +153,6 @@ def policy_evaluation(
     return spla.spsolve(system, R_pi)
 
 
-def iterative_policy_evaluation(
-    mdp: MDP,
-    policy: np.ndarray,
-    *,
-    R_S: np.ndarray | None = None,
-    gamma: float | None = None,
-    tol: float = 1e-10,
-    max_iter: int = 100_000,
-) -> np.ndarray:
-    """(S,) V^pi by repeated expected backups; the slow, independent route to `policy_evaluation`."""
-    gamma = mdp.gamma if gamma is None else gamma
-    P_pi, pi = policy_matrix(mdp, policy)
-    R_pi = (pi * mdp.reward_matrix(R_S)).sum(axis=1)
-    V = np.zeros(mdp.n_states)
-    for _ in range(max_iter):
-        V_new = R_pi + gamma * (P_pi @ V)
-        if np.abs(V_new - V).max() < tol:
-            return V_new
-        V = V_new
-    return V
-
-
 def soft_value_iteration(
     mdp: MDP,
     *,

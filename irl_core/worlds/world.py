@@ -49,9 +49,9 @@ from pydantic import (
     model_validator,
 )
 
+from irl_core.support.plural import plural
 from irl_core.support.safe_files import InputError, read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
-from irl_core.support.words import plural
 
 # A cell of the grid, (row, column) from the top left; a move's direction as recordings spell it.
 Cell = tuple[int, int]

@@ -9,7 +9,7 @@ from careful_tui.cli import main
 from careful_tui.screens.fit import FitScreen
 from irl_core.irl import FitOptions
 from irl_core.recordings.demonstrations import Demonstrations
-from irl_core.support.words import plural
+from irl_core.support.plural import plural
 
 SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
 

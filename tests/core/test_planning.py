@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from irl_core.worlds.mdp import action_parts, build_mdp
+from irl_core.worlds.mdp import MDP, action_parts, build_mdp
 from irl_core.worlds.planning import (
-    iterative_policy_evaluation,
     one_hot,
     policy_evaluation,
+    policy_matrix,
     soft_value_iteration,
     value_iteration,
 )
@@ -17,6 +17,20 @@ from irl_core.worlds.world import BUILTIN_WORLDS, World
 @pytest.fixture(scope="module")
 def paper():
     return build_mdp(BUILTIN_WORLDS["paper"])
+
+
+def iterative_policy_evaluation(mdp: MDP, policy: np.ndarray, *, gamma: float, tol: float,
+                                max_iter: int = 100_000) -> np.ndarray:
+    """(S,) V^pi by repeated expected backups: the slow, independent route to `policy_evaluation`."""
+    P_pi, pi = policy_matrix(mdp, policy)
+    R_pi = (pi * mdp.reward_matrix()).sum(axis=1)
+    V = np.zeros(mdp.n_states)
+    for _ in range(max_iter):
+        V_new = R_pi + gamma * (P_pi @ V)
+        if np.abs(V_new - V).max() < tol:
+            return V_new
+        V = V_new
+    return V
 
 
 def test_two_state_chain_by_hand():

@@ -52,7 +52,7 @@ def mud_fitted(mud_world):
     """(rows, cols) a fitted reward of `mud` as an lp fit gives it."""
     from careful_tui.render.figures.board import Board
 
-    fitted = Board.of(mud_world).rewards(mud_world)
+    fitted = Board.for_world(mud_world).rewards(mud_world)
     fitted[1, 1:3] = [-23.9, -31.0]
     fitted[3, 1:6] = [-1000.0, -946.2, -957.0, -937.4, 104.6]
     return fitted

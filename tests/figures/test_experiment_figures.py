@@ -15,12 +15,13 @@ from irl_core.worlds.world import BUILTIN_WORLDS
 @pytest.fixture
 def result():
     mud, paper = BUILTIN_WORLDS["mud"], BUILTIN_WORLDS["paper"]
-    fitted = Board.of(mud).rewards(mud)
+    fitted = Board.for_world(mud).rewards(mud)
     fitted[3, 1:5] = -800.0
     return ExperimentResult(
         figures=[
-            Figure("fig3-optimal-policy", "optimal policy", paper, policy={(0, 0): ("right", 2), (2, 0): ("up", 3), (3, 0): ("up", 8)}),
-            Figure("fig4-true-reward", "true reward", paper, values=Board.of(paper).rewards(paper)),
+            Figure("fig3-optimal-policy", "optimal policy", paper,
+                   policy={(0, 0): ("right", 2), (2, 0): ("up", 3), (3, 0): ("up", 8)}),
+            Figure("fig4-true-reward", "true reward", paper, values=Board.for_world(paper).rewards(paper)),
             Figure("intervals-mud", "intervals on mud", mud, values=fitted),
         ],
         separations=[Separation("mud", cliff=(-1000.0, -661.2), mud=(-49.3, -14.8), seconds=0.1)],
@@ -49,7 +50,7 @@ def test_reward_figures_share_one_colour_scale(result):
 
 def test_policy_labels_become_arrows(result):
     figure = result.figures[0]
-    panel = policy_panel(figure, Board.of(figure.world))
+    panel = policy_panel(figure, Board.for_world(figure.world))
     assert panel.direction[0, 0] == 1 and panel.carefulness[0, 0] == 2
     assert panel.direction[3, 0] == 0 and panel.carefulness[3, 0] == 8
     assert (panel.direction == -1).sum() == panel.direction.size - 3

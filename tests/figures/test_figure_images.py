@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from careful_tui.render.figures.board import Board
-from careful_tui.render.figures.carefulness import CarefulnessByDistance, carefulness_by_distance, carefulness_figure
+from careful_tui.render.figures.carefulness import CarefulnessByDistance, carefulness_by_distance, draw_carefulness
 from careful_tui.render.figures.heatmap import (
     add_colour_bar,
     draw_reward,
@@ -18,7 +18,7 @@ from careful_tui.render.figures.heatmap import (
 )
 from careful_tui.render.figures.intervals import IntervalRow, interval_figure, kind_label, worst_first
 from careful_tui.render.figures.policy import PolicyPanel, policy_figure
-from careful_tui.render.figures.style import figure_style, new_figure
+from careful_tui.render.figures.style import PANEL_WIDTH, figure_style, new_figure
 from irl_core.worlds.world import BUILTIN_WORLDS
 
 # The optimal policy of `paper` (up, right, down, left = 0..3; -1 at terminal cells) and its levels.
@@ -39,14 +39,14 @@ MUD_SIMPLE_ROWS = [
 
 
 def test_reward_heatmap_fitted_beside_true(matches_baseline, mud_world, mud_fitted):
-    board = Board.of(mud_world)
+    board = Board.for_world(mud_world)
     figure = reward_figure([("fitted", mud_fitted), ("true", board.rewards(mud_world))], board)
     matches_baseline(figure, "reward-fitted-true")
 
 
 def test_policy_demonstrated_beside_optimal(matches_baseline):
     world = BUILTIN_WORLDS["paper"]
-    board = Board.of(world)
+    board = Board.for_world(world)
     count = np.array([[5, 1, 2, 9, 12, 14], [0, 0, 0, 20, 31, 38], [3, 14, 22, 30, 36, 40], [0, 0, 0, 0, 0, 0]])
     demonstrated = PolicyPanel("demonstrated", np.where(count > 0, PAPER_OPTIMAL_DIRECTION, -1),
                                np.minimum(PAPER_OPTIMAL_LEVEL + 1, 14), count)
@@ -67,13 +67,15 @@ def test_carefulness_by_distance(matches_baseline):
                                   np.array([1.6, 0.6, 0.8, 1.0]), np.array([17, 20, 17, 5]))
     expert = CarefulnessByDistance(np.array([1, 2, 3, 4]), np.array([5.9, 3.0, 2.3, 2.0]),
                                    np.array([0.2, 0.05, 0.05, 0.0]), np.array([180, 120, 60, 20]))
-    matches_baseline(carefulness_figure([("person", human), ("optimal expert", expert)], levels=14),
-                     "carefulness-by-distance")
+    with figure_style():  # one panel of its own, as the study's and the fit's figures draw it among others
+        figure = new_figure(PANEL_WIDTH, PANEL_WIDTH * 0.75)
+        draw_carefulness(figure.subplots(), [("person", human), ("optimal expert", expert)], levels=14)
+    matches_baseline(figure, "carefulness-by-distance")
 
 
 def test_a_changed_value_fails_the_baseline(matches_baseline, mud_world, mud_fitted):
     """The tolerance is tight enough to catch one cell's value changing (-946 to -94.6)."""
-    board = Board.of(mud_world)
+    board = Board.for_world(mud_world)
     mud_fitted[3, 2] = -94.6
     figure = reward_figure([("fitted", mud_fitted), ("true", board.rewards(mud_world))], board)
     with pytest.raises(AssertionError, match="did not match"):
@@ -95,7 +97,7 @@ def pixel(pixels: np.ndarray, figure, xy_display: tuple[float, float]) -> np.nda
 
 
 def test_the_cliff_cell_has_the_colour_bars_colour_for_minus_1000(mud_world, mud_fitted):
-    board = Board.of(mud_world)
+    board = Board.for_world(mud_world)
     with figure_style():
         figure = new_figure(3.0, 2.0)
         ax = figure.subplots()

@@ -114,7 +114,7 @@ def test_experiment_figures_of_a_hostile_world_draw_as_text():
 
     world = HOSTILE_WORLD
     result = ExperimentResult(figures=[
-        Figure("fig4-true-reward", HOSTILE, world, values=Board.of(world).rewards(world)),
+        Figure("fig4-true-reward", HOSTILE, world, values=Board.for_world(world).rewards(world)),
         Figure("fig3-optimal-policy", HOSTILE, world, policy={(0, 0): ("right", 2)}),
     ])
     for figure in result.figures:

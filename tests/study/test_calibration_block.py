@@ -54,7 +54,7 @@ def test_trials_are_recorded_in_the_first_file_and_practice_follows(tmp_path: Pa
         hold_to(block, clock, target - 1)  # an under-holder: one level short each time
     flow.calibration_ended()
     assert flow.calibration() is None, "the block is not asked twice"
-    following = flow.protocol.next
+    following = flow.protocol.next_block
     assert following is not None and following.phase == "practice" and following.done == 0
     assert flow.next_block() is not None
     flow.quit()

@@ -30,7 +30,7 @@ def test_an_empty_folder_starts_with_the_first_worlds_practice(study):
     assert not protocol.started and not protocol.problems
     assert blocks(protocol) == [(1, "practice", 0, 0, 0), (1, "main", 0, 0, 0),
                                 (0, "practice", 0, 0, 0), (0, "main", 0, 0, 0)]
-    nxt = protocol.next
+    nxt = protocol.next_block
     assert (nxt.position, nxt.world_index, nxt.phase, nxt.remaining) == (0, 1, "practice", 1)
     assert protocol.world(nxt).name == "mud"
     assert protocol.tag(nxt).model_dump() == {"name": "pilot", "participant": "p01", "phase": "practice",
@@ -43,7 +43,7 @@ def test_a_crash_mid_main_episode_replays_that_episode_only(study):
     write_block(study, "p01", 1, "main", name="b.jsonl", finished=2, then="crash")
     protocol = read_protocol(study, "p01")
     assert blocks(protocol)[:2] == [(1, "practice", 1, 0, 1), (1, "main", 2, 1, 3)]
-    nxt = protocol.next
+    nxt = protocol.next_block
     # One main episode is left; the new file numbers it 3, after the interrupted 2.
     assert (nxt.world_index, nxt.phase, nxt.remaining, nxt.next_episode) == (1, "main", 1, 3)
 
@@ -56,7 +56,7 @@ def test_a_quit_episode_is_not_done_and_the_next_world_follows_a_finished_one(st
     write_block(study, "p01", 1, "main", name="d.jsonl", first=4, finished=1)
     protocol = read_protocol(study, "p01")
     assert blocks(protocol)[1] == (1, "main", 3, 2, 5)
-    nxt = protocol.next
+    nxt = protocol.next_block
     assert (nxt.position, nxt.world_index, nxt.phase, nxt.remaining, nxt.next_episode) == (1, 0, "practice", 1, 0)
 
 
@@ -64,7 +64,7 @@ def test_an_interrupted_practice_episode_is_practised_again(study):
     write_block(study, "p01", 1, "practice", name="a.jsonl", finished=1)
     write_block(study, "p01", 1, "main", name="b.jsonl", finished=3)
     write_block(study, "p01", 0, "practice", name="c.jsonl", then="quit")
-    nxt = read_protocol(study, "p01").next
+    nxt = read_protocol(study, "p01").next_block
     assert (nxt.world_index, nxt.phase, nxt.remaining, nxt.next_episode) == (0, "practice", 1, 1)
 
 
@@ -74,7 +74,7 @@ def test_every_block_done_is_the_end(study):
     write_block(study, "p01", 0, "practice", name="c.jsonl", finished=1, then="crash")
     write_block(study, "p01", 0, "main", name="d.jsonl", finished=3)
     protocol = read_protocol(study, "p01")
-    assert protocol.finished and protocol.next is None
+    assert protocol.finished and protocol.next_block is None
     assert [b.remaining for b in protocol.blocks] == [0, 0, 0, 0]
 
 
@@ -104,7 +104,7 @@ def test_fixed_order_follows_the_file(tmp_path):
     write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
     write_block(study, "p01", 1, "practice", name="b.jsonl", finished=1)
     protocol = read_protocol(study, "p01")
-    assert (protocol.next.world_index, protocol.next.phase) == (1, "main")
+    assert (protocol.next_block.world_index, protocol.next_block.phase) == (1, "main")
     assert any("practice recording" in p for p in protocol.problems)
 
 

@@ -13,7 +13,7 @@ from irl_core.studies.study import load_study, read_protocol
 
 
 def test_the_browser_and_the_terminal_give_a_hold_the_same_level_by_default(web_study) -> None:
-    terminal = block_options(read_protocol(web_study, "p001"), read_protocol(web_study, "p001").next, "p001", None)
+    terminal = block_options(read_protocol(web_study, "p001"), read_protocol(web_study, "p001").next_block, "p001", None)
     app, tokens = web_app(web_study)
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
@@ -31,7 +31,7 @@ def test_a_study_file_chooses_the_scale_for_both(tmp_path) -> None:
     path.write_text(STUDY.format(practice=1, episodes=1) + "tap_ms = 200\nms_per_level = 100\n")
     study = load_study(path)
     protocol = read_protocol(study, "p001")
-    terminal = block_options(protocol, protocol.next, "p001", None).profile
+    terminal = block_options(protocol, protocol.next_block, "p001", None).profile
     assert terminal is not None and (terminal.tap_ms, terminal.ms_per_level) == (200.0, 100.0)
     app, tokens = web_app(study)
     with TestClient(app) as client:

@@ -94,7 +94,7 @@ def test_sigkill_mid_study_keeps_every_finished_step_and_the_participant_resumes
     assert len(steps) == 6
     study = load_study(study_path)
     protocol = read_protocol(study, "p001")
-    assert protocol.progress == (1, 2) and protocol.next.phase == "main"
+    assert protocol.progress == (1, 2) and protocol.next_block.phase == "main"
     again = Served(study_path)
     try:
         status, started = again.post("/api/start", {"token": token_of(study_path, "p001")})

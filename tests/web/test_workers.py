@@ -177,7 +177,7 @@ def test_a_seat_this_server_did_not_sign_is_never_unpickled(web_study, tmp_path)
     body = pickle.dumps({"page": "x", "session": Planted(), "tokens": 24.0, "at": 0.0, "played": True})
     seat_path(web_study, "p001").write_bytes(b"played\n-\n" + b"0" * 64 + b"\n" + body)
     seats = shared(web_study)
-    assert seats.heard("p001/x") is False
+    assert seats.keep_alive("p001/x") is False
     seat = claim(seats)  # no seat there: a new one
     assert seat is not None and not (tmp_path / "planted").exists()
 
@@ -204,10 +204,10 @@ def test_another_workers_sweep_releases_a_silent_page_and_records_its_episode_as
     seat = claim(first)
     begin_and_move(first, seat.page)
     second.release_silent()
-    assert first.heard(seat.page)  # heard from just now: kept
+    assert first.keep_alive(seat.page)  # heard from just now: kept
     now[0] += second.silent_s + 1
     second.release_silent()
-    assert not seat_path(web_study, "p001").exists() and not first.heard(seat.page)
+    assert not seat_path(web_study, "p001").exists() and not first.keep_alive(seat.page)
     lines = recorded_lines(web_study.participant_folder("p001"))
     assert [line["kind"] for line in lines] == ["session", "step", "episode_end"]
     assert lines[-1]["outcome"] == "quit"

@@ -30,7 +30,8 @@ class Board:
         return self.symbols.shape
 
     @classmethod
-    def of(cls, world: World) -> Board:
+    def for_world(cls, world: World) -> Board:
+        """`world`'s cells: its symbols, its walls and its terminal cells."""
         symbols = np.array([list(row) for row in world.grid], dtype="<U1")
         return cls(symbols=symbols, wall=symbols == WALL, terminal=np.isin(symbols, list(world.terminal)))
 

@@ -14,10 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, MaxNLocator
 
-from careful_tui.render.figures.style import OKABE_ITO, PANEL_WIDTH, figure_style, new_figure
+from careful_tui.render.figures.style import OKABE_ITO
 from irl_core.recordings.summary import distance_to_terminal
 from irl_core.worlds.mdp import MDP
 
@@ -141,16 +140,3 @@ def draw_carefulness(ax: Axes, series: Sequence[tuple[str, CarefulnessByDistance
     if series:
         ax.legend(title="mean ± 95% confidence interval", title_fontsize=6, loc="upper right")
 
-
-def carefulness_figure(series: Sequence[tuple[str, CarefulnessByDistance]], *, levels: int,
-                       title: str | None = None, width: float = PANEL_WIDTH) -> Figure:
-    """`draw_carefulness` as a figure of its own.
-
-    Args:
-        series: (label, data) per line, e.g. [("human", ...), ("optimal expert", ...)].
-        levels: L, the top of the y axis.
-    """
-    with figure_style():
-        figure = new_figure(width, width * 0.75)
-        draw_carefulness(figure.subplots(), series, levels=levels, title=title)
-    return figure

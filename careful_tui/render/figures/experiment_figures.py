@@ -30,7 +30,7 @@ def draw_experiment_figure(figure: Figure, result: ExperimentResult, *, rmax: fl
     Args:
         rmax: the bound the experiment's lp fits used: an identified set's axis runs to it.
     """
-    board = Board.of(figure.world)
+    board = Board.for_world(figure.world)
     separation = interval_result(figure, result)
     if separation is not None:
         rows = separation_rows(separation, figure, board)
@@ -64,7 +64,7 @@ def shared_scale(result: ExperimentResult) -> float:
     """
     heatmaps = [f for f in result.figures if interval_result(f, result) is None]
     grids = [f.values for f in heatmaps if f.values is not None]
-    grids += [Board.of(f.world).rewards(f.world) for f in heatmaps]
+    grids += [Board.for_world(f.world).rewards(f.world) for f in heatmaps]
     return reward_limit(*grids)
 
 

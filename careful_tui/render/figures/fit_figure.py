@@ -38,7 +38,7 @@ from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figur
 from careful_tui.render.figures.timing import draw_holds, draw_slip_curve
 from careful_tui.render.intervals import interval_title
 from irl_core.irl import FitResult
-from irl_core.support.words import plural
+from irl_core.support.plural import plural
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
 MAX_INTERVAL_ROWS = 24
@@ -99,7 +99,7 @@ def player_line(result: FitResult) -> list[str]:
 def fit_figure(result: FitResult) -> Figure:
     """The fitted reward beside the true one; the demonstrated policy and carefulness; the intervals."""
     world, mdp = result.world, result.mdp
-    board = Board.of(world)
+    board = Board.for_world(world)
     rows, cols = board.shape
     rewards = [(f"fitted reward ({result.method} point estimate)", result.reward_grid)]
     if world.rewards:

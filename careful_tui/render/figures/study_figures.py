@@ -26,7 +26,7 @@ from careful_tui.render.figures.small_multiples import carefulness_multiples, re
 from careful_tui.render.figures.style import plain, symbol_label
 from irl_core.recordings.writer import slug
 from irl_core.studies.report import POOLED, CellFit, StudyData
-from irl_core.support.words import plural
+from irl_core.support.plural import plural
 
 
 def world_key(data: StudyData, world_index: int) -> str:
@@ -48,7 +48,7 @@ def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figu
     figures = []
     for world_index, world in enumerate(data.study.worlds):
         mine = [(cell, fit) for cell, fit in zip(data.cells, fits) if cell.world_index == world_index]
-        board = Board.of(world)
+        board = Board.for_world(world)
         key = world_key(data, world_index)
         name = plain(world.name)
         panels = [("true (world file)", board.rewards(world))] if world.rewards else []

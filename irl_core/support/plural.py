@@ -1,4 +1,4 @@
-"""Words for messages: a count with its noun ("1 episode", "2 episodes"), for the core and the terminal alike."""
+"""A count with its noun for messages ("1 episode", "2 episodes"), for the core and the terminal alike."""
 
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ from play_fixtures import FakeClock
 
 from irl_core.play.calibration import Calibration
 from irl_core.play.hold import ActiveHold, Hold, HoldDetector, HoldProfile
-from irl_core.play.input_modes import make_input
+from irl_core.play.input_modes import input_mode
 from irl_core.play.modes import DigitsInput, TapCounter
 
 
@@ -83,20 +83,16 @@ def test_level_is_capped_at_the_worlds_levels() -> None:
     levels=st.integers(1, 20),
     data=st.data(),
 )
-def test_hold_ms_for_is_the_shortest_hold_for_each_level(
+def test_each_level_starts_where_the_profiles_table_says(
     delay: float, per_level: float, levels: int, data: st.DataObject
 ) -> None:
     profile = HoldProfile(initial_delay_ms=delay, ms_per_level=per_level, levels=levels)
     level = data.draw(st.integers(1, levels))
-    shortest = profile.hold_ms_for(level)
+    # The table: level 1 below T, then level k from T + (k - 2) m.
+    shortest = 0.0 if level == 1 else profile.tap_ms + (level - 2) * profile.ms_per_level
     assert profile.level_for(shortest) == level
     if level > 1:
         assert profile.level_for(shortest - 0.01) == level - 1
-
-
-def test_hold_ms_for_rejects_levels_outside_the_scale() -> None:
-    with pytest.raises(ValueError, match="1..14"):
-        HoldProfile().hold_ms_for(15)
 
 
 def test_profile_rejects_nonsense() -> None:
@@ -466,8 +462,8 @@ def test_digits_show_the_pending_level_and_time_the_move(clock: FakeClock) -> No
 @pytest.mark.parametrize(
     ("mode", "kind"), [("hold", HoldDetector), ("tap", TapCounter), ("digits", DigitsInput)]
 )
-def test_make_input_builds_each_mode(mode: str, kind: type) -> None:
-    made = make_input(mode, HoldProfile(), clock=FakeClock(0.0))
+def test_the_registry_builds_each_mode(mode: str, kind: type) -> None:
+    made = input_mode(mode).make(HoldProfile(), FakeClock(0.0))
     assert isinstance(made, kind)
     header = made.header()
     assert header["mode"] == mode
@@ -475,15 +471,10 @@ def test_make_input_builds_each_mode(mode: str, kind: type) -> None:
     assert made.release("up") == []
 
 
-def test_make_input_rejects_unknown_modes() -> None:
-    with pytest.raises(ValueError, match="use one of hold, tap, digits"):
-        make_input("joystick", HoldProfile())
-
-
 def test_every_mode_commits_the_same_kind_of_move() -> None:
     for mode in ("hold", "tap", "digits"):
         clock = FakeClock(0.0)
-        made = make_input(mode, HoldProfile(), clock=clock)
+        made = input_mode(mode).make(HoldProfile(), clock)
         done = made.press("up")
         clock.now = 10.0
         done += made.poll()
