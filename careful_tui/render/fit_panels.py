@@ -16,7 +16,7 @@ from careful_tui.render.grid import format_value
 from careful_tui.render.intervals import IntervalChart, interval_readings
 from careful_tui.render.palette import WARN
 from irl_core.irl import FitOptions, FitResult
-from irl_core.irl.fit_methods import METHODS
+from irl_core.irl.choices import METHODS
 from irl_core.worlds.world import World
 
 

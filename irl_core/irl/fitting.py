@@ -265,13 +265,13 @@ def _infeasible(exc: InfeasibleError, qmap: QMap, demos: Demonstrations, options
 def _stopping(progress: Progress | None, stop: Callable[[], bool]) -> Progress:
     """`progress` that first raises `Stopped` once `stop()` says so."""
 
-    def heard(stage: str, done: int, total: int | None) -> None:
+    def stop_or_report(stage: str, done: int, total: int | None) -> None:
         if stop():
             raise Stopped()
         if progress is not None:
             progress(stage, done, total)
 
-    return heard
+    return stop_or_report
 
 
 

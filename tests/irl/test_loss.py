@@ -8,13 +8,21 @@ import pytest
 
 from careful_tui.option_words import said
 from irl_core.irl import fit
-from irl_core.irl.loss.model import loss_constraints, loss_problem, loss_value, relu_terms
+from irl_core.irl.loss.model import loss_constraints, loss_problem, relu_terms
 from irl_core.irl.loss.solve import fit_loss
-from irl_core.irl.qmap import build_qmap, build_unknowns
+from irl_core.irl.qmap import QMap, build_qmap, build_unknowns
 from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.worlds.mdp import action_index, build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS
+
+
+def loss_value(qmap: QMap, frequencies: np.ndarray, x: np.ndarray, *, lam: float = 0.0) -> float:
+    """L(R_S) at x = [theta; V], evaluated directly with numpy."""
+    z = relu_terms(qmap, frequencies, x)
+    theta, _ = qmap.split(x)
+    return float(np.exp(np.maximum(z, 0.0)).sum() + lam * qmap.unknowns.weight @ np.abs(theta))
+
 
 
 def demonstrations(name, policy, episodes, seed):

@@ -7,15 +7,35 @@ import numpy as np
 import pytest
 
 from bench.worlds import cliff_world
-from irl_core.irl.choices import PLAYER_MODELS
+from irl_core.irl.choices import PLAYER_MODELS, Player, PlayerModel
 from irl_core.irl.people.fit import fit_player
-from irl_core.irl.people.held import BOUND_STEPS, FLAT_DROP, held_upper_bounds, unreached
+from irl_core.irl.people.held import BOUND_STEPS, FLAT_DROP, bound_groups, bounds_of, unreached, upper_bound
 from irl_core.irl.people.likelihood import log_likelihood
-from irl_core.irl.qmap import build_unknowns
+from irl_core.irl.qmap import Unknowns, build_unknowns
 from irl_core.players.experts import boltzmann_policy, demonstrations_of, rollouts
-from irl_core.worlds.mdp import build_mdp
+from irl_core.support.executor import map_calls
+from irl_core.worlds.mdp import MDP, build_mdp
 
 RMAX = 1000.0
+
+
+def held_upper_bounds(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, model: PlayerModel,
+                      player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None,
+                      workers: int = 1) -> np.ndarray:
+    """(k,) for each held unknown (`held`, at -rmax in `theta`), the highest value to which it can be raised, the
+    others kept, before the log likelihood falls by `FLAT_DROP` (NaN elsewhere): its interval is [-rmax, that].
+
+    One by one up to `MAX_ONE_BY_ONE` held unknowns (on up to `workers` processes); beyond, all together (a common
+    bound, at most as high as each's own: the interval is then narrower than one by one would give, said by
+    `jointly`)."""
+    counts = np.asarray(counts, dtype=float)
+    groups = bound_groups(held)
+    fitted = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player, V0=V0,
+                            gradient=False)
+    shared = (mdp, unknowns, counts, theta, model, player, rmax, fitted.value, fitted.plan.V)
+    bounds = map_calls(upper_bound, [(group,) for group in groups], shared=shared, workers=workers)
+    return bounds_of(unknowns.k, groups, bounds)
+
 
 
 @pytest.fixture(scope="module")

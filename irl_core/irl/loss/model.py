@@ -210,10 +210,3 @@ def relu_terms(qmap: QMap, frequencies: np.ndarray, x: np.ndarray) -> np.ndarray
     rival[rows, best] = Q[rows, second]
     shown = pi.sum(axis=1) > 0
     return (pi * (rival - Q)).sum(axis=1)[shown]
-
-
-def loss_value(qmap: QMap, frequencies: np.ndarray, x: np.ndarray, *, lam: float = 0.0) -> float:
-    """L(R_S) at x = [theta; V], evaluated directly with numpy."""
-    z = relu_terms(qmap, frequencies, x)
-    theta, _ = qmap.split(x)
-    return float(np.exp(np.maximum(z, 0.0)).sum() + lam * qmap.unknowns.weight @ np.abs(theta))

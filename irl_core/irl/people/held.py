@@ -5,7 +5,7 @@ Lowering it only makes unrecorded actions, those that risk the cell, less likely
 toward a limit as it falls and its maximum within the box is at -rmax: the fit holds it there
 (`fit.fit_player`, which frees it again if the gradient there says otherwise) instead of walking
 L-BFGS-B down a flat direction until its iteration limit (issue 32: a 24x24 world's fit "not converged in
-124.9 s", its cliff cells left wherever the walk stopped, an agent falling 11%). `held_upper_bounds` then
+124.9 s", its cliff cells left wherever the walk stopped, an agent falling 11%). `people_checks` then
 says how high each held reward can be before the data object: its interval is [-rmax, that bound].
 """
 
@@ -18,7 +18,6 @@ from irl_core.irl.choices import Player, PlayerModel
 from irl_core.irl.notes import Note
 from irl_core.irl.people.likelihood import log_likelihood
 from irl_core.irl.qmap import Unknowns
-from irl_core.support.executor import map_calls
 from irl_core.worlds.mdp import MDP
 
 # A reward moved to its bound whose log likelihood falls by less than this (chi-square(1) at 95%, halved)
@@ -39,26 +38,8 @@ def unreached(mdp: MDP, unknowns: Unknowns, counts: np.ndarray) -> np.ndarray:
 BOUND_STEPS = 12
 
 
-def held_upper_bounds(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, *, theta: np.ndarray, model: PlayerModel,
-                      player: Player, held: np.ndarray, rmax: float, V0: np.ndarray | None = None,
-                      workers: int = 1) -> np.ndarray:
-    """(k,) for each held unknown (`held`, at -rmax in `theta`), the highest value to which it can be raised, the
-    others kept, before the log likelihood falls by `FLAT_DROP` (NaN elsewhere): its interval is [-rmax, that].
-
-    One by one up to `MAX_ONE_BY_ONE` held unknowns (on up to `workers` processes); beyond, all together (a common
-    bound, at most as high as each's own: the interval is then narrower than one by one would give, said by
-    `jointly`)."""
-    counts = np.asarray(counts, dtype=float)
-    groups = bound_groups(held)
-    fitted = log_likelihood(mdp, counts, unknowns.state_rewards(theta), model=model, player=player, V0=V0,
-                            gradient=False)
-    shared = (mdp, unknowns, counts, theta, model, player, rmax, fitted.value, fitted.plan.V)
-    bounds = map_calls(upper_bound, [(group,) for group in groups], shared=shared, workers=workers)
-    return bounds_of(unknowns.k, groups, bounds)
-
-
 def bound_groups(held: np.ndarray) -> list[list[int]]:
-    """The unknowns `held_upper_bounds` bounds together: each held one alone, or all in one group beyond
+    """The unknowns the held bounds (`people_checks`) bound together: each held one alone, or all in one group beyond
     `MAX_ONE_BY_ONE`."""
     indices = [int(j) for j in np.flatnonzero(held)]
     return [[j] for j in indices] if len(indices) <= MAX_ONE_BY_ONE else [indices]
@@ -93,7 +74,7 @@ def upper_bound(mdp: MDP, unknowns: Unknowns, counts: np.ndarray, theta: np.ndar
 
 
 def jointly(held: np.ndarray) -> bool:
-    """Whether `held_upper_bounds` bounded the held unknowns together rather than one by one."""
+    """Whether the held bounds (`people_checks`) bounded the held unknowns together rather than one by one."""
     return int(np.sum(held)) > MAX_ONE_BY_ONE
 
 
