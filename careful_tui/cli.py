@@ -28,12 +28,12 @@ from careful_tui.arguments import (
     seed_int,
     text_argument,
 )
-from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError, missing_extra, missing_extra_line
+from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, missing_extra, missing_extra_line
 from careful_tui.version import app_version
+from irl_core.errors import InputError, OutputError, UsageError
 from irl_core.irl.player_models import LEVEL_MODELS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
-from irl_core.support.safe_files import InputError, OutputError
 from irl_core.support.safe_text import one_line
 
 

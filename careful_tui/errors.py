@@ -8,11 +8,9 @@ from __future__ import annotations
 
 import sys
 
+from irl_core.errors import UsageError
+
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
-
-
-class UsageError(Exception):
-    """Bad input found after parsing (a value out of range, a file that exists): exit 2."""
 
 
 def require_terminal(command: str) -> None:
