@@ -41,8 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from bench.option_values import name_and_value
+from irl_core.errors import FitError
 from irl_core.irl import FitOptions, fit
-from irl_core.irl.result import FitError
 from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import demonstrations_of, rollouts
 from irl_core.players.person_like import LEVEL_KINDS, motor_trials, person_like

@@ -1,8 +1,8 @@
 """The `careful` command line (docs/index.md).
 
-Exit status: 0 success; 2 bad usage or bad input (one message on stderr, no traceback);
-1 anything else. Heavy modules (Textual, cvxpy) are imported only by the commands that
-need them, so `careful worlds` and `careful --help` answer at once.
+Exit status: 0 success; 2 bad usage or bad input (argparse's, or any `irl_core.errors.InputError`:
+one message on stderr, no traceback); 1 anything else. Heavy modules (Textual, cvxpy) are imported
+only by the commands that need them, so `careful worlds` and `careful --help` answer at once.
 """
 
 from __future__ import annotations
@@ -28,12 +28,12 @@ from careful_tui.arguments import (
     seed_int,
     text_argument,
 )
-from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError, missing_extra, missing_extra_line
+from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, missing_extra, missing_extra_line
 from careful_tui.version import app_version
+from irl_core.errors import InputError
 from irl_core.irl.choices import DEFAULT_POOL_MODEL, LEVEL_MODELS, POOL_MODELS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
-from irl_core.support.safe_files import InputError, OutputError
 from irl_core.support.safe_text import one_line
 
 
@@ -316,7 +316,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         return COMMANDS[args.command](args) or EXIT_OK
-    except (UsageError, InputError, OutputError) as exc:
+    except InputError as exc:  # careful refused the input (a UsageError, an OutputError, a bad file, ...)
         say("", str(exc))
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:

@@ -1,18 +1,17 @@
-"""What a command tells the shell: exit codes, and the error for bad input found after parsing.
+"""What a command tells the shell: exit codes, and what to say of a missing extra or terminal.
 
-Commands raise `UsageError` and return the exit codes; `careful_tui.cli` turns them into one
-line on stderr. Commands import this module, never `cli`, so imports run one way.
+Commands raise `UsageError` (`irl_core.errors`, with every other error of careful) and return the
+exit codes; `careful_tui.cli` turns any `InputError` (a `UsageError` is one) into one line on stderr
+and exit 2. Commands import this module, never `cli`, so imports run one way.
 """
 
 from __future__ import annotations
 
 import sys
 
+from irl_core.errors import UsageError
+
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
-
-
-class UsageError(Exception):
-    """Bad input found after parsing (a value out of range, a file that exists): exit 2."""
 
 
 def require_terminal(command: str) -> None:

@@ -16,8 +16,8 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
 
-from careful_tui.errors import UsageError
 from careful_tui.render.grid import WorldGrid, action_label, format_value, symbol_legend
+from irl_core.errors import UsageError
 from irl_core.experiment.run import FULL, NOISY_CONFIDENCE, QUICK, ExperimentResult, Figure, interval_caption
 from irl_core.experiment.run import run_experiment as run_stages
 from irl_core.irl import FitOptions

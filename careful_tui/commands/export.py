@@ -15,8 +15,8 @@ from rich.progress import Progress
 from rich.text import Text
 
 from careful_tui.commands.notices import warn
-from careful_tui.errors import UsageError
 from careful_tui.version import app_version
+from irl_core.errors import UsageError
 from irl_core.recordings.demonstrations import Recording, read_recording
 from irl_core.recordings.export import (
     check_dataset_id,

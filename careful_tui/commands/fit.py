@@ -24,10 +24,11 @@ import irl_core.irl.choices as choices
 from careful_tui.arguments import options_from_args
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.commands.reading import read_with_progress
-from careful_tui.errors import EXIT_FAILURE, EXIT_OK, UsageError
+from careful_tui.errors import EXIT_FAILURE, EXIT_OK
 from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import fit_page_svg, print_fit
+from irl_core.errors import UsageError
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.plural import plural

@@ -10,9 +10,10 @@ from rich.console import Console
 
 from careful_tui.app import make_play_app
 from careful_tui.commands.notices import ignored, warn
-from careful_tui.errors import UsageError, require_terminal
+from careful_tui.errors import require_terminal
 from careful_tui.keys.kitty import KittyDriver
 from careful_tui.keys.probe import reports_key_releases
+from irl_core.errors import UsageError
 from irl_core.play.input_modes import INPUT_MODES, input_mode
 from irl_core.recordings.writer import SessionRecorder, check_writable
 from irl_core.support.safe_text import printable

@@ -11,9 +11,10 @@ from rich.console import Console
 from careful_tui.app import make_replay_app
 from careful_tui.commands.notices import warn
 from careful_tui.commands.reading import read_with_progress
-from careful_tui.errors import UsageError, require_terminal
+from careful_tui.errors import require_terminal
 from careful_tui.keys.kitty import PassiveKittyDriver
-from irl_core.recordings.demonstrations import Recording, RecordingError
+from irl_core.errors import RecordingError, UsageError
+from irl_core.recordings.demonstrations import Recording
 from irl_core.support.safe_text import printable
 
 

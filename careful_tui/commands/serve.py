@@ -7,9 +7,9 @@ import re
 import signal
 import socket
 
-from careful_tui.errors import UsageError
+from irl_core.errors import LinksError, StudyError, UsageError
 from irl_core.recordings.writer import check_writable
-from irl_core.studies.study import LoadedStudy, StudyError, load_study
+from irl_core.studies.study import LoadedStudy, load_study
 from irl_core.support.safe_files import write_problem
 from irl_core.support.safe_text import printable
 
@@ -23,7 +23,7 @@ def say(line: str) -> None:
 
 def run_serve(args: argparse.Namespace) -> int:
     """`careful serve STUDY.toml [--host H] [--port N] [--links N] [--completion-code CODE] [--workers N]`."""
-    from careful_tui.web.links import MOST_LINKS, LinksError, add_links, read_links
+    from careful_tui.web.links import MOST_LINKS, add_links, read_links
     from careful_tui.web.server import make_app
     from careful_tui.web.workers import most_workers
 

@@ -11,8 +11,9 @@ from rich.progress import Progress
 from rich.text import Text
 
 from careful_tui.commands.notices import ignored, warn
-from careful_tui.errors import EXIT_OK, UsageError
-from irl_core.players.experts import Chooser, NotConverged, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
+from careful_tui.errors import EXIT_OK
+from irl_core.errors import NotConverged, UsageError
+from irl_core.players.experts import Chooser, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
 from irl_core.players.person_like import KINDS, person_like
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output

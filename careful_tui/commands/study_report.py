@@ -20,10 +20,11 @@ from rich.table import Table
 from rich.text import Text
 
 import irl_core.irl.choices as choices
-from careful_tui.errors import EXIT_OK, UsageError
+from careful_tui.errors import EXIT_OK
 from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
+from irl_core.errors import SchedulerError, StudyError, UsageError
 from irl_core.irl import at_bound
 from irl_core.irl.notes import CODES
 from irl_core.irl.options import FitOptions
@@ -39,9 +40,9 @@ from irl_core.studies.report import (
     report_rows,
     report_symbols,
 )
-from irl_core.studies.study import Exclusions, LoadedStudy, StudyError, load_study, world_files
+from irl_core.studies.study import Exclusions, LoadedStudy, load_study, world_files
 from irl_core.support.csv_cells import csv_text
-from irl_core.support.executor import Executor, SchedulerError, close, scheduler
+from irl_core.support.executor import Executor, close, scheduler
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output_folder, write_output
 from irl_core.support.safe_text import printable

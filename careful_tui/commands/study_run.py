@@ -8,11 +8,12 @@ import sys
 
 from careful_tui.app import make_study_app
 from careful_tui.commands.play import say_recorded, time_world_playable, write_problem
-from careful_tui.errors import UsageError, require_terminal
+from careful_tui.errors import require_terminal
 from careful_tui.keys.kitty import KittyDriver
+from irl_core.errors import StudyError, UsageError
 from irl_core.recordings.writer import check_writable
 from irl_core.studies.participant_lock import participant_lock
-from irl_core.studies.study import LoadedStudy, StudyError, check_participant, load_study, read_protocol
+from irl_core.studies.study import LoadedStudy, check_participant, load_study, read_protocol
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
 

@@ -47,12 +47,13 @@ from careful_tui.render.session import legend
 from careful_tui.widgets import Board, KeyBar
 from careful_tui.widgets.board import MIN_CELL
 from careful_tui.widgets.too_small import TooSmall
+from irl_core.errors import OutputError
 from irl_core.irl import FitError, FitOptions, FitResult, InfeasibleError, Stopped, fit
 from irl_core.irl.choices import METHODS
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.recordings.writer import slug
 from irl_core.support.plural import plural
-from irl_core.support.safe_files import OutputError, write_output
+from irl_core.support.safe_files import write_output
 from irl_core.support.safe_text import printable
 
 # Board cells in the fit view: 3 lines (symbol, value, label), 7 to this many characters wide.

@@ -22,7 +22,8 @@ import os
 import re
 import secrets
 
-from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+from irl_core.errors import LinksError, StudyError
+from irl_core.studies.study import LoadedStudy, check_participant
 from irl_core.support.safe_files import built_beside, write_problem
 from irl_core.support.safe_text import printable
 
@@ -35,10 +36,6 @@ _NUMBERED = re.compile(r"p(\d+)")
 _TOKEN = re.compile(r"[A-Za-z0-9_-]{16,64}")
 # Prolific's study and session ids: 24 hex digits today; anything like a name of at most 80 is taken.
 _PROLIFIC_ID = re.compile(r"[A-Za-z0-9_.=-]{1,80}")
-
-
-class LinksError(ValueError):
-    """links.csv cannot be read or written; the message is one line naming the file (and line)."""
 
 
 def link_path(token: str) -> str:

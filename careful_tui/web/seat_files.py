@@ -54,12 +54,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from careful_tui.web.seats import ADDRESS_SEATS, MOST_SEATS, SILENT_S, KeyBudget, Seat, SeatRefused
+from careful_tui.web.seats import ADDRESS_SEATS, MOST_SEATS, SILENT_S, KeyBudget, Seat
 from careful_tui.web.session_adapter import WebSession, browser_study
+from irl_core.errors import ParticipantBusy, SeatRefused, SeatUnavailable, StudyError
 from irl_core.play.input_modes import InputMode, input_mode
 from irl_core.recordings.writer import RecordingWriter
-from irl_core.studies.participant_lock import SEAT_PLAYED, ParticipantBusy, participant_lock, seat_path
-from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+from irl_core.studies.participant_lock import SEAT_PLAYED, participant_lock, seat_path
+from irl_core.studies.study import LoadedStudy, check_participant
 
 PAGE_HOLDER = "careful serve (a browser page)"
 ADDRESS_FILE = ".pages-by-address"
@@ -67,15 +68,6 @@ ADDRESS_FILE = ".pages-by-address"
 LOCK_WAIT_S = 5.0
 _OPEN, _FREE = b"open\n", b"free\n"
 _HEADER_BYTES = 200
-
-
-class SeatUnavailable(StudyError):
-    """A request's seat cannot be read: another session holds the participant (`cause` is
-    `ParticipantBusy`), or the lock or the seat file cannot be made (a full disk)."""
-
-    def __init__(self, participant: str, cause: Exception) -> None:
-        super().__init__(str(cause))
-        self.participant, self.cause = participant, cause
 
 
 @dataclass
@@ -120,7 +112,7 @@ class SharedSeats:
         Raises:
             SeatRefused: the address opened too many seats of late (429), or every seat is taken (503).
             irl_core.studies.participant_lock.ParticipantBusy: another session plays the participant.
-            irl_core.studies.study.StudyError, OSError: the lock or the seat file cannot be made.
+            irl_core.errors.StudyError, OSError: the lock or the seat file cannot be made.
         """
         with self._locked(participant):
             record, seen, writers = self._read(participant)

@@ -33,6 +33,7 @@ from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 
 from careful_tui.web.session_adapter import WebSession
+from irl_core.errors import SeatRefused
 from irl_core.studies.participant_lock import SEAT_FRESH_S
 
 # A hidden tab's timers may run once a minute (Chrome's intensive throttling): its heartbeat still arrives.
@@ -51,14 +52,6 @@ def seat_limit() -> int:
     # Half the room for seats, half for connections (`careful_tui.commands.serve.connection_limit`).
     room = MOST_SEATS if soft == resource.RLIM_INFINITY else (soft - FILES_KEPT) // (2 * FILES_PER_SEAT)
     return max(1, min(MOST_SEATS, room))
-
-
-class SeatRefused(Exception):
-    """No seat for this page: `status` and a sentence for the participant."""
-
-    def __init__(self, status: int, why: str) -> None:
-        super().__init__(why)
-        self.status, self.why = status, why
 
 
 class KeyBudget:
@@ -107,7 +100,7 @@ class Seat:
 
         Raises:
             irl_core.studies.participant_lock.ParticipantBusy: another session took it meanwhile.
-            irl_core.studies.study.StudyError: it cannot be made (a full disk).
+            irl_core.errors.StudyError: it cannot be made (a full disk).
         """
         if not self.locked:
             self.held.enter_context(self.hold())

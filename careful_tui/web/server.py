@@ -55,12 +55,13 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from careful_tui.web.links import prolific_ids
-from careful_tui.web.seat_files import SeatUnavailable, SharedSeats
-from careful_tui.web.seats import Seat, SeatRefused, Seats
-from careful_tui.web.session_adapter import KeyRefused, WebSession
+from careful_tui.web.seat_files import SharedSeats
+from careful_tui.web.seats import Seat, Seats
+from careful_tui.web.session_adapter import WebSession
+from irl_core.errors import BodyTooLarge, BodyTooSlow, KeyRefused, ParticipantBusy, SeatRefused, SeatUnavailable, StudyError
 from irl_core.recordings.lines import ProlificTag
-from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
-from irl_core.studies.study import LoadedStudy, StudyError
+from irl_core.studies.participant_lock import participant_lock
+from irl_core.studies.study import LoadedStudy
 from irl_core.support.safe_text import printable
 
 MAX_BODY = 2048
@@ -76,14 +77,6 @@ SECURITY_HEADERS = {
     "x-frame-options": "DENY",
 }
 KEY_TYPES = ("press", "release", "cancel", "space", "quit")
-
-
-class BodyTooLarge(Exception):
-    pass
-
-
-class BodyTooSlow(Exception):
-    pass
 
 
 class SecurityHeaders:

@@ -43,6 +43,7 @@ from typing import Any
 from careful_tui.render.grid import SYMBOL_NAMES, format_chance, format_value
 from careful_tui.render.session import outcome_text
 from careful_tui.version import app_version
+from irl_core.errors import KeyRefused
 from irl_core.play.game import level_costs, level_slip_chances
 from irl_core.play.hold import HoldProfile
 from irl_core.play.motor_block import MOTOR_INTRO, MOTOR_TITLE, MotorBlock, result_words
@@ -84,10 +85,6 @@ def input_header(profile: HoldProfile, user_agent: str) -> dict[str, object]:
 class _Held:
     key: str
     at_ms: float
-
-
-class KeyRefused(ValueError):
-    """A key event the session cannot take (an unknown key, a time that is not a number)."""
 
 
 class WebSession:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from irl_core.errors import RecordingError
 from irl_core.experiment.claims import RECOVERED, SYMBOL_WORDS, Claim, paper_claims
 from irl_core.experiment.stage_results import Estimate, Separation
 from irl_core.irl.fitting import fit
@@ -38,7 +39,7 @@ from irl_core.players.experts import (
     optimal_policy,
     rollouts,
 )
-from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recordings.demonstrations import Demonstrations, read_recording
 from irl_core.worlds.mdp import MDP, action_parts, build_mdp
 from irl_core.worlds.planning import value_iteration
 from irl_core.worlds.world import BUILTIN_WORLDS, Cell, World

@@ -1,4 +1,4 @@
-"""The one result of every fit, and the errors a fit can end with.
+"""The one result of every fit (the errors a fit can end with are in `irl_core.errors`, and importable here).
 
 A `FitResult` holds what `careful fit` shows and writes: the fitted reward on the grid,
 which cells were fitted, their intervals, the demonstrated policy, how much was read,
@@ -13,10 +13,12 @@ from typing import Any, overload
 
 import numpy as np
 
+# The errors a fit ends with, importable here as before (`irl_core.irl` exports them from here).
+from irl_core.errors import BadInputError, FitError, InfeasibleError, SolverError  # noqa: F401
 from irl_core.irl.choices import Player
 from irl_core.irl.evaluation import Evaluation
 from irl_core.irl.fit_check import FitCheck
-from irl_core.irl.notes import Note, worded
+from irl_core.irl.notes import Note
 from irl_core.irl.options import DEFAULT_BETA, FitOptions
 from irl_core.irl.qmap import Unknowns
 from irl_core.irl.timing.slip_curve import SlipCurve
@@ -42,48 +44,6 @@ def at_bound(value: float | np.ndarray, rmax: float) -> bool | np.ndarray:
     """Whether `value` (elementwise for an array) lies at the ±rmax box: there the bound, not the
     demonstrations, set it. The one test of it: fits, readings, captions and figures all ask here."""
     return np.abs(value) >= rmax * (1 - AT_BOUND_TOLERANCE)
-
-
-class FitError(RuntimeError):
-    """A fit that produced no reward: a stable `code` and one sentence for the user, with the
-    options it names written as in `Note` (`str()` says them as `fit`'s parameters, `worded` as
-    a front end's). Each subclass has a default code; a raise may give a finer one."""
-
-    code = "fit_failed"
-
-    def __init__(self, sentence: str, *, code: str | None = None) -> None:
-        super().__init__(sentence)
-        self.sentence = sentence
-        if code is not None:
-            self.code = code
-
-    def __str__(self) -> str:
-        return worded(self.sentence)
-
-    def __reduce__(self):  # a study report's worker sends it back: keep the code
-        return _rebuilt, (type(self), self.sentence, self.code)
-
-
-def _rebuilt(kind: type[FitError], sentence: str, code: str) -> FitError:
-    return kind(sentence, code=code)
-
-
-class BadInputError(FitError):
-    """Demonstrations that cannot be fitted as given: the user's to fix (exit 2)."""
-
-    code = "bad_input"
-
-
-class InfeasibleError(BadInputError):
-    """No reward satisfies the constraints: the demonstrations or the bound are at fault."""
-
-    code = "infeasible"
-
-
-class SolverError(FitError):
-    """The solver failed or gave up (exit 1)."""
-
-    code = "solver_failed"
 
 
 @dataclass(frozen=True)

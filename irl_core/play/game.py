@@ -30,6 +30,7 @@ from typing import Literal, Protocol
 
 import numpy as np
 
+from irl_core.errors import GameOver
 from irl_core.recordings.lines import EpisodeEnd, Step
 from irl_core.worlds.mdp import DIRECTIONS, MDP, action_index, build_mdp
 from irl_core.worlds.world import Cell, World
@@ -76,10 +77,6 @@ def level_slip_chances(world: World) -> list[float]:
     With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0.
     """
     return list(world.slip_chances)
-
-
-class GameOver(RuntimeError):
-    """A move was asked for when no episode is running (a programmer's error)."""
 
 
 class Game:

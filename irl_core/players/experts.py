@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from irl_core.errors import NotConverged
 from irl_core.recordings.demonstrations import Demonstrations, EpisodeFacts, episode_matrix, hold_steps
 from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.writer import RecordingWriter
@@ -30,10 +31,6 @@ from irl_core.worlds.planning import Plan, soft_value_iteration, value_iteration
 # Simulated sessions are a function of (world, policy, seed): their header carries this
 # fixed time so that the same seed writes the same bytes.
 SIMULATED_AT = datetime(2000, 1, 1, tzinfo=UTC)
-
-
-class NotConverged(ValueError):
-    """Value iteration stopped at its cap before converging: its policy is not the expert asked for."""
 
 
 def _converged(plan: Plan, what: str, gamma: float) -> np.ndarray:

@@ -22,25 +22,15 @@ import numpy as np
 import scipy.sparse as sp
 from pydantic import Field, TypeAdapter, ValidationError
 
+from irl_core.errors import EmptyRecording, Mismatch, RecordingError
 from irl_core.recordings.end_table import EndTable
-from irl_core.recordings.line_checks import LineChecker, Mismatch
+from irl_core.recordings.line_checks import LineChecker
 from irl_core.recordings.lines import SCHEMA_VERSION, CalibrationTrial, EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.step_table import StepTable
-from irl_core.support.safe_files import InputError, open_regular, read_problem
-from irl_core.support.safe_text import VALUE_LIMIT, cut, printable
+from irl_core.support.safe_files import open_regular, read_problem
+from irl_core.support.safe_text import VALUE_LIMIT, printable
 from irl_core.worlds.mdp import MDP, build_mdp
 from irl_core.worlds.world import World, field_path
-
-
-class RecordingError(InputError):
-    """A recording that cannot be used. `str()` is `file:line: field: problem`."""
-
-    def __init__(self, path: str | Path, line: int | None, field: str | None, problem: str):
-        self.path, self.line, self.field, self.problem = str(path), line, field, problem
-        where = cut(self.path, 200) if line is None else f"{cut(self.path, 200)}:{line}"
-        field = None if field is None else cut(field, VALUE_LIMIT)
-        super().__init__(f"{where}: {field}: {problem}" if field else f"{where}: {problem}")
-
 
 _BODY = TypeAdapter(Annotated[Step | EpisodeEnd | CalibrationTrial, Field(discriminator="kind")])
 
@@ -50,10 +40,6 @@ _BODY = TypeAdapter(Annotated[Step | EpisodeEnd | CalibrationTrial, Field(discri
 # A longer line is refused before it is parsed (a header with the largest allowed world is far shorter).
 MAX_LINE_BYTES = 64 << 20
 _BOM = b"\xef\xbb\xbf"
-
-
-class EmptyRecording(RecordingError):
-    """A recording without a single line (what a failed first write used to leave)."""
 
 
 @dataclass

@@ -38,7 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from irl_core.recordings.demonstrations import Recording, RecordingError
+from irl_core.errors import RecordingError
+from irl_core.recordings.demonstrations import Recording
 from irl_core.recordings.lines import Step
 from irl_core.support.csv_cells import csv_writer, header, text_cell
 from irl_core.support.safe_files import built_beside, rename_no_replace, sync_tree, temporary_name

@@ -14,18 +14,11 @@ into `file:line: field: problem`.
 
 from __future__ import annotations
 
+from irl_core.errors import Mismatch
 from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, Step
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
 from irl_core.worlds.mdp import DIRECTIONS, MDP
-
-
-class Mismatch(ValueError):
-    """A line that disagrees with the world or the lines before it: its number, field and problem."""
-
-    def __init__(self, line: int, field: str, problem: str):
-        super().__init__(f"{line}: {field}: {problem}")
-        self.line, self.field, self.problem = line, field, problem
 
 
 class LineChecker:

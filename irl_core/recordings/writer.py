@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable
 from datetime import datetime
 from pathlib import Path
 
+from irl_core.errors import RecordingLost
 from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, SessionHeader, Step, _Line
 
 BodyLine = Step | EpisodeEnd | CalibrationTrial
@@ -41,10 +42,6 @@ def _encoded(line: _Line) -> bytes:
         return to_json_line(line).encode("utf-8")
     except UnicodeEncodeError:
         raise ValueError("a name holds bytes that are not UTF-8 text") from None
-
-
-class RecordingLost(OSError):
-    """The file being written was deleted (or its folder was): what is written now goes nowhere."""
 
 
 class RecordingWriter:

@@ -27,7 +27,8 @@ from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 
-from irl_core.studies.study import LoadedStudy, StudyError, check_participant
+from irl_core.errors import ParticipantBusy, StudyError
+from irl_core.studies.study import LoadedStudy, check_participant
 from irl_core.support.safe_files import write_problem
 from irl_core.support.safe_text import printable
 
@@ -38,15 +39,6 @@ SEAT_FRESH_S = 90.0
 SEAT_PLAYED = b"played\n"
 _WAIT_STEP_S = 0.002
 _STARTING = "a session that is starting"
-
-
-class ParticipantBusy(StudyError):
-    """Another session holds this participant; `holder` says who ("careful study run (process 41 on lab-3, since ...)")."""
-
-    def __init__(self, participant: str, holder: str):
-        self.participant, self.holder = participant, holder
-        super().__init__(f"participant {participant} is in another session already: {holder}; "
-                         "let that one finish (or quit it) first")
 
 
 def lock_path(study: LoadedStudy, participant: str) -> Path:

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydantic import ValidationError
 
+from irl_core.errors import PlanError
 from irl_core.experiment.claims import order_words
 from irl_core.irl.choices import LEVEL_MODELS, POOL_MODELS, player_model
 from irl_core.irl.people import fit_given_model, hand_from_trials, laplace_intervals
@@ -55,14 +56,6 @@ TIME_WORLDS_NOT_PLANNED = "the plan's simulated players and fits are those of wo
 def without_time_worlds(worlds: tuple[World, ...]) -> tuple[tuple[World, ...], tuple[World, ...]]:
     """The worlds a plan simulates, and the study's time worlds it leaves out (`TIME_WORLDS_NOT_PLANNED`)."""
     return tuple(w for w in worlds if w.care != "time"), tuple(w for w in worlds if w.care == "time")
-
-
-class PlanError(ValueError):
-    """A plan's input that cannot be used: `field` names the option, the message says why."""
-
-    def __init__(self, field: str, reason: str) -> None:
-        super().__init__(f"{field}: {reason}")
-        self.field, self.reason = field, reason
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irl_core.errors import StudyError
 from irl_core.recordings.demonstrations import Demonstrations, Recording
 from irl_core.recordings.end_table import EndTable
 from irl_core.recordings.step_table import StepTable
@@ -24,7 +25,6 @@ from irl_core.studies.study import (
     POOLED,
     REPORT_FOLDER,
     LoadedStudy,
-    StudyError,
     check_participant,
     finished_episodes,
     interrupted_episodes,

@@ -137,7 +137,7 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
     fitted without intervals); a cell without steps or a failed fit gives an error.
 
     Raises:
-        irl_core.support.stopping.Stopped: `stop()` became true during the fit.
+        irl_core.errors.Stopped: `stop()` became true during the fit.
     """
     if cell.demos is None:
         return CellFit(error="no finished main episodes")

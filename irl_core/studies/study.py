@@ -36,15 +36,16 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from irl_core.errors import EmptyRecording, RecordingError, StudyError, WorldError
 from irl_core.play.hold import MS_PER_LEVEL, TAP_MS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, input_mode
-from irl_core.recordings.demonstrations import EmptyRecording, Recording, RecordingError, read_recording
+from irl_core.recordings.demonstrations import Recording, read_recording
 from irl_core.recordings.lines import StudyTag
 from irl_core.recordings.writer import slug
 from irl_core.support.plural import plural
-from irl_core.support.safe_files import InputError, read_toml, reference_problem
+from irl_core.support.safe_files import read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, printable
-from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError, describe_validation_error, load_world
+from irl_core.worlds.world import BUILTIN_WORLDS, World, describe_validation_error, load_world
 
 Phase = Literal["practice", "main"]
 # A participant id is a folder name as it stands: no slug can map two ids to one folder.
@@ -57,10 +58,6 @@ _MAX_STUDY_FILE_BYTES = 1 << 20
 # A study names at most this many worlds (each one a block per participant), checked before any is read.
 MAX_WORLDS = 1000
 FINISHED_OUTCOMES = ("terminal", "step_limit")
-
-
-class StudyError(InputError):
-    """A study file or participant id that cannot be used; the message is one line for the user."""
 
 
 class Exclusions(BaseModel):

@@ -33,6 +33,7 @@ import socket
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol, TypeVar, cast
 
+from irl_core.errors import LostCall, SchedulerError
 from irl_core.support.pool import STOP_POLL_S, run_in_pool
 from irl_core.support.stopping import stop_if_asked
 
@@ -43,14 +44,6 @@ LOCAL = re.compile(r"local:(\d+)")
 MAX_LOCAL_WORKERS = 256
 # A call cancelled because every copy of the shared data died with its workers is sent again this many times.
 MAX_RESENDS = 3
-
-
-class SchedulerError(ValueError):
-    """A scheduler that cannot be used: the address and the reason, in one line."""
-
-
-class LostCall(RuntimeError):
-    """A call whose worker died, and which the cluster could not rerun."""
 
 
 class Executor(Protocol):

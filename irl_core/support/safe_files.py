@@ -32,24 +32,12 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import BinaryIO
 
+from irl_core.errors import OutputError
 from irl_core.support.safe_text import printable
 
 # The longest header line `is_recording` reads (the reader's line limit).
 _MAX_HEADER_BYTES = 64 << 20
 _SESSION_KIND = re.compile(rb'"kind"\s*:\s*"session"')
-
-
-class InputError(ValueError):
-    """A file or a name a command was given that cannot be used: a recording, a world, a study.
-
-    Every reader raises its own subclass (`RecordingError`, `WorldError`, `StudyError`) for every
-    problem of what it reads, and nothing else, so that a caller who catches this one type never
-    lets one bad file stop a command (or a study's other participants). The message is one line.
-    """
-
-
-class OutputError(ValueError):
-    """An output path a command must not write, or could not write; the message is one line."""
 
 
 def describe_kind(mode: int) -> str:

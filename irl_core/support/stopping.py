@@ -19,14 +19,9 @@ import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
+from irl_core.errors import Stopped
+
 _stop_check = threading.local()
-
-
-class Stopped(RuntimeError):
-    """The work (a fit, a study report's fits) was stopped on request before it ended (`stop_when`)."""
-
-    def __init__(self, message: str = "the fit was stopped before it ended"):
-        super().__init__(message)
 
 
 @contextmanager

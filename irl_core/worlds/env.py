@@ -33,7 +33,7 @@ ENV_ID = "careful/Careful-v0"
 def resolve_world(world: str | Path | World | Mapping[str, Any]) -> World:
     """A built-in name, a world file, a `World`, or a world as a mapping (its TOML fields).
 
-    Raises `irl_core.worlds.world.WorldError` (a one-line message) for anything else that is not a world.
+    Raises `irl_core.errors.WorldError` (a one-line message) for anything else that is not a world.
     """
     if isinstance(world, World):
         return world

@@ -49,8 +49,9 @@ from pydantic import (
     model_validator,
 )
 
+from irl_core.errors import WorldError
 from irl_core.support.plural import plural
-from irl_core.support.safe_files import InputError, read_toml, reference_problem
+from irl_core.support.safe_files import read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
 
 # A cell of the grid, (row, column) from the top left; a move's direction as recordings spell it.
@@ -89,10 +90,6 @@ def default_duration_bins(max_hold_ms: float, *, bins: int = DEFAULT_DURATION_BI
     ratio = max_hold_ms / SHORTEST_HOLD_MS
     inner = [float(round(SHORTEST_HOLD_MS * ratio ** (k / bins))) for k in range(1, bins)]
     return (0.0, *inner, float(max_hold_ms))
-
-
-class WorldError(InputError):
-    """A world file or name that cannot be used; the message is one sentence for the user."""
 
 
 class World(BaseModel):

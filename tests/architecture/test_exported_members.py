@@ -10,8 +10,8 @@ import pytest
 
 PUBLIC = {
     "irl_core": [
-        "BUILTIN_WORLDS", "CarefulEnv", "Demonstrations", "ENV_ID", "Evaluation", "FitError", "FitOptions",
-        "FitResult", "InfeasibleError", "LoadedStudy", "MDP", "METHODS", "Recording", "RecordingError", "Study",
+        "BUILTIN_WORLDS", "CarefulEnv", "CarefulError", "Demonstrations", "ENV_ID", "Evaluation", "FitError", "FitOptions",
+        "FitResult", "InfeasibleError", "InputError", "LoadedStudy", "MDP", "METHODS", "Recording", "RecordingError", "Study",
         "StudyError", "World", "WorldError", "boltzmann_policy", "build_mdp", "demonstrations_of", "evaluate", "fit",
         "load_study", "load_world", "optimal_policy", "read_protocol", "read_recording", "read_recordings",
         "rollouts", "simulate_to_file", "simulated_participants", "value_iteration", "world_from_dict",

@@ -1,6 +1,7 @@
 """The project's modules import one way: irl_core <- render <- keys, widgets <- screens <- app, web <-
 commands <- cli; no cycle anywhere, one module touches Textual's private API, and the play
 session (`irl_core.play`) imports no front end, so a browser can drive it as the terminal does.
+Within irl_core, the wings import one way too, and `irl_core.errors` (every exception) imports nothing.
 
 The graph is read from the source with `ast`, imports inside functions included, so a cycle
 cannot hide behind a late import.
@@ -165,6 +166,8 @@ def test_the_kitty_module_was_written_for_the_installed_textual():
 
 # irl_core's wings, lowest first: a module may import its own wing and those before it.
 WINGS = ("support", "worlds", "recordings", "play", "players", "irl", "experiment", "studies")
+# Below every wing, beside them: the one tree of exceptions, which imports nothing of the project.
+BELOW_THE_WINGS = ("irl_core.errors",)
 
 
 def wing(module: str) -> int | None:
@@ -174,7 +177,7 @@ def wing(module: str) -> int | None:
 
 def test_irl_core_holds_only_its_wings():
     loose = sorted(module for module in project_modules() if module.startswith("irl_core.") and wing(module) is None)
-    assert loose == []
+    assert loose == list(BELOW_THE_WINGS)
     assert {path.name for path in (ROOT / "irl_core").iterdir() if path.is_dir() and path.name != "__pycache__"} == set(WINGS)
 
 
@@ -188,6 +191,13 @@ def test_irl_core_imports_run_down_its_wings():
     assert upward == []
     # The check can fail: a studies module importing the worlds wing is downward, the reverse is not.
     assert wing("irl_core.studies.report") > wing("irl_core.worlds.mdp")
+
+
+def test_the_errors_module_imports_nothing_of_the_project():
+    # So that every module of irl_core and careful_tui may import it (they do) without a cycle.
+    graph = import_graph()
+    assert {module: sorted(graph[module]) for module in BELOW_THE_WINGS} == {module: [] for module in BELOW_THE_WINGS}
+    assert "irl_core.errors" in graph["irl_core.support.safe_files"] and "irl_core.errors" in graph["careful_tui.cli"]
 
 
 def test_the_layout_page_lists_every_module_of_every_wing():

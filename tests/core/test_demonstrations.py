@@ -6,7 +6,8 @@ from datetime import UTC, datetime
 import numpy as np
 import pytest
 
-from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.errors import RecordingError
+from irl_core.recordings.demonstrations import Demonstrations, read_recording
 from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.worlds.world import BUILTIN_WORLDS

@@ -7,7 +7,8 @@ import pytest
 from planning_sweeps import count_sweeps
 
 from bench.worlds import cliff_world
-from irl_core.support.stopping import Stopped, stop_when
+from irl_core.errors import Stopped
+from irl_core.support.stopping import stop_when
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.planning import soft_value_iteration, value_iteration
 

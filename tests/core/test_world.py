@@ -5,7 +5,8 @@ from pathlib import Path
 import pytest
 
 import irl_core.worlds.world
-from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError, load_world
+from irl_core.errors import WorldError
+from irl_core.worlds.world import BUILTIN_WORLDS, World, load_world
 
 
 def test_builtin_worlds_match_the_spec_table():

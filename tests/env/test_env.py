@@ -10,10 +10,11 @@ from gymnasium.utils.env_checker import check_env
 from scipy.stats import chisquare
 
 import irl_core.worlds.env  # noqa: F401  (registers careful/Careful-v0)
+from irl_core.errors import WorldError
 from irl_core.play.game import Game
 from irl_core.worlds.env import ENV_ID, CarefulEnv, cell_observation
 from irl_core.worlds.mdp import action_index, build_mdp
-from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 
 class Lines:

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 from careful_tui.cli import main
+from irl_core.errors import RecordingError
 from irl_core.play.game import Game
 from irl_core.recordings import export
-from irl_core.recordings.demonstrations import RecordingError, read_recording
+from irl_core.recordings.demonstrations import read_recording
 from irl_core.recordings.export import CSV_COLUMNS, STUDY_COLUMNS, csv_columns, csv_rows, recorded_episodes
 from irl_core.recordings.lines import SessionHeader
 from irl_core.recordings.writer import RecordingWriter

@@ -30,8 +30,9 @@ from pathlib import Path
 
 import pytest
 
-from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
-from irl_core.worlds.world import WorldError, load_world
+from irl_core.errors import RecordingError, WorldError
+from irl_core.recordings.demonstrations import Demonstrations, read_recording
+from irl_core.worlds.world import load_world
 
 CORPUS = Path(__file__).parents[1] / "corpus"
 RECORDINGS, WORLDS = CORPUS / "recordings", CORPUS / "worlds"

@@ -15,7 +15,8 @@ import pytest
 from hardening_checks import RAW_CONTROL, assert_refused, careful, recording
 
 import irl_core.players.experts as experts
-from irl_core.players.experts import NotConverged, optimal_policy, rollouts, simulate_to_file, write_rollouts
+from irl_core.errors import NotConverged
+from irl_core.players.experts import optimal_policy, rollouts, simulate_to_file, write_rollouts
 from irl_core.recordings.demonstrations import read_recording
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.planning import soft_value_iteration

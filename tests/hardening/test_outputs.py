@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 from hardening_checks import assert_refused, careful, digest, fill, recording, tiny_filesystem
 
-from irl_core.support.safe_files import OutputError, check_output, is_recording, write_output
+from irl_core.errors import OutputError
+from irl_core.support.safe_files import check_output, is_recording, write_output
 
 
 @pytest.fixture

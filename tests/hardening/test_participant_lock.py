@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 from hardening_checks import assert_refused, careful
 
-from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
+from irl_core.errors import ParticipantBusy
+from irl_core.studies.participant_lock import participant_lock
 from irl_core.studies.report import participant_ids
 from irl_core.studies.study import load_study
 

@@ -17,11 +17,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.errors import RecordingError, WorldError
+from irl_core.recordings.demonstrations import Demonstrations, read_recording
 from irl_core.recordings.lines import SessionHeader
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.worlds.mdp import build_mdp
-from irl_core.worlds.world import World, WorldError, load_world, world_from_dict
+from irl_core.worlds.world import World, load_world, world_from_dict
 
 CORPUS = Path(__file__).parents[1] / "corpus"
 HEADER, *BODY = (json.loads(line) for line in (CORPUS / "recordings" / "valid.jsonl").read_text().splitlines())

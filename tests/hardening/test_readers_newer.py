@@ -1,4 +1,4 @@
-"""One reader error type (`safe_files.InputError`) for every file problem, caught by every caller.
+"""One reader error type (`irl_core.errors.InputError`) for every file problem, caught by every caller.
 
 Before: an episode number of 2^63 or a number of 5,000 digits gave "unexpected error", exit 1, in
 `fit` and `export`, and (the study readers catching only their own error) stopped `study report`
@@ -20,12 +20,12 @@ from pathlib import Path
 import pytest
 from hardening_checks import assert_refused, careful, recording
 
+from irl_core.errors import InputError, StudyError, WorldError
 from irl_core.experiment.run import human_sessions
 from irl_core.studies import study as study_module
 from irl_core.studies.simulated import simulated_participants, write_simulated_participant
-from irl_core.studies.study import StudyError, load_study, read_protocol
-from irl_core.support.safe_files import InputError
-from irl_core.worlds.world import BUILTIN_WORLDS, WorldError, load_world
+from irl_core.studies.study import load_study, read_protocol
+from irl_core.worlds.world import BUILTIN_WORLDS, load_world
 
 
 def spoiled(path: Path, how: str) -> Path:
@@ -158,7 +158,7 @@ def test_a_world_named_twice_is_read_once(tmp_path, monkeypatch):
 
 
 def test_every_reader_error_is_one_type():
-    from irl_core.recordings.demonstrations import RecordingError
+    from irl_core.errors import RecordingError
 
     assert all(issubclass(error, InputError) for error in (RecordingError, WorldError, StudyError))
 

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from irl_core.play.game import Game, GameOver
+from irl_core.errors import GameOver
+from irl_core.play.game import Game
 from irl_core.recordings.demonstrations import read_recording
 from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.writer import SessionRecorder, check_writable

@@ -10,10 +10,11 @@ from pathlib import Path
 import pytest
 from play_fixtures import FakeClock
 
-from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.errors import RecordingError, StudyError
+from irl_core.recordings.demonstrations import Demonstrations, read_recording
 from irl_core.recordings.export import write_csv
 from irl_core.studies.flow import StudyFlow
-from irl_core.studies.study import StudyError, load_study, read_protocol
+from irl_core.studies.study import load_study, read_protocol
 
 STUDY = """\
 name = "motor"

@@ -10,11 +10,12 @@ import pytest
 from study.conftest import write_study
 
 from careful_tui.cli import main
+from irl_core.errors import LostCall, SchedulerError
 from irl_core.irl.intervals.bootstrap import bootstrap
 from irl_core.studies.report import POOLED, fit_report, gather, report_options, run_fits
 from irl_core.studies.simulated import simulated_participants, write_simulated_participant
 from irl_core.studies.study import load_study
-from irl_core.support.executor import LocalPool, LostCall, SchedulerError, close, scheduler
+from irl_core.support.executor import LocalPool, close, scheduler
 
 distributed = pytest.importorskip("distributed")
 

@@ -5,7 +5,8 @@ from datetime import UTC, datetime
 
 import pytest
 
-from irl_core.recordings.demonstrations import RecordingError, read_recording
+from irl_core.errors import RecordingError
+from irl_core.recordings.demonstrations import read_recording
 from irl_core.recordings.lines import SessionHeader, StudyTag
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.worlds.world import BUILTIN_WORLDS

@@ -8,8 +8,8 @@ from study.conftest import write_study
 
 import irl_core.studies.plan as plan
 from careful_tui.cli import main
+from irl_core.errors import PlanError
 from irl_core.studies.plan import (
-    PlanError,
     PlanGrid,
     block_targets,
     calibration_block,

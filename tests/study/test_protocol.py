@@ -128,7 +128,7 @@ def test_a_file_cut_mid_line_by_a_crash_is_counted_and_not_called_left_out(study
 @pytest.mark.parametrize("bad", ["", "../x", "..", ".hidden", "a/b", "a b", "report", "Report", "pooled", "Pooled",
                                  "x" * 81, "é"])
 def test_participant_ids_that_cannot_be_folders_are_refused(study, bad):
-    from irl_core.studies.study import StudyError
+    from irl_core.errors import StudyError
 
     with pytest.raises(StudyError, match="participant id"):
         read_protocol(study, bad)

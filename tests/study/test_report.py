@@ -148,7 +148,7 @@ def _stand_in_fit(cell, options, *, stop=None):
     worker's process): the biggest cell (sent first) takes 0.1 s, the others 2 s."""
     import time
 
-    from irl_core.support.stopping import Stopped
+    from irl_core.errors import Stopped
 
     for _ in range(10 if cell.steps == 11 else 200):
         if stop is not None and stop():

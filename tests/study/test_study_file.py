@@ -5,7 +5,8 @@ import hashlib
 import pytest
 from study.conftest import write_study
 
-from irl_core.studies.study import Study, StudyError, load_study, world_order
+from irl_core.errors import StudyError
+from irl_core.studies.study import Study, load_study, world_order
 
 
 def test_a_study_file_reads_with_worlds_relative_to_it(tmp_path):

@@ -101,7 +101,8 @@ def test_a_time_recording_replays_exports_and_becomes_a_dataset(tmp_path: Path, 
 def test_a_study_with_a_time_world_refuses_taps_and_a_terminal_without_key_ups(tmp_path: Path):
     import pytest
 
-    from irl_core.studies.study import StudyError, load_study
+    from irl_core.errors import StudyError
+    from irl_core.studies.study import load_study
 
     (tmp_path / "tap.toml").write_text('name = "t"\nworlds = ["mud", "mud-time"]\ninput = "tap"\nout = "data"\n')
     with pytest.raises(StudyError, match=r"input: 'tap' cannot play worlds\[1\], a time world"):

@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from irl_core.errors import RecordingError, WorldError
 from irl_core.play.game import Game
 from irl_core.players.experts import optimal_policy, simulate_to_file
-from irl_core.recordings.demonstrations import Demonstrations, RecordingError, read_recording
+from irl_core.recordings.demonstrations import Demonstrations, read_recording
 from irl_core.worlds.mdp import build_mdp, direction_probabilities
-from irl_core.worlds.world import BUILTIN_WORLDS, World, WorldError, world_from_dict
+from irl_core.worlds.world import BUILTIN_WORLDS, World, world_from_dict
 
 MUD_TIME = BUILTIN_WORLDS["mud-time"]
 

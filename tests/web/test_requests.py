@@ -293,7 +293,8 @@ def test_a_recording_that_cannot_be_written_stops_the_participant_with_a_sentenc
 
 def test_a_participant_held_by_another_session_is_refused_and_a_page_holds_the_lock_from_its_first_key(
         served, web_study):
-    from irl_core.studies.participant_lock import ParticipantBusy, participant_lock
+    from irl_core.errors import ParticipantBusy
+    from irl_core.studies.participant_lock import participant_lock
 
     client, tokens = served
     with participant_lock(web_study, "p001", holder="careful study run"):

@@ -24,10 +24,10 @@ from web.conftest import recorded_lines, write_web_study
 
 from careful_tui.cli import main
 from careful_tui.web.seat_files import ADDRESS_FILE, SharedSeats
-from careful_tui.web.seats import SeatRefused
 from careful_tui.web.session_adapter import WebSession
+from irl_core.errors import ParticipantBusy, SeatRefused
 from irl_core.recordings.demonstrations import read_recording
-from irl_core.studies.participant_lock import ParticipantBusy, participant_lock, seat_path
+from irl_core.studies.participant_lock import participant_lock, seat_path
 from irl_core.studies.study import load_study
 
 EPISODES = 5
