@@ -53,6 +53,25 @@ def beta_value(text: str) -> float | str:
         raise argparse.ArgumentTypeError(f"must be a positive number or auto, got {text}") from None
 
 
+def known_reward(text: str) -> tuple[str, float]:
+    """``SYMBOL=VALUE``: a reward the user knows (one layout symbol, a finite number)."""
+    symbol, equals, value = text.partition("=")
+    if not equals or len(symbol.strip()) != 1:
+        raise argparse.ArgumentTypeError(f"must be SYMBOL=VALUE with one layout symbol, as G=100, got {text}")
+    try:
+        return symbol.strip(), finite_float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be SYMBOL=VALUE with a number, as G=100, got {text}") from None
+
+
+class Accumulate(argparse.Action):
+    """A repeatable flag whose values gather in a tuple (argparse's append cannot start from an immutable default)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 _option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, (*getattr(namespace, self.dest, ()), values))
+
+
 def seed_int(text: str) -> int:
     """A seed numpy takes: a whole number from 0 to 2**64 - 1."""
     value = int(text)
@@ -122,6 +141,10 @@ FIT_FLAGS: tuple[Flag, ...] = (
     Flag("cost", "--cost", dict(choices=["known", "unknown"], default="known", help=(
         "a time world: known (default) reports rewards in points; unknown treats the cost of holding as unknown "
         "and reports each reward in seconds of holding (the scale the data identify without it)"))),
+    Flag("known", "--known", dict(type=known_reward, action=Accumulate, default=(), metavar="SYMBOL=VALUE", help=(
+        "a reward you know, held at that value instead of fitted (repeatable): it fixes the rewards' units where "
+        "nothing in the world does (one level or moves that cost nothing, which else read rewards relative to "
+        "the goal)"))),
 )
 if {f.field for f in FIT_FLAGS} != {f.name for f in dataclasses.fields(FitOptions)}:
     raise RuntimeError("careful_tui.arguments.FIT_FLAGS must declare a flag for every FitOptions field")

@@ -79,11 +79,12 @@ def reward_grids(result: FitResult, *, width: int) -> Table | Group:
     """
     world = result.world
     scale = reward_scale(result)
-    seconds = result.reward_unit != "points"
-    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate" + (", seconds of holding)" if seconds else ")"))
+    unit = result.reward_unit
+    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate" + ("" if unit == "points" else f", {unit}") + ")")
     grids = [Group(fitted, WorldGrid(world, values=result.reward_grid, scale=scale))]
     if world.rewards:
-        true = "true R_S (world file" + (", in seconds at its cost)" if seconds else ")")
+        true = "true R_S (world file" + {"points": ")", "seconds of holding": ", in seconds at its cost)"}.get(
+            unit, f", {unit} as the fit)")
         grids.append(Group(Text(true, style="bold"), WorldGrid(world, values=result.true_reward_grid, scale=scale)))
     gap = 4
     grid_width = world.cols * WorldGrid(world).cell_width
@@ -103,6 +104,8 @@ def unknown_phrase(result: FitResult) -> str:
     cells = "every cell" if options.reward_cells == "all" else "the non-ground cells (ground is 0)"
     fitted = f"fitted: {cells}{', one value per symbol' if options.tie else ''}"
     curve = result.slip_curve
+    held = "".join(f"; {symbol} held at {format_value(value)}" for symbol, value in result.unknowns.held)
+    fitted += held
     if curve is None:
         return f"{fitted}; the action cost is known"
     slips = "the world's slip curve" if curve.known else "the slip curve learnt from the recorded slips"

@@ -20,6 +20,7 @@ from rich.segment import Segment
 from rich.style import Style
 from rich.text import Text
 
+from irl_core.irl.identification import MOVE
 from irl_core.worlds.world import WALL, Cell, World
 
 SYMBOL_COLOURS: dict[str, str] = {
@@ -29,7 +30,7 @@ SYMBOL_COLOURS: dict[str, str] = {
     "U": "#6b4f2a",  # mud: undesirable
     WALL: "#1c1c1c",
 }
-SYMBOL_NAMES: dict[str, str] = {".": "ground", "C": "cliff", "G": "goal", "U": "mud", WALL: "wall"}
+SYMBOL_NAMES: dict[str, str] = {".": "ground", "C": "cliff", "G": "goal", "U": "mud", WALL: "wall", MOVE: "a move"}
 ARROWS: dict[str, str] = {"up": "↑", "right": "→", "down": "↓", "left": "←"}
 OTHER_SYMBOL_COLOUR = "#4a4a6a"
 # ColorBrewer's RdBu (11 classes), as the figures draw rewards (`render.figures.heatmap`): red below

@@ -17,6 +17,7 @@ from rich.text import Text
 
 from careful_tui.render.grid import LINEAR_THRESHOLD, SYMBOL_NAMES, diverging_colour, format_value, signed_log_fraction
 from irl_core.irl import FitResult, at_bound
+from irl_core.irl.intervals.honest import one_sided
 
 
 def interval_table(result: FitResult) -> Table:
@@ -29,14 +30,25 @@ def interval_table(result: FitResult) -> Table:
                                                       ("low", "right"), ("high", "right"), ("reading", "left"))
     for name, justify in columns:
         table.add_column(name, justify=justify)
-    first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
-    for label, value, state, (low, high) in zip(result.labels, result.theta, first_state, intervals):
-        true = format_value(float(result.mdp.R_S[state])) if result.world.rewards else "-"
+    truth = result.true_theta() if result.world.rewards else np.full(len(result.labels), np.nan)
+    sides = one_sided(intervals, rmax)
+    for label, value, true, side, (low, high) in zip(result.labels, result.theta, truth, sides, intervals):
         table.add_row(
-            Text(label), format_value(float(value)), true, format_value(float(low)), format_value(float(high)),
+            Text(label), fitted_cell(float(value), float(low), float(high), int(side)),
+            "-" if np.isnan(true) else format_value(float(true)), format_value(float(low)), format_value(float(high)),
             interval_reading(low, high, rmax),
         )
     return table
+
+
+def fitted_cell(value: float, low: float, high: float, side: int) -> str:
+    """The fitted column: the point, or for a reward bounded on one side only its bound ("≤ -22.5"), since its
+    point is where a search stopped on a flat likelihood, not an estimate."""
+    if side < 0:
+        return f"≤ {format_value(high)}"
+    if side > 0:
+        return f"≥ {format_value(low)}"
+    return format_value(value)
 
 
 def interval_title(result: FitResult) -> str:
@@ -150,7 +162,7 @@ class IntervalChart:
         intervals = result.intervals
         assert intervals is not None, "a fit with intervals"
         rmax = float(result.rmax)
-        true = result.unknowns.true_theta(result.mdp) if result.world.rewards else None
+        true = result.true_theta() if result.world.rewards else None
         symbols = _low_to_high(symbol_intervals(result))
         rows = sorted(range(len(result.labels)), key=lambda j: (symbols.index(result.unknowns.symbols[j]), j))
         spans = [interval_span(float(lo), float(hi), rmax) for lo, hi in intervals]

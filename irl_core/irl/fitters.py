@@ -17,10 +17,11 @@ import numpy as np
 from irl_core.irl.choices import AUTO as PLAYER_AUTO
 from irl_core.irl.choices import Player, player_model, player_model_for
 from irl_core.irl.fit_check import FitCheck
+from irl_core.irl.identification import units_unfixed_why
 from irl_core.irl.loss.solve import STALL_TOLERANCE, fit_loss
 from irl_core.irl.lp.margin import lp_constraints
 from irl_core.irl.lp.solve import Progress, solve_margin_lp
-from irl_core.irl.maxent import MaxEntSolution, fit_maxent, identification, soft_bellman
+from irl_core.irl.maxent import MaxEntSolution, fit_maxent, soft_bellman
 from irl_core.irl.notes import Note
 from irl_core.irl.options import FitOptions
 from irl_core.irl.people import (
@@ -41,7 +42,6 @@ from irl_core.irl.timing.fit import fit_timing, timing_chooser, timing_policy
 from irl_core.irl.timing.slip_curve import SlipCurve, fit_slip_curve
 from irl_core.players.experts import Chooser
 from irl_core.recordings.demonstrations import Demonstrations
-from irl_core.worlds.mdp import MDP
 
 Fitter = Callable[..., "Fitted"]
 
@@ -65,8 +65,9 @@ class Fitted:
     observed_policy: np.ndarray | None = None
     people: PlayerFit | None = None
     rival: PlayerFit | None = None
-    held_upper: np.ndarray | None = None  # (k,) a held reward's upper bound (`people_flat.held_upper_bounds`)
+    held_upper: np.ndarray | None = None  # (k,) a held reward's upper bound (`people.checks`)
     together: np.ndarray | None = None  # (k, 2) a reward's range along a combination the data do not pin (`laplace`)
+    flat: np.ndarray | None = None  # (k,) -1 / +1 where the data bound a reward on one side only (`people.flat`)
     curve: SlipCurve | None = None  # the timing fit's slip curve, estimated with the rewards
     own_intervals: np.ndarray | None = None  # (k, 2) the timing fit's sandwich intervals
     chooser: Chooser | None = None  # the timing model's player over continuous holds, for the fit check
@@ -162,7 +163,7 @@ def maxent_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, pro
     plan = soft_bellman(qmap.mdp, qmap.unknowns.state_rewards(solution.theta), beta=solution.beta, V0=solution.V)
     return Fitted("maxent", solution.theta, solution.V, beta=solution.beta, beta_auto=beta == "auto",
                    status="optimal" if solution.converged else "not_converged",
-                   notes=_maxent_notes(solution, qmap.mdp, estimated=beta == "auto"), player_model="boltzmann",
+                   notes=_maxent_notes(solution, qmap, estimated=beta == "auto"), player_model="boltzmann",
                    player=Player(solution.beta), observed_policy=plan.policy)
 
 
@@ -182,7 +183,9 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     notes: list[Note] = []
     rival = None
     hand = None
-    if demos.calibration.shape[0]:
+    # With one level there is no hand to speak of: person and naive are one model, and a level's noise nothing.
+    levels = mdp.levels > 1
+    if demos.calibration.shape[0] and levels:
         measured = hand_from_trials(demos.calibration, mdp.levels)
         hand = measured.known()
         notes.append(Note("hand_calibrated", f"the hand from {measured.trials} calibration trials: bias "
@@ -196,7 +199,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                                      hand=hand, workers=workers)
         solution = choice.fits[choice.name]
         notes.append(Note("player_model", choice.reason))
-        rival = planning_rival(choice)
+        rival = planning_rival(choice) if levels else None
         if rival is not None:
             notes.append(Note("planning_not_identified",
                               f"whether the player plans for the hand's noise is not told apart by the held-out "
@@ -208,7 +211,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         notes.append(Note("player_model", f"player model {model}, as asked: {solution.model.summary}"))
     player = solution.player
     words = [f"beta {player.beta:.3g}"] + ([f"the hand's sigma {player.sigma:.2g} levels"]
-                                           if solution.model.searches_hand else []) \
+                                           if solution.model.searches_hand and levels else []) \
         + ([f"lapses {player.lapse:.2g}"] if solution.model.lapses else [])
     notes.append(Note("player_estimated", "player estimated by maximum likelihood with the rewards: " + ", ".join(words)))
     if not solution.converged:
@@ -224,12 +227,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                            seed=options.seed, workers=workers)
     if checks.held_upper is not None:
         notes.append(note_of_bounds(unknowns, checks.held_upper, solution.held))
-    flat, together = checks.flat, checks.together
-    if flat.any():
-        sides = [f"{label} {'at most' if side < 0 else 'at least'} {value:.3g}"
-                 for label, value, side in zip(unknowns.labels, solution.theta, flat) if side]
-        notes.append(Note("one_sided", "bounded on one side only (moving them to the bound, {rmax}, costs the "
-                                       f"likelihood less than {FLAT_DROP:g}): " + "; ".join(sides)))
+    together = checks.together
     if together is None:
         notes.append(Note("combinations_unchecked", f"with over {MAX_COMBINED} free rewards, whether the data pin "
                                                     "some of them only in combination was not checked"))
@@ -245,7 +243,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     return Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
-                   people=solution, rival=rival, held_upper=checks.held_upper,
+                   people=solution, rival=rival, held_upper=checks.held_upper, flat=checks.flat,
                    together=together, fit_check=checks.fit_check)
 
 
@@ -285,7 +283,7 @@ def timing_fitter(qmap: QMap, demos: Demonstrations, options: FitOptions, *, pro
                    own_intervals=solution.theta_intervals)
 
 
-def _maxent_notes(solution: MaxEntSolution, mdp: MDP, *, estimated: bool) -> list[Note]:
+def _maxent_notes(solution: MaxEntSolution, qmap: QMap, *, estimated: bool) -> list[Note]:
     """Whether maxent converged, its beta (fixed or estimated) and whether the data fix beta."""
     notes = []
     if not solution.converged:
@@ -295,7 +293,10 @@ def _maxent_notes(solution: MaxEntSolution, mdp: MDP, *, estimated: bool) -> lis
                                         "it from the data)"))
         return notes
     notes.append(Note("beta_estimated", f"beta estimated by maximum likelihood: {solution.beta:.3g}"))
-    reason = identification(mdp)
+    # A held reward (the user's, or the reference) fixes the scale; else only the world's care cost can.
+    unfixed = None if qmap.unknowns.held else units_unfixed_why(qmap.mdp.world)
+    reason = None if unfixed is None else (f"beta is not identified: {unfixed}, so nothing fixes the reward's scale "
+                                           "and only beta times R_S is estimated")
     if solution.beta_at_bound:
         reason = (f"beta is not identified: the estimate ran to the end of its range ({solution.beta:.3g}); "
                   "the demonstrations do not fix the reward's scale")

@@ -20,9 +20,12 @@ from collections.abc import Callable
 import numpy as np
 
 from irl_core.irl.choices import FITTED
+from irl_core.irl.choices import method as method_entry
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.fit_check import FitCheck, fit_check
 from irl_core.irl.fitters import Fitted, run_fitter
+from irl_core.irl.identification import MOVE, Scale, decide_scale
+from irl_core.irl.intervals.honest import honest_intervals, honest_notes
 from irl_core.irl.intervals.of_fit import fit_intervals
 from irl_core.irl.lp.margin import lp_constraints
 from irl_core.irl.lp.solve import Progress, solve_margin_lp
@@ -37,7 +40,10 @@ from irl_core.support.executor import Executor
 from irl_core.support.stopping import Stopped, stop_when
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.planning import greedy_actions
+from irl_core.worlds.world import World
 
+# Fewer episodes than this and an interval is rough (a bootstrap's tends to be too narrow): said on every path.
+FEW_EPISODES = 10
 # `irl_core.METHODS`: the methods that fit (every one but the chooser).
 METHODS = FITTED
 
@@ -81,7 +87,16 @@ def fit(
     notes: list[Note] = []
     curve, demos = _on_its_curve(demos, options, notes)
     mdp = demos.mdp
-    unknowns = build_unknowns(mdp, reward_cells=options.reward_cells, tie=options.tie)
+    given_beta = float(options.beta) if isinstance(options.beta, int | float) and \
+        method_entry(options.method).uses_beta else None
+    scale = decide_scale(mdp.world, options.known, reward_cells=options.reward_cells, rmax=options.rmax,
+                         given_beta=given_beta)
+    notes.extend(_scale_notes(scale))
+    if scale.move:  # a move's cost becomes an unknown reward at every non-terminal state (`qmap`)
+        mdp = recorded_mdp = dataclasses.replace(mdp, R_A=np.zeros_like(mdp.R_A))
+        demos = dataclasses.replace(demos, mdp=mdp)
+    unknowns = build_unknowns(mdp, reward_cells=options.reward_cells, tie=options.tie, held=scale.held,
+                              move=scale.move)
     qmap = build_qmap(mdp, unknowns)
     if unknowns.k == 0:
         notes.append(Note("nothing_to_fit", "nothing to fit: every cell is ground, which {reward_cells=special} "
@@ -106,10 +121,22 @@ def fit(
         bounds, kind = fit_intervals(fitted, qmap, demos, options, notes, progress=progress, workers=workers,
                                   executor=executor)
 
+    honest = None
+    if bounds is not None:
+        honest = honest_intervals(fitted.theta, bounds, flat=fitted.flat, rmax=options.rmax)
+        bounds = honest.bounds
+    notes.extend(honest_notes(unknowns.labels, fitted.theta, honest, flat=fitted.flat, rmax=options.rmax))
+    if bounds is not None and demos.episodes < FEW_EPISODES:
+        notes.append(Note("few_episodes", f"only {demos.episodes} episodes: " + (
+            "a confidence interval from so few is rough (it tends to be too narrow)" if kind == "confidence" else
+            "the identified set takes the most frequent action at each cell as the expert's choice, which so few "
+            "may not show")))
     if unknowns.k:
         # Without intervals, the points stand for them: a catastrophe fitted no worse than the nuisance.
         spans = bounds if bounds is not None else np.column_stack([fitted.theta, fitted.theta])
-        notes.extend(_not_separated(unknowns.symbols, spans, demos.mdp.world.terminal, intervals=bounds is not None))
+        hazards = _hazards(unknowns.symbols, fitted.theta, demos.mdp.world)
+        notes.extend(_not_separated(unknowns.symbols, spans, hazards, demos.mdp.world.terminal,
+                                    intervals=bounds is not None))
     check = _fit_check(fitted, demos, options, notes)
     held = fitted.held_upper is not None and ~np.isnan(fitted.held_upper)  # named in their own note
     bounded = [label for j, (label, value) in enumerate(zip(unknowns.labels, fitted.theta))
@@ -145,7 +172,27 @@ def fit(
         rival_theta=None if fitted.rival is None else np.asarray(fitted.rival.theta, dtype=float),
         slip_curve=curve,
         recorded_world=None if mdp is recorded_mdp else recorded_mdp.world,
+        scale=scale,
     )
+
+
+def _scale_notes(scale: Scale) -> list[Note]:
+    """What fixes the rewards' units, where the world's care cost does not (`identification`)."""
+    if scale.reference is not None:
+        return [Note("scale_not_identified",
+                     f"nothing fixes the rewards' units ({scale.unfixed_why}), so the recordings show only their "
+                     f"ratios: each reward is read relative to {scale.reference}, held at 1 (give "
+                     f"{{known={scale.reference}=100}} to put them in points)" + (
+                         "; a move's cost is one more unknown (move), as a reward relative to "
+                         f"{scale.reference}" if scale.move else ""))]
+    if scale.beta is not None:
+        return [Note("units_from_beta", f"nothing in the world fixes the rewards' units ({scale.unfixed_why}): they "
+                                        f"come from the {{beta={scale.beta:g}}} given, since play shows only beta "
+                                        "times the rewards")]
+    if scale.held:
+        held = ", ".join(f"{symbol} {value:g}" for symbol, value in scale.held)
+        return [Note("rewards_held", f"held at the values given, not fitted: {held}")]
+    return []
 
 
 def _on_its_curve(demos: Demonstrations, options: FitOptions,
@@ -184,7 +231,13 @@ def _on_its_curve(demos: Demonstrations, options: FitOptions,
     return curve, dataclasses.replace(demos, mdp=build_mdp(curve.world(world)))
 
 
-def _not_separated(symbols: tuple[str, ...], bounds: np.ndarray, terminal: tuple[str, ...], *,
+def _hazards(symbols: tuple[str, ...], theta: np.ndarray, world: World) -> set[str]:
+    """The terminal symbols that are hazards: below zero in the world file, or fitted below zero."""
+    fitted_below = {symbol for symbol, value in zip(symbols, theta) if value < 0}
+    return {symbol for symbol in world.terminal if world.rewards.get(symbol, 0.0) < 0 or symbol in fitted_below}
+
+
+def _not_separated(symbols: tuple[str, ...], bounds: np.ndarray, hazards: set[str], terminal: tuple[str, ...], *,
                    intervals: bool) -> list[Note]:
     """A note when the lowest terminal symbol's interval (over its cells: the catastrophe) reaches a non-terminal
     one's (a nuisance): the data then do not tell the catastrophe from the nuisance, which is what care was to
@@ -196,9 +249,10 @@ def _not_separated(symbols: tuple[str, ...], bounds: np.ndarray, terminal: tuple
         envelope[symbol] = (min(was[0], low), max(was[1], high))
     # The hazard: the terminal symbol with the lowest interval (the goal is terminal too); nuisances: every other.
     ends = sorted((s for s in envelope if s in terminal), key=lambda s: sum(envelope[s]))
-    hazards = ends[:1]
-    nuisances = [s for s in envelope if s not in terminal]
-    pairs = [(h, n) for h in hazards for n in nuisances if envelope[h][1] >= envelope[n][0]]
+    # Only a hazard that ends episodes is a catastrophe: a world whose one terminal cell is the goal has none.
+    lowest = [s for s in ends[:1] if s in hazards]
+    nuisances = [s for s in envelope if s not in terminal and s != MOVE]  # a move's cost is no cell
+    pairs = [(h, n) for h in lowest for n in nuisances if envelope[h][1] >= envelope[n][0]]
     if not pairs:
         return []
     single = all(low == high for low, high in envelope.values())

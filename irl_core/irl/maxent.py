@@ -313,18 +313,6 @@ def one_blas_thread():
     return _BLAS[0].limit(limits=1, user_api="blas")
 
 
-def identification(mdp: MDP) -> str | None:
-    """Why beta cannot be (fully) estimated in `mdp`, or None when the action costs fix the scale."""
-    if mdp.world.cost_per_level == 0:
-        return ("beta is not identified: the actions cost nothing, so nothing fixes the reward's scale "
-                "and only beta times R_S is estimated")
-    if mdp.levels == 1:
-        return ("beta is not identified with one carefulness level: every action costs the same, and a "
-                "constant step cost can be traded against the terminal rewards, so the data do not fix the "
-                "reward's scale; read the rewards' signs and ratios, not their size")
-    return None
-
-
 @dataclass(frozen=True)
 class MaxEntSolution:
     """theta (k,), beta (given or estimated), the soft V (S,) there, the mean log likelihood,

@@ -38,6 +38,7 @@ CODES: dict[str, str] = {
     "hand_resampled": "the intervals' resamples drew the calibration trials again (the hand's sampling error)",
     "planning_not_identified": "whether the player plans for the hand's noise is not identified",
     "one_sided": "rewards the data bound on one side only",
+    "interval_widened": "intervals widened to hold their point estimate (the refits sat to one side of it)",
     "pinned_together": "rewards the data pin only in combination: each point is where the search stopped",
     "combinations_unchecked": "too many free rewards to check which the data pin only in combination",
     "unreached": "rewards no recorded action can lead into: held at -rmax, bounded above only",
@@ -48,6 +49,9 @@ CODES: dict[str, str] = {
     "slip_curve_given": "a time world's slip curve taken from the world (no holds to learn it from)",
     "reward_in_seconds": "the cost of holding taken as unknown: rewards in seconds of holding",
     "intervals_scores": "the timing fit's intervals from the scores' spread alone (its curvature was not usable)",
+    "scale_not_identified": "nothing fixes the rewards' units: each is read relative to a reference reward",
+    "rewards_held": "rewards held at values the user gave (--known), not fitted",
+    "units_from_beta": "nothing in the world fixes the rewards' units; the beta the user gave does",
     "cliff_not_separated": "the hazards' and nuisances' intervals overlap: the fit does not tell them apart",
     # `FitOptions.problem`: options a fit would not refuse, but the command line does.
     "beta_needs_maxent": "beta estimated for a method without one",

@@ -43,6 +43,8 @@ class FitOptions:
         seed: the bootstrap's seed.
         slip_known: on a time world, plan with the world's slip curve instead of fitting it (docs/timing.md).
         cost: on a time world, ``known`` (rewards in points) or ``unknown`` (rewards in seconds of holding).
+        known: (symbol, value) pairs: rewards the user knows, held at that value instead of fitted, which fixes
+            the units where nothing in the world does (`irl_core.irl.identification`).
     """
 
     method: MethodName = choices.DEFAULT
@@ -58,6 +60,7 @@ class FitOptions:
     seed: int = 0
     slip_known: bool = False
     cost: Literal["known", "unknown"] = "known"
+    known: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         choices.method(self.method)
@@ -115,4 +118,5 @@ class FitOptions:
             "seed": self.seed,
             # A time world's two (a fit on levels refuses them, and its JSON does not show them).
             **({"slip_known": self.slip_known, "cost": self.cost} if self.slip_known or self.cost != "known" else {}),
+            **({"known": dict(self.known)} if self.known else {}),
         }

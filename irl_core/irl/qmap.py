@@ -22,7 +22,12 @@ Which state rewards are unknown (docs/fitting.md):
 ``tie``              one unknown per symbol instead of one per cell
 ===================  ==========================================================
 
-The known action cost R_A is never fitted. The exit state's reward is always 0.
+The known action cost R_A is never fitted, with one exception: where nothing fixes the rewards' units
+and every move costs the same (`irl_core.irl.identification`), that cost is in points while the rewards
+are relative to a reference, so the fit takes it as one more unknown, ``move`` (a move's cost relative
+to the reference, as a reward: negative). A cost common to every action at a non-terminal state is the
+same as a reward at every non-terminal state, so ``move`` is a basis column over those states and the
+fitting MDP's R_A is 0. The exit state's reward is always 0.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from irl_core.irl.choices import RewardCells
+from irl_core.irl.identification import MOVE
 from irl_core.worlds.mdp import MDP
 from irl_core.worlds.world import GROUND
 
@@ -47,6 +53,9 @@ class Unknowns:
         fixed: (S,) the known part of R_S (0: ground cells are neutral, the exit is 0).
         weight: (k,) cells per unknown, so that ||R_S||_1 = weight @ |theta|.
         symbols: (k,) the layout symbol of each unknown's cells.
+        held: (symbol, value) pairs whose cells are known, not fitted (in `fixed`): the rewards a user gave, or
+            the reference that gives the rewards their units (`irl_core.irl.identification`).
+        move: the index of the ``move`` unknown (a move's cost as a reward at every non-terminal state), or None.
     """
 
     labels: tuple[str, ...]
@@ -54,32 +63,53 @@ class Unknowns:
     fixed: np.ndarray
     weight: np.ndarray
     symbols: tuple[str, ...]
+    held: tuple[tuple[str, float], ...] = ()
+    move: int | None = None
 
     @property
     def k(self) -> int:
         return len(self.labels)
 
     @property
+    def cell_basis(self) -> sp.csr_matrix:
+        """(S, k) `basis` without the ``move`` column: which unknown is each cell's own reward."""
+        if self.move is None:
+            return self.basis
+        keep = np.ones(self.k)
+        keep[self.move] = 0.0
+        return (self.basis @ sp.diags(keep)).tocsr()
+
+    @property
     def mask(self) -> np.ndarray:
-        """(S,) True at states whose reward is fitted."""
-        return np.asarray(self.basis.sum(axis=1)).ravel() > 0
+        """(S,) True at states whose own reward is fitted."""
+        return np.asarray(self.cell_basis.sum(axis=1)).ravel() > 0
 
     def state_rewards(self, theta: np.ndarray) -> np.ndarray:
-        """(S,) R_S for unknowns theta (k,)."""
+        """(S,) R_S for unknowns theta (k,), a move's cost included where it is an unknown (what the fitting MDP
+        plans with)."""
         return self.basis @ np.asarray(theta, dtype=float) + self.fixed
 
     def true_theta(self, mdp: MDP) -> np.ndarray:
-        """(k,) the world's own rewards as unknowns (the first cell of each unknown)."""
-        first = np.asarray(self.basis.argmax(axis=0)).ravel()
-        return mdp.R_S[first].astype(float)
+        """(k,) the world's own rewards as unknowns (the first cell of each unknown; a move's cost as a reward)."""
+        first = np.asarray(self.cell_basis.argmax(axis=0)).ravel()
+        truth = mdp.R_S[first].astype(float)
+        if self.move is not None:
+            truth[self.move] = -float(mdp.world.level_costs[0])
+        return truth
 
 
-def build_unknowns(mdp: MDP, *, reward_cells: RewardCells = "special", tie: bool = False) -> Unknowns:
-    """The unknown state rewards of `mdp` for `careful fit`'s `--reward-cells` and `--tie`."""
+def build_unknowns(mdp: MDP, *, reward_cells: RewardCells = "special", tie: bool = False,
+                   held: tuple[tuple[str, float], ...] = (), move: bool = False) -> Unknowns:
+    """The unknown state rewards of `mdp` for `careful fit`'s `--reward-cells` and `--tie`, the cells of each
+    `held` symbol known at its value instead, and with `move` one more unknown for a move's cost (the last;
+    `mdp` is then the fitting MDP whose R_A is 0)."""
     if reward_cells not in ("special", "all"):
         raise ValueError(f"reward_cells must be 'special' or 'all', not {reward_cells!r}")
     symbols = mdp.symbols
-    fitted = [s for s, symbol in enumerate(symbols) if reward_cells == "all" or symbol != GROUND]
+    known = dict(held)
+    fixed = np.array([known.get(symbol, 0.0) for symbol in symbols] + [0.0] * (mdp.n_states - len(symbols)))
+    fitted = [s for s, symbol in enumerate(symbols) if (reward_cells == "all" or symbol != GROUND)
+              and symbol not in known]
     if tie:
         order = list(dict.fromkeys(symbols[s] for s in fitted))
         column = [order.index(symbols[s]) for s in fitted]
@@ -95,7 +125,14 @@ def build_unknowns(mdp: MDP, *, reward_cells: RewardCells = "special", tie: bool
         shape=(mdp.n_states, k),
     )
     weight = np.bincount(np.array(column, dtype=np.int64), minlength=k).astype(float)
-    return Unknowns(labels=labels, basis=basis, fixed=np.zeros(mdp.n_states), weight=weight, symbols=unknown_symbols)
+    if move:
+        moving = np.flatnonzero(mdp.nonterminal)
+        column_of_move = sp.csr_matrix((np.ones(moving.size), (moving, np.zeros(moving.size, dtype=np.int64))),
+                                       shape=(mdp.n_states, 1))
+        basis = sp.hstack([basis, column_of_move], format="csr")
+        labels, unknown_symbols, weight = labels + (MOVE,), unknown_symbols + (MOVE,), np.append(weight, 1.0)
+    return Unknowns(labels=labels, basis=basis, fixed=fixed, weight=weight, symbols=unknown_symbols,
+                    held=tuple((symbol, float(value)) for symbol, value in held), move=k if move else None)
 
 
 @dataclass(frozen=True, eq=False)

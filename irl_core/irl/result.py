@@ -18,6 +18,7 @@ from irl_core.errors import BadInputError, FitError, InfeasibleError, SolverErro
 from irl_core.irl.choices import Player
 from irl_core.irl.evaluation import Evaluation
 from irl_core.irl.fit_check import FitCheck
+from irl_core.irl.identification import Scale
 from irl_core.irl.notes import Note
 from irl_core.irl.options import DEFAULT_BETA, FitOptions
 from irl_core.irl.qmap import Unknowns
@@ -112,6 +113,7 @@ class FitResult:
     rival_theta: np.ndarray | None = None
     slip_curve: SlipCurve | None = None
     recorded_world: World | None = None
+    scale: Scale = field(default_factory=Scale)
 
     @property
     def mdp(self) -> MDP:
@@ -169,16 +171,42 @@ class FitResult:
 
     @property
     def reward_grid(self) -> np.ndarray:
-        """(rows, cols) fitted R_S, NaN at walls."""
-        return self.grid(self.R_S)
+        """(rows, cols) each cell's own fitted reward, NaN at walls (a move's cost, where it is an unknown, is
+        not in it: `move`)."""
+        move = self.unknowns.move
+        if move is None:
+            return self.grid(self.R_S)
+        return self.grid(self.R_S - self.unknowns.basis[:, [move]] @ self.theta[[move]])
+
+    @property
+    def move(self) -> tuple[float, np.ndarray | None] | None:
+        """A move's cost as a reward relative to the reference, and its interval (2,) or None, where nothing fixes
+        the units and every move costs the same (`irl_core.irl.qmap.MOVE`); None elsewhere."""
+        move = self.unknowns.move
+        if move is None:
+            return None
+        return float(self.theta[move]), None if self.intervals is None else self.intervals[move]
 
     @property
     def true_reward_grid(self) -> np.ndarray:
         """(rows, cols) the world's own R_S, NaN at walls (in the fit's `reward_unit`: on a time world whose
         cost was taken as unknown, in seconds of holding at the recorded world's cost)."""
-        if self.reward_unit == "points":
-            return self.grid(self.mdp.R_S)
-        return self.grid(self.mdp.R_S / (self.recorded_world or self.world).cost_per_second)
+        return self.grid(self.mdp.R_S * self.truth_factor)
+
+    @property
+    def truth_factor(self) -> float:
+        """What the world's own rewards are multiplied by to be in the fit's `reward_unit` (NaN where they cannot
+        be: a reference whose own reward in the world is 0)."""
+        if self.reward_unit == "seconds of holding":
+            return 1.0 / (self.recorded_world or self.world).cost_per_second
+        if self.scale.reference is not None:
+            own = self.world.rewards.get(self.scale.reference, 0.0)
+            return 1.0 / own if own else float("nan")
+        return 1.0
+
+    def true_theta(self) -> np.ndarray:
+        """(k,) the world's own rewards as the unknowns, in the fit's `reward_unit`."""
+        return self.unknowns.true_theta(self.mdp) * self.truth_factor
 
     @property
     def unknown_grid(self) -> np.ndarray:
@@ -191,7 +219,7 @@ class FitResult:
         out = np.full((self.world.rows, self.world.cols, 2), np.nan)
         if self.intervals is None:
             return out
-        basis = self.unknowns.basis.tocoo()
+        basis = self.unknowns.cell_basis.tocoo()
         for s, j in zip(basis.row, basis.col):
             out[self.mdp.cells[s]] = self.intervals[j]
         return out
@@ -261,14 +289,24 @@ class FitResult:
 
     @property
     def reward_unit(self) -> str:
-        """``points``, or ``seconds of holding`` when a time world's cost was taken as unknown."""
-        return "seconds of holding" if self.slip_curve is not None and self.options.cost == "unknown" else "points"
+        """``points``; ``seconds of holding`` when a time world's cost was taken as unknown; ``relative to G`` when
+        nothing fixes the units and G is the reference (`identification`)."""
+        if self.slip_curve is not None and self.options.cost == "unknown":
+            return "seconds of holding"
+        return self.scale.unit
 
     def _time_json(self) -> dict[str, Any]:
-        """A time world's ``slip_curve`` and ``reward_unit`` (nothing for a world with levels)."""
-        if self.slip_curve is None:
-            return {}
-        return {"slip_curve": self.slip_curve.to_json(), "reward_unit": self.reward_unit}
+        """``reward_unit`` where it is not points or the world is a time world, and a time world's ``slip_curve``."""
+        out: dict[str, Any] = {}
+        if self.move is not None:
+            value, interval = self.move
+            out["move"] = {"reward": _number(value),
+                           "interval": None if interval is None else [_number(v) for v in interval]}
+        if self.slip_curve is not None:
+            out["slip_curve"] = self.slip_curve.to_json()
+        if self.slip_curve is not None or self.reward_unit != "points":
+            out["reward_unit"] = self.reward_unit
+        return out
 
 
 def _number(value: float) -> float:

@@ -157,7 +157,7 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
     return CellFit(method=result.method, beta=result.beta, beta_auto=result.beta_auto,
                    symbols=tuple(result.unknowns.symbols), estimate=result.theta.copy(),
                    intervals=None if result.intervals is None else np.asarray(result.intervals, dtype=float),
-                   truth=result.unknowns.true_theta(result.mdp), interval_kind=result.interval_kind,
+                   truth=result.true_theta(), interval_kind=result.interval_kind,
                    confidence=options.confidence, rmax=options.rmax, reward_grid=result.reward_grid,
                    notes=notes, player_model=result.player_model,
                    elapsed_s=result.elapsed_s,

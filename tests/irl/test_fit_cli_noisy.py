@@ -124,11 +124,11 @@ def test_without_intervals_the_separation_note_speaks_of_the_fitted_rewards_not_
 
     symbols, terminal = ("C", "C", "U", "U", "G"), ("C", "G")
     points = np.array([-1000.0, 220.0, 9.3, 9.8, 236.0])
-    (note,) = _not_separated(symbols, np.column_stack([points, points]), terminal, intervals=False)
+    (note,) = _not_separated(symbols, np.column_stack([points, points]), {"C"}, terminal, intervals=False)
     assert "interval" not in note.sentence
     assert note.sentence.startswith("the fitted rewards do not put the catastrophe below the nuisance")
     assert "C -1e+03 to 220 reaches U 9.3 to 9.8" in note.sentence
-    (note,) = _not_separated(symbols, np.column_stack([points - 50, points + 50]), terminal, intervals=True)
+    (note,) = _not_separated(symbols, np.column_stack([points - 50, points + 50]), {"C"}, terminal, intervals=True)
     assert note.sentence.startswith("the intervals do not separate the catastrophe from the nuisance")
     apart = np.array([[-1200.0, -900.0], [-1100.0, -800.0], [-40.0, -20.0], [-35.0, -25.0], [80.0, 120.0]])
-    assert _not_separated(symbols, apart, terminal, intervals=True) == []
+    assert _not_separated(symbols, apart, {"C"}, terminal, intervals=True) == []

@@ -29,7 +29,8 @@ def symbol_intervals(result, symbol):
 
 
 def true_values(result):
-    return result.unknowns.true_theta(result.mdp)
+    """The world's own rewards in the fit's unit (relative to G where nothing fixes the units)."""
+    return result.true_theta()
 
 
 @pytest.mark.parametrize("name", ["paper", "mud"])

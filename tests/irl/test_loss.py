@@ -101,7 +101,8 @@ def test_clean_demonstrations_reach_the_floor_and_are_reported_not_unique():
     again = fit(demos, method="loss")
     np.testing.assert_array_equal(result.theta, again.theta)
     shown = demos.demonstrated.sum()
-    assert loss_value(qmap_of(demos), demos.policy, np.concatenate([result.theta, result.V])) == pytest.approx(shown)
+    assert loss_value(build_qmap(demos.mdp, result.unknowns), demos.policy, np.concatenate([result.theta, result.V])) == \
+        pytest.approx(shown)
 
 
 def test_at_the_floor_the_reported_minimiser_has_the_smallest_l1_norm():

@@ -40,9 +40,15 @@ def test_auto_picks_lp_for_an_optimal_expert_and_maxent_for_a_noisy_one():
     assert chosen.to_json()["options"]["beta"] == chosen.beta and chosen.to_json()["options"]["beta_auto"] is True
 
 
-def test_one_carefulness_level_says_beta_is_not_identified():
+def test_one_carefulness_level_says_the_scale_is_not_identified_and_reads_rewards_relative_to_the_goal():
     result = fit(boltzmann("mud-simple", 0.5, 50, seed=0), method="maxent", beta="auto", tie=True, rmax=5000.0)
-    assert any("not identified" in str(note) for note in result.notes)
+    assert "scale_not_identified" in [note.code for note in result.notes]
+    assert result.reward_unit == "relative to G" and result.to_json()["reward_unit"] == "relative to G"
+    assert result.theta[np.array(result.unknowns.symbols) == "G"].size == 0  # held at 1, not fitted
+    rows = result.mdp.world.layout.split("\n")
+    (goal,) = [(r, c) for r, row in enumerate(rows) for c, symbol in enumerate(row) if symbol == "G"]
+    assert result.reward_grid[goal] == 1.0
+    assert set(result.to_json()["move"]) == {"reward", "interval"}  # a move's cost, relative to G
 
 
 def test_bootstrap_intervals_are_reproducible_and_widen_with_confidence():

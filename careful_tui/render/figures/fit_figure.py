@@ -38,6 +38,7 @@ from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figur
 from careful_tui.render.figures.timing import draw_holds, draw_slip_curve
 from careful_tui.render.intervals import interval_title
 from irl_core.irl import FitResult
+from irl_core.irl.identification import MOVE
 from irl_core.support.plural import plural
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
@@ -54,12 +55,12 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     if result.intervals is None:
         return [], False
     intervals = result.intervals
-    truth = result.unknowns.true_theta(result.mdp) if result.world.rewards else np.full(len(result.labels), np.nan)
+    truth = result.true_theta() if result.world.rewards else np.full(len(result.labels), np.nan)
     first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
     rows = []
     for j, symbol in enumerate(result.unknowns.symbols):
         name = symbol_label(symbol)
-        label = name if result.options.tie else f"{name} {result.mdp.cells[first_state[j]]}"
+        label = name if result.options.tie or symbol == MOVE else f"{name} {result.mdp.cells[first_state[j]]}"
         low, high = (float(v) for v in intervals[j])
         rows.append(IntervalRow(label, symbol, low, high, float(result.theta[j]), float(truth[j])))
     if len(rows) <= MAX_INTERVAL_ROWS:

@@ -120,9 +120,6 @@ def _confidence(fitted: Fitted, qmap: QMap, demos: Demonstrations, options: FitO
         low, high = result.intervals[-1]
         notes.append(Note("beta_interval", f"beta's {options.confidence:.0%} confidence interval: {low:.3g} to "
                                            f"{high:.3g}"))
-    if episodes < 10:
-        notes.append(Note("few_episodes", f"only {episodes} episodes: a bootstrap interval from so few is rough (it "
-                                          "tends to be too narrow)"))
     return bounds
 
 

@@ -1,0 +1,85 @@
+"""The invariants every fit's intervals keep, whatever made them (docs/answers.md, "Honest answers").
+
+For every fitted reward: the point lies inside its interval; a reward the data bound on one side only
+has an interval open to -rmax or +rmax on that side, and is read as that bound ("at most X"), never as
+its point; the notes say what the table says. They are enforced here, once, after every kind of
+interval (identified, bootstrap, the timing fit's own), so that no path can print a number outside its
+own interval.
+
+Why a point can fall outside a bootstrap interval: the percentile interval is the spread of refits, and
+where the likelihood is flat in a reward (bounded on one side only) the refits land anywhere along the
+flat side, or the full fit's search stopped at a place the refits do not return to. The first is the
+one-sided case (opened here to the bound); the second a biased refit distribution, which the interval is
+widened to cover (the point is then an end of the interval, and a note says so).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from irl_core.irl.notes import Note
+from irl_core.irl.people import FLAT_DROP
+from irl_core.irl.result import at_bound
+
+# Ends this close (relative to rmax) count as the same number: the solvers' tolerance, not a real gap.
+TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class Honest:
+    """Intervals after the invariants: bounds (k, 2), and the unknowns each rule moved (index arrays)."""
+
+    bounds: np.ndarray
+    opened: np.ndarray
+    widened: np.ndarray
+
+
+def honest_intervals(theta: np.ndarray, bounds: np.ndarray, *, flat: np.ndarray | None, rmax: float) -> Honest:
+    """`bounds` (k, 2) made to hold `theta` (k,), with each one-sided reward (`flat` (k,): -1 bounded above
+    only, +1 below only, 0 both) open to the bound on its free side."""
+    theta = np.asarray(theta, dtype=float)
+    out = np.array(bounds, dtype=float, copy=True)
+    sides = np.zeros(len(theta)) if flat is None else np.asarray(flat)
+    opened = np.flatnonzero(((sides < 0) & (out[:, 0] > -rmax)) | ((sides > 0) & (out[:, 1] < rmax)))
+    out[sides < 0, 0] = -rmax
+    out[sides > 0, 1] = rmax
+    slack = TOLERANCE * max(rmax, 1.0)
+    widened = np.flatnonzero((theta < out[:, 0] - slack) | (theta > out[:, 1] + slack))
+    out[:, 0] = np.minimum(out[:, 0], theta)
+    out[:, 1] = np.maximum(out[:, 1], theta)
+    return Honest(bounds=out, opened=opened, widened=widened)
+
+
+def one_sided(bounds: np.ndarray, rmax: float) -> np.ndarray:
+    """(k,) -1 where an interval is open below only (read "at most" its upper end), +1 where open above only
+    ("at least" its lower end), 0 where it is closed on both sides or open on both."""
+    low_open = at_bound(bounds[:, 0], rmax) & (bounds[:, 0] < 0)
+    high_open = at_bound(bounds[:, 1], rmax) & (bounds[:, 1] > 0)
+    return np.where(low_open & ~high_open, -1, np.where(high_open & ~low_open, 1, 0))
+
+
+def honest_notes(labels: tuple[str, ...], theta: np.ndarray, honest: Honest | None, *, flat: np.ndarray | None,
+                 rmax: float) -> list[Note]:
+    """The notes the invariants owe the reader: the one-sided rewards said as their bound (the interval's end
+    where there is one, else the point's side only), and the points an interval was widened to hold."""
+    notes = []
+    sides = np.zeros(len(labels)) if flat is None else np.asarray(flat)
+    if sides.any():
+        if honest is not None:
+            ends = np.where(sides < 0, honest.bounds[:, 1], honest.bounds[:, 0])
+            said = [f"{label} {'at most' if side < 0 else 'at least'} {end:.3g}"
+                    for label, end, side in zip(labels, ends, sides) if side]
+        else:
+            said = [f"{label} {'below' if side < 0 else 'above'} (no interval was asked for: the point "
+                    f"{value:.3g} is where the search stopped, not an estimate)"
+                    for label, value, side in zip(labels, theta, sides) if side]
+        notes.append(Note("one_sided", "bounded on one side only (moving them to the bound, {rmax}, costs the "
+                                       f"likelihood less than {FLAT_DROP:g}): " + "; ".join(said)))
+    if honest is not None and honest.widened.size:
+        names = ", ".join(labels[j] for j in honest.widened)
+        notes.append(Note("interval_widened", f"the intervals of {names} were widened to hold the point estimate: "
+                                              "the refits of resampled episodes sat to one side of it (a biased "
+                                              "estimate), so the point is an end of its interval"))
+    return notes
