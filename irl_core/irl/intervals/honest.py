@@ -10,21 +10,27 @@ Why a point can fall outside a bootstrap interval: the percentile interval is th
 where the likelihood is flat in a reward (bounded on one side only) the refits land anywhere along the
 flat side, or the full fit's search stopped at a place the refits do not return to. The first is the
 one-sided case (opened here to the bound); the second a biased refit distribution, which the interval is
-widened to cover (the point is then an end of the interval, and a note says so).
+widened to cover (the point is then an end of the interval, and a note says so). A point at ±rmax whose
+refits all stayed there has an interval of no width that says nothing: it becomes the whole range (the
+``at_bound`` note names it).
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from irl_core.irl.notes import Note
 from irl_core.irl.people import FLAT_DROP
-from irl_core.irl.result import at_bound
+from irl_core.irl.result import FitResult, at_bound
 
 # Ends this close (relative to rmax) count as the same number: the solvers' tolerance, not a real gap.
 TOLERANCE = 1e-9
+# An interval narrower than this (relative to rmax) has no width: its refits never moved (note
+# ``refits_never_moved``), whatever the solvers' last digits did.
+ZERO_WIDTH = 1e-6
 
 
 @dataclass(frozen=True)
@@ -42,10 +48,13 @@ def honest_intervals(theta: np.ndarray, bounds: np.ndarray, *, flat: np.ndarray 
     theta = np.asarray(theta, dtype=float)
     out = np.array(bounds, dtype=float, copy=True)
     sides = np.zeros(len(theta)) if flat is None else np.asarray(flat)
-    opened = np.flatnonzero(((sides < 0) & (out[:, 0] > -rmax)) | ((sides > 0) & (out[:, 1] < rmax)))
+    slack = TOLERANCE * max(rmax, 1.0)
+    # A point at ±rmax whose refits never left the bound: the bound set it, and the interval says nothing.
+    stuck = at_bound(theta, rmax) & (out[:, 1] - out[:, 0] <= slack)
+    opened = np.flatnonzero(((sides < 0) & (out[:, 0] > -rmax)) | ((sides > 0) & (out[:, 1] < rmax)) | stuck)
     out[sides < 0, 0] = -rmax
     out[sides > 0, 1] = rmax
-    slack = TOLERANCE * max(rmax, 1.0)
+    out[stuck] = [-rmax, rmax]
     widened = np.flatnonzero((theta < out[:, 0] - slack) | (theta > out[:, 1] + slack))
     out[:, 0] = np.minimum(out[:, 0], theta)
     out[:, 1] = np.maximum(out[:, 1], theta)
@@ -83,3 +92,38 @@ def honest_notes(labels: tuple[str, ...], theta: np.ndarray, honest: Honest | No
                                               "the refits of resampled episodes sat to one side of it (a biased "
                                               "estimate), so the point is an end of its interval"))
     return notes
+
+
+def invariant_violations(result: FitResult) -> list[str]:
+    """What in `result` breaks the rules every answer keeps (docs/answers.md, "Honest answers"), one sentence
+    each; empty for an honest fit. The property tests and `bench/bench_invariants.py` ask it of every fit.
+
+    The rules: every point inside its interval; intervals ordered and within ±rmax; zero width only where the
+    lp's identified set pins the value or a note (`refits_never_moved`) says the refits never moved; the
+    one-sided note's bounds are the table's interval ends."""
+    if result.intervals is None:
+        return []
+    codes = {note.code for note in result.notes}
+    rmax = float(result.rmax) / ((result.recorded_world or result.world).cost_per_second
+                                 if result.reward_unit == "seconds of holding" else 1.0)
+    slack = ZERO_WIDTH * max(rmax, 1.0)
+    out = []
+    for label, point, (low, high) in zip(result.labels, result.theta, result.intervals):
+        if not low - slack <= point <= high + slack:
+            out.append(f"{label}: the point {point:.6g} lies outside its interval [{low:.6g}, {high:.6g}]")
+        if not (-rmax - slack <= low <= high + slack and high <= rmax + slack):
+            out.append(f"{label}: the interval [{low:.6g}, {high:.6g}] is not ordered within ±rmax {rmax:g}")
+        if high - low <= slack and result.interval_kind != "identified" and "refits_never_moved" not in codes:
+            out.append(f"{label}: a zero-width interval [{low:.6g}, {high:.6g}] that no note explains")
+    ends = {label: (low, high) for label, (low, high) in zip(result.labels, result.intervals)}
+    for note in result.notes:
+        if note.code != "one_sided":
+            continue
+        for label, side, value in re.findall(r"([^:;]+?) at (most|least) (-?[0-9.e+]+)", note.sentence):
+            label = label.strip()
+            if label not in ends:
+                continue
+            end = ends[label][1] if side == "most" else ends[label][0]
+            if abs(float(f"{end:.3g}") - float(value)) > 1e-9 * max(1.0, abs(end)):
+                out.append(f"{label}: the note says at {side} {value}, the table's interval ends at {end:.6g}")
+    return out

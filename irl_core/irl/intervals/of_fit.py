@@ -10,6 +10,7 @@ import numpy as np
 from irl_core.irl.choices import method
 from irl_core.irl.fitters import Fitted
 from irl_core.irl.intervals.bootstrap import Refit, Refitter, bootstrap
+from irl_core.irl.intervals.honest import ZERO_WIDTH
 from irl_core.irl.intervals.identified import reward_intervals
 from irl_core.irl.lp.margin import lp_constraints
 from irl_core.irl.lp.solve import Progress
@@ -150,7 +151,7 @@ def _moved(bounds: np.ndarray, fitted: Fitted, qmap: QMap, options: FitOptions, 
     """Whether the refits moved any unknown inside the bound (else the intervals measure nothing, with a note);
     a note names the ones they never moved."""
     inside = ~at_bound(bounds, options.rmax).any(axis=1)
-    stayed = inside & (bounds[:, 1] - bounds[:, 0] <= 1e-9 * np.maximum(1.0, np.abs(bounds).max(axis=1)))
+    stayed = inside & (bounds[:, 1] - bounds[:, 0] <= ZERO_WIDTH * max(1.0, options.rmax))
     if stayed.any() and stayed.sum() == inside.sum():
         # Zero width inside the bound: the refits never left the full fit, which measures nothing.
         why = (", as for a deterministic expert, whose beta would grow without end ({method=lp} fits one)"

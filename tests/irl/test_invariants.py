@@ -1,0 +1,162 @@
+"""The rules every answer keeps (docs/answers.md, "Honest answers"), on random worlds, players and recordings,
+on every fit path: lp, loss, maxent (beta given or estimated), each model of people, timing.
+
+`invariant_violations` states the rules; these tests draw the worlds and players, and a test of its own
+shows it catches a broken fit (a checker that never complains would pass everything).
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from irl_core.errors import InputError
+from irl_core.irl import fit
+from irl_core.irl.identification import units_unfixed_why
+from irl_core.irl.intervals.honest import invariant_violations
+from irl_core.irl.notes import Note
+from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts, simulate_to_file
+from irl_core.players.person_like import person_like
+from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.worlds.mdp import build_mdp
+from irl_core.worlds.world import BUILTIN_WORLDS, World
+
+# Few resamples: the rules hold for any number, and each example is a whole fit with intervals.
+FAST = {"intervals": True, "resamples": 20, "rmax": 1000.0, "workers": 1}
+EXAMPLES = settings(max_examples=6, deadline=None, derandomize=True,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+
+
+@st.composite
+def worlds(draw, *, levels=None):
+    """A small level world: one goal, some cliff and mud, maybe walls; 1 or 3 levels; costs zero or one."""
+    rows, cols = draw(st.integers(2, 4)), draw(st.integers(3, 5))
+    cells = draw(st.lists(st.sampled_from(".....UC#"), min_size=rows * cols, max_size=rows * cols))
+    cells[draw(st.integers(0, rows * cols - 1))] = "G"
+    layout = "\n".join("".join(cells[r * cols:(r + 1) * cols]) for r in range(rows)) + "\n"
+    rewards = {"G": draw(st.sampled_from([10.0, 100.0])), "C": draw(st.sampled_from([-100.0, -1000.0])),
+               "U": draw(st.sampled_from([-3.0, -30.0]))}
+    try:
+        return World(name="drawn", layout=layout, rewards=rewards,
+                     levels=levels or draw(st.sampled_from([1, 3])),
+                     cost_per_level=draw(st.sampled_from([0.0, 1.0])),
+                     slip=draw(st.sampled_from(["halving", "none"])), max_steps=60)
+    except ValueError:  # a layout the world refuses (no cell to start from, a goal walled in...)
+        return draw(st.nothing())
+
+
+def demonstrations(world, player, episodes, seed):
+    mdp = build_mdp(world)
+    if player == "optimal":
+        policy = optimal_policy(mdp)
+    elif player == "boltzmann":
+        policy = boltzmann_policy(mdp, beta=0.5)
+    else:
+        policy = person_like(mdp, player).choose
+    return demonstrations_of(mdp, rollouts(mdp, policy, episodes=episodes, seed=seed))
+
+
+def fitted(demos, **options):
+    """The fit, or None where the recordings are the user's error to fix (an lp with no solution, no steps)."""
+    try:
+        return fit(demos, **FAST, **options)
+    except InputError:
+        return None
+
+
+def assert_honest(result):
+    if result is None:
+        return
+    assert invariant_violations(result) == []
+    codes = [note.code for note in result.notes]
+    unfixed = units_unfixed_why(result.world) is not None and not result.options.known
+    if unfixed and not (isinstance(result.options.beta, float) and result.method == "maxent"):
+        assert "scale_not_identified" in codes and result.reward_unit.startswith("relative to")
+    if units_unfixed_why(result.world) is None:
+        assert "scale_not_identified" not in codes
+    if result.world.levels == 1:
+        assert not {"hand_calibrated", "planning_not_identified"} & set(codes)
+
+
+@EXAMPLES
+@given(world=worlds(), episodes=st.integers(3, 20), seed=st.integers(0, 2**16), tie=st.booleans())
+def test_lp_and_its_identified_set_on_optimal_play(world, episodes, seed, tie):
+    assert_honest(fitted(demonstrations(world, "optimal", episodes, seed), method="lp", tie=tie))
+
+
+@EXAMPLES
+@given(world=worlds(), episodes=st.integers(3, 20), seed=st.integers(0, 2**16),
+       player=st.sampled_from(["optimal", "boltzmann"]))
+def test_loss_and_its_bootstrap(world, episodes, seed, player):
+    assert_honest(fitted(demonstrations(world, player, episodes, seed), method="loss", tie=True))
+
+
+@EXAMPLES
+@given(world=worlds(), episodes=st.integers(3, 20), seed=st.integers(0, 2**16),
+       beta=st.sampled_from(["auto", 0.5]), tie=st.booleans())
+def test_maxent_with_beta_given_or_estimated(world, episodes, seed, beta, tie):
+    assert_honest(fitted(demonstrations(world, "boltzmann", episodes, seed), method="maxent", beta=beta, tie=tie,
+                         player_model="boltzmann"))
+
+
+@EXAMPLES
+@given(world=worlds(levels=3), episodes=st.integers(3, 15), seed=st.integers(0, 2**16),
+       player=st.sampled_from(["loose", "timed", "hasty"]),
+       model=st.sampled_from(["ends", "hand", "person", "naive", "auto"]))
+def test_each_model_of_people_on_person_like_play(world, episodes, seed, player, model):
+    assert_honest(fitted(demonstrations(world, player, episodes, seed), method="maxent", tie=True,
+                         player_model=model))
+
+
+@EXAMPLES
+@given(world=worlds(levels=1), episodes=st.integers(3, 15), seed=st.integers(0, 2**16),
+       known=st.sampled_from([(), (("G", 100.0),)]))
+def test_one_level_worlds_relative_or_in_points_with_a_known_reward(world, episodes, seed, known):
+    result = fitted(demonstrations(world, "loose", episodes, seed), method="auto", tie=True, known=known)
+    assert_honest(result)
+    if result is not None and known:
+        assert result.reward_unit == "points" and "rewards_held" in [note.code for note in result.notes]
+
+
+@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(cost=st.sampled_from([0.0, 5.0]), episodes=st.integers(4, 30), seed=st.integers(0, 2**16),
+       cliff=st.sampled_from([-300.0, -1000.0]))
+def test_timing_on_time_worlds_with_and_without_a_cost(tmp_path_factory, cost, episodes, seed, cliff):
+    world = BUILTIN_WORLDS["mud-time"].model_copy(update={"cost_per_second": cost,
+                                                          "rewards": {"C": cliff, "G": 100.0, "U": -30.0}})
+    mdp = build_mdp(world)
+    path = tmp_path_factory.mktemp("timing") / "holds.jsonl"
+    simulate_to_file(path, mdp, person_like(mdp, "timing").choose, episodes=episodes, seed=seed, player="timing")
+    demos = Demonstrations.read([path])
+    result = fitted(demos, method="maxent", tie=True)
+    assert_honest(result)
+    if result is not None and result.intervals is not None and episodes < 10:
+        assert "few_episodes" in [note.code for note in result.notes]
+
+
+def test_the_checker_names_a_point_outside_its_interval_and_a_note_that_contradicts_the_table():
+    demos = demonstrations(BUILTIN_WORLDS["mud"], "loose", 20, 0)
+    result = fit(demos, **FAST, tie=True)
+    assert invariant_violations(result) == []
+    theta = result.theta.copy()
+    theta[0] = result.intervals[0, 1] + 50.0
+    (outside,) = invariant_violations(dataclasses.replace(result, theta=theta))
+    assert outside.startswith(f"{result.labels[0]}: the point") and "outside its interval" in outside
+    low, high = result.intervals[1]
+    lying = Note("one_sided", f"bounded on one side only: {result.labels[1]} at most {high + 100:.3g}")
+    (contradiction,) = invariant_violations(dataclasses.replace(result, notes=[*result.notes, lying]))
+    assert "the note says at most" in contradiction
+    flat = result.intervals.copy()
+    flat[2] = result.theta[2]
+    assert any("zero-width" in v for v in invariant_violations(dataclasses.replace(result, intervals=flat)))
+
+
+@pytest.mark.parametrize("name", ["paper", "mud", "walls", "paper-time"])
+def test_worlds_whose_care_cost_fixes_the_units_never_say_it_does_not(name):
+    assert units_unfixed_why(BUILTIN_WORLDS[name]) is None
+    world = BUILTIN_WORLDS[name]
+    free = world.model_copy(update={"cost_per_second": 0.0} if world.care == "time" else {"cost_per_level": 0.0})
+    assert units_unfixed_why(free) is not None
+    assert np.isfinite(world.cost_per_second)
