@@ -300,7 +300,12 @@ def port_number(text: str) -> int:
 
 class _Parser(argparse.ArgumentParser):
     """argparse, with its error on one line (not the usage too) and made safe: a bad value can
-    hold control characters."""
+    hold control characters. Every subcommand's parser is one of these (argparse builds them with
+    the parent's class), so each refuses an abbreviated flag: `--participant 5` must not run as
+    `--participants 5` and overwrite the last plan."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **{**kwargs, "allow_abbrev": False})
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: {one_line(message)} (see {self.prog} --help)\n")
