@@ -73,7 +73,7 @@ class Exclusions(BaseModel):
 
     fit_check_failed: bool = False
     min_main_episodes: int = Field(0, ge=0, le=100_000)
-    max_quit_share: float = Field(1.0, ge=0.0, le=1.0, strict=False)
+    max_quit_share: float = Field(1.0, ge=0.0, le=1.0)
 
     @property
     def any_set(self) -> bool:

@@ -1,0 +1,26 @@
+"""A study's protocol (issue 45): every field of the study file strict, `study plan --players` checked
+against the study's worlds before anything runs, a calibration block only where it can be asked, and no
+folder the tool writes read as a participant."""
+
+from __future__ import annotations
+
+import pytest
+from hardening_checks import assert_refused, careful
+
+STUDY = 'name = "pilot"\nworlds = ["mud"]\npractice_episodes = 0\nepisodes = 3\n'
+
+
+@pytest.mark.parametrize("value", ["true", "false", '"0.5"'])
+def test_max_quit_share_is_a_number_never_a_boolean_or_text(capsys, tmp_path, value):
+    study = tmp_path / "s.toml"
+    study.write_text(STUDY + f"[exclusions]\nmax_quit_share = {value}\n")
+    assert_refused(*careful(capsys, "study", "report", study), str(study), "exclusions.max_quit_share")
+
+
+@pytest.mark.parametrize(("value", "share"), [("0", 0.0), ("1", 1.0), ("0.25", 0.25)])
+def test_max_quit_share_takes_whole_and_decimal_numbers(tmp_path, value, share):
+    from irl_core.studies.study import load_study
+
+    study = tmp_path / "s.toml"
+    study.write_text(STUDY + f"[exclusions]\nmax_quit_share = {value}\n")
+    assert load_study(study).study.exclusions.max_quit_share == share
