@@ -24,3 +24,16 @@ def test_max_quit_share_takes_whole_and_decimal_numbers(tmp_path, value, share):
     study = tmp_path / "s.toml"
     study.write_text(STUDY + f"[exclusions]\nmax_quit_share = {value}\n")
     assert load_study(study).study.exclusions.max_quit_share == share
+
+
+@pytest.mark.parametrize("players", ["timed,steady", "timing", "loose,nobody"])
+def test_plan_refuses_a_player_its_worlds_cannot_have_before_simulating(capsys, tmp_path, players):
+    """The plan simulates worlds with levels only: a time world's player (timing, steady) is refused with the
+    choices, exit 2, before the simulation starts (nothing written)."""
+    study = tmp_path / "s.toml"
+    study.write_text(STUDY)
+    line = assert_refused(*careful(capsys, "study", "plan", study, "--players", players, "--participants", "2",
+                                   "--episodes", "2", "--repeats", "1", "--workers", "1"),
+                          "--players", "loose, timed, hasty, inverted, reckless")
+    assert "unexpected" not in line
+    assert not (tmp_path / "data").exists()
