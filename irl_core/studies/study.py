@@ -169,6 +169,15 @@ def load_study(path: str | Path) -> LoadedStudy:
         # A time world's care is the hold itself, from key-down to key-up: taps or digits cannot give it.
         raise StudyError(f"{path}: input: {study.input!r} cannot play worlds[{timed[0]}], a time world (care is how "
                          'long an arrow is held): use input = "hold"')
+    # The calibration block's targets are levels of the participant's first world; a time world has none
+    # (docs/timing.md), so no time world may come first in a study with a block.
+    first_possible = timed if study.order == "shuffled" else [i for i in timed if i == 0]
+    if study.calibration_block and first_possible:
+        where = "a shuffled order may put first" if study.order == "shuffled" else "comes first"
+        raise StudyError(f"{path}: calibration_block: worlds[{first_possible[0]}] is a time world that {where}, and "
+                         "a time world has no calibration (the hold itself is the care; the block's targets are levels "
+                         "of the first world): set calibration_block = 0, or put a world with levels first in a fixed "
+                         "order")
     return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)
 
 

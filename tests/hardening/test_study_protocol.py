@@ -37,3 +37,24 @@ def test_plan_refuses_a_player_its_worlds_cannot_have_before_simulating(capsys, 
                           "--players", "loose, timed, hasty, inverted, reckless")
     assert "unexpected" not in line
     assert not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize(("worlds", "order", "named"), [
+    ('["paper-time", "mud"]', "fixed", "worlds[0]"),
+    ('["mud", "paper-time"]', "shuffled", "worlds[1]"),
+])
+def test_a_calibration_block_is_refused_where_a_time_world_can_come_first(capsys, tmp_path, worlds, order, named):
+    """The block's targets are levels of the participant's first world, and a time world has none
+    (docs/timing.md: no calibration on a time world): the study file is refused, one line naming the field."""
+    study = tmp_path / "s.toml"
+    study.write_text(f'worlds = {worlds}\norder = "{order}"\ninput = "hold"\ncalibration_block = 16\n')
+    assert_refused(*careful(capsys, "study", "run", study, "--participant", "p1"),
+                   str(study), "calibration_block", named, "time world")
+
+
+def test_a_calibration_block_before_a_fixed_level_world_keeps_its_time_worlds(tmp_path):
+    from irl_core.studies.study import load_study
+
+    study = tmp_path / "s.toml"
+    study.write_text('worlds = ["mud", "paper-time"]\norder = "fixed"\ninput = "hold"\ncalibration_block = 4\n')
+    assert load_study(study).study.calibration_block == 4
