@@ -50,8 +50,11 @@ from irl_core.worlds.world import BUILTIN_WORLDS, World, describe_validation_err
 Phase = Literal["practice", "main"]
 # A participant id is a folder name as it stands: no slug can map two ids to one folder.
 _PARTICIPANT_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=-]{0,79}")
-# `<out>/report/` holds the report, so no participant may be called that.
+# The folders careful itself writes under `<out>`, and what each holds: never a participant's folder
+# (`check_participant` refuses their names as ids; the report's `participant_ids` passes them by).
 REPORT_FOLDER = "report"
+PLAN_FOLDER = "plan"
+TOOL_FOLDERS = {REPORT_FOLDER: "the study's report", PLAN_FOLDER: "careful study plan's files"}
 # The report's rows of every participant together carry this id (`irl_core.studies.report.POOLED`).
 POOLED = "pooled"
 _MAX_STUDY_FILE_BYTES = 1 << 20
@@ -197,16 +200,16 @@ def check_participant(participant: str) -> str:
 
     Raises:
         StudyError: the id is empty, too long, holds other characters than letters, digits
-            and ``_ . = -``, starts with another, or is ``report`` (the report's folder) or
-            ``pooled`` (the report's rows of everyone together).
+            and ``_ . = -``, starts with another, or is a folder careful writes (`TOOL_FOLDERS`:
+            ``report``, ``plan``) or ``pooled`` (the report's rows of everyone together).
     """
     if not _PARTICIPANT_ID.fullmatch(participant):
         raise StudyError(
             f"participant id {printable(participant, limit=VALUE_LIMIT)!r} cannot name a folder: use 1 to 80 "
             "letters, digits and _ . = -, starting with a letter or digit"
         )
-    if participant.lower() == REPORT_FOLDER:
-        raise StudyError(f"participant id {participant!r} is taken: <out>/{REPORT_FOLDER}/ holds the study's report")
+    if (folder := participant.lower()) in TOOL_FOLDERS:
+        raise StudyError(f"participant id {participant!r} is taken: <out>/{folder}/ holds {TOOL_FOLDERS[folder]}")
     if participant.lower() == POOLED:
         raise StudyError(f"participant id {participant!r} is taken: the report's rows of everyone together are "
                          f"called {POOLED!r}")

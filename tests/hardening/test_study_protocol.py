@@ -58,3 +58,25 @@ def test_a_calibration_block_before_a_fixed_level_world_keeps_its_time_worlds(tm
     study = tmp_path / "s.toml"
     study.write_text('worlds = ["mud", "paper-time"]\norder = "fixed"\ninput = "hold"\ncalibration_block = 4\n')
     assert load_study(study).study.calibration_block == 4
+
+
+def test_the_report_never_reads_the_planners_folder_as_a_participant(capsys, tmp_path):
+    """`study plan` writes `<out>/plan/`; the report then read it as a participant with no episodes and counted
+    one participant too many. The folders the tool writes are never participants, nor their names ids."""
+    from study.conftest import write_block
+
+    from irl_core.errors import StudyError
+    from irl_core.studies.report import participant_ids
+    from irl_core.studies.study import check_participant, load_study
+
+    path = tmp_path / "s.toml"
+    path.write_text(STUDY)
+    study = load_study(path)
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=3)
+    (study.out / "plan").mkdir()
+    (study.out / "plan" / "plan.csv").write_text("world,participants\n")
+    (study.out / "report").mkdir()
+    assert participant_ids(study) == (["p1"], [])
+    for taken in ("plan", "Plan", "report"):
+        with pytest.raises(StudyError, match="is taken"):
+            check_participant(taken)
