@@ -27,3 +27,33 @@ def test_a_page_id_with_characters_no_page_id_has_is_a_4xx_never_a_500(tmp_path,
                 # As JSON text with \u escapes: a lone surrogate travels as the page would send it.
                 answer = client.post(path, content=json.dumps(body), headers={"content-type": "application/json"})
                 assert answer.status_code in (204, 410), (path, page, answer.status_code, answer.text)
+
+
+def call_with_body_cut_off(app, path: str) -> list[dict]:
+    """POST `path` to the ASGI app as a client that sends part of its body and disconnects; the messages sent
+    back. Raises what the app raises (what uvicorn would print as a traceback on the console)."""
+    import anyio
+
+    incoming = [{"type": "http.request", "body": b'{"page": "p0', "more_body": True}, {"type": "http.disconnect"}]
+    sent: list[dict] = []
+
+    async def receive() -> dict:
+        return incoming.pop(0) if incoming else {"type": "http.disconnect"}
+
+    async def send(message: dict) -> None:
+        sent.append(message)
+
+    scope = {"type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1", "method": "POST", "scheme": "http",
+             "path": path, "raw_path": path.encode(), "query_string": b"", "root_path": "",
+             "headers": [(b"content-type", b"application/json"), (b"content-length", b"200")],
+             "client": ("127.0.0.1", 5000), "server": ("127.0.0.1", 8000), "state": {"served": app.state.served}}
+    anyio.run(app, scope, receive, send)
+    return sent
+
+
+@pytest.mark.parametrize("path", ["/api/start", "/api/key", "/api/alive", "/api/leave"])
+def test_a_client_gone_mid_body_is_no_traceback(tmp_path, path):
+    study = load_study(write_web_study(tmp_path))
+    app, _ = web_app(study)
+    sent = call_with_body_cut_off(app, path)  # raised ClientDisconnect, which uvicorn printed with its traceback
+    assert sent[0]["type"] == "http.response.start" and 400 <= sent[0]["status"] < 500
