@@ -102,6 +102,8 @@ class Study(BaseModel):
     tap_ms: float = Field(TAP_MS, ge=50.0, le=5_000.0)
     ms_per_level: float = Field(MS_PER_LEVEL, ge=20.0, le=5_000.0)
     out: str = Field("data", min_length=1)
+    # Whether the board's legend gives each symbol's reward, in the terminal and the browser alike.
+    show_rewards: bool = True
     exclusions: Exclusions = Field(default_factory=Exclusions)
 
     @field_validator("input")

@@ -80,3 +80,39 @@ def test_the_report_never_reads_the_planners_folder_as_a_participant(capsys, tmp
     for taken in ("plan", "Plan", "report"):
         with pytest.raises(StudyError, match="is taken"):
             check_participant(taken)
+
+
+@pytest.mark.parametrize("show_rewards", [True, False, None])
+def test_both_front_ends_tell_a_studys_participants_the_same_legend(tmp_path, show_rewards):
+    """The terminal's legend gave `cliff -1000 · goal 100 · mud -30`, the browser's names only; now the study
+    file's `show_rewards` (default true) decides both, from one list of entries."""
+    from starlette.testclient import TestClient
+    from web.conftest import Api, web_app
+
+    from careful_tui.render.session import legend
+    from irl_core.studies.flow import block_options
+    from irl_core.studies.study import load_study, read_protocol
+
+    path = tmp_path / "s.toml"
+    path.write_text('worlds = ["mud"]\ninput = "hold"\npractice_episodes = 0\nepisodes = 1\nout = "data"\n'
+                    + ("" if show_rewards is None else f"show_rewards = {str(show_rewards).lower()}\n"))
+    study = load_study(path)
+    shown = show_rewards is not False
+    app, tokens = web_app(study)
+    with TestClient(app) as client:
+        api = Api(client, token=tokens["p001"])
+        api.key("space")
+        browser = api.view["play"]["legend"]
+    protocol = read_protocol(study, "p002")
+    options = block_options(protocol, protocol.next_block, "p002", None)
+    terminal = legend(study.worlds[0], show_rewards=options.show_rewards).plain
+    words = [f"{name} {reward}" if reward is not None else name for _, name, reward, _ in browser]
+    assert terminal == " · ".join(f"■ {w}" + (" (ends)" if ends else "") for w, (*_, ends) in zip(words, browser))
+    assert ("cliff -1000" in terminal) == shown and ("-1000" in str(browser)) == shown
+    assert [name for _, name, _, _ in browser] == ["cliff", "goal", "mud"]
+
+
+def test_show_rewards_is_a_boolean(capsys, tmp_path):
+    study = tmp_path / "s.toml"
+    study.write_text(STUDY + 'show_rewards = "no"\n')
+    assert_refused(*careful(capsys, "study", "report", study), str(study), "show_rewards")
