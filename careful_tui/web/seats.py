@@ -32,6 +32,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
+from typing import TypeGuard
 
 from careful_tui.web.session_adapter import WebSession
 from irl_core.errors import SeatRefused
@@ -55,7 +56,7 @@ def new_page_secret() -> str:
     return secrets.token_urlsafe(PAGE_SECRET_BYTES)
 
 
-def is_page_secret(text: object) -> bool:
+def is_page_secret(text: object) -> TypeGuard[str]:
     """Whether `text` has the shape of a page's secret (`new_page_secret`)."""
     return isinstance(text, str) and _PAGE_SECRET.fullmatch(text) is not None
 
