@@ -29,7 +29,8 @@ def test_no_parser_of_the_command_line_takes_an_abbreviated_flag():
 
 
 @pytest.mark.parametrize("argv", [
-    ["study", "plan", "{study}", "--participant", "5"],
+    # With the bug this ran a plan: kept small (one study of 2 episodes) so that a regression fails fast.
+    ["study", "plan", "{study}", "--participant", "2", "--episodes", "2", "--repeats", "1", "--workers", "1"],
     ["fit", "recordings/x.jsonl", "--interval"],
     ["serve", "{study}", "--link", "3"],
 ])
