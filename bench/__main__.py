@@ -16,7 +16,7 @@ BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "be
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__,
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="python -m bench", description=__doc__,
                                      epilog="One NAME may be followed by its own options: python -m bench "
                                             "bench_people_big --sizes 24")
     parser.add_argument("only", nargs="*", metavar="NAME", help="run only these: " + ", ".join(BENCHMARKS))

@@ -29,7 +29,7 @@ BETA, EPISODES, RMAX, RESAMPLES, CONFIDENCE = 0.5, 40, 5000.0, 200, 0.95
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_calibration")
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_calibration")
     parser.add_argument("--seeds", type=int, default=20)
     seeds = parser.parse_args().seeds
     mdp = build_mdp(BUILTIN_WORLDS["mud"])

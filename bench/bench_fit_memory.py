@@ -43,7 +43,7 @@ def measure(how: str, path: Path, out: Path) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_fit_memory")
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_fit_memory")
     parser.add_argument("--episodes", type=int, default=150_000)
     parser.add_argument("--out", type=Path, help="also write the numbers here as JSON")
     args = parser.parse_args()

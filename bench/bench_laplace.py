@@ -53,7 +53,8 @@ def one(world_name: str, kind: str, episodes: int, seed: int) -> dict[str, tuple
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, default=30)
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--players", nargs="+", default=["loose", "timed", "hasty"])

@@ -173,7 +173,7 @@ def _option(text: str) -> tuple[str, object]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_people", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_people", description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeds per player and world (default 10)")
     parser.add_argument("--quick", action="store_true", help="a 2-seed slice")
     parser.add_argument("--tie", action="store_true", help="one unknown per symbol")

@@ -91,7 +91,7 @@ def line(row: dict) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_people_big", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_people_big", description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", default="24,64", help="comma-separated sizes (24: the walled world)")
     parser.add_argument("--out", default=None, help="also write the rows as JSON lines here")
     parser.add_argument("--workers", type=int, default=None, help="processes for the fit (default: every core)")

@@ -69,7 +69,7 @@ def big(sizes: tuple[int, ...] = (16, 32, 64)) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_people_speed", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_people_speed", description=__doc__.split("\n\n")[0])
     parser.add_argument("--big", action="store_true", help="also the generated 16x16 to 64x64 worlds")
     args = parser.parse_args()
     mud()

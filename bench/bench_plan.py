@@ -132,7 +132,8 @@ def check(studies: int, resamples: int, workers: int, *, measure: bool = True, c
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--part", choices=("time", "check", "predict", "both"), default="both",
                         help="predict: the check's predictions only, without the full reports")
     parser.add_argument("--studies", type=int, default=20)

@@ -103,7 +103,7 @@ def report(name: str, samples: list[tuple[float, float]]) -> float:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=500)
     parser.add_argument("--size", default="100x35", help="terminal size WxH (default 100x35)")
     args = parser.parse_args()

@@ -105,7 +105,7 @@ def differ_study(seed: int, *, resamples: int) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--part", choices=("reckless", "differ"), default="reckless")
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--resamples", type=int, default=100)

@@ -45,7 +45,7 @@ def measure(how: str, path: Path) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_reader")
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_reader")
     parser.add_argument("--episodes", type=int, default=100_000)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:

@@ -70,7 +70,7 @@ def play(kind: str, episodes: int) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_seat_growth", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_seat_growth", description=__doc__.split("\n\n")[0])
     parser.add_argument("--episodes", type=int, default=10, help="200-step episodes in the block (default 10)")
     args = parser.parse_args()
     # A person's pace would take half an hour a block; the budget is the server's guard, not what is measured.

@@ -134,7 +134,7 @@ class Participant(threading.Thread):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--participants", type=int, default=50)
     parser.add_argument("--moves", type=int, default=30)
     parser.add_argument("--pace", type=float, default=0.2, help="seconds between a participant's moves")

@@ -79,7 +79,7 @@ def run(participants: int, resamples: int) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(prog="bench_study_cluster", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, prog="bench_study_cluster", description=__doc__.split("\n\n")[0])
     parser.add_argument("--participants", type=int, default=200)
     parser.add_argument("--resamples", type=int, default=200)
     parser.add_argument("--out", default=None, help="also write the row as a JSON line here")

@@ -81,7 +81,8 @@ def true_discount(mdp) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("size")
     parser.add_argument("variant", choices=VARIANTS)
     parser.add_argument("--limit", type=float, default=600.0, help="HiGHS time_limit in seconds (default 600)")

@@ -27,7 +27,8 @@ SETTINGS: dict[str, Options] = {
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        allow_abbrev=False, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("size")
     parser.add_argument("setting", choices=SETTINGS)
     parser.add_argument("--untied", action="store_true", help="per-cell rewards instead of tied ones")

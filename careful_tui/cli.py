@@ -34,6 +34,7 @@ from irl_core.errors import InputError
 from irl_core.irl.choices import DEFAULT_POOL_MODEL, LEVEL_MODELS, POOL_MODELS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
+from irl_core.players.person_like import LEVEL_KINDS
 from irl_core.support.safe_text import one_line
 
 
@@ -237,8 +238,8 @@ def _add_study_plan(study_commands: Any) -> None:
     plan.add_argument("--episodes", default="5,10,20", metavar="N,N,...",
                       help="main episodes per participant and world, the grid's columns (default 5,10,20)")
     plan.add_argument("--players", default="loose,timed,hasty", metavar="KIND,...",
-                      help="person-like players drawn in turn (loose, timed, hasty, inverted, reckless; "
-                           "default loose,timed,hasty)")
+                      help=f"person-like players drawn in turn ({', '.join(LEVEL_KINDS)}: the players of worlds "
+                           "with levels, which the plan simulates; default loose,timed,hasty)")
     plan.add_argument("--spread", type=non_negative_float, default=0.3, metavar="S",
                       help="between participants, each player parameter is its default times exp(N(0, S)) "
                            "(default 0.3)")
@@ -300,7 +301,12 @@ def port_number(text: str) -> int:
 
 class _Parser(argparse.ArgumentParser):
     """argparse, with its error on one line (not the usage too) and made safe: a bad value can
-    hold control characters."""
+    hold control characters. Every subcommand's parser is one of these (argparse builds them with
+    the parent's class), so each refuses an abbreviated flag: `--participant 5` must not run as
+    `--participants 5` and overwrite the last plan."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **{**kwargs, "allow_abbrev": False})
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: {one_line(message)} (see {self.prog} --help)\n")

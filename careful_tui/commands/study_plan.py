@@ -23,12 +23,11 @@ from careful_tui.errors import EXIT_OK
 from careful_tui.render.grid import SYMBOL_NAMES
 from irl_core.errors import PlanError, StudyError, UsageError
 from irl_core.studies.plan import TIME_WORLDS_NOT_PLANNED, PlanGrid, PlanPoint, plan_study, planned_worlds, without_time_worlds
-from irl_core.studies.study import load_study, world_files
+from irl_core.studies.study import PLAN_FOLDER, load_study, world_files
 from irl_core.support.csv_cells import csv_text, text_cell
 from irl_core.support.safe_files import check_output_folder, write_output
 from irl_core.support.safe_text import printable
 
-PLAN_FOLDER = "plan"
 FIGURE_FORMATS = (".png", ".pdf")
 
 

@@ -5,6 +5,8 @@ The play and replay screens share these; they draw nothing themselves.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from rich.console import Group, RenderableType
 from rich.table import Table
@@ -42,19 +44,39 @@ def outcome_colour(code: str) -> str:
     return NOTE if code in ("quit", "step_limit", "unfinished") else BAD
 
 
-def legend(world: World, *, scale: float | None = None) -> Text:
-    """One line naming the world's rewarded symbols: "■ cliff -1000 · ■ goal 100 (ends)", each
-    swatch the colour of its cells: the symbol's, or its reward's on `scale` when the board is
-    coloured by value (`grid.diverging_colour`)."""
+@dataclass(frozen=True)
+class LegendEntry:
+    """One symbol of a board's legend: its name, its reward as shown (None: rewards not shown), whether
+    reaching it ends the episode."""
+
+    symbol: str
+    name: str
+    reward: str | None
+    ends: bool
+
+
+def legend_entries(world: World, *, show_rewards: bool = True) -> list[LegendEntry]:
+    """The board's legend, the one both front ends draw (the terminal's `legend`, the browser's view), so that a
+    study's participants are told the same whichever they use: the world's rewarded symbols, each named, with
+    its reward when `show_rewards` (a study's ``show_rewards``), and whether it ends the episode."""
+    return [LegendEntry(symbol, SYMBOL_NAMES.get(symbol, printable(symbol)),
+                        format_value(reward) if show_rewards else None, symbol in world.terminal)
+            for symbol, reward in world.rewards.items()]
+
+
+def legend(world: World, *, scale: float | None = None, show_rewards: bool = True) -> Text:
+    """One line of `legend_entries`: "■ cliff -1000 · ■ goal 100 (ends)", each swatch the colour of its
+    cells: the symbol's, or its reward's on `scale` when the board is coloured by value
+    (`grid.diverging_colour`)."""
     text = Text()
-    for symbol, reward in world.rewards.items():
+    for entry in legend_entries(world, show_rewards=show_rewards):
         if text:
             text.append(" · ")
-        colour = (SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR) if scale is None
-                  else diverging_colour(reward, scale))
+        colour = (SYMBOL_COLOURS.get(entry.symbol, OTHER_SYMBOL_COLOUR) if scale is None
+                  else diverging_colour(world.rewards[entry.symbol], scale))
         text.append("■ ", style=colour)
-        text.append(f"{SYMBOL_NAMES.get(symbol, symbol)} {format_value(reward)}")
-        if symbol in world.terminal:
+        text.append(entry.name if entry.reward is None else f"{entry.name} {entry.reward}")
+        if entry.ends:
             text.append(" (ends)", style="dim")
     return text
 

@@ -43,18 +43,19 @@ def carefulness_gauge(world: World, *, slips: bool = False) -> Gauge:
     return gauge
 
 
-def world_board(world: World) -> Board:
-    """The board of the play and replay screens, titled with the world and its legend."""
+def world_board(world: World, *, show_rewards: bool = True) -> Board:
+    """The board of the play and replay screens, titled with the world and its legend (with each symbol's
+    reward when `show_rewards`)."""
     board = Board(world, id="board")
     care = ("care is how long you hold" if world.care == "time" else
             f"{plural(world.levels, 'level')} · slip {world.slip}")
     board.border_title = Text(f"{printable(world.name, limit=40)} · {care}")
-    board.border_subtitle = legend(world)
+    board.border_subtitle = legend(world, show_rewards=show_rewards)
     return board
 
 
 def compose_game(world: World, *, panel: Widget | None = None, slips: bool = False, status: Widget | None = None,
-                 hold_info: Widget | None = None) -> ComposeResult:
+                 hold_info: Widget | None = None, show_rewards: bool = True) -> ComposeResult:
     """Title, gauge (with `slips`, each level's slip chance) and hold info, board and status (and
     `panel` on the right), the key bar; `status` and `hold_info` replace the plain `Static`s."""
     yield Static(id="title")
@@ -63,7 +64,7 @@ def compose_game(world: World, *, panel: Widget | None = None, slips: bool = Fal
             yield carefulness_gauge(world, slips=slips)
             yield Static(id="hold-info") if hold_info is None else hold_info
         with Vertical(id="right"):
-            yield world_board(world)
+            yield world_board(world, show_rewards=show_rewards)
             yield Static(id="status") if status is None else status
         if panel is not None:
             yield panel

@@ -146,7 +146,8 @@ class PlayScreen(TickBehindInput, Screen[None]):
             PlayScreen.message, PlayScreen.all_played)
         hold_info = HoldInfo(self.world, self.session.mode, id="hold-info").data_bind(PlayScreen.hold,
                                                                                      PlayScreen.last_move)
-        yield from compose_game(self.world, slips=True, status=status, hold_info=hold_info)
+        yield from compose_game(self.world, slips=True, status=status, hold_info=hold_info,
+                                show_rewards=self.session.options.show_rewards)
 
     def on_mount(self) -> None:
         self._ticker = self.set_interval(TICK_S, self._tick_behind_input, pause=True)

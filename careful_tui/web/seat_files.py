@@ -47,14 +47,13 @@ import hmac
 import io
 import os
 import pickle
-import secrets
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from careful_tui.web.seats import ADDRESS_SEATS, MOST_SEATS, SILENT_S, KeyBudget, Seat
+from careful_tui.web.seats import ADDRESS_SEATS, MOST_SEATS, SILENT_S, KeyBudget, Seat, is_page_secret, new_page_secret
 from careful_tui.web.session_adapter import WebSession, browser_study
 from irl_core.errors import ParticipantBusy, SeatRefused, SeatUnavailable, StudyError
 from irl_core.play.input_modes import InputMode, input_mode
@@ -128,7 +127,7 @@ class SharedSeats:
                     raise SeatRefused(429, "Too many pages opened from your network just now. "
                                            "Please try again in a minute.")
                 budget = self._budget(record)
-                secret = secrets.token_urlsafe(18)
+                secret = new_page_secret()
                 seat = Seat(participant, f"{participant}/{secret}", make_session(), self.clock(), budget,
                             contextlib.nullcontext)
                 self._write(participant, _Record(secret, seat.session, budget.tokens, budget.at, False))
@@ -183,7 +182,7 @@ class SharedSeats:
                 raise SeatUnavailable(participant, exc) from None
             record, seen, writers = self._read(participant)
             if record is None or record.page is None or record.session is None \
-                    or not hmac.compare_digest(record.page, secret):
+                    or not hmac.compare_digest(record.page.encode(), secret.encode()):
                 yield None
                 return
             budget = self._budget(record)
@@ -366,15 +365,15 @@ def _digest(secret: str) -> bytes:
 
 
 def _parse(page: object) -> tuple[str, str] | None:
-    """A page id, ``<participant>/<secret>``, as its two parts (None: not one)."""
+    """A page id, ``<participant>/<secret>``, as its two parts (None: not one, whatever it holds)."""
     if not isinstance(page, str) or len(page) > 200:
         return None
-    participant, slash, secret = page.partition("/")
+    participant, _, secret = page.partition("/")
     try:
         check_participant(participant)
     except StudyError:
         return None
-    return (participant, secret) if slash and secret else None
+    return (participant, secret) if is_page_secret(secret) else None
 
 
 def _let_go(writers: list[RecordingWriter]) -> None:

@@ -24,6 +24,7 @@ Bounds, so no one page, participant or address can take the server for itself:
 from __future__ import annotations
 
 import contextlib
+import re
 import resource
 import secrets
 import threading
@@ -31,6 +32,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
+from typing import TypeGuard
 
 from careful_tui.web.session_adapter import WebSession
 from irl_core.errors import SeatRefused
@@ -44,6 +46,19 @@ ADDRESS_SEATS = (120, 1.0)
 MOST_SEATS = 1000
 FILES_PER_SEAT = 2
 FILES_KEPT = 64  # the server's own: its sockets, the package's files, the log
+# A page's secret is `secrets.token_urlsafe(PAGE_SECRET_BYTES)`; whatever else a request sends as one (text
+# no secret holds, é, a lone surrogate) is no page's, refused where it arrives (`is_page_secret`).
+PAGE_SECRET_BYTES = 18
+_PAGE_SECRET = re.compile(r"[A-Za-z0-9_-]{24}")  # 18 bytes in URL-safe base64
+
+
+def new_page_secret() -> str:
+    return secrets.token_urlsafe(PAGE_SECRET_BYTES)
+
+
+def is_page_secret(text: object) -> TypeGuard[str]:
+    """Whether `text` has the shape of a page's secret (`new_page_secret`)."""
+    return isinstance(text, str) and _PAGE_SECRET.fullmatch(text) is not None
 
 
 def seat_limit() -> int:
@@ -148,14 +163,14 @@ class Seats:
                 pass
             session = make_session()
             budget = self._budgets.setdefault(participant, KeyBudget(clock=self.clock))
-            seat = Seat(participant, secrets.token_urlsafe(18), session, self.clock(), budget, hold)
+            seat = Seat(participant, new_page_secret(), session, self.clock(), budget, hold)
             self._pages[seat.page] = seat
             self._participants[participant] = seat
             return seat
 
     def page(self, page: object) -> Seat | None:
         """The seat of a page id the page sent, if it still holds one; hearing from it keeps it."""
-        if not isinstance(page, str):
+        if not is_page_secret(page):
             return None
         with self._lock:
             seat = self._pages.get(page)

@@ -49,7 +49,7 @@ from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
-from starlette.requests import Request
+from starlette.requests import ClientDisconnect, Request
 from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
@@ -161,7 +161,8 @@ async def server_error(request: Request, exc: Exception) -> Response:
 
 
 def json_endpoint(handle: Callable[[Request, dict[str, Any]], Awaitable[Response]]):
-    """An endpoint that takes `read_json`'s object: 413 for a body over the limit, 400 for one not JSON."""
+    """An endpoint that takes `read_json`'s object: 413 for a body over the limit, 408 for one too slow, 400 for
+    one not JSON or cut off by the client's leaving."""
 
     async def endpoint(request: Request) -> Response:
         try:
@@ -170,6 +171,8 @@ def json_endpoint(handle: Callable[[Request, dict[str, Any]], Awaitable[Response
             return refuse(413, "The request is too large.")
         except BodyTooSlow:
             return refuse(408, "The request took too long to arrive. Please reload the page.")
+        except ClientDisconnect:  # the client left mid-body: nobody reads the answer, and the console needs no traceback
+            return refuse(400, "The request ended before its body arrived.")
         except ValueError:
             return refuse(400, "The request is not JSON.")
         return await handle(request, data)

@@ -40,8 +40,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from careful_tui.render.grid import SYMBOL_NAMES, format_chance, format_value
-from careful_tui.render.session import outcome_text
+from careful_tui.render.grid import format_chance, format_value
+from careful_tui.render.session import legend_entries, outcome_text
 from careful_tui.version import app_version
 from irl_core.errors import KeyRefused
 from irl_core.play.game import level_costs, level_slip_chances
@@ -349,7 +349,9 @@ class WebSession:
         view: dict[str, Any] = {
             "heading": session.options.heading,
             "rows": [printable(row) for row in world.layout.splitlines()],
-            "legend": [[symbol, SYMBOL_NAMES.get(symbol, printable(symbol))] for symbol in _symbols(world.layout)],
+            # The terminal's legend too (`legend_entries`): the same words whichever front end a participant uses.
+            "legend": [[entry.symbol, entry.name, entry.reward, entry.ends]
+                       for entry in legend_entries(world, show_rewards=session.options.show_rewards)],
             # A time world shows no levels: the page draws no gauge, and the held time only with show_hold.
             "care": world.care, "show_hold": world.care == "time" and world.show_hold,
             "levels": [] if world.care == "time" else [
@@ -379,8 +381,3 @@ def _paragraphs(paragraphs: list[words.Paragraph]) -> list[dict[str, str]]:
     draws one tone a paragraph)."""
     return [{"text": "".join(span.text for span in paragraph), "tone": paragraph[0].tone}
             for paragraph in paragraphs if "".join(span.text for span in paragraph).strip()]
-
-
-def _symbols(layout: str) -> list[str]:
-    """The layout's symbols in the order they first appear (the legend's order)."""
-    return list(dict.fromkeys(ch for ch in layout if not ch.isspace()))

@@ -66,6 +66,8 @@ class PlayOptions:
         episodes: how many episodes the session plays (None: as many as the player likes).
         episodes_done: episodes of the same block played before (they count in "3 of 5").
         episode_word: what an episode is called ("Episode", "Practice episode").
+        show_rewards: the board's legend gives each symbol's reward (a study's ``show_rewards``); without
+            it, names only. Both front ends draw their legend from `legend_entries` with it.
     """
 
     input_mode: str = DEFAULT_INPUT_MODE
@@ -77,6 +79,7 @@ class PlayOptions:
     episodes: int | None = None
     episodes_done: int = 0
     episode_word: str = "Episode"
+    show_rewards: bool = True
 
     def __post_init__(self) -> None:
         input_mode(self.input_mode)

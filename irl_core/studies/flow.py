@@ -64,6 +64,7 @@ def block_options(protocol: Protocol, block: Block, participant: str, profile: H
         episodes=block.remaining,
         episodes_done=block.done,
         episode_word="Practice episode" if block.phase == "practice" else "Episode",
+        show_rewards=study.show_rewards,
     )
 
 

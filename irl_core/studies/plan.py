@@ -36,7 +36,7 @@ from irl_core.irl.people import fit_given_model, hand_from_trials, laplace_inter
 from irl_core.irl.qmap import Unknowns, build_unknowns
 from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import Rollouts, demonstrations_of, rollouts
-from irl_core.players.person_like import KINDS, PersonLike, motor_trials, person_like
+from irl_core.players.person_like import KINDS, LEVEL_KINDS, TIME_KINDS, PersonLike, motor_trials, person_like
 from irl_core.studies.population import pool_participants
 from irl_core.support.pool import run_in_pool
 from irl_core.worlds.mdp import MDP, build_mdp
@@ -87,10 +87,14 @@ class PlanGrid:
                 raise PlanError(name, f"{bad[0]} is outside 1..{top}")
         if not 1 <= self.repeats <= MAX_REPEATS:
             raise PlanError("repeats", f"{self.repeats} is outside 1..{MAX_REPEATS}")
-        unknown = [kind for kind in self.players if kind not in KINDS]
+        # The plan simulates worlds with levels only (`without_time_worlds`), so a time world's player is
+        # refused here, with the unknown names, before a simulation starts.
+        unknown = [kind for kind in self.players if kind not in LEVEL_KINDS]
         if unknown or not self.players:
-            raise PlanError("players", f"unknown player {unknown[0]!r}; the players are {', '.join(KINDS)}"
-                            if unknown else "give at least one player")
+            raise PlanError("players", "give at least one player" if not unknown else (
+                f"{unknown[0]!r} " + ("holds for a time and plays only time worlds, which the plan leaves out"
+                                      if unknown[0] in TIME_KINDS else "is not a person-like player")
+                + f"; the plan's players are {', '.join(LEVEL_KINDS)}"))
         if self.pool not in POOL_MODELS:
             raise PlanError("pool", f"{self.pool!r} is not one of {', '.join(POOL_MODELS)}")
         if not 0 <= self.calibration <= MAX_CALIBRATION:

@@ -23,7 +23,7 @@ from irl_core.recordings.step_table import StepTable
 from irl_core.recordings.summary import distance_to_terminal, outcome_code
 from irl_core.studies.study import (
     POOLED,
-    REPORT_FOLDER,
+    TOOL_FOLDERS,
     LoadedStudy,
     check_participant,
     finished_episodes,
@@ -106,7 +106,7 @@ def participant_ids(study: LoadedStudy) -> tuple[list[str], list[str]]:
     if not study.out.is_dir():
         return ids, problems
     for folder in sorted(p for p in study.out.iterdir() if p.is_dir()):
-        if folder.name == REPORT_FOLDER:
+        if folder.name.lower() in TOOL_FOLDERS:
             continue
         try:
             ids.append(check_participant(folder.name))

@@ -50,8 +50,11 @@ from irl_core.worlds.world import BUILTIN_WORLDS, World, describe_validation_err
 Phase = Literal["practice", "main"]
 # A participant id is a folder name as it stands: no slug can map two ids to one folder.
 _PARTICIPANT_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=-]{0,79}")
-# `<out>/report/` holds the report, so no participant may be called that.
+# The folders careful itself writes under `<out>`, and what each holds: never a participant's folder
+# (`check_participant` refuses their names as ids; the report's `participant_ids` passes them by).
 REPORT_FOLDER = "report"
+PLAN_FOLDER = "plan"
+TOOL_FOLDERS = {REPORT_FOLDER: "the study's report", PLAN_FOLDER: "careful study plan's files"}
 # The report's rows of every participant together carry this id (`irl_core.studies.report.POOLED`).
 POOLED = "pooled"
 _MAX_STUDY_FILE_BYTES = 1 << 20
@@ -73,7 +76,7 @@ class Exclusions(BaseModel):
 
     fit_check_failed: bool = False
     min_main_episodes: int = Field(0, ge=0, le=100_000)
-    max_quit_share: float = Field(1.0, ge=0.0, le=1.0, strict=False)
+    max_quit_share: float = Field(1.0, ge=0.0, le=1.0)
 
     @property
     def any_set(self) -> bool:
@@ -99,6 +102,8 @@ class Study(BaseModel):
     tap_ms: float = Field(TAP_MS, ge=50.0, le=5_000.0)
     ms_per_level: float = Field(MS_PER_LEVEL, ge=20.0, le=5_000.0)
     out: str = Field("data", min_length=1)
+    # Whether the board's legend gives each symbol's reward, in the terminal and the browser alike.
+    show_rewards: bool = True
     exclusions: Exclusions = Field(default_factory=Exclusions)
 
     @field_validator("input")
@@ -169,6 +174,15 @@ def load_study(path: str | Path) -> LoadedStudy:
         # A time world's care is the hold itself, from key-down to key-up: taps or digits cannot give it.
         raise StudyError(f"{path}: input: {study.input!r} cannot play worlds[{timed[0]}], a time world (care is how "
                          'long an arrow is held): use input = "hold"')
+    # The calibration block's targets are levels of the participant's first world; a time world has none
+    # (docs/timing.md), so no time world may come first in a study with a block.
+    first_possible = timed if study.order == "shuffled" else [i for i in timed if i == 0]
+    if study.calibration_block and first_possible:
+        where = "a shuffled order may put first" if study.order == "shuffled" else "comes first"
+        raise StudyError(f"{path}: calibration_block: worlds[{first_possible[0]}] is a time world that {where}, and "
+                         "a time world has no calibration (the hold itself is the care; the block's targets are levels "
+                         "of the first world): set calibration_block = 0, or put a world with levels first in a fixed "
+                         "order")
     return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)
 
 
@@ -188,16 +202,16 @@ def check_participant(participant: str) -> str:
 
     Raises:
         StudyError: the id is empty, too long, holds other characters than letters, digits
-            and ``_ . = -``, starts with another, or is ``report`` (the report's folder) or
-            ``pooled`` (the report's rows of everyone together).
+            and ``_ . = -``, starts with another, or is a folder careful writes (`TOOL_FOLDERS`:
+            ``report``, ``plan``) or ``pooled`` (the report's rows of everyone together).
     """
     if not _PARTICIPANT_ID.fullmatch(participant):
         raise StudyError(
             f"participant id {printable(participant, limit=VALUE_LIMIT)!r} cannot name a folder: use 1 to 80 "
             "letters, digits and _ . = -, starting with a letter or digit"
         )
-    if participant.lower() == REPORT_FOLDER:
-        raise StudyError(f"participant id {participant!r} is taken: <out>/{REPORT_FOLDER}/ holds the study's report")
+    if (folder := participant.lower()) in TOOL_FOLDERS:
+        raise StudyError(f"participant id {participant!r} is taken: <out>/{folder}/ holds {TOOL_FOLDERS[folder]}")
     if participant.lower() == POOLED:
         raise StudyError(f"participant id {participant!r} is taken: the report's rows of everyone together are "
                          f"called {POOLED!r}")

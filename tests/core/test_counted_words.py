@@ -11,7 +11,7 @@ from irl_core.irl import FitOptions
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.support.plural import plural
 
-SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
+SAMPLE = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"
 
 
 def test_plural_counts_one_apart():

@@ -10,7 +10,7 @@ from irl_core.recordings.lines import EpisodeEnd, Step
 from irl_core.recordings.replay_cursor import ReplayCursor, ReplayFiles, group_episodes
 from irl_core.recordings.step_table import StepTable
 
-SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
+SAMPLE = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"
 
 
 def step(episode: int, t: int, state: tuple[int, int], next_state: tuple[int, int], *,

@@ -11,7 +11,7 @@ import careful_tui.commands.play as play_command
 from careful_tui.cli import build_parser, main
 from careful_tui.commands.fit import fit_from_args
 
-SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"  # an optimal expert: auto picks lp
+SAMPLE = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"  # an optimal expert: auto picks lp
 
 
 def careful(capsys, *argv) -> tuple[int, str]:

@@ -15,7 +15,7 @@ from careful_tui.commands.fit import fit_from_args
 from careful_tui.screens.fit import board_width
 from careful_tui.widgets import KeyBar
 
-SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
+SAMPLE = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"
 MINIMUM = (board_width(6, 0) + 4, 12)  # the view's smallest size for paper's 6 columns: 48x12
 
 

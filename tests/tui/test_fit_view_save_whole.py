@@ -14,7 +14,7 @@ from careful_tui.screens.fit import FitScreen
 from irl_core.irl import FitOptions
 from irl_core.recordings.demonstrations import Demonstrations
 
-SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
+SAMPLE = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"
 
 
 def test_s_saves_what_is_below_the_screen_too(tmp_path, monkeypatch) -> None:

@@ -257,7 +257,8 @@ def test_a_small_terminal_asks_to_be_enlarged(tmp_path: Path) -> None:
 
 
 def test_80x24_is_enough_for_the_paper_world() -> None:
-    width, height = minimum_size(read_recording(Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl").world)
+    sample = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"
+    width, height = minimum_size(read_recording(sample).world)
     assert width <= 80 and height <= 24
 
 

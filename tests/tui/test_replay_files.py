@@ -22,7 +22,7 @@ from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.worlds.world import World
 
-SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
+SAMPLE = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"
 # A small world of its own: right, right to the goal.
 LANE = World(name="lane", layout="..G\n", levels=3, start=(0, 0), rewards={"G": 100.0})
 

@@ -11,7 +11,7 @@ from pathlib import Path
 from careful_tui.app import make_replay_app
 from irl_core.recordings.demonstrations import read_recording
 
-SAMPLE = Path(__file__).parents[2] / "recordings" / "sample-expert-paper.jsonl"
+SAMPLE = Path(__file__).parents[2] / "recordings" / "samples" / "sample-expert-paper.jsonl"
 
 
 def test_replay_screen_at_a_slip(snap_compare) -> None:

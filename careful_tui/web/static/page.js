@@ -197,9 +197,11 @@
       node.title = symbol;
       return node;
     }));
-    $("legend").replaceChildren(...play.legend.map(([symbol, name]) => {
+    // The terminal's legend in the same words: name, reward (when the study shows rewards), "(ends)".
+    $("legend").replaceChildren(...play.legend.map(([symbol, name, reward, ends]) => {
       const item = el("span");
-      item.append(el("span", "swatch " + (SYMBOL_CLASS[symbol] || "sym-other")), document.createTextNode(symbol + " " + name));
+      const words = symbol + " " + name + (reward === null ? "" : " " + reward) + (ends ? " (ends)" : "");
+      item.append(el("span", "swatch " + (SYMBOL_CLASS[symbol] || "sym-other")), document.createTextNode(words));
       return item;
     }));
     buildGauge($("gauge"), play.levels);
