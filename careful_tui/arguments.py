@@ -89,6 +89,17 @@ def text_argument(text: str) -> str:
     return text
 
 
+def player_names(text: str) -> tuple[str, ...]:
+    """``loose,timed``: person-like players (`careful check --players`); an empty text names none."""
+    from irl_core.coverage.rivals import parse_rivals
+    from irl_core.errors import UsageError
+
+    try:
+        return parse_rivals(text)
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--players: ")) from None
+
+
 def positive_int(text: str) -> int:
     value = int(text)
     if value < 1:

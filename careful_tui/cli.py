@@ -22,6 +22,7 @@ from careful_tui.arguments import (
     finite_float,
     non_negative_float,
     non_negative_int,
+    player_names,
     positive_float,
     positive_int,
     probability,
@@ -51,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_play(commands)
     _add_replay(commands)
     _add_fit(commands)
+    _add_check(commands)
     _add_simulate(commands)
     _add_worlds(commands)
     _add_experiment(commands)
@@ -98,6 +100,36 @@ def _add_fit(commands: Any) -> None:
     fit.add_argument("--figure", type=Path, metavar="PATH", help="save the result as a figure for a paper "
                      "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
+
+
+def _add_check(commands: Any) -> None:
+    check = commands.add_parser("check", help="measure how often a fit's intervals hold the truth", description=(
+        "Measure the coverage of a fit's intervals on your own design: fit the recordings as careful fit does "
+        "(the same options, intervals on), then simulate --datasets datasets of their size (one episode from each "
+        "recorded start) from the fit (its player model with the fitted rewards and player) and from each rival "
+        "player of --players (person-like players of the world's own rewards), fit each as the recordings were "
+        "fitted, and count per symbol how often its interval held the reward the dataset was simulated with (per "
+        "cell: every cell of the symbol). Prints the table and a verdict per player (nominal, or under-covering "
+        "with the symbols) and writes check.csv to --out. --seed seeds the simulations and every refit's "
+        "resampling: the same seed gives the same check.csv on any --workers or --scheduler."),
+        epilog="Example: careful check x.jsonl --tie --datasets 50 --players loose,hasty; see docs/check.md.")
+    check.add_argument("files", type=Path, nargs="+", metavar="FILE",
+                       help="recordings (JSONL) of one world, fitted together")
+    add_fit_options(check)
+    check.add_argument("--datasets", type=positive_int, default=50, metavar="N",
+                       help="simulated datasets per player, each as many episodes as the recordings (default 50)")
+    check.add_argument("--players", type=player_names, default=None, metavar="KIND,...",
+                       help="rival person-like players, as careful simulate --policy names them (loose, timed, hasty, "
+                            "inverted, reckless; timing and steady on a time world only); default loose,timed,hasty "
+                            "(timing,steady on a time world); an empty list checks the fit's own model alone")
+    check.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
+                       help="folder for check.csv (default: this folder; an earlier check.csv there is replaced)")
+    check.add_argument("--workers", type=positive_int, default=None, metavar="N",
+                       help="processes for the refits (default: every core)")
+    check.add_argument("--scheduler", default=None, metavar="ADDRESS", type=text_argument,
+                       help="refit on a Dask cluster instead of this machine's process pool: a scheduler's address "
+                            "(tcp://HOST:8786), or local:N for a cluster of N processes started here; needs "
+                            "careful[cluster]; the numbers are the same")
 
 
 def _add_simulate(commands: Any) -> None:
@@ -356,6 +388,7 @@ COMMANDS = {
     "play": _lazy("careful_tui.commands.play", "run_play"),
     "replay": _lazy("careful_tui.commands.replay", "run_replay"),
     "fit": _lazy("careful_tui.commands.fit", "run_fit"),
+    "check": _lazy("careful_tui.commands.check", "run_check_command"),
     "simulate": _lazy("careful_tui.commands.simulate", "run_simulate"),
     "worlds": _lazy("careful_tui.commands.worlds", "run_worlds"),
     "experiment": _lazy("careful_tui.commands.experiment", "run_experiment"),

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from rich.console import Console
@@ -51,11 +52,12 @@ def load_demonstrations(paths: list[Path], err: Console) -> Demonstrations:
     return demos
 
 
-def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
-                  printout: bool = False) -> tuple[Demonstrations, FitResult]:
+def fit_from_args(args: argparse.Namespace, *, err: Console | None = None, printout: bool = False,
+                  before_fit: Callable[[Demonstrations], None] | None = None) -> tuple[Demonstrations, FitResult]:
     """The demonstrations and the fit that `careful fit` options ask for.
 
     A spinner runs on stderr while it fits, and a progress bar while bootstrap resamples come back.
+    `before_fit(demos)` runs once the recordings are read, before the fit.
     For the `printout` (no view) it warns of options the fit does not use: before fitting, or
     for a chooser (--method auto) after it, once the method is known.
     """
@@ -69,6 +71,8 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None,
         for warning in ignored_options(options, options.method):
             warn(err, warning)
     demos = load_demonstrations(list(args.files), err)
+    if before_fit is not None:  # a command's checks of its own options against the recordings' world
+        before_fit(demos)
     columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn())
     with Progress(*columns, console=err, transient=True) as progress:

@@ -23,7 +23,7 @@ PUBLIC = {
     ],
     "irl_core.irl.people": [
         "FLAT_DROP", "MAX_COMBINED", "ModelChoice", "NEARLY_FLAT", "PlayerFit", "PlayerRefit", "choose_player_model",
-        "curvature_scale", "fit_given_model", "hand_from_trials", "laplace_intervals", "note_of_bounds",
+        "curvature_scale", "fit_given_model", "hand_from_trials", "laplace_intervals", "log_likelihood", "note_of_bounds",
         "people_checks", "planning_rival",
     ],
 }

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from irl_core.irl.people.hand import hand_from_trials  # noqa: F401
     from irl_core.irl.people.held import FLAT_DROP, note_of_bounds  # noqa: F401
     from irl_core.irl.people.laplace import MAX_COMBINED, NEARLY_FLAT, laplace_intervals  # noqa: F401
+    from irl_core.irl.people.likelihood import log_likelihood  # noqa: F401
 
 _HOMES = {
     "people_checks": "irl_core.irl.people.checks",
@@ -48,6 +49,7 @@ _HOMES = {
     "FLAT_DROP": "irl_core.irl.people.held", "note_of_bounds": "irl_core.irl.people.held",
     "MAX_COMBINED": "irl_core.irl.people.laplace", "NEARLY_FLAT": "irl_core.irl.people.laplace",
     "laplace_intervals": "irl_core.irl.people.laplace",
+    "log_likelihood": "irl_core.irl.people.likelihood",
 }
 
 __all__ = sorted(_HOMES)
