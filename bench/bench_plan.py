@@ -8,10 +8,12 @@
    studies whose pooled cliff interval lies below the mud's) against the rate measured by running
    the full `study report` pipeline (`gather`, `fit_report`: the auto model choice, bootstrap
    intervals, the report's pool) on N simulated studies whose participants are drawn as the plan
-   draws them, written to disk as recordings. Target: within 15 points.
+   draws them, written to disk as recordings. Target: within 15 points. With ``--fits report`` the plan
+   fits its own simulated studies as the reports do (``study plan --fits report``: its N studies drawn with
+   the plan's seeds, the reports' with their own), so the two differ only by their draws.
 
 Run: .venv/bin/python -m bench bench_plan [--part time|check|predict|both] [--studies N] [--resamples R]
-     [--calibration N] [--models NAME,...] [--point NxE]
+     [--calibration N] [--models NAME,...] [--point NxE] [--fits plan,report]
 """
 
 from __future__ import annotations
@@ -27,11 +29,10 @@ import numpy as np
 from irl_core.experiment.claims import order_words
 from irl_core.irl.choices import POOL_MODELS
 from irl_core.irl.qmap import build_unknowns
-from irl_core.players.experts import demonstrations_of, rollouts, session_header, write_rollouts
-from irl_core.recordings.lines import StudyTag
+from irl_core.players.experts import demonstrations_of, rollouts
+from irl_core.studies.forecast import write_simulated_study
 from irl_core.studies.plan import PlanGrid, calibration_block, drawn_player, fit_participant, plan_study
 from irl_core.studies.report import POOLED, fit_report, gather, report_options
-from irl_core.studies.simulated import write_calibration_file
 from irl_core.studies.study import load_study
 from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS
@@ -63,28 +64,18 @@ def time_default_grid(workers: int) -> None:
 
 
 def write_study(folder: Path, participants: int, episodes: int, seed: int, grid: PlanGrid) -> Path:
-    """A study file of mud and `participants` drawn as the plan draws them, `episodes` main episodes each (after
-    a calibration block of `grid.calibration` targets, in a file of its own, when there is one)."""
-    path = folder / "study.toml"
-    path.write_text(f'name = "bench"\nworlds = ["mud"]\npractice_episodes = 0\nepisodes = {episodes}\nout = "data"\n'
-                    f"calibration_block = {grid.calibration}\n")
-    study = load_study(path)
-    world = study.worlds[0]
+    """A study of mud and `participants` drawn as the plan draws them, `episodes` main episodes each (after a
+    calibration block of `grid.calibration` targets, in a file of its own, when there is one), written as the plan's
+    ``--fits report`` writes its simulated studies (`write_simulated_study`)."""
+    world = BUILTIN_WORLDS["mud"]
     mdp = build_mdp(world)
+    played, trials = [], []
     for i in range(participants):
         rng = np.random.default_rng([seed, i, 7])
         player = drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
-        who = f"p{i + 1:02d}"
-        out = study.participant_folder(who)
-        out.mkdir(parents=True)
-        tag = StudyTag(name="bench", participant=who, phase="main", world_index=0)
-        header = session_header(mdp, player=player.player, seed=seed).model_copy(update={"player": who, "study": tag})
-        played = rollouts(mdp, player.choose, episodes=episodes, rng=rng)
-        trials = calibration_block(player, world, grid.calibration, rng)  # after the episodes, as the plan draws them
-        if trials.size:  # a session of its own (its own seed), not a copy of the episodes' header
-            write_calibration_file(out / f"{who}-0-w0-main.jsonl", header.model_copy(update={"seed": seed + 1}), trials)
-        write_rollouts(out / f"{who}-1-w0-main.jsonl", mdp, played, player=player.player, seed=seed, header=header)
-    return path
+        played.append((player.player, rollouts(mdp, player.choose, episodes=episodes, rng=rng)))
+        trials.append(calibration_block(player, world, grid.calibration, rng))  # after the episodes, as the plan
+    return write_simulated_study(folder, world, played, trials, calibration=grid.calibration, seed=seed)
 
 
 def reported_separation(participants: int, episodes: int, studies: int, resamples: int, workers: int, *,
@@ -114,16 +105,27 @@ def reported_separation(participants: int, episodes: int, studies: int, resample
 
 
 def check(studies: int, resamples: int, workers: int, *, measure: bool = True, calibration: int = 0,
-          models: tuple[str, ...] = ("person",), points: tuple[tuple[int, int], ...] = POINTS) -> None:
+          models: tuple[str, ...] = ("person",), points: tuple[tuple[int, int], ...] = POINTS,
+          fits: tuple[str, ...] = ("plan",)) -> None:
     world = BUILTIN_WORLDS["mud"]
     for n, e in points:
-        for model in models:
-            for pool in POOL_MODELS:
-                grid = PlanGrid(participants=(n,), episodes=(e,), pool=pool, calibration=calibration, model=model)
-                predicted = plan_study((world,), grid, workers=workers)[0]
-                print(f"{n} participants x {e} episodes, calibration {calibration}: the plan ({model} model, {pool} "
-                      f"pool) predicts separation in {predicted.separated:.0%}, coverage {predicted.covered:.0%} "
-                      f"({grid.repeats} simulated studies)", flush=True)
+        if "plan" in fits:
+            for model in models:
+                for pool in POOL_MODELS:
+                    grid = PlanGrid(participants=(n,), episodes=(e,), pool=pool, calibration=calibration, model=model)
+                    predicted = plan_study((world,), grid, workers=workers)[0]
+                    print(f"{n} participants x {e} episodes, calibration {calibration}: the plan ({model} model, {pool} "
+                          f"pool) predicts separation in {predicted.separated:.0%}, coverage {predicted.covered:.0%} "
+                          f"({grid.repeats} simulated studies)", flush=True)
+        if "report" in fits:
+            grid = PlanGrid(participants=(n,), episodes=(e,), calibration=calibration, fits="report",
+                            resamples=resamples, repeats=studies)
+            started = time.perf_counter()
+            predicted = plan_study((world,), grid, workers=workers)[0]
+            print(f"{n} participants x {e} episodes, calibration {calibration}: the plan (--fits report, "
+                  f"{resamples} resamples) predicts separation in {predicted.separated:.0%}, coverage "
+                  f"{predicted.covered:.0%} ({grid.repeats} simulated studies, {time.perf_counter() - started:.0f} s)",
+                  flush=True)
         if not measure:
             continue
         measured, held = reported_separation(n, e, studies, resamples, workers, calibration=calibration)
@@ -144,6 +146,8 @@ def main() -> None:
     parser.add_argument("--models", default="person", metavar="NAME,...",
                         help="the plan's player models to predict with (default person)")
     parser.add_argument("--point", default=None, metavar="NxE", help="one grid point instead of 5x5 and 5x10")
+    parser.add_argument("--fits", default="plan", metavar="NAME,...",
+                        help="the plan's fits to predict with: plan, report or both (default plan)")
     args = parser.parse_args()
     points: tuple[tuple[int, int], ...] = POINTS
     if args.point is not None:
@@ -153,7 +157,7 @@ def main() -> None:
         time_default_grid(args.workers)
     if args.part in ("check", "predict", "both"):
         check(args.studies, args.resamples, args.workers, measure=args.part != "predict", calibration=args.calibration,
-              models=tuple(args.models.split(",")), points=points)
+              models=tuple(args.models.split(",")), points=points, fits=tuple(args.fits.split(",")))
 
 
 if __name__ == "__main__":

@@ -32,7 +32,7 @@ from careful_tui.arguments import (
 from careful_tui.errors import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, missing_extra, missing_extra_line
 from careful_tui.version import app_version
 from irl_core.errors import InputError
-from irl_core.irl.choices import DEFAULT_POOL_MODEL, LEVEL_MODELS, POOL_MODELS
+from irl_core.irl.choices import DEFAULT_POOL_MODEL, LEVEL_MODELS, PLAN_FITS, POOL_MODELS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.players.person_like import KINDS as PERSON_LIKE
 from irl_core.players.person_like import LEVEL_KINDS
@@ -256,7 +256,8 @@ def _add_study_plan(study_commands: Any) -> None:
         "(--truth), and each grid point (--participants x --episodes), --repeats studies of person-like "
         "participants (--players in turn, each with their own parameters, spread by --spread, first holding "
         "--calibration targets when the study has a calibration block), each participant fitted with a model of "
-        "people and a Laplace interval, then pooled. Prints, per grid point, the share of "
+        "people and a Laplace interval (or, with --fits report, the whole study fitted as study report fits it), "
+        "then pooled. Prints, per grid point, the share of "
         "studies whose pooled cliff interval lies below the nuisance's (the report's 'separates catastrophe from "
         "nuisance'), the share whose pooled intervals hold the hypothesised rewards, and the median interval "
         "widths; writes plan.csv and plan.pdf/plan.png to <out>/plan/."),
@@ -285,6 +286,15 @@ def _add_study_plan(study_commands: Any) -> None:
                            "under-holders with a calibration block)")
     plan.add_argument("--pool-model", choices=tuple(POOL_MODELS), default=DEFAULT_POOL_MODEL,
                       help=_pool_help("simulated as study report pools them"))
+    plan.add_argument("--fits", choices=tuple(PLAN_FITS), default="plan",
+                      help="how each simulated study is fitted: plan (default), the quick fit above, whose "
+                           "coverage is a floor for a report's (its Laplace interval is narrower); report, as "
+                           "careful study report fits it (the model the pool chooses, bootstrap intervals, the "
+                           "study's exclusions), so the covered column forecasts reports of that size, at the cost "
+                           "of that many reports (about 30 s per study of 5 x 10 on one core: use a small grid)")
+    plan.add_argument("--resamples", type=positive_int, default=50, metavar="N",
+                      help="with --fits report, the bootstrap resamples of each fit (default 50; a report's own "
+                           "default is 200)")
     plan.add_argument("--repeats", type=positive_int, default=20, metavar="N",
                       help="simulated studies per grid point (default 20)")
     plan.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the simulations (default 0)")

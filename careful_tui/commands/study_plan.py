@@ -66,6 +66,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
                         episodes=parse_sizes(args.episodes, option="--episodes"),
                         players=tuple(p.strip() for p in args.players.split(",")), repeats=args.repeats,
                         spread=args.spread, seed=args.seed, pool=args.pool_model, model=args.player_model,
+                        fits=args.fits, resamples=args.resamples, exclusions=study.study.exclusions,
                         calibration=study.study.calibration_block if args.calibration is None else args.calibration)
         worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
@@ -93,7 +94,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
     if not out_console.is_terminal:
         out_console.width = 160
     out_console.print(plan_table(points, grid))
-    for line in plan_findings(points, confidence=grid.confidence):
+    for line in plan_findings(points, confidence=grid.confidence, fits=grid.fits):
         out_console.print(Text(line), soft_wrap=True)
     for world in left_out:
         line = f"{printable(world.name, limit=30)}: a time world, left out ({TIME_WORLDS_NOT_PLANNED})."
@@ -144,8 +145,10 @@ def plan_table(points: list[PlanPoint], grid: PlanGrid) -> Table:
     hand = (f"a calibration block of {grid.calibration} targets each, the hand held fixed" if grid.calibration
             else "the hand estimated from play")
     table = Table(title=Text(f"study plan: {grid.repeats} simulated studies per row (players "
-                             f"{', '.join(grid.players)}, spread {grid.spread:g}; {hand}; {grid.model} model, Laplace "
-                             f"intervals, {grid.pool} pool)"),
+                             f"{', '.join(grid.players)}, spread {grid.spread:g}; {hand}; " + (
+                                 f"{grid.model} model, Laplace intervals" if grid.fits == "plan" else
+                                 f"fitted as study report fits them, {grid.resamples} resamples")
+                             + f", {grid.pool} pool)"),
                   caption=Text("separated: the pooled hazard interval lies below the nuisance's; covered: every "
                                "pooled interval holds its hypothesised reward; width: the median width of the pooled "
                                f"{grid.confidence:.0%} interval"),
@@ -161,9 +164,11 @@ def plan_table(points: list[PlanPoint], grid: PlanGrid) -> Table:
     return table
 
 
-def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: float = 0.95) -> list[str]:
+def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: float = 0.95,
+                  fits: str = "plan") -> list[str]:
     """Per world, the smallest study (fewest participants x episodes) that separates in at least `target`
-    of the simulated studies, or that none of the grid does; and how often the pool covered the truth."""
+    of the simulated studies, or that none of the grid does; and how often the pool covered the truth (with the
+    plan's own `fits`, a floor for a report's)."""
     lines = []
     for world in dict.fromkeys(p.world for p in points):
         mine = [p for p in points if p.world == world]
@@ -172,9 +177,12 @@ def plan_findings(points: list[PlanPoint], *, target: float = 0.8, confidence: f
         best = max(p.covered for p in mine)
         shares = f"{worst:.0%}" if f"{worst:.0%}" == f"{best:.0%}" else f"{worst:.0%} to {best:.0%}"
         cover = (f"every pooled interval held the hypothesised rewards in {shares} of studies"
-                 + ("" if worst >= target else f": the plan's Laplace intervals miss the truth more often than "
-                    f"their {confidence:.0%} says{_most_missed(mine)}; read the share as a floor for a report, whose "
-                    "bootstrap intervals are wider"))
+                 + ("" if worst >= target else (
+                     f": the plan's Laplace intervals miss the truth more often than their {confidence:.0%} says"
+                     f"{_most_missed(mine)}; read the share as a floor for a report, whose bootstrap intervals are "
+                     "wider (--fits report measures a report's)" if fits == "plan" else
+                     f": the reports' intervals miss the truth more often than their {confidence:.0%} says"
+                     f"{_most_missed(mine)}")))
         if mine[0].separated is None:
             lines.append(f"{name}: no hazard and nuisance to separate; {cover}.")
             continue

@@ -179,6 +179,14 @@ POOL_MODELS: dict[str, str] = {
 }
 DEFAULT_POOL_MODEL: PoolModelName = "population"
 
+# How `study plan --fits` fits each simulated study (irl_core/studies/forecast.py says why there are two).
+PlanFitsName = Literal["plan", "report"]
+PLAN_FITS: dict[str, str] = {
+    "plan": "the plan's quick fit: one model of the player and its Laplace interval (a floor for a report's "
+            "coverage)",
+    "report": "as careful study report fits it: the model the pool chooses, bootstrap intervals, the exclusions",
+}
+
 
 def pool_model(name: str) -> PoolModelName:
     """`name` if it is a pool model (`POOL_MODELS`); raises ValueError naming the choices otherwise."""

@@ -29,15 +29,19 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydantic import ValidationError
 
+from irl_core.coverage.check import HOLD_TOLERANCE
 from irl_core.errors import PlanError
 from irl_core.experiment.claims import order_words
-from irl_core.irl.choices import LEVEL_MODELS, POOL_MODELS, player_model
+from irl_core.irl.choices import LEVEL_MODELS, PLAN_FITS, POOL_MODELS, PlanFitsName, player_model
+from irl_core.irl.options import MIN_RESAMPLES
 from irl_core.irl.people import fit_given_model, hand_from_trials, laplace_intervals
 from irl_core.irl.qmap import Unknowns, build_unknowns
 from irl_core.play.motor_block import calibration_targets
 from irl_core.players.experts import Rollouts, demonstrations_of, rollouts
 from irl_core.players.person_like import KINDS, LEVEL_KINDS, TIME_KINDS, PersonLike, motor_trials, person_like
+from irl_core.studies.forecast import reported_intervals
 from irl_core.studies.population import pool_participants
+from irl_core.studies.study import Exclusions
 from irl_core.support.pool import run_in_pool
 from irl_core.worlds.mdp import MDP, build_mdp
 from irl_core.worlds.world import World
@@ -48,6 +52,7 @@ MAX_EPISODES = 500
 MAX_REPEATS = 10_000
 # A study file's own bound on its calibration block.
 MAX_CALIBRATION = 100
+MAX_RESAMPLES = 10_000
 # Why a study's time worlds (care = "time") are left out: their report fits the timing model, which learns the
 # slip curve from the holds, and the plan's players and `person`-family fits are those of a world with levels.
 TIME_WORLDS_NOT_PLANNED = "the plan's simulated players and fits are those of worlds with levels"
@@ -63,7 +68,8 @@ class PlanGrid:
     """What `plan_study` simulates: the grid (participants, episodes), the person-like `players` drawn
     in turn, the between-participant `spread` (sd of log of each player parameter's factor), the
     simulated studies per grid point, the motor `calibration` targets each participant holds before playing
-    (a study's ``calibration_block``; 0: none, the hand estimated from play), and the fits' settings."""
+    (a study's ``calibration_block``; 0: none, the hand estimated from play), and the fits' settings: `fits`
+    (`PLAN_FITS`), with ``report`` the report's `resamples` and the study's `exclusions`."""
 
     participants: tuple[int, ...] = (5, 10, 20)
     episodes: tuple[int, ...] = (5, 10, 20)
@@ -76,6 +82,9 @@ class PlanGrid:
     pool: str = "population"
     confidence: float = 0.95
     rmax: float = 5000.0
+    fits: PlanFitsName = "plan"
+    resamples: int = 50
+    exclusions: Exclusions = field(default_factory=Exclusions)
 
     def __post_init__(self) -> None:
         for name, sizes, top in (("participants", self.participants, MAX_PARTICIPANTS),
@@ -103,6 +112,11 @@ class PlanGrid:
             raise PlanError("spread", f"{self.spread:g} is outside 0..5")
         if self.model not in LEVEL_MODELS:
             raise PlanError("model", f"{self.model!r} is not one of {', '.join(LEVEL_MODELS)}")
+        if self.fits not in PLAN_FITS:
+            raise PlanError("fits", f"{self.fits!r} is not one of {', '.join(PLAN_FITS)}")
+        if not MIN_RESAMPLES <= self.resamples <= MAX_RESAMPLES:
+            raise PlanError("resamples", f"{self.resamples} is outside {MIN_RESAMPLES}..{MAX_RESAMPLES} (a report's "
+                                         "bootstrap needs as many for a usable interval)")
 
 
 def planned_worlds(worlds: tuple[World, ...], truth: dict[str, float], *,
@@ -192,14 +206,19 @@ def _point(world: World, n: int, e: int, studies: list[_Study], grid: PlanGrid) 
     mdp = build_mdp(world)
     unknowns = build_unknowns(mdp, tie=True)
     symbols, truth = unknowns.symbols, unknowns.true_theta(mdp)
-    intervals = np.stack([s.intervals for s in studies])  # (studies, k, 2)
-    holds = (intervals[:, :, 0] <= truth) & (truth <= intervals[:, :, 1])
+    intervals = np.stack([s.intervals for s in studies])  # (studies, k, 2); NaN: the study had no interval
+    # As `careful check` counts a hold (its tolerance at an end); a NaN interval holds nothing.
+    slack = HOLD_TOLERANCE * grid.rmax
+    holds = (intervals[:, :, 0] - slack <= truth) & (truth <= intervals[:, :, 1] + slack)
     pair = hazard_and_nuisance(world, symbols, truth)
     separated = None
     if pair is not None:
         h, u = pair
-        separated = float(np.mean([order_words(tuple(i[h]), tuple(i[u])) == "below" for i in intervals]))
-    widths = np.median(intervals[:, :, 1] - intervals[:, :, 0], axis=0)
+        separated = float(np.mean([np.isfinite(i[[h, u]]).all() and order_words(tuple(i[h]), tuple(i[u])) == "below"
+                                   for i in intervals]))
+    spans = intervals[:, :, 1] - intervals[:, :, 0]
+    widths = np.array([np.median(column[np.isfinite(column)]) if np.isfinite(column).any() else np.nan
+                       for column in spans.T])
     return PlanPoint(world=world.name, participants=n, episodes=e, studies=len(studies),
                      calibration=block_targets(world, grid), symbols=symbols,
                      truth=tuple(float(t) for t in truth), separated=separated, covered=float(holds.all(axis=1).mean()),
@@ -225,16 +244,26 @@ def simulate_repeat(world: World, grid: PlanGrid, repeat: int) -> dict[tuple[int
     unknowns = build_unknowns(mdp, tie=True)
     n_most, episodes = max(grid.participants), sorted(set(grid.episodes))
     seeds = np.random.SeedSequence([grid.seed, repeat, sum(map(ord, world.name))]).spawn(n_most)
-    played, trials = [], []
+    played, trials, names = [], [], []
     for i, seed in enumerate(seeds):
         rng = np.random.default_rng(seed)
         person = drawn_player(mdp, grid.players[i % len(grid.players)], grid.spread, rng)
         played.append(rollouts(mdp, person.choose, episodes=max(episodes), rng=rng))
+        names.append(person.player)
         # Drawn after the episodes, so that a plan without a block simulates the same play.
         trials.append(calibration_block(person, world, block_targets(world, grid), rng))
-    counts = {e: [demonstrations_of(mdp, _first_episodes(r, e)).counts for r in played] for e in episodes}
     sizes = sorted(set(grid.participants))
     out = {}
+    if grid.fits == "report":
+        for n in sizes:
+            for e in episodes:
+                first = [(name, _first_episodes(r, e)) for name, r in zip(names[:n], played[:n])]
+                out[(n, e)] = _Study(reported_intervals(
+                    world, unknowns, first, trials[:n], calibration=block_targets(world, grid), pool=grid.pool,
+                    resamples=grid.resamples, rmax=grid.rmax, exclusions=grid.exclusions,
+                    seed=grid.seed * MAX_REPEATS + repeat))
+        return out
+    counts = {e: [demonstrations_of(mdp, _first_episodes(r, e)).counts for r in played] for e in episodes}
     if grid.pool == "shared":
         for n in sizes:
             # One shared player, so one hand: every participant's trials, as the report's shared pool.

@@ -119,7 +119,7 @@ def invariant_violations(result: FitResult) -> list[str]:
     for note in result.notes:
         if note.code != "one_sided":
             continue
-        for label, side, value in re.findall(r"([^:;]+?) at (most|least) (-?[0-9.e+]+)", note.sentence):
+        for label, side, value in re.findall(r"([^:;]+?) at (most|least) (-?\d[\d.]*(?:e[+-]?\d+)?)", note.sentence):
             label = label.strip()
             if label not in ends:
                 continue
