@@ -17,7 +17,7 @@ from rich.text import Text
 
 from careful_tui.option_words import said
 from careful_tui.render.grid import ARROWS, SYMBOL_NAMES, WorldGrid, format_value
-from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table
+from careful_tui.render.intervals import IntervalChart, interval_readings, interval_table, shown_reward_grid
 from irl_core.irl import FitResult
 from irl_core.irl.choices import METHODS
 from irl_core.recordings.demonstrations import Demonstrations
@@ -80,8 +80,10 @@ def reward_grids(result: FitResult, *, width: int) -> Table | Group:
     world = result.world
     scale = reward_scale(result)
     unit = result.reward_unit
-    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate" + ("" if unit == "points" else f", {unit}") + ")")
-    grids = [Group(fitted, WorldGrid(world, values=result.reward_grid, scale=scale))]
+    shown, bounds = shown_reward_grid(result)  # a reward bounded on one side only shows its bound, not a point
+    fitted = Text.assemble(("fitted R_S", "bold"), " (point estimate" + ("" if unit == "points" else f", {unit}")
+                           + ("; ≤ ≥: bounded on one side only, no point" if bounds else "") + ")")
+    grids = [Group(fitted, WorldGrid(world, values=shown, scale=scale, labels=bounds))]
     if world.rewards:
         true = "true R_S (world file" + {"points": ")", "seconds of holding": ", in seconds at its cost)"}.get(
             unit, f", {unit} as the fit)")

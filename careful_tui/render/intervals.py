@@ -7,6 +7,7 @@ the signed-log axis of the reward colours. The `careful fit` printout and the fi
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,7 +18,7 @@ from rich.text import Text
 
 from careful_tui.render.grid import LINEAR_THRESHOLD, SYMBOL_NAMES, diverging_colour, format_value, signed_log_fraction
 from irl_core.irl import FitResult, at_bound
-from irl_core.irl.intervals.honest import one_sided
+from irl_core.irl.intervals.honest import bounded_cells, one_sided
 
 
 def interval_table(result: FitResult) -> Table:
@@ -39,6 +40,24 @@ def interval_table(result: FitResult) -> Table:
             interval_reading(low, high, rmax),
         )
     return table
+
+
+def bound_labels(bounded: Mapping[tuple[int, int], tuple[int, float]],
+                 number: Callable[[float], str] = format_value) -> dict[tuple[int, int], str]:
+    """Each cell of `bounded` (`irl_core.irl.intervals.honest.bounded_cells`) as its bound in a grid's cell:
+    "≤-14.6" (at most), "≥89.7" (at least), written by `number`."""
+    return {cell: f"{'≤' if side < 0 else '≥'}{number(bound)}" for cell, (side, bound) in bounded.items()}
+
+
+def shown_reward_grid(result: FitResult, number: Callable[[float], str] = format_value
+                      ) -> tuple[np.ndarray, dict[tuple[int, int], str]]:
+    """The fitted reward grid (rows, cols) as every front end shows it: a cell bounded on one side only has no
+    value (NaN: no colour, since "at most 94" coloured as 94 would read as a reward) and its bound for words."""
+    bounded = bounded_cells(result)
+    grid = np.array(result.reward_grid, dtype=float, copy=True)
+    for row, col in bounded:
+        grid[row, col] = np.nan
+    return grid, bound_labels(bounded, number)
 
 
 def fitted_cell(value: float, low: float, high: float, side: int) -> str:

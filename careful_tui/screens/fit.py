@@ -41,7 +41,7 @@ import irl_core.irl.choices as choices
 from careful_tui.option_words import said
 from careful_tui.render.fit_panels import intervals_panel, notes_panel, policy_key, settings_line
 from careful_tui.render.fit_printout import fit_page_svg, policy_labels, progress_phrase, reward_scale, status_text
-from careful_tui.render.intervals import interval_title, scale_legend
+from careful_tui.render.intervals import interval_title, scale_legend, shown_reward_grid
 from careful_tui.render.palette import BAD, GOOD, NOTE, WARN
 from careful_tui.render.session import legend
 from careful_tui.widgets import Board, KeyBar
@@ -417,7 +417,8 @@ class FitScreen(Screen[None]):
         fitted, true = self.query_one("#fitted", Board), self.query_one("#true", Board)
         fitted.border_title = f"fitted R_S · {result.method} point estimate"
         fitted.border_subtitle = scale_legend(scale)
-        fitted.values, fitted.scale = result.reward_grid, scale
+        fitted.values, fitted.labels = shown_reward_grid(result)  # a bound, not a point, where one-sided
+        fitted.scale = scale
         true.values, true.scale = result.true_reward_grid, scale
         true.border_subtitle = legend(self.world, scale=scale)  # its swatches in the colours its cells have
         for board in self.query(Board):

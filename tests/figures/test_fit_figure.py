@@ -127,9 +127,19 @@ def test_fit_figure_panels(mud_fit):
     assert {"fitted", "true", "policy", "intervals", "carefulness"} <= names
     fitted = next(ax for ax in figure.axes if ax.get_label() == "fitted")
     assert fitted.get_title() == "fitted reward (lp point estimate)"
-    # The image holds the fitted reward, walls and all, cell for cell.
+    # The image holds the fitted reward, walls and all, cell for cell, except where the reward is bounded on one
+    # side only: there no colour (a bound is no point) and the bound in words.
+    from irl_core.irl.intervals.honest import bounded_cells
+
+    bounded = bounded_cells(mud_fit)
+    expected = np.array(mud_fit.reward_grid, dtype=float, copy=True)
+    for row, col in bounded:
+        expected[row, col] = np.nan
     shown = fitted.images[0].get_array()
-    assert np.allclose(shown.filled(np.nan), mud_fit.reward_grid, equal_nan=True)
+    assert np.allclose(shown.filled(np.nan), expected, equal_nan=True)
+    words = {text.get_text() for text in fitted.texts}
+    for side, bound in bounded.values():
+        assert any(("≤" if side < 0 else "≥") in word for word in words), (side, bound)
 
 
 def test_playing_and_the_command_line_do_not_import_matplotlib():

@@ -23,6 +23,7 @@ from careful_tui.render.figures.heatmap import (
     draw_reward,
     reward_limit,
     reward_norm,
+    value_label,
 )
 from careful_tui.render.figures.intervals import (
     FRAME_HEIGHT,
@@ -36,9 +37,10 @@ from careful_tui.render.figures.intervals import (
 from careful_tui.render.figures.policy import NOTE_HEIGHT, draw_policy, policy_note, policy_panel
 from careful_tui.render.figures.style import PAGE_WIDTH, figure_style, new_figure, symbol_label
 from careful_tui.render.figures.timing import draw_holds, draw_slip_curve
-from careful_tui.render.intervals import interval_title
+from careful_tui.render.intervals import interval_title, shown_reward_grid
 from irl_core.irl import FitResult
 from irl_core.irl.identification import MOVE
+from irl_core.irl.intervals.honest import one_sided
 from irl_core.support.plural import plural
 
 # Above this many unknowns the interval plot shows one row per symbol (the hull of its cells).
@@ -55,6 +57,7 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
     if result.intervals is None:
         return [], False
     intervals = result.intervals
+    sides = one_sided(np.asarray(intervals), float(result.rmax))
     truth = result.true_theta() if result.world.rewards else np.full(len(result.labels), np.nan)
     first_state = np.asarray(result.unknowns.basis.argmax(axis=0)).ravel()
     rows = []
@@ -62,7 +65,9 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
         name = symbol_label(symbol)
         label = name if result.options.tie or symbol == MOVE else f"{name} {result.mdp.cells[first_state[j]]}"
         low, high = (float(v) for v in intervals[j])
-        rows.append(IntervalRow(label, symbol, low, high, float(result.theta[j]), float(truth[j])))
+        # A reward bounded on one side only is its bound: no point is drawn as its estimate.
+        estimate = float("nan") if sides[j] else float(result.theta[j])
+        rows.append(IntervalRow(label, symbol, low, high, estimate, float(truth[j])))
     if len(rows) <= MAX_INTERVAL_ROWS:
         return rows, False
     hulls = []
@@ -71,9 +76,15 @@ def interval_rows(result: FitResult) -> tuple[list[IntervalRow], bool]:
         truths = {row.truth for row in mine}
         hulls.append(IntervalRow(f"{symbol_label(symbol)} ({plural(len(mine), 'cell')})", symbol,
                                  min(r.low for r in mine), max(r.high for r in mine),
-                                 float(np.mean([r.estimate for r in mine])),
+                                 _mean_estimate([r.estimate for r in mine]),
                                  truths.pop() if len(truths) == 1 else float("nan")))
     return hulls, True
+
+
+def _mean_estimate(estimates: list[float]) -> float:
+    """The mean of the estimates there are (NaN: none, every unknown bounded on one side only)."""
+    finite = [e for e in estimates if np.isfinite(e)]
+    return float(np.mean(finite)) if finite else float("nan")
 
 
 def fitted_cells(result: FitResult) -> str:
@@ -102,7 +113,8 @@ def fit_figure(result: FitResult) -> Figure:
     world, mdp = result.world, result.mdp
     board = Board.for_world(world)
     rows, cols = board.shape
-    rewards = [(f"fitted reward ({result.method} point estimate)", result.reward_grid)]
+    fitted_grid, bounded = shown_reward_grid(result, value_label)
+    rewards = [(f"fitted reward ({result.method} point estimate)", fitted_grid)]
     if world.rewards:
         rewards.append(("true reward (world file)", result.true_reward_grid))
     vmax = reward_limit(*(grid for _, grid in rewards))
@@ -131,9 +143,11 @@ def fit_figure(result: FitResult) -> Figure:
         norm = reward_norm(vmax)
         image = None
         for ax, (title, grid), name in zip(axes, rewards, ("fitted", "true")):
-            image = draw_reward(ax, grid, board, norm=norm, title=title, width=width)
+            image = draw_reward(ax, grid, board, norm=norm, title=title, width=width,
+                                labels=bounded if name == "fitted" else None)
             ax.set_label(name)
-        axes[0].set_xlabel("\n".join([fitted_cells(result), *player_line(result)]), labelpad=2)
+        key = ["≤, ≥: bounded on one side only, no point"] if bounded else []
+        axes[0].set_xlabel("\n".join([fitted_cells(result), *key, *player_line(result)]), labelpad=2)
         if len(rewards) == 1:
             axes[1].set_visible(False)  # keeps the fitted grid the same size as with a true one
         assert image is not None, "the fitted reward is always drawn"

@@ -118,13 +118,15 @@ def draw_board(ax: Axes, board: Board, *, width: float = FULL_CELL) -> None:
 
 
 def draw_reward(ax: Axes, values: np.ndarray, board: Board, *, norm: SymLogNorm, title: str | None = None,
-                width: float = FULL_CELL) -> AxesImage:
+                width: float = FULL_CELL, labels: dict[tuple[int, int], str] | None = None) -> AxesImage:
     """One reward grid on `ax`: colour by value, and symbol and value in each cell.
 
     Args:
         values: (rows, cols) R_S per cell; NaN where there is none (walls).
         width: points per cell: the symbol (other than ground) and value are written in each
             cell when they can be read at that size.
+        labels: (row, col) -> the words for that cell's value instead of the number ("≤ -14.6": a reward
+            bounded on one side, shown as its bound).
     """
     text_size = cell_text_size(width)
     shown = np.ma.masked_invalid(np.where(board.wall, np.nan, np.asarray(values, dtype=float)))
@@ -141,7 +143,8 @@ def draw_reward(ax: Axes, values: np.ndarray, board: Board, *, norm: SymLogNorm,
             symbol = board.symbols[r, c]
             if symbol == GROUND and value == 0:
                 colour = QUIET  # the neutral ground: present, but not competing with the rewards
-            text = value_label(value) if symbol == GROUND else f"{plain(str(symbol))}\n{value_label(value)}"
+            said = (labels or {}).get((r, c)) or value_label(value)
+            text = said if symbol == GROUND else f"{plain(str(symbol))}\n{said}"
             ax.text(c, r, text, ha="center", va="center", color=colour, fontsize=text_size, linespacing=1.1, zorder=5)
     return image
 

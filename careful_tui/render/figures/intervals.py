@@ -32,7 +32,8 @@ OPEN_END = 1.35  # an end at ±rmax is marked at ±rmax * OPEN_END, in the axis'
 
 @dataclass(frozen=True)
 class IntervalRow:
-    """One unknown: its name, interval, estimate and true value (NaN when unknown)."""
+    """One unknown: its name, interval, estimate (NaN: none, the reward bounded on one side only) and true value
+    (NaN when unknown)."""
 
     label: str
     symbol: str
@@ -65,7 +66,7 @@ def axis_limit(rows: Sequence[IntervalRow], rmax: float | None, *, linthresh: fl
     """Where the axis ends: at ±rmax, or without a known bound just beyond every value drawn."""
     if rmax is not None:
         return rmax
-    values = np.array([v for row in rows for v in (row.low, row.high, row.estimate, row.truth)])
+    values = np.array([v for row in rows for v in (row.low, row.high, row.estimate, row.truth) if np.isfinite(v)])
     return reward_limit(values, linthresh=linthresh)
 
 
@@ -104,8 +105,9 @@ def draw_intervals(ax: Axes, rows: Sequence[IntervalRow], *, rmax: float | None,
                 ax.plot([sign * limit * OPEN_END], [y], marker=marker, markersize=4, color=colour, zorder=3)
         if np.isfinite(row.truth):
             ax.plot([row.truth], [y], marker="|", markersize=8, markeredgewidth=1.4, color=INK, zorder=4)
-        ax.plot([row.estimate], [y], marker="o", markersize=3.5, markerfacecolor="white",
-                markeredgecolor=INK, markeredgewidth=0.9, zorder=5)
+        if np.isfinite(row.estimate):  # none where the reward is bounded on one side only (its bound is the answer)
+            ax.plot([row.estimate], [y], marker="o", markersize=3.5, markerfacecolor="white",
+                    markeredgecolor=INK, markeredgewidth=0.9, zorder=5)
     ax.set_xscale("symlog", linthresh=linthresh, linscale=0.5)
     ticks = symlog_ticks(limit, linthresh=linthresh, ends=False)
     if limit > 2 * max(ticks) and len(ticks) > 5:
@@ -136,8 +138,9 @@ def _no_minor():
 def interval_legend(rows: Sequence[IntervalRow], *, kind: str, confidence: float | None,
                     rmax: float | None) -> list:
     """Legend entries: the dot, the tick, and the triangle when an end is at ±rmax (the kind is its title)."""
+    one_sided = any(not np.isfinite(row.estimate) for row in rows)
     handles = [Line2D([], [], linestyle="", marker="o", markersize=3.5, markerfacecolor="white",
-                      markeredgecolor=INK, label="estimate")]
+                      markeredgecolor=INK, label="estimate (none where bounded on one side)" if one_sided else "estimate")]
     if any(np.isfinite(row.truth) for row in rows):
         handles.append(Line2D([], [], linestyle="", marker="|", markersize=8, markeredgewidth=1.4,
                               color=INK, label="truth"))

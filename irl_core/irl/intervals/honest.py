@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from irl_core.irl.identification import MOVE
 from irl_core.irl.notes import Note
 from irl_core.irl.people import FLAT_DROP
 from irl_core.irl.result import FitResult, at_bound
@@ -92,6 +93,27 @@ def honest_notes(labels: tuple[str, ...], theta: np.ndarray, honest: Honest | No
                                               "the refits of resampled episodes sat to one side of it (a biased "
                                               "estimate), so the point is an end of its interval"))
     return notes
+
+
+def bounded_cells(result: FitResult) -> dict[tuple[int, int], tuple[int, float]]:
+    """(row, col) -> (side, bound) for every cell whose reward the data bound on one side only: side -1 reads "at
+    most bound", +1 "at least bound". Such a cell's point is no estimate, so the grids show the bound instead.
+    Empty without intervals; a move's cost is no cell's."""
+    if result.intervals is None:
+        return {}
+    intervals = np.asarray(result.intervals, dtype=float)
+    sides = one_sided(intervals, float(result.rmax))
+    basis = result.unknowns.basis.tocsc()
+    out: dict[tuple[int, int], tuple[int, float]] = {}
+    for j in np.flatnonzero(sides):
+        if result.unknowns.symbols[j] == MOVE:
+            continue
+        bound = float(intervals[j, 1] if sides[j] < 0 else intervals[j, 0])
+        for state in basis[:, j].indices:
+            if state < len(result.mdp.cells):
+                row, col = result.mdp.cells[state]
+                out[(int(row), int(col))] = (int(sides[j]), bound)
+    return out
 
 
 def invariant_violations(result: FitResult) -> list[str]:
