@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from multiprocessing.synchronize import Event as EventType
 from typing import Any
 
+from careful_tui.web.serving_lock import ServingLock
 from irl_core.studies.study import LoadedStudy
 
 PARENT_CHECK_S = 1.0
@@ -64,7 +65,7 @@ def most_workers() -> int:
     return 4 * (os.cpu_count() or 1)
 
 
-def run_worker(settings: WorkerSettings, sock: socket.socket, held: object, number: int, parent: int,
+def run_worker(settings: WorkerSettings, sock: socket.socket, held: ServingLock | None, number: int, parent: int,
                serving: EventType, make_server: Callable[..., Any], say: Callable[[str], None]) -> None:
     """A worker process: the app on `SharedSeats`, served by `make_server`'s uvicorn server on the socket of
     its `parent` (process id) until a signal, or until the parent is gone; `serving` is set once it serves,
@@ -90,12 +91,14 @@ def run_worker(settings: WorkerSettings, sock: socket.socket, held: object, numb
 
 @dataclass
 class _Worker:
+    """A worker process, and whether it has served (set by the worker once its server has started)."""
+
     process: multiprocessing.process.BaseProcess
     serving: EventType
 
 
 def supervise(settings: WorkerSettings, sock: socket.socket, *, workers: int, say: Callable[[str], None],
-              make_server: Callable[..., Any], held: object = None) -> int:
+              make_server: Callable[..., Any], held: ServingLock | None = None) -> int:
     """Run `workers` worker processes on `sock` until SIGINT or SIGTERM; 0, or 1 when a worker could not start.
 
     `make_server` (the app's uvicorn server) and `say` go to each worker by name: module-level functions;
