@@ -103,6 +103,29 @@ def test_a_second_server_on_one_out_folder_is_refused_whatever_the_workers(tmp_p
         served.stop()
 
 
+def open_files(pid: int) -> list[str]:
+    """What the process `pid` has open now (a descriptor closed while listed is left out)."""
+    found = []
+    for fd in os.listdir(f"/proc/{pid}/fd"):
+        with contextlib.suppress(FileNotFoundError):
+            found.append(os.readlink(f"/proc/{pid}/fd/{fd}"))
+    return found
+
+
+def test_each_worker_holds_the_out_folder_so_a_killed_parent_keeps_it_until_they_end(tmp_path):
+    study = write_web_study(tmp_path)
+    served = Served(study, "--links", "1", "--workers", "2")
+    try:
+        served.read_until("workers: 2 processes")
+        serving = str(tmp_path / "data" / ".serving")
+        workers = worker_pids(served.process.pid)
+        assert len(workers) == 2
+        for pid in workers:
+            assert serving in open_files(pid), pid
+    finally:
+        served.stop()
+
+
 # ---------------------------------------------------------------------- item 3: a worker killed as it starts
 
 
