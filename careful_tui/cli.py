@@ -326,6 +326,10 @@ def _add_serve(commands: Any) -> None:
     serve.add_argument("--workers", type=positive_int, default=1, metavar="N",
                        help="worker processes serving on the one port (default 1; at most 4 per core): any of them "
                        "serves any request, each page's seat kept in <out>/.<participant>.seat")
+    serve.add_argument("--forwarded-allow-ips", default=None, metavar="IPS",
+                       help="the reverse proxy's addresses or networks, separated by commas (127.0.0.1 for one on "
+                       "this machine): a request from one of them is counted under the client address its "
+                       "X-Forwarded-For names (default: none; every request under its own peer's address)")
 
 
 def _pool_help(how: str) -> str:

@@ -18,8 +18,10 @@ A seat file is three text lines and two pickles::
     <pickle>          page secret, session, key budget
 
 A recording longer than its length there means a worker ended between writing a step and
-writing the seat: the seat is dropped (the page reloads and resumes where the files say, as
-after a crash) rather than number a step twice.
+writing the seat, or could not write the seat (a full disk): the seat is dropped (the page reloads
+and resumes where the files say, as after a crash) rather than number a step twice. Every read
+checks it, a worker's seat in memory too: the file still holds that worker's MAC when another's
+write was lost.
 
 The session is a pickle, read only when its HMAC holds under a key the server draws at its
 start (handed to each worker with its settings, never on a command line): a seat file of an earlier run, or one written
@@ -80,6 +82,17 @@ class _Record:
     played: bool
 
 
+@dataclass
+class _Cached:
+    """The seat file a worker wrote last for a participant: its MAC, its record, the record's writers and the
+    length of each recording when it was written."""
+
+    mac: bytes
+    record: _Record
+    writers: list[RecordingWriter]
+    sizes: dict[str, int]
+
+
 class SharedSeats:
     """The pages playing now, one per participant, in the study's out folder (see the module text).
 
@@ -97,9 +110,9 @@ class SharedSeats:
         self.clock, self.wall = clock, wall
         self.silent_s, self.limit, self.address_seats = silent_s, limit, address_seats
         self.browser_study = browser_study(study)
-        # participant -> the MAC of the seat file this worker wrote last, its record and the record's writers:
-        # while the file is still that one, the next request skips reading the session back.
-        self._cache: dict[str, tuple[bytes, _Record, list[RecordingWriter]]] = {}
+        # participant -> the seat file this worker wrote last: while the file is still that one, the next
+        # request skips reading the session back.
+        self._cache: dict[str, _Cached] = {}
 
     # ------------------------------------------------------------------ what the server asks
 
@@ -299,19 +312,27 @@ class SharedSeats:
         except FileNotFoundError:
             return None, 0.0, []
         parts = data.split(b"\n", 3)
+        if len(parts) != 4:
+            return None, seen, []
+        # When this worker wrote it last, its session is the one in memory, and so are the lengths it saw.
         cached = self._cache.get(participant)
-        if len(parts) == 4 and cached is not None and hmac.compare_digest(parts[2], cached[0]):
-            return cached[1], seen, cached[2]  # this worker wrote it last: its session is the one in memory
-        if len(parts) != 4 or not hmac.compare_digest(parts[2], self._mac(parts[0], parts[1], parts[3])):
+        if cached is not None and not hmac.compare_digest(parts[2], cached.mac):
+            cached = None  # another worker wrote it since
+        if cached is None and not hmac.compare_digest(parts[2], self._mac(parts[0], parts[1], parts[3])):
             return None, seen, []
         stream = io.BytesIO(parts[3])
-        sizes = pickle.load(stream)
+        sizes = cached.sizes if cached is not None else pickle.load(stream)
+        # Checked on every read, the cached seat's too: another worker may have appended a step since and
+        # ended (or found the disk full) before writing the seat, which still holds this worker's MAC.
         if any(_size(path) > size for path, size in sizes.items()):
-            # A worker ended between writing a step and writing the seat: the session would number its next
-            # step again. The page reloads instead, and resumes where the files say (as after a crash).
-            self.say(f"{participant}: the page's seat was behind its recording (a worker stopped mid-request); "
-                     "the page starts again from the files")
+            # The session would number its next step again. The page reloads instead, and resumes where the
+            # files say (as after a crash).
+            self._cache.pop(participant, None)
+            self.say(f"{participant}: the page's seat was behind its recording (a worker stopped mid-request, "
+                     "or its seat could not be written); the page starts again from the files")
             return None, seen, []
+        if cached is not None:
+            return cached.record, seen, cached.writers
         loader = _SessionUnpickler(stream, self)
         fields = loader.load()
         return _Record(**fields), seen, loader.writers
@@ -346,7 +367,7 @@ class SharedSeats:
         finally:
             _let_go(pickler.writers)
         if record.page is not None:
-            self._cache[participant] = (mac, record, pickler.writers)
+            self._cache[participant] = _Cached(mac, record, pickler.writers, sizes)
 
     def _mac(self, state: bytes, digest: bytes, body: bytes) -> bytes:
         return hmac.new(self.key, state + b"\n" + digest + b"\n" + body, hashlib.sha256).hexdigest().encode()

@@ -19,8 +19,8 @@ import urllib.error
 import urllib.request
 
 import pytest
-from test_serve_command import Served, token_of
 from web.conftest import recorded_lines, write_web_study
+from web.test_serve_command import Served, token_of
 
 from careful_tui.cli import main
 from careful_tui.web.seat_files import ADDRESS_FILE, SharedSeats
@@ -33,12 +33,12 @@ from irl_core.studies.study import load_study
 EPISODES = 5
 
 
-def post(url: str, body: dict) -> tuple[int, str | None, dict]:
+def post(url: str, body: dict, *, timeout: float = 10) -> tuple[int, str | None, dict]:
     """A request on a connection of its own: (status, the worker that answered, the JSON)."""
     request = urllib.request.Request(url, data=json.dumps(body).encode(), method="POST",
                                      headers={"content-type": "application/json"})
     try:
-        with urllib.request.urlopen(request, timeout=10) as answer:
+        with urllib.request.urlopen(request, timeout=timeout) as answer:
             return answer.status, answer.headers.get("x-careful-worker"), json.loads(answer.read() or b"{}")
     except urllib.error.HTTPError as error:
         return error.code, error.headers.get("x-careful-worker"), json.loads(error.read() or b"{}")
