@@ -183,15 +183,19 @@ def _add_experiment(commands: Any) -> None:
 
 
 def _add_export(commands: Any) -> None:
-    export = commands.add_parser("export", help="recordings as CSV or a Minari dataset", description=(
-        "Export recordings for other tools: a CSV table with one row per step, or a local Minari "
+    export = commands.add_parser("export", help="recordings as CSV, a Minari or a Psych-DS dataset", description=(
+        "Export recordings for other tools: a CSV table with one row per step, a local Minari "
         "dataset (under $MINARI_DATASETS_PATH, or ~/.minari/datasets) of one world, one Minari episode "
-        "per recorded episode, with the environment careful/Careful-v0 to recover. Never overwrites."))
+        "per recorded episode, with the environment careful/Careful-v0 to recover, or a Psych-DS dataset "
+        "(dataset_description.json and data/study-<name>_participant-<id>_data.csv, the CSV's rows per "
+        "participant). Never overwrites."))
     export.add_argument("files", type=Path, nargs="+", metavar="FILE", help="recordings (JSONL) to export")
-    export.add_argument("--format", choices=["csv", "minari"], required=True,
-                        help="csv: one row per step; minari: a Minari dataset, one episode per recorded episode")
-    export.add_argument("--out", required=True, metavar="PATH|DATASET_ID",
-                        help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0")
+    export.add_argument("--format", choices=["csv", "minari", "psych-ds"], required=True,
+                        help="csv: one row per step; minari: a Minari dataset, one episode per recorded episode; "
+                        "psych-ds: a Psych-DS dataset, one CSV file per study and participant")
+    export.add_argument("--out", required=True, metavar="PATH|DATASET_ID|DIR",
+                        help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0; "
+                        "psych-ds: the new dataset's folder")
 
 
 def _add_import(commands: Any) -> None:
