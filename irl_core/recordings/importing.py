@@ -65,6 +65,7 @@ class _Move(NamedTuple):
     level: int | None
     hold_ms: float | None
     next_state: Cell | None
+    refused: bool = False  # a refused row keeps its place: the moves on either side are not one path
 
 
 @dataclass
@@ -262,13 +263,13 @@ class _Importer:
             except TableError as exc:
                 self.refuse(row.line, _joined(column), exc.problems[0])
                 refused = True
-        if refused:
+        if refused and not {"participant", "episode"} <= values.keys():
             return
         participant, episode = values["participant"], values["episode"]
         episodes = self.moves.setdefault(participant, {})
         episodes.setdefault(episode, []).append(_Move(
-            row.line, values.get("t", order), values["state"], values["action"], values.get("level"),
-            values.get("rt"), values.get("next_state")))
+            row.line, values.get("t", order), values.get("state", (0, 0)), values.get("action", "up"),
+            values.get("level"), values.get("rt"), values.get("next_state"), refused))
 
     def _column(self, key: str) -> str | tuple[str, str] | None:
         return self.map.rt if key == "rt" else getattr(self.map, key)
@@ -343,6 +344,9 @@ class _Importer:
         checker, start = LineChecker(mdp), 0
         score = world.initial_score
         for i, move in enumerate(moves):
+            if move.refused:
+                checker, start = LineChecker(mdp), i + 1
+                continue
             if i >= world.max_steps:
                 self.refuse(move.line, self.map.t or _joined(self.map.state), f"move {i + 1} of episode {number}, "
                             f"past the world's max_steps ({world.max_steps}): the episode ended at its step limit")
@@ -350,7 +354,7 @@ class _Importer:
             s = mdp.state_of[move.state]
             d = DIRECTIONS.index(move.direction)
             intended = mdp.cells[int(mdp.neighbour[s, d])] if mdp.nonterminal[s] else move.state
-            following = moves[i + 1].state if i + 1 < len(moves) else None
+            following = moves[i + 1].state if i + 1 < len(moves) and not moves[i + 1].refused else None
             next_state = move.next_state or following or intended
             step = self._step(number, i - start, move, next_state, intended, score, reward)
             try:
