@@ -104,6 +104,11 @@ def _whole(value: Any) -> int:
         raise _refused(f"{str(value).lower()} is not a number")
     if isinstance(value, int):
         return value
+    if isinstance(value, str):
+        try:
+            return int(value)
+        except ValueError:
+            pass  # "3.0", " ", "x": as a number below
     number = _number(value)
     if number is None:
         raise _refused("empty: a whole number was expected")
@@ -119,13 +124,14 @@ def _number(value: Any) -> float | None:
     if isinstance(value, bool) or not isinstance(value, int | float | str):
         raise _refused(f"{_brief(value)} is not a number")
     if isinstance(value, str):
-        if not value.strip():
-            return None
         try:
-            value = float(value.strip())
+            number = float(value)  # surrounding blanks allowed
         except ValueError:
+            if not value.strip():
+                return None
             raise _refused(f"{_brief(value)} is not a number") from None
-    number = float(value)
+    else:
+        number = float(value)
     if not math.isfinite(number):
         raise _refused(f"{_brief(value)} is not a finite number")
     return number
@@ -219,9 +225,14 @@ class _Importer:
     def __init__(self, table: Table, world: World, column_map: ColumnMap) -> None:
         self.table, self.world, self.map = table, world, column_map
         self.mdp: MDP = build_mdp(world)
+        # The world's arrays as lists: read once per row, where numpy's scalar indexing would cost more than the rest.
+        self._neighbour = self.mdp.neighbour.tolist()
+        self._nonterminal = self.mdp.nonterminal.tolist()
+        self._reward = self.mdp.reward_matrix().tolist()
         self.problems: list[tuple[int, str]] = []  # (line, the problem's line of text)
         self.cells = _CellReader(world, column_map)
         self.direction_of = column_map.direction_of
+        self._fields = self._field_readers()
         # participant -> episode label -> moves, both in the order of their first row
         self.moves: dict[str, dict[str, list[_Move]]] = {}
 
@@ -251,33 +262,35 @@ class _Importer:
     def read_row(self, row: TableRow, order: int) -> None:
         values: dict[str, Any] = {}
         refused = False
-        for key, reader in self._readers():
-            column = self._column(key)
-            if column is None:
-                continue
+        cells = row.cells
+        for key, column, names, reader in self._fields:
             try:
-                if any(name not in row.cells for name in _names(column)):
-                    missing = next(name for name in _names(column) if name not in row.cells)
-                    raise _refused(f"missing: the row has no {printable(missing, limit=VALUE_LIMIT)!r}")
+                for name in names:
+                    if name not in cells:
+                        raise _refused(f"missing: the row has no {printable(name, limit=VALUE_LIMIT)!r}")
                 values[key] = reader(row, column)
             except TableError as exc:
                 self.refuse(row.line, _joined(column), exc.problems[0])
                 refused = True
         if refused and not {"participant", "episode"} <= values.keys():
             return
-        participant, episode = values["participant"], values["episode"]
-        episodes = self.moves.setdefault(participant, {})
-        episodes.setdefault(episode, []).append(_Move(
+        episodes = self.moves.setdefault(values["participant"], {})
+        episodes.setdefault(values["episode"], []).append(_Move(
             row.line, values.get("t", order), values.get("state", (0, 0)), values.get("action", "up"),
             values.get("level"), values.get("rt"), values.get("next_state"), refused))
 
-    def _column(self, key: str) -> str | tuple[str, str] | None:
-        return self.map.rt if key == "rt" else getattr(self.map, key)
-
-    def _readers(self) -> list[tuple[str, Callable[[TableRow, Any], Any]]]:
-        return [("participant", self._participant), ("episode", lambda row, c: _label(row.cells[c])),
-                ("t", lambda row, c: self._order(row.cells[c])), ("state", self.cells.read),
-                ("next_state", self.cells.read), ("action", self._action), ("level", self._level), ("rt", self._rt)]
+    def _field_readers(self) -> list[tuple[str, str | tuple[str, str], tuple[str, ...], Callable[[TableRow, Any], Any]]]:
+        """(key, column, its names, reader) for every column the map names, in the order rows are read."""
+        cell_map = self.map
+        readers: list[tuple[str, str | tuple[str, str] | None, Callable[[TableRow, Any], Any]]] = [
+            ("participant", cell_map.participant, self._participant),
+            ("episode", cell_map.episode, lambda row, c: _label(row.cells[c])),
+            ("t", cell_map.t, lambda row, c: self._order(row.cells[c])),
+            ("state", cell_map.state, self.cells.read), ("next_state", cell_map.next_state, self.cells.read),
+            ("action", cell_map.action, self._action), ("level", cell_map.level, self._level),
+            ("rt", cell_map.rt, self._rt),
+        ]
+        return [(key, column, _names(column), reader) for key, column, reader in readers if column is not None]
 
     def _participant(self, row: TableRow, column: str) -> str:
         participant = _label(row.cells[column])
@@ -323,16 +336,15 @@ class _Importer:
     def recordings(self) -> dict[str, list[BodyLine]]:
         """Each participant's lines; the moves' problems are noted as they are found."""
         out: dict[str, list[BodyLine]] = {}
-        reward = self.mdp.reward_matrix()
         for participant, episodes in self.moves.items():
             numbers = _episode_numbers(list(episodes))
             lines: list[BodyLine] = []
             for label in sorted(episodes, key=lambda label: numbers[label]):
-                lines.extend(self._episode(numbers[label], episodes[label], reward))
+                lines.extend(self._episode(numbers[label], episodes[label]))
             out[participant] = lines
         return out
 
-    def _episode(self, number: int, moves: list[_Move], reward: Any) -> list[BodyLine]:
+    def _episode(self, number: int, moves: list[_Move]) -> list[BodyLine]:
         mdp, world = self.mdp, self.world
         if self.map.t is not None:
             moves = sorted(moves, key=lambda move: move.order)
@@ -352,11 +364,11 @@ class _Importer:
                             f"past the world's max_steps ({world.max_steps}): the episode ended at its step limit")
                 continue
             s = mdp.state_of[move.state]
-            d = DIRECTIONS.index(move.direction)
-            intended = mdp.cells[int(mdp.neighbour[s, d])] if mdp.nonterminal[s] else move.state
+            intended = mdp.cells[self._neighbour[s][DIRECTIONS.index(move.direction)]] if self._nonterminal[s] \
+                else move.state
             following = moves[i + 1].state if i + 1 < len(moves) and not moves[i + 1].refused else None
             next_state = move.next_state or following or intended
-            step = self._step(number, i - start, move, next_state, intended, score, reward)
+            step = self._step(number, i - start, move, s, next_state, intended, score)
             try:
                 checker.step(step, move.line)
             except Mismatch as exc:
@@ -378,18 +390,16 @@ class _Importer:
                                 return_=score - world.initial_score, score=score))
         return lines
 
-    def _step(self, number: int, t: int, move: _Move, next_state: Cell, intended: Cell, score: float,
-              reward: Any) -> Step:
+    def _step(self, number: int, t: int, move: _Move, s: int, next_state: Cell, intended: Cell, score: float) -> Step:
         world, mdp = self.world, self.mdp
-        s = mdp.state_of[move.state]
         if world.care == "time":
             hold = move.hold_ms if move.hold_ms is not None else 0.0
             gain = float(mdp.R_S[s] - world.hold_cost(hold))
             level, bin_ = None, int(world.bin_of(hold))
         else:
             level, bin_ = move.level or 1, None
-            gain = float(reward[s, action_index(move.direction, level, world.levels)])
-        return Step.model_construct(
+            gain = self._reward[s][action_index(move.direction, level, world.levels)]
+        return Step(
             episode=number, t=t, state=move.state, direction=move.direction, carefulness=level,
             hold_ms=move.hold_ms, hold_exact=False, bin=bin_, next_state=next_state,
             slipped=next_state != intended, reward=gain, score=score + gain, realised=None,
