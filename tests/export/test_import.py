@@ -54,7 +54,7 @@ def same_recordings(original, imported) -> None:
 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(seed=st.integers(0, 2**32 - 1), world=st.sampled_from([SHORT, SHORT_TIME, SHORT_STEADY]))
+@given(seed=st.integers(0, 2**32 - 1), world=st.sampled_from([SHORT, SHORT_TIME, SHORT_STEADY, BUILTIN_WORLDS["walls"]]))
 def test_export_csv_then_import_gives_the_same_recordings(tmp_path_factory, capsys, seed, world):
     folder = tmp_path_factory.mktemp("round")
     session = play(folder / "ada.jsonl", world, seed=seed, episodes=12)
@@ -118,6 +118,19 @@ def test_a_cell_index_and_a_row_col_column_name_the_same_cells(tmp_path):
         imported = import_table(table, BUILTIN_WORLDS["paper"], load_map(tmp_path / "map.toml"))
         cells[name] = [(s.state, s.next_state) for s in imported.participants["p1"] if hasattr(s, "state")]
     assert cells["index"] == cells["pair"] == [((1, 0), (1, 1)), ((1, 1), (1, 2))]
+
+
+def test_numeric_codes_and_json_cells_read_as_their_text(tmp_path):
+    # A JSON lines table of numbers: participants and directions coded as numbers, cells as [row, col] lists.
+    rows = [{"p": 7, "e": 0, "s": [1, 0], "n": [1, 1], "a": 1, "rt": 812},
+            {"p": 7, "e": 0, "s": [1, 1], "n": [2, 1], "a": 2.0, "rt": None}]
+    (tmp_path / "t.jsonl").write_text("".join(json.dumps(row) + "\n" for row in rows), encoding="utf-8")
+    the_map = ('participant = "p"\nepisode = "e"\nstate = "s"\nnext_state = "n"\naction = "a"\nrt_ms = "rt"\n'
+               "[actions]\nup = 0\nright = 1\ndown = 2\nleft = 3\n")
+    imported = import_table(tmp_path / "t.jsonl", BUILTIN_WORLDS["paper"], load_map(write_map(tmp_path, the_map)))
+    steps = [line for line in imported.participants["7"] if getattr(line, "kind", "") == "step"]
+    assert [(s.state, s.direction, s.next_state, s.hold_ms) for s in steps] == [
+        ((1, 0), "right", (1, 1), 812.0), ((1, 1), "down", (2, 1), None)]
 
 
 # ---------------------------------------------------------------------------- bad input
