@@ -182,17 +182,26 @@ class _CellReader:
         self.form: str | None = None  # the first cell's form: every cell of the table must share it
         self.form_line = 0
 
-    def read(self, row: TableRow, spec: str | tuple[str, str]) -> Cell:
-        values: tuple[int, ...]
-        if isinstance(spec, tuple):
-            form, values = "columns", (_whole(row.cells[spec[0]]), _whole(row.cells[spec[1]]))
-        else:
-            form, values = _coordinates(row.cells[spec])
+    def same_form(self, parsed: tuple[str, Cell], line: int) -> Cell:
+        """The cell of `parse`'s answer, if it is given the way the table's first cell was."""
+        form, cell = parsed
         if self.form is None:
-            self.form, self.form_line = form, row.line
+            self.form, self.form_line = form, line
         elif form != self.form and {form, self.form} != {"columns", "pair"}:
             raise _refused(f"{FORMS[form]}, but line {self.form_line} gave {FORMS[self.form]}: one coordinate "
                            "system per table")
+        return cell
+
+    def parse(self, raw: Any) -> tuple[str, Cell]:
+        """A cell column's value (or a pair of columns' values, as a tuple) as its form and careful's (row, col)."""
+        values: tuple[int, ...]
+        if isinstance(raw, tuple):
+            form, values = "columns", (_whole(raw[0]), _whole(raw[1]))
+        else:
+            form, values = _coordinates(raw)
+        return form, self._cell(values, form)
+
+    def _cell(self, values: tuple[int, ...], form: str) -> Cell:
         world = self.world
         if form == "index":
             if not 0 <= values[0] < world.rows * world.cols:
@@ -265,10 +274,13 @@ class _Importer:
         cells = row.cells
         for key, column, names, reader in self._fields:
             try:
-                for name in names:
-                    if name not in cells:
-                        raise _refused(f"missing: the row has no {printable(name, limit=VALUE_LIMIT)!r}")
-                values[key] = reader(row, column)
+                try:
+                    raw = cells[names[0]] if len(names) == 1 else (cells[names[0]], cells[names[1]])
+                except KeyError:
+                    missing = next(name for name in names if name not in cells)
+                    raise _refused(f"missing: the row has no {printable(missing, limit=VALUE_LIMIT)!r}") from None
+                value = reader(raw)
+                values[key] = self.cells.same_form(value, row.line) if key in ("state", "next_state") else value
             except TableError as exc:
                 self.refuse(row.line, _joined(column), exc.problems[0])
                 refused = True
@@ -279,21 +291,22 @@ class _Importer:
             row.line, values.get("t", order), values.get("state", (0, 0)), values.get("action", "up"),
             values.get("level"), values.get("rt"), values.get("next_state"), refused))
 
-    def _field_readers(self) -> list[tuple[str, str | tuple[str, str], tuple[str, ...], Callable[[TableRow, Any], Any]]]:
-        """(key, column, its names, reader) for every column the map names, in the order rows are read."""
+    def _field_readers(self) -> list[tuple[str, str | tuple[str, str], tuple[str, ...], Callable[[Any], Any]]]:
+        """(key, column, its names, reader) for every column the map names, in the order rows are read; a reader
+        takes the cell's value (a pair of columns' values as a tuple)."""
         cell_map = self.map
-        readers: list[tuple[str, str | tuple[str, str] | None, Callable[[TableRow, Any], Any]]] = [
-            ("participant", cell_map.participant, self._participant),
-            ("episode", cell_map.episode, lambda row, c: _label(row.cells[c])),
-            ("t", cell_map.t, lambda row, c: self._order(row.cells[c])),
-            ("state", cell_map.state, self.cells.read), ("next_state", cell_map.next_state, self.cells.read),
-            ("action", cell_map.action, self._action), ("level", cell_map.level, self._level),
+        readers: list[tuple[str, str | tuple[str, str] | None, Callable[[Any], Any]]] = [
+            ("participant", cell_map.participant, _remembered(self._participant)),
+            ("episode", cell_map.episode, _remembered(_label)), ("t", cell_map.t, _remembered(self._order)),
+            ("state", cell_map.state, _remembered(self.cells.parse)),
+            ("next_state", cell_map.next_state, _remembered(self.cells.parse)),
+            ("action", cell_map.action, _remembered(self._action)), ("level", cell_map.level, _remembered(self._level)),
             ("rt", cell_map.rt, self._rt),
         ]
         return [(key, column, _names(column), reader) for key, column, reader in readers if column is not None]
 
-    def _participant(self, row: TableRow, column: str) -> str:
-        participant = _label(row.cells[column])
+    def _participant(self, raw: Any) -> str:
+        participant = _label(raw)
         if not SAFE_NAME.fullmatch(participant):
             raise _refused(f"participant id {printable(participant, limit=VALUE_LIMIT)!r} cannot name a recording's "
                            f"file: use {SAFE_NAME_RULE}")
@@ -306,28 +319,28 @@ class _Importer:
             raise _refused("empty: the move's place in its episode was expected")
         return number
 
-    def _action(self, row: TableRow, column: str) -> Direction:
-        code = code_text(row.cells[column]) if row.cells[column] is not None else ""
+    def _action(self, raw: Any) -> Direction:
+        code = code_text(raw) if raw is not None else ""
         if code not in self.direction_of:
             codes = ", ".join(f"{printable(c, limit=20)!r}" for c in self.direction_of)
             raise _refused(f"{printable(code, limit=VALUE_LIMIT)!r} is not an action code of the map's [actions] "
                            f"({codes})")
         return self.direction_of[code]
 
-    def _level(self, row: TableRow, column: str) -> int:
-        level = _whole(row.cells[column])
+    def _level(self, raw: Any) -> int:
+        level = _whole(raw)
         if not 1 <= level <= self.world.levels:
             raise _refused(f"level {level} is not one of the world's levels 1 to {self.world.levels}")
         return level
 
-    def _rt(self, row: TableRow, column: str) -> float | None:
-        number = _number(row.cells[column])
+    def _rt(self, raw: Any) -> float | None:
+        number = _number(raw)
         if number is None:
             if self.world.care == "time":
                 raise _refused("empty, but a time world's move is a hold: every row needs its time")
             return None
         if number < 0:
-            raise _refused(f"{_brief(row.cells[column])} is negative: a response time is 0 or more")
+            raise _refused(f"{_brief(raw)} is negative: a response time is 0 or more")
         hold = round(number * self.map.rt_scale, 1)
         return min(hold, self.world.max_hold_ms) if self.world.care == "time" else hold
 
@@ -416,6 +429,35 @@ class _Importer:
         column = {"state": self.map.state, "next_state": self.map.next_state, "carefulness": self.map.level,
                   "t": self.map.t, "hold_ms": self.map.rt, "bin": self.map.rt, "episode": self.map.episode}.get(exc.field)
         self.refuse(move.line, _joined(column) if column else exc.field, exc.problem)
+
+
+# A column's values `_remembered` at most: a trial table repeats its ids, codes and cells, rarely more of them.
+REMEMBERED = 1 << 16
+
+
+def _remembered(read: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """`read`, its answer (or its refusal) kept for each text value (or pair of them) it has read: a table's
+    participants, episodes, codes and cells repeat on row after row. Values of other types (JSON's numbers, whose
+    1, 1.0 and true would share a key) are read each time."""
+    known: dict[Any, tuple[bool, Any]] = {}
+
+    def reader(raw: Any) -> Any:
+        text = type(raw) is str or (type(raw) is tuple and all(type(value) is str for value in raw))
+        if not text:
+            return read(raw)
+        answer = known.get(raw)
+        if answer is None:
+            try:
+                answer = (True, read(raw))
+            except TableError as exc:
+                answer = (False, exc.problems[0])
+            if len(known) < REMEMBERED:
+                known[raw] = answer
+        if not answer[0]:
+            raise _refused(answer[1])
+        return answer[1]
+
+    return reader
 
 
 def _names(column: str | tuple[str, str]) -> tuple[str, ...]:

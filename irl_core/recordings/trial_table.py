@@ -26,8 +26,6 @@ from irl_core.support.safe_text import VALUE_LIMIT, printable
 # The largest table careful imports: each row is kept (about 200 bytes) until every row is checked, so that
 # nothing is written from a table with a bad row; 256 MB is some five million rows of a typical trial table.
 MAX_TABLE_BYTES = 256 << 20
-# A CSV cell longer than this is not a trial table's (the csv module's own limit is 128 KB).
-MAX_CELL_CHARS = 1 << 16
 
 FORMATS = {".csv": "csv", ".tsv": "tsv", ".tab": "tsv", ".jsonl": "jsonl", ".ndjson": "jsonl", ".json": "json"}
 
@@ -145,15 +143,11 @@ def _delimited(path: Path, kind: str, text: str) -> Table:
                 raise TableError([f"{_shown(path)}:{start}: not a {kind.upper()} row ({exc})"]) from None
             if row is None:
                 return
-            if not any(cell.strip() for cell in row):
+            if not "".join(row).strip():
                 continue
             if len(row) != len(header):
                 raise TableError([f"{_shown(path)}:{start}: the row has {len(row)} cells, but the header "
                                   f"(line {header_line}) names {len(header)} columns"])
-            long = next((name for name, cell in zip(header, row) if len(cell) > MAX_CELL_CHARS), None)
-            if long is not None:
-                raise TableError([f"{_shown(path)}:{start}: {printable(long, limit=VALUE_LIMIT)}: the cell is over "
-                                  f"{MAX_CELL_CHARS:,} characters"])
             yield TableRow(start, dict(zip(header, row)))
 
     return Table(path, kind, tuple(header), header_line, rows())

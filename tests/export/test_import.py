@@ -259,3 +259,23 @@ def test_the_importer_raises_one_table_error_with_every_problem(tmp_path):
     with pytest.raises(TableError) as caught:
         import_table(table, BUILTIN_WORLDS["paper"], load_map(write_map(tmp_path, LAB_MAP)))
     assert len(caught.value.problems) == 2 and str(caught.value).endswith("(and 1 more refused)")
+
+
+HEADER = ",".join(LAB_COLUMNS)
+ROW = dict(zip(LAB_COLUMNS, ("s1", 1, 1, 0, 1, "v", 0.5)))
+
+
+@pytest.mark.parametrize("name, text, expected", [
+    ("t.csv", f"{HEADER}\ns1,1,1,0,1,v,0.5,extra\n", "t.csv:2: the row has 8 cells, but the header (line 1) names 7"),
+    ("t.csv", f"{HEADER}\ns1,1,1,0,1,v," + "9" * 200_000 + "\n", "t.csv:2: not a CSV row (field larger than field limit"),
+    ("t.json", json.dumps(ROW), "t.json:1: a .json table is an array of objects"),
+    ("t.jsonl", f"{json.dumps(ROW)}\n[1, 2]\n", "t.jsonl:2: a row is a JSON object of column: value, not list"),
+    ("t.jsonl", f'{json.dumps(ROW)}\n{{"subject": \n', "t.jsonl:2: not valid JSON"),
+    ("t.xlsx", "whatever", "t.xlsx: a table's name ends in one of .csv, .tsv, .tab, .jsonl, .ndjson, .json"),
+    ("t.csv", "", "t.csv: the table is empty: no header line"),
+])
+def test_a_table_that_is_not_one_is_named_with_its_line(tmp_path, capsys, name, text, expected):
+    table = tmp_path / name
+    table.write_text(text, encoding="utf-8")
+    err = refused(capsys, tmp_path, table, LAB_MAP)
+    assert err[0].startswith(f"careful import: {tmp_path}/{expected}") and len(err) == 1, err
