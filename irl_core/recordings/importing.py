@@ -25,6 +25,7 @@ in place under their names, so a refused table, a failed write or a kill leaves 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from collections.abc import Callable
@@ -525,6 +526,7 @@ def write_imported(imported: ImportedTable, out: str | Path, *, app_version: str
         raise OutputError(f"--out {printable(str(existing[0]), limit=160)}: exists already"
                           f"{f' (and {len(existing) - 1} more)' if len(existing) > 1 else ''}; import never "
                           "overwrites a recording: choose another folder")
+    made = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -532,6 +534,7 @@ def write_imported(imported: ImportedTable, out: str | Path, *, app_version: str
     created = datetime.now().astimezone()
     built: dict[Path, Path] = {}
     placed: list[Path] = []
+    done = False
     try:
         for participant, lines in imported.participants.items():
             header = SessionHeader(world=imported.world, player=participant, created=created, seed=None,
@@ -548,6 +551,7 @@ def write_imported(imported: ImportedTable, out: str | Path, *, app_version: str
         for temporary, target in built.items():
             rename_no_replace(temporary, target)
             placed.append(target)
+        done = True
     except FileExistsError as exc:
         _remove(placed)
         raise OutputError(f"--out {printable(str(exc.filename), limit=160)}: was written by someone else meanwhile; "
@@ -561,6 +565,9 @@ def write_imported(imported: ImportedTable, out: str | Path, *, app_version: str
         raise
     finally:
         _remove(list(built))
+        if made and not done:
+            with contextlib.suppress(OSError):
+                out.rmdir()  # the folder this import made, left empty by a failure
     return placed
 
 

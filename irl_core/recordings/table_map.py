@@ -5,7 +5,7 @@ key             meaning
 ==============  ===========================================================================
 ``participant`` the column naming the participant (one recording each)
 ``episode``     the column numbering (or naming) the participant's episodes
-``t``           optional: the column ordering a episode's moves (else the rows' order)
+``t``           optional: the column ordering an episode's moves (else the rows' order)
 ``state``       one column holding ``row,col``, ``[row, col]`` or a cell index, or two
                 columns, ``["x", "y"]`` (in the order ``axes`` says)
 ``axes``        ``rowcol`` (default: the row first) or ``xy`` (x the column, y the row)

@@ -21,9 +21,9 @@ from import_tables import (
 )
 
 from careful_tui.cli import main
-from irl_core.errors import TableError
+from irl_core.errors import OutputError, TableError
 from irl_core.recordings.demonstrations import Demonstrations, read_recording
-from irl_core.recordings.importing import import_table
+from irl_core.recordings.importing import import_table, write_imported
 from irl_core.recordings.table_map import load_map
 from irl_core.recordings.trial_table import MAX_TABLE_BYTES
 from irl_core.worlds.mdp import DIRECTIONS, build_mdp
@@ -279,3 +279,20 @@ def test_a_table_that_is_not_one_is_named_with_its_line(tmp_path, capsys, name, 
     table.write_text(text, encoding="utf-8")
     err = refused(capsys, tmp_path, table, LAB_MAP)
     assert err[0].startswith(f"careful import: {tmp_path}/{expected}") and len(err) == 1, err
+
+
+def test_a_write_that_fails_leaves_no_recording_and_no_folder(tmp_path, monkeypatch):
+    table = write_lab_table(tmp_path / "trials.csv", [("s1", 1, 1, 0, 1, "v", 0.5), ("s2", 1, 1, 0, 1, "v", 0.5)])
+    imported = import_table(table, BUILTIN_WORLDS["paper"], load_map(write_map(tmp_path, LAB_MAP)))
+    renamed = []
+
+    def rename_then_fail(source, target):
+        if renamed:
+            raise OSError(28, "No space left on device")
+        os.rename(source, target)
+        renamed.append(target)
+
+    monkeypatch.setattr("irl_core.recordings.importing.rename_no_replace", rename_then_fail)
+    with pytest.raises(OutputError, match="nothing was imported"):
+        write_imported(imported, tmp_path / "out")
+    assert renamed and not (tmp_path / "out").exists()
