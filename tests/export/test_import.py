@@ -5,6 +5,7 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -296,3 +297,42 @@ def test_a_write_that_fails_leaves_no_recording_and_no_folder(tmp_path, monkeypa
     with pytest.raises(OutputError, match="nothing was imported"):
         write_imported(imported, tmp_path / "out")
     assert renamed and not (tmp_path / "out").exists()
+
+
+ARROWS = {"up": "^", "down": "v", "left": "<", "right": ">"}
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), spoil=st.booleans())
+def test_a_random_walk_imports_as_walked_and_one_spoilt_cell_is_the_one_refusal(tmp_path_factory, seed, spoil):
+    rng = np.random.default_rng(seed)
+    world = BUILTIN_WORLDS["paper-maxent"]  # never slips: every next cell follows from the move
+    mdp = build_mdp(world)
+    walked, rows = [], []
+    for participant in ("a", "b"):
+        for episode in range(int(rng.integers(1, 4))):
+            s = mdp.state_of[world.start_cells[int(rng.integers(len(world.start_cells)))]]
+            for move in range(int(rng.integers(1, 9))):
+                d = int(rng.integers(4))
+                r, c = mdp.cells[s]
+                rows.append((participant, episode, move + 1, c, world.rows - 1 - r, ARROWS[DIRECTIONS[d]], 0.25))
+                walked.append((participant, episode, (r, c), DIRECTIONS[d]))
+                s = int(mdp.neighbour[s, d])
+                if mdp.terminal[s]:
+                    break
+    folder = tmp_path_factory.mktemp("walk")
+    spoilt = int(rng.integers(len(rows))) if spoil else None
+    if spoilt is not None:
+        rows[spoilt] = (*rows[spoilt][:5], "?", rows[spoilt][6])
+    table = write_lab_table(folder / "walk.csv", rows)
+    the_map = load_map(write_map(folder, LAB_MAP))
+    if spoilt is not None:
+        with pytest.raises(TableError) as caught:
+            import_table(table, world, the_map)
+        assert caught.value.problems == [f"{table}:{spoilt + 2}: key: '?' is not an action code of the map's [actions] "
+                                         "('^', 'v', '<', '>')"]
+        return
+    imported = import_table(table, world, the_map)
+    got = [(p, line.episode, line.state, line.direction) for p, lines in imported.participants.items()
+           for line in lines if getattr(line, "kind", "") == "step"]
+    assert sorted(got) == sorted(walked)
