@@ -57,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_worlds(commands)
     _add_experiment(commands)
     _add_export(commands)
+    _add_import(commands)
     _add_study(commands)
     _add_serve(commands)
     return parser
@@ -182,15 +183,36 @@ def _add_experiment(commands: Any) -> None:
 
 
 def _add_export(commands: Any) -> None:
-    export = commands.add_parser("export", help="recordings as CSV or a Minari dataset", description=(
-        "Export recordings for other tools: a CSV table with one row per step, or a local Minari "
+    export = commands.add_parser("export", help="recordings as CSV, a Minari or a Psych-DS dataset", description=(
+        "Export recordings for other tools: a CSV table with one row per step, a local Minari "
         "dataset (under $MINARI_DATASETS_PATH, or ~/.minari/datasets) of one world, one Minari episode "
-        "per recorded episode, with the environment careful/Careful-v0 to recover. Never overwrites."))
+        "per recorded episode, with the environment careful/Careful-v0 to recover, or a Psych-DS dataset "
+        "(dataset_description.json and data/study-<name>_participant-<id>_data.csv, the CSV's rows per "
+        "participant). Never overwrites."))
     export.add_argument("files", type=Path, nargs="+", metavar="FILE", help="recordings (JSONL) to export")
-    export.add_argument("--format", choices=["csv", "minari"], required=True,
-                        help="csv: one row per step; minari: a Minari dataset, one episode per recorded episode")
-    export.add_argument("--out", required=True, metavar="PATH|DATASET_ID",
-                        help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0")
+    export.add_argument("--format", choices=["csv", "minari", "psych-ds"], required=True,
+                        help="csv: one row per step; minari: a Minari dataset, one episode per recorded episode; "
+                        "psych-ds: a Psych-DS dataset, one CSV file per study and participant")
+    export.add_argument("--out", required=True, metavar="PATH|DATASET_ID|DIR",
+                        help="csv: the new CSV file; minari: the new dataset's id, e.g. careful/paper-human-v0; "
+                        "psych-ds: the new dataset's folder")
+
+
+def _add_import(commands: Any) -> None:
+    imports = commands.add_parser("import", help="another lab's trial table as recordings", description=(
+        "Read a trial table with one row per move (CSV, TSV, JSON lines or a JSON array of objects, by the file's "
+        "suffix) into recordings of a world: one recording per participant, DIR/<participant>.jsonl. A column map "
+        "(TOML) names the table's columns (participant, episode, t, state, next_state, action with its [actions] "
+        "codes, rt_ms or rt_s, level) and its coordinates (axes, origin). Every refused row is named (file, line, "
+        "column, why) and then nothing is written; the recordings are read back with the recordings' reader before "
+        "they are put in place, and an existing file is never overwritten."),
+        epilog="Example: careful import trials.csv --world maze.toml --map map.toml --out recordings/lab; "
+        "see docs/import.md.")
+    imports.add_argument("table", type=Path, metavar="TABLE", help="the trial table (.csv, .tsv, .jsonl, .json)")
+    imports.add_argument("--world", required=True, metavar="NAME|FILE", help="the world the table's task was played in")
+    imports.add_argument("--map", required=True, type=Path, metavar="MAP.toml", help="the column map (docs/import.md)")
+    imports.add_argument("--out", required=True, type=Path, metavar="DIR",
+                         help="folder for the recordings (made if missing; nothing in it is replaced)")
 
 
 def _add_study(commands: Any) -> None:
@@ -407,6 +429,7 @@ COMMANDS = {
     "worlds": _lazy("careful_tui.commands.worlds", "run_worlds"),
     "experiment": _lazy("careful_tui.commands.experiment", "run_experiment"),
     "export": _lazy("careful_tui.commands.export", "run_export"),
+    "import": _lazy("careful_tui.commands.import_table", "run_import"),
     "serve": _lazy("careful_tui.commands.serve", "run_serve"),
     "study": lambda args: STUDY_COMMANDS[args.study_command](args),
 }

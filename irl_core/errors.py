@@ -10,6 +10,7 @@ The tree; a builtin base in brackets is the one the class had before the tree, k
             WorldError      a world file or name that cannot be used
             RecordingError  a recording that cannot be used: `file:line: field: problem`
                 EmptyRecording    a recording without a single line
+            TableError      a trial table (or its column map) `careful import` refuses: every refused row, one line each
             Mismatch        a recording's line at odds with its world or the lines before (read as a RecordingError)
             StudyError      a study file or participant id that cannot be used
                 ParticipantBusy   another session holds this participant
@@ -114,6 +115,16 @@ class RecordingError(InputError):
 
 class EmptyRecording(RecordingError):
     """A recording without a single line (what a failed first write used to leave)."""
+
+
+class TableError(InputError):
+    """A trial table, or its column map, that `careful import` refuses: `problems` holds every refused row as
+    one line, `file:line: column: why`; `str()` is the first of them and how many more there are."""
+
+    def __init__(self, problems: list[str]):
+        self.problems = list(problems) or ["the table was refused"]
+        more = len(self.problems) - 1
+        super().__init__(self.problems[0] + (f" (and {more} more refused)" if more else ""))
 
 
 class Mismatch(InputError):

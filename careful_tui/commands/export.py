@@ -1,4 +1,4 @@
-"""`careful export FILE... --format csv|minari --out PATH|DATASET_ID` (docs/environment.md).
+"""`careful export FILE... --format csv|minari|psych-ds --out PATH|DATASET_ID|DIR` (docs/environment.md).
 
 The files are read and checked with the recording reader before anything is written, so a
 bad file ends the command (exit 2, one line) with no output left behind. Gymnasium and
@@ -8,6 +8,7 @@ Minari are imported only here and in `irl_core.recordings.export`'s Minari write
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from rich.console import Console
@@ -26,6 +27,7 @@ from irl_core.recordings.export import (
     recorded_episodes,
     write_csv,
     write_minari,
+    write_psych_ds,
 )
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output
@@ -43,6 +45,8 @@ def run_export(args: argparse.Namespace) -> int:
             raise UsageError(f"{out} already exists; export never overwrites a file, choose another --out")
         if not out.parent.is_dir():
             raise UsageError(f"{out.parent} is not a folder; create it first")
+    elif args.format == "psych-ds":
+        _check_new_folder(Path(args.out))
     else:
         problem = check_dataset_id(args.out)
         if problem:
@@ -63,10 +67,20 @@ def run_export(args: argparse.Namespace) -> int:
                 warn(err, warning)
         if args.format == "csv":
             summary = _export_csv(Path(args.out), recordings, progress)
+        elif args.format == "psych-ds":
+            summary = _export_psych_ds(Path(args.out), recordings, progress)
         else:
             summary = _export_minari(args.out, recordings, progress)
     err.print(Text(summary), soft_wrap=True)
     return 0
+
+
+def _check_new_folder(out: Path) -> None:
+    shown = printable(str(out), limit=160)
+    if os.path.lexists(out):
+        raise UsageError(f"--out {shown} already exists; export never overwrites, choose a new folder")
+    if not out.parent.is_dir():
+        raise UsageError(f"--out {shown}: the folder {printable(str(out.parent), limit=160)} does not exist; create it first")
 
 
 def _size(path: Path) -> int:
@@ -85,6 +99,29 @@ def _export_csv(out: Path, recordings: list[Recording], progress: Progress) -> s
     except OSError as exc:
         raise UsageError(f"{out}: cannot write the CSV file ({exc.strerror or exc})") from None
     return f"wrote {plural(rows, 'row')} (one per step) from {plural(len(recordings), 'file')} to {printable(str(out))}"
+
+
+def _export_psych_ds(out: Path, recordings: list[Recording], progress: Progress) -> str:
+    studies = sorted({r.header.study.name if r.header.study else r.world.name for r in recordings})
+    steps = sum(len(r.steps) for r in recordings)
+    name = f"careful recordings of {', '.join(studies)}"
+    description = (
+        f"{plural(steps, 'step')} recorded with careful {app_version()} (one row per move) by "
+        f"{plural(len({r.header.player for r in recordings}), 'player')} in {', '.join(studies)}; "
+        "each data file is one participant of one study (or world). variableMeasured gives every column's unit."
+    )
+    writing = progress.add_task("writing rows", total=steps)
+    try:
+        files = write_psych_ds(out, recordings, name=name, description=description,
+                               progress=lambda done: progress.update(writing, completed=done))
+    except FileExistsError:
+        raise UsageError(f"--out {printable(str(out), limit=160)} already exists; export never overwrites, "
+                         "choose a new folder") from None
+    except OSError as exc:
+        raise UsageError(f"--out {printable(str(out), limit=160)}: cannot write the dataset "
+                         f"({exc.strerror or exc})") from None
+    return (f"wrote a Psych-DS dataset of {plural(sum(files.values()), 'row')} (one per step) in "
+            f"{plural(len(files), 'data file')} from {plural(len(recordings), 'file')} to {printable(str(out))}")
 
 
 def _export_minari(dataset_id: str, recordings: list[Recording], progress: Progress) -> str:

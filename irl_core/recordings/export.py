@@ -1,6 +1,10 @@
-"""Recordings as a CSV table or a Minari dataset (docs/environment.md).
+"""Recordings as a CSV table, a Minari dataset or a Psych-DS dataset (docs/environment.md).
 
 CSV: one row per step line, in file order, with the columns of `csv_columns`.
+
+Psych-DS: a folder with ``dataset_description.json`` (a schema.org ``Dataset`` whose ``variableMeasured``
+names every column with its unit, `COLUMN_UNITS`) and ``data/study-<name>_participant-<id>_data.csv``, one
+file per study (or world, outside a study) and participant: the CSV's rows of their recordings.
 
 Minari: one Minari episode per recorded episode (an episode without steps is skipped):
 
@@ -28,7 +32,9 @@ so `recover_environment()` rebuilds the same world without the world file.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
+import re
 import shutil
 import warnings
 from collections.abc import Callable, Iterator
@@ -43,6 +49,7 @@ from irl_core.recordings.demonstrations import Recording
 from irl_core.recordings.lines import Step
 from irl_core.support.csv_cells import csv_writer, header, text_cell
 from irl_core.support.safe_files import built_beside, rename_no_replace, sync_tree, temporary_name
+from irl_core.support.safe_text import VALUE_LIMIT, printable
 from irl_core.worlds.mdp import MDP, action_index, build_mdp
 from irl_core.worlds.world import World
 
@@ -55,6 +62,32 @@ TIME_COLUMNS = ("bin",)
 # A study session's header (docs/studies.md) adds these, from its `study` field.
 STUDY_COLUMNS = ("study", "participant", "phase", "world_index")
 STUDY_FIELDS = ("name", "participant", "phase", "world_index")
+# Each CSV column's unit and meaning, for a Psych-DS dataset's `variableMeasured`.
+COLUMN_UNITS: dict[str, tuple[str, str]] = {
+    "file": ("none", "the recording the row comes from (its path)"),
+    "player": ("none", "the player's name (a study's participant id)"),
+    "episode": ("count", "the episode's number in its recording, from 0"),
+    "t": ("count", "the move's number in its episode, from 0"),
+    "row": ("cell", "the row of the cell the move starts from, 0 at the top"),
+    "col": ("cell", "the column of the cell the move starts from, 0 at the left"),
+    "direction": ("none", "the direction chosen: up, right, down or left"),
+    "carefulness": ("level", "the carefulness level chosen, 1 to the world's levels (empty on a time world)"),
+    "hold_ms": ("ms", "how long the key was held, in milliseconds (empty when not recorded)"),
+    "hold_exact": ("boolean", "true when a key release timed the hold"),
+    "next_row": ("cell", "the row of the cell the move ended in"),
+    "next_col": ("cell", "the column of the cell the move ended in"),
+    "slipped": ("boolean", "true when the move went another way than chosen"),
+    "reward": ("points", "the reward of the move, R_S(s) + R_A(a)"),
+    "score": ("points", "the episode's score after the move (undiscounted, from the world's initial score)"),
+    "bin": ("index", "a time world's duration bin of the hold, from 0"),
+    "study": ("none", "the study's name"),
+    "participant": ("none", "the study's participant id"),
+    "phase": ("none", "the study phase: practice or main"),
+    "world_index": ("index", "the world's place in the study file's worlds, from 0"),
+}
+PSYCH_DS_CONTEXT = "https://schema.org/"
+# Psych-DS file names are keyword-value pairs whose values hold letters and digits only.
+_KEYWORD_VALUE = re.compile(r"[^A-Za-z0-9]+")
 # Episodes written to a Minari dataset per storage update (and per progress report).
 MINARI_BATCH = 200
 
@@ -118,6 +151,91 @@ def write_csv(path: str | Path, recordings: list[Recording], *, progress: Callab
             rows += len(recording.steps)
             if progress:
                 progress(rows)
+    return rows
+
+
+# ---------------------------------------------------------------------------- Psych-DS
+
+
+def psych_ds_value(text: str) -> str:
+    """`text` as a Psych-DS file name's keyword value: its letters and digits only ("p-07" -> "p07")."""
+    return _KEYWORD_VALUE.sub("", text)
+
+
+def psych_ds_files(recordings: list[Recording]) -> dict[str, list[Recording]]:
+    """The Psych-DS data files' names (``study-<name>_participant-<id>_data.csv``), each with its recordings.
+
+    The study is the header's study name (outside a study, the world's name) and the participant the study's
+    participant id (outside a study, the player).
+
+    Raises:
+        RecordingError: a name without a letter or digit, or two names that become one value (``p-1``, ``p1``).
+    """
+    files: dict[str, list[Recording]] = {}
+    named: dict[tuple[str, str], tuple[str, str]] = {}
+    for recording in recordings:
+        study = _study(recording)
+        names = (study["name"], study["participant"]) if study else (recording.world.name, recording.header.player)
+        values = (psych_ds_value(names[0]), psych_ds_value(names[1]))
+        for what, name, value in zip(("study", "player"), names, values):
+            if not value:
+                raise RecordingError(recording.path, None, what, f"{printable(name, limit=VALUE_LIMIT)!r} has no letter "
+                                     "or digit to name a Psych-DS file with")
+        earlier = named.setdefault(values, names)
+        if earlier != names:
+            raise RecordingError(recording.path, None, "player", f"{printable(names[1], limit=VALUE_LIMIT)!r} of "
+                                 f"{printable(names[0], limit=VALUE_LIMIT)!r} and {printable(earlier[1], limit=VALUE_LIMIT)!r} "
+                                 f"of {printable(earlier[0], limit=VALUE_LIMIT)!r} both name the Psych-DS file of "
+                                 f"study-{values[0]}_participant-{values[1]}: export them separately")
+        files.setdefault(f"study-{values[0]}_participant-{values[1]}_data.csv", []).append(recording)
+    return files
+
+
+def psych_ds_description(columns: tuple[str, ...], *, name: str, description: str) -> dict[str, Any]:
+    """``dataset_description.json``: a schema.org Dataset whose `variableMeasured` names every column with its unit."""
+    return {
+        "@context": PSYCH_DS_CONTEXT,
+        "@type": "Dataset",
+        "name": name,
+        "description": description,
+        "variableMeasured": [
+            {"@type": "PropertyValue", "name": column, "unitText": COLUMN_UNITS[column][0],
+             "description": COLUMN_UNITS[column][1]}
+            for column in columns
+        ],
+    }
+
+
+def write_psych_ds(out: str | Path, recordings: list[Recording], *, name: str, description: str,
+                   progress: Callable[[int], None] | None = None) -> dict[str, int]:
+    """Write `recordings` as a new Psych-DS dataset in the folder `out`; returns each data file's rows by name.
+
+    The folder is built beside `out` and renamed into place whole (`safe_files.built_beside`):
+    `FileExistsError` if `out` exists by then, and a failure or a kill leaves nothing under its name.
+    Every data file has the same columns (`csv_columns` of all the recordings), its text cells made text
+    (`csv_cells.text_cell`). `progress(rows)` is called after each recording.
+    """
+    out = Path(out)
+    files = psych_ds_files(recordings)
+    columns = csv_columns(recordings)
+    rows: dict[str, int] = {}
+    written = 0
+    with built_beside(out) as temporary:
+        (temporary / "data").mkdir(parents=True)
+        document = psych_ds_description(columns, name=name, description=description)
+        (temporary / "dataset_description.json").write_text(
+            json.dumps(document, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+        for file_name, group in files.items():
+            with open(temporary / "data" / file_name, "x", encoding="utf-8", newline="") as handle:
+                writer = csv_writer(handle, lineterminator="\r\n")
+                writer.writerow(header(columns))
+                for recording in group:
+                    writer.writerows(csv_rows(recording, study_columns=STUDY_COLUMNS[0] in columns,
+                                              time_columns=TIME_COLUMNS[0] in columns))
+                    written += len(recording.steps)
+                    if progress:
+                        progress(written)
+            rows[file_name] = sum(len(recording.steps) for recording in group)
     return rows
 
 

@@ -28,7 +28,6 @@ order on every machine and Python version (never Python's salted ``hash()``).
 from __future__ import annotations
 
 import hashlib
-import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
@@ -43,13 +42,11 @@ from irl_core.recordings.demonstrations import Recording, read_recording
 from irl_core.recordings.lines import StudyTag
 from irl_core.recordings.writer import slug
 from irl_core.support.plural import plural
-from irl_core.support.safe_files import read_toml, reference_problem
+from irl_core.support.safe_files import SAFE_NAME, SAFE_NAME_RULE, read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, printable
 from irl_core.worlds.world import BUILTIN_WORLDS, World, describe_validation_error, load_world
 
 Phase = Literal["practice", "main"]
-# A participant id is a folder name as it stands: no slug can map two ids to one folder.
-_PARTICIPANT_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=-]{0,79}")
 # The folders careful itself writes under `<out>`, and what each holds: never a participant's folder
 # (`check_participant` refuses their names as ids; the report's `participant_ids` passes them by).
 REPORT_FOLDER = "report"
@@ -205,10 +202,9 @@ def check_participant(participant: str) -> str:
             and ``_ . = -``, starts with another, or is a folder careful writes (`TOOL_FOLDERS`:
             ``report``, ``plan``) or ``pooled`` (the report's rows of everyone together).
     """
-    if not _PARTICIPANT_ID.fullmatch(participant):
+    if not SAFE_NAME.fullmatch(participant):
         raise StudyError(
-            f"participant id {printable(participant, limit=VALUE_LIMIT)!r} cannot name a folder: use 1 to 80 "
-            "letters, digits and _ . = -, starting with a letter or digit"
+            f"participant id {printable(participant, limit=VALUE_LIMIT)!r} cannot name a folder: use {SAFE_NAME_RULE}"
         )
     if (folder := participant.lower()) in TOOL_FOLDERS:
         raise StudyError(f"participant id {participant!r} is taken: <out>/{folder}/ holds {TOOL_FOLDERS[folder]}")

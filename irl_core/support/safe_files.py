@@ -35,6 +35,11 @@ from typing import BinaryIO
 from irl_core.errors import OutputError
 from irl_core.support.safe_text import printable
 
+# A name careful makes a folder or a file of as it stands (a study's participant, an imported participant's
+# recording): no slug can map two names to one path. 1 to 80 letters, digits and `_ . = -`, the first a letter or digit.
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=-]{0,79}")
+SAFE_NAME_RULE = "1 to 80 letters, digits and _ . = -, starting with a letter or digit"
+
 # The longest header line `is_recording` reads (the reader's line limit).
 _MAX_HEADER_BYTES = 64 << 20
 _SESSION_KIND = re.compile(rb'"kind"\s*:\s*"session"')
