@@ -30,7 +30,8 @@ from irl_core.recordings.step_table import StepTable
 from irl_core.support.safe_files import open_regular, read_problem
 from irl_core.support.safe_text import VALUE_LIMIT, printable
 from irl_core.worlds.mdp import MDP, build_mdp
-from irl_core.worlds.world import World, field_path
+from irl_core.worlds.world import World
+from irl_core.worlds.world_text import field_path
 
 _BODY = TypeAdapter(Annotated[Step | EpisodeEnd | CalibrationTrial, Field(discriminator="kind")])
 
