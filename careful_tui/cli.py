@@ -100,6 +100,8 @@ def _add_fit(commands: Any) -> None:
     fit.add_argument("--figure", type=Path, metavar="PATH", help="save the result as a figure for a paper "
                      "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
+    fit.add_argument("--spread-known", action="store_true", help=(
+        "a reach world: use the world's own spread law instead of fitting it to the recorded aims and endpoints"))
 
 
 def _add_check(commands: Any) -> None:

@@ -142,6 +142,11 @@ class ReachWorld(_Strict):
         return list(dict.fromkeys(region.symbol for region in self.regions
                                   if math.dist(endpoint, region.centre) <= region.radius))
 
+    def score_of(self, endpoint: Point, duration_ms: float) -> float:
+        """A reach's reward: the points of every circle holding the endpoint (once per circle), less its time cost."""
+        held = sum(region.points for region in self.regions if math.dist(endpoint, region.centre) <= region.radius)
+        return float(held - self.cost(duration_ms))
+
     def to_toml(self) -> str:
         """The world as a TOML file that `load_reach_world` reads back to an equal world."""
         regions = ",\n".join(f"  {{symbol = {toml_str(r.symbol)}, centre = [{r.centre[0]!r}, {r.centre[1]!r}], "
