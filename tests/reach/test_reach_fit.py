@@ -6,6 +6,8 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from scipy.stats import multivariate_normal
 
 from careful_tui.cli import main
@@ -138,3 +140,16 @@ def test_careful_fit_names_the_bad_line_of_a_reach_recording(tmp_path, capsys):
     assert main(["fit", str(recording), "--no-view"]) == 2
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1 and f"{recording}:3: duration_ms: 2000 is outside" in error
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(penalty=st.floats(-3000, -50), policy=st.sampled_from(["optimal", "boltzmann"]), trials=st.integers(15, 60),
+       seed=st.integers(0, 2**16), known=st.booleans())
+def test_every_fitted_point_lies_inside_its_interval(tmp_path_factory, penalty, policy, trials, seed, known):
+    base = REACH_WORLDS["reach"]
+    world = base.model_copy(update={"regions": (base.regions[0], base.regions[1].model_copy(update={"points": penalty}))})
+    path = tmp_path_factory.mktemp("fit") / "r.jsonl"
+    simulate_reaches_to_file(path, world, reacher(world, policy, beta=0.2), trials=trials, seed=seed)
+    fit = fit_reaches(read_reaches([path])[0], known={"G": 100.0} if known else None)
+    for symbol, (low, high) in fit.interval.items():
+        assert low <= fit.reward[symbol] <= high, (symbol, fit.reward, fit.interval)
