@@ -153,3 +153,15 @@ def test_every_fitted_point_lies_inside_its_interval(tmp_path_factory, penalty, 
     fit = fit_reaches(read_reaches([path])[0], known={"G": 100.0} if known else None)
     for symbol, (low, high) in fit.interval.items():
         assert low <= fit.reward[symbol] <= high, (symbol, fit.reward, fit.interval)
+
+
+def test_options_of_the_other_kind_of_fit_are_named_and_ignored(tmp_path, capsys):
+    assert main(["fit", str(simulated(tmp_path, "reach-mild", "optimal", 5, 0)), "--no-view", "--tie",
+                 "--resamples", "50"]) == 0
+    assert "--tie and --resamples apply only to grid worlds; ignored" in capsys.readouterr().err
+    grid = tmp_path / "grid.jsonl"
+    assert main(["simulate", "--world", "mud", "--policy", "optimal", "--episodes", "3", "--seed", "0",
+                 "--out", str(grid)]) == 0
+    capsys.readouterr()
+    assert main(["fit", str(grid), "--no-view", "--spread-known"]) == 0
+    assert "--spread-known applies only to reach worlds; ignored" in capsys.readouterr().err
