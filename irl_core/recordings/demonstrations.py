@@ -16,7 +16,7 @@ import os
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, BinaryIO
 
 import numpy as np
 import scipy.sparse as sp
@@ -83,13 +83,7 @@ def read_recording(path: str | Path, *, progress: Callable[[int], None] | None =
     its last call, every few thousand lines.
     """
     path = Path(path)
-    try:
-        file = open_regular(path)
-    except OSError as exc:
-        raise RecordingError(path, None, None, f"cannot read the file ({exc.strerror or exc})") from None
-    except ValueError as exc:
-        raise RecordingError(path, None, None, f"is {exc}; a recording is a file") from None
-    with file:
+    with open_recording(path) as file:
         try:
             return _read_lines(path, file, progress)
         except OSError as exc:
@@ -98,6 +92,16 @@ def read_recording(path: str | Path, *, progress: Callable[[int], None] | None =
             raise
         except (ValueError, OverflowError, TypeError, IndexError) as exc:  # the last net: no other error escapes
             raise RecordingError(path, None, None, f"cannot be read ({type(exc).__name__}: {exc})") from None
+
+
+def open_recording(path: Path) -> BinaryIO:
+    """`path` opened to be read as a recording (a regular file), or a `RecordingError` saying why it cannot be."""
+    try:
+        return open_regular(path)
+    except OSError as exc:
+        raise RecordingError(path, None, None, f"cannot read the file ({exc.strerror or exc})") from None
+    except ValueError as exc:
+        raise RecordingError(path, None, None, f"is {exc}; a recording is a file") from None
 
 
 def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -> Recording:
@@ -131,11 +135,7 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
                     recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
                     break
                 raise RecordingError(path, number, None, json_problem(exc)) from None
-            if not isinstance(obj, dict):
-                raise RecordingError(path, number, None, "a line must be a JSON object")
-            if (where := lone_surrogate(obj)) is not None:
-                raise RecordingError(path, number, where, "holds a lone surrogate (\\udXXX), which is not text; "
-                                     "the file was not written by careful")
+            obj = line_object(obj, path, number)
             if recording is None:
                 recording = Recording(path=path, header=_read_header(obj, path, number))
                 checker = LineChecker(build_mdp(recording.world))
@@ -204,6 +204,16 @@ def read_recordings(
         names = ", ".join(str(p) for p in empty)
         raise EmptyRecording(names, None, None, "every file given is empty: no session header")
     return recordings, warnings
+
+
+def line_object(obj: Any, path: Path, number: int) -> dict:
+    """A line's parsed JSON, if it is an object holding only text a file can carry; else a `RecordingError`."""
+    if not isinstance(obj, dict):
+        raise RecordingError(path, number, None, "a line must be a JSON object")
+    if (where := lone_surrogate(obj)) is not None:
+        raise RecordingError(path, number, where, "holds a lone surrogate (\\udXXX), which is not text; "
+                             "the file was not written by careful")
+    return obj
 
 
 def json_problem(exc: Exception) -> str:

@@ -20,7 +20,14 @@ import numpy as np
 from pydantic import ValidationError
 
 from irl_core.errors import EmptyRecording, RecordingError
-from irl_core.recordings.demonstrations import MAX_LINE_BYTES, check_header, json_problem, line_error, lone_surrogate
+from irl_core.recordings.demonstrations import (
+    MAX_LINE_BYTES,
+    check_header,
+    json_problem,
+    line_error,
+    line_object,
+    open_recording,
+)
 from irl_core.recordings.reach_lines import ReachHeader, ReachStep
 from irl_core.support.safe_files import open_regular, read_problem
 from irl_core.worlds.reach import ReachWorld
@@ -78,13 +85,7 @@ def is_reach_recording(path: str | Path) -> bool:
 def read_reach_recording(path: str | Path) -> ReachRecording:
     """Read and check one reach recording; `RecordingError` naming file, line and field of the first problem."""
     path = Path(path)
-    try:
-        file = open_regular(path)
-    except OSError as exc:
-        raise RecordingError(path, None, None, f"cannot read the file ({exc.strerror or exc})") from None
-    except ValueError as exc:
-        raise RecordingError(path, None, None, f"is {exc}; a recording is a file") from None
-    with file:
+    with open_recording(path) as file:
         try:
             return _read(path, file)
         except OSError as exc:
@@ -108,10 +109,7 @@ def _read(path: Path, file: BinaryIO) -> ReachRecording:
                 recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
                 break
             raise RecordingError(path, number, None, json_problem(exc)) from None
-        if not isinstance(obj, dict):
-            raise RecordingError(path, number, None, "a line must be a JSON object")
-        if (where := lone_surrogate(obj)) is not None:
-            raise RecordingError(path, number, where, "holds a lone surrogate (\\udXXX), which is not text")
+        obj = line_object(obj, path, number)
         if recording is None:
             check_header(obj, path, number)
             try:
