@@ -4,6 +4,8 @@
 import tomllib
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from careful_tui.cli import main
 from irl_core.errors import WorldError
@@ -106,3 +108,23 @@ def test_play_and_a_study_refuse_a_reach_world_in_one_line(tmp_path, capsys):
         assert main(command) == 2
         error = capsys.readouterr().err.strip()
         assert len(error.splitlines()) == 1 and "is a reach world" in error, command
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.data())
+def test_any_valid_world_reads_back_equal_from_its_toml(data):
+    width, height = data.draw(st.floats(50, 2000)), data.draw(st.floats(50, 2000))
+    regions = []
+    for symbol in data.draw(st.lists(st.sampled_from("GCUXé"), min_size=1, max_size=4, unique=True)):
+        radius = data.draw(st.floats(1, min(width, height) / 2))
+        centre = [data.draw(st.floats(radius, width - radius)), data.draw(st.floats(radius, height - radius))]
+        regions.append({"symbol": symbol, "centre": centre, "radius": radius,
+                        "points": data.draw(st.floats(-1e6, 1e6))})
+    low = data.draw(st.floats(1, 5000))
+    world = reach_world_from_dict({
+        "name": data.draw(st.text(max_size=12)), "care": "reach", "field": [width, height],
+        "start": [data.draw(st.floats(0, width)), data.draw(st.floats(0, height))], "regions": regions,
+        "spread": {"a": data.draw(st.floats(0.01, 50)), "b": data.draw(st.floats(0, 1))},
+        "cost_per_second": data.draw(st.floats(0, 1000)), "min_ms": low, "max_ms": low + data.draw(st.floats(1, 5000)),
+    })
+    assert reach_world_from_dict(tomllib.loads(world.to_toml())) == world
