@@ -92,7 +92,8 @@ def _add_replay(commands: Any) -> None:
 def _add_fit(commands: Any) -> None:
     fit = commands.add_parser("fit", help="fit a reward to recordings (inverse RL)", description=(
         "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "
-        "the fit view; without one, or with --no-view, it prints the result and exits."))
+        "the fit view; without one, or with --no-view, it prints the result and exits. On reach recordings it "
+        "fits each circle's points and the spread law, and prints them (no view)."))
     fit.add_argument("files", type=Path, nargs="+", metavar="FILE",
                      help="recordings (JSONL) of one world, fitted together")
     add_fit_options(fit)
@@ -101,6 +102,8 @@ def _add_fit(commands: Any) -> None:
     fit.add_argument("--figure", type=Path, metavar="PATH", help="save the result as a figure for a paper "
                      "(matplotlib; .pdf, .png at 300 dpi or .svg, by the suffix)")
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
+    fit.add_argument("--spread-known", action="store_true", help=(
+        "a reach world: use the world's own spread law instead of fitting it to the recorded aims and endpoints"))
 
 
 def _add_check(commands: Any) -> None:
@@ -141,7 +144,8 @@ def _add_simulate(commands: Any) -> None:
                           help="optimal: the best action in every state; boltzmann: actions with probability "
                                "proportional to exp(beta Q); loose, timed, hasty, inverted, reckless: person-like "
                                "players over the optimal plan (docs/people.md); timing, steady: players of a time "
-                               "world who hold the key for a time (docs/timing.md)")
+                               "world who hold the key for a time (docs/timing.md); on a reach world optimal is the "
+                               "expected-gain maximiser and boltzmann the soft-optimal reacher (docs/reach.md)")
     simulate.add_argument("--beta", type=positive_float, default=None,
                           help="Boltzmann inverse temperature, for --policy boltzmann (default 1.0)")
     simulate.add_argument("--lapse", type=probability, default=None, metavar="P",
@@ -159,7 +163,8 @@ def _add_simulate(commands: Any) -> None:
                           help="hasty: temperature of the direction's choice, in reward units (default 1.25)")
     simulate.add_argument("--bias", type=finite_float, default=None, metavar="LEVELS",
                           help="hasty: levels held short of the best one (default 2)")
-    simulate.add_argument("--episodes", type=positive_int, required=True, help="episodes to roll out")
+    simulate.add_argument("--episodes", type=positive_int, required=True,
+                          help="episodes to roll out (on a reach world: trials, one reach each)")
     simulate.add_argument("--seed", type=seed_int, required=True,
                           help="seed of the rollouts (the same seed writes the same file)")
     simulate.add_argument("--out", type=Path, required=True, metavar="FILE", help="the new recording (never overwritten)")

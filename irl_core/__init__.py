@@ -18,7 +18,9 @@ The wings, each importing only from those before it in this list (a test reads t
 ``recordings``  the JSONL lines, writer, reader, column tables, replay's model, export formats
 ``play``        the game's rules and one play session for any front end; the input modes
 ``players``     computer experts and person-like players
+``reach``       reach worlds' expected gain, computer reachers and fit (the world itself is ``worlds``)
 ``irl``         the fitting methods and their registry, the models of the player, intervals
+``coverage``    ``careful check``: how often a fit's intervals hold the truth
 ``experiment``  the paper's experiment and its claims
 ``studies``     study files, a participant's flow, the lock, simulated participants, the report
 ==============  ==============================================================================
@@ -47,12 +49,17 @@ if TYPE_CHECKING:  # for type checkers and the API reference; at run time __geta
     from irl_core.irl.options import FitOptions  # noqa: F401
     from irl_core.irl.result import FitResult  # noqa: F401
     from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts, simulate_to_file  # noqa: F401
+    from irl_core.reach.fit import ReachFit, fit_reaches  # noqa: F401
+    from irl_core.reach.gain import expected_gain  # noqa: F401
+    from irl_core.reach.players import reacher, simulate_reaches_to_file  # noqa: F401
     from irl_core.recordings.demonstrations import Demonstrations, Recording, read_recording, read_recordings  # noqa: F401
+    from irl_core.recordings.reach_reader import read_reaches  # noqa: F401
     from irl_core.studies.simulated import simulated_participants, write_simulated_participant  # noqa: F401
     from irl_core.studies.study import LoadedStudy, Study, load_study, read_protocol  # noqa: F401
     from irl_core.worlds.env import ENV_ID, CarefulEnv  # noqa: F401
     from irl_core.worlds.mdp import MDP, build_mdp  # noqa: F401
     from irl_core.worlds.planning import value_iteration  # noqa: F401
+    from irl_core.worlds.reach import REACH_WORLDS, ReachWorld, load_reach_world  # noqa: F401
     from irl_core.worlds.world import BUILTIN_WORLDS, World, load_world, world_from_dict  # noqa: F401
 
 # Each public name and the module it comes from.
@@ -80,6 +87,12 @@ _HOMES = {
     "Study": "irl_core.studies.study", "LoadedStudy": "irl_core.studies.study", "StudyError": "irl_core.errors",
     "load_study": "irl_core.studies.study", "read_protocol": "irl_core.studies.study",
     "simulated_participants": "irl_core.studies.simulated", "write_simulated_participant": "irl_core.studies.simulated",
+    # reach worlds
+    "ReachWorld": "irl_core.worlds.reach", "REACH_WORLDS": "irl_core.worlds.reach",
+    "load_reach_world": "irl_core.worlds.reach", "expected_gain": "irl_core.reach.gain",
+    "reacher": "irl_core.reach.players", "simulate_reaches_to_file": "irl_core.reach.players",
+    "read_reaches": "irl_core.recordings.reach_reader", "fit_reaches": "irl_core.reach.fit",
+    "ReachFit": "irl_core.reach.fit",
     # the tree's root, and its branch that `except` takes for every refusal of the input (irl_core.errors draws it)
     "CarefulError": "irl_core.errors", "InputError": "irl_core.errors",
 }

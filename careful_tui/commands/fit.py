@@ -23,6 +23,7 @@ from rich.text import Text
 
 import irl_core.irl.choices as choices
 from careful_tui.arguments import options_from_args
+from careful_tui.commands.fit_reach import run_reach_fit
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.commands.reading import read_with_progress
 from careful_tui.errors import EXIT_FAILURE, EXIT_OK
@@ -32,6 +33,7 @@ from careful_tui.render.fit_printout import fit_page_svg, print_fit
 from irl_core.errors import UsageError
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.recordings.demonstrations import Demonstrations
+from irl_core.recordings.reach_reader import is_reach_recording
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output, write_output
 from irl_core.support.safe_text import printable
@@ -144,6 +146,10 @@ def wants_view(args: argparse.Namespace) -> bool:
 def run_fit(args: argparse.Namespace) -> int:
     """`careful fit`: fit, write --json and --figure, then open the fit view (a terminal) or print (--svg of the printout)."""
     err = Console(stderr=True, highlight=False)
+    if any(is_reach_recording(path) for path in args.files):
+        return run_reach_fit(args, err)
+    if args.spread_known:
+        warn(err, ignored(["--spread-known"], "to reach worlds"))
     if args.figure is not None and (problem := figure_suffix_problem(args.figure)):
         raise UsageError(problem)
     outputs: dict[Path, str] = {}

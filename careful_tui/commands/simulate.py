@@ -15,10 +15,12 @@ from careful_tui.errors import EXIT_OK
 from irl_core.errors import NotConverged, UsageError
 from irl_core.players.experts import Chooser, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
 from irl_core.players.person_like import KINDS, person_like
+from irl_core.reach.players import reacher, simulate_reaches_to_file
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output
 from irl_core.support.safe_text import one_line
 from irl_core.worlds.mdp import MDP, build_mdp
+from irl_core.worlds.reach import is_reach_world, load_reach_world
 from irl_core.worlds.world import load_world
 
 DEFAULT_BETA = 1.0  # --beta's default (cli.py's help says so)
@@ -31,6 +33,8 @@ def run_simulate(args: argparse.Namespace) -> int:
     check_output(args.out, option="--out", inputs=world_file)
     if args.out.exists():
         raise UsageError(f"{args.out} already exists; recordings are never overwritten, choose another --out")
+    if is_reach_world(args.world):
+        return _simulate_reaches(args)
     mdp = build_mdp(load_world(args.world))
     policy, player = _player(mdp, args)
     with Progress(console=Console(stderr=True), transient=True, disable=args.episodes < 2000) as progress:
@@ -45,6 +49,28 @@ def run_simulate(args: argparse.Namespace) -> int:
     Console(stderr=True, highlight=False).print(
         Text(one_line(f"wrote {plural(args.episodes, 'episode')} (ended: {summary}) to {args.out}")), soft_wrap=True
     )
+    return EXIT_OK
+
+
+def _simulate_reaches(args: argparse.Namespace) -> int:
+    """A reach world's computer player: one reach a trial, each trial an episode (docs/reach.md)."""
+    world = load_reach_world(args.world)
+    if args.policy not in ("optimal", "boltzmann"):
+        raise UsageError(f"--policy {args.policy}: a reach world has the optimal and boltzmann players")
+    err = Console(stderr=True, highlight=False)
+    if args.beta is not None and args.policy != "boltzmann":
+        warn(err, ignored(["--beta"], "to --policy boltzmann"))
+    if unused := [f"--{name}" for name in PLAYER_OPTIONS if getattr(args, name) is not None]:
+        warn(err, ignored(unused, "to a grid world's person-like players"))
+    player = reacher(world, args.policy, beta=DEFAULT_BETA if args.beta is None else args.beta)
+    try:
+        hits = simulate_reaches_to_file(args.out, world, player, trials=args.episodes, seed=args.seed)
+    except OSError as exc:
+        raise UsageError(f"--out {args.out}: cannot write the recording ({exc.strerror or exc}); "
+                         "nothing was kept") from None
+    summary = ", ".join(f"{hits[k]} {k}" for k in sorted(hits))
+    err.print(Text(one_line(f"wrote {plural(args.episodes, 'trial')} (endpoints in: {summary}) to {args.out}")),
+              soft_wrap=True)
     return EXIT_OK
 
 

@@ -8,8 +8,10 @@ from rich.table import Table
 from rich.text import Text
 
 from careful_tui.render.grid import WorldGrid, format_value, symbol_legend
+from careful_tui.render.reach_field import reach_table_rows
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import VALUE_LIMIT, printable
+from irl_core.worlds.reach import REACH_PURPOSES, REACH_WORLDS
 from irl_core.worlds.world import BUILTIN_WORLDS, WORLD_PURPOSES, World
 
 
@@ -23,6 +25,8 @@ def print_world_table(console: Console) -> None:
         levels, slip = ("hold", f"p(d), tau {world.tau_ms:g} ms") if world.care == "time" else (str(world.levels),
                                                                                               world.slip)
         table.add_row(name, f"{world.rows}x{world.cols}", levels, slip, rewards, WORLD_PURPOSES[name])
+    for row in reach_table_rows(REACH_WORLDS):
+        table.add_row(*row, REACH_PURPOSES[row[0]])
     console.print(table)
 
 

@@ -219,7 +219,7 @@ def session_header(mdp: MDP, *, player: str, seed: int) -> SessionHeader:
         created=SIMULATED_AT,
         seed=seed,
         input={"mode": mode, "expert": player},
-        app_version=_app_version(),
+        app_version=app_version(),
     )
 
 
@@ -348,7 +348,8 @@ def _write_block(
         progress(result.length.size)
 
 
-def _app_version() -> str:
+def app_version() -> str:
+    """The installed careful's version, for a simulated session's header."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:

@@ -16,7 +16,7 @@ import os
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, BinaryIO
 
 import numpy as np
 import scipy.sparse as sp
@@ -30,7 +30,8 @@ from irl_core.recordings.step_table import StepTable
 from irl_core.support.safe_files import open_regular, read_problem
 from irl_core.support.safe_text import VALUE_LIMIT, printable
 from irl_core.worlds.mdp import MDP, build_mdp
-from irl_core.worlds.world import World, field_path
+from irl_core.worlds.world import World
+from irl_core.worlds.world_text import field_path
 
 _BODY = TypeAdapter(Annotated[Step | EpisodeEnd | CalibrationTrial, Field(discriminator="kind")])
 
@@ -82,13 +83,7 @@ def read_recording(path: str | Path, *, progress: Callable[[int], None] | None =
     its last call, every few thousand lines.
     """
     path = Path(path)
-    try:
-        file = open_regular(path)
-    except OSError as exc:
-        raise RecordingError(path, None, None, f"cannot read the file ({exc.strerror or exc})") from None
-    except ValueError as exc:
-        raise RecordingError(path, None, None, f"is {exc}; a recording is a file") from None
-    with file:
+    with open_recording(path) as file:
         try:
             return _read_lines(path, file, progress)
         except OSError as exc:
@@ -97,6 +92,16 @@ def read_recording(path: str | Path, *, progress: Callable[[int], None] | None =
             raise
         except (ValueError, OverflowError, TypeError, IndexError) as exc:  # the last net: no other error escapes
             raise RecordingError(path, None, None, f"cannot be read ({type(exc).__name__}: {exc})") from None
+
+
+def open_recording(path: Path) -> BinaryIO:
+    """`path` opened to be read as a recording (a regular file), or a `RecordingError` saying why it cannot be."""
+    try:
+        return open_regular(path)
+    except OSError as exc:
+        raise RecordingError(path, None, None, f"cannot read the file ({exc.strerror or exc})") from None
+    except ValueError as exc:
+        raise RecordingError(path, None, None, f"is {exc}; a recording is a file") from None
 
 
 def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -> Recording:
@@ -129,12 +134,8 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
                 if not ends_cleanly and recording is not None:
                     recording.warnings.append(f"{path}:{number}: the last line is truncated and was skipped")
                     break
-                raise RecordingError(path, number, None, _json_problem(exc)) from None
-            if not isinstance(obj, dict):
-                raise RecordingError(path, number, None, "a line must be a JSON object")
-            if (where := _lone_surrogate(obj)) is not None:
-                raise RecordingError(path, number, where, "holds a lone surrogate (\\udXXX), which is not text; "
-                                     "the file was not written by careful")
+                raise RecordingError(path, number, None, json_problem(exc)) from None
+            obj = line_object(obj, path, number)
             if recording is None:
                 recording = Recording(path=path, header=_read_header(obj, path, number))
                 checker = LineChecker(build_mdp(recording.world))
@@ -142,7 +143,7 @@ def _read_lines(path: Path, file: Any, progress: Callable[[int], None] | None) -
             try:
                 line = _BODY.validate_python(obj)
             except ValidationError as exc:
-                raise _line_error(path, number, exc, obj) from None
+                raise line_error(path, number, exc, obj) from None
         try:
             if isinstance(line, Step):
                 checker.step(line, number)
@@ -205,7 +206,18 @@ def read_recordings(
     return recordings, warnings
 
 
-def _json_problem(exc: Exception) -> str:
+def line_object(obj: Any, path: Path, number: int) -> dict:
+    """A line's parsed JSON, if it is an object holding only text a file can carry; else a `RecordingError`."""
+    if not isinstance(obj, dict):
+        raise RecordingError(path, number, None, "a line must be a JSON object")
+    if (where := lone_surrogate(obj)) is not None:
+        raise RecordingError(path, number, where, "holds a lone surrogate (\\udXXX), which is not text; "
+                             "the file was not written by careful")
+    return obj
+
+
+def json_problem(exc: Exception) -> str:
+    """What is wrong with a line `json.loads` refused, in a few words."""
     if isinstance(exc, UnicodeDecodeError):
         return "not UTF-8 text"
     if isinstance(exc, RecursionError):
@@ -215,18 +227,18 @@ def _json_problem(exc: Exception) -> str:
     return "a number is over 4,300 digits long"
 
 
-def _lone_surrogate(value: Any, where: str = "") -> str | None:
+def lone_surrogate(value: Any, where: str = "") -> str | None:
     """The field (`player`, `world.name`, ...) of the first string or key in `value` that holds
     a lone surrogate (JSON's `"\\ud800"`, which no UTF-8 file or terminal can carry), or None."""
     if isinstance(value, str):
         return where or "(value)" if any("\ud800" <= ch <= "\udfff" for ch in value) else None
     if isinstance(value, dict):
         for key, item in value.items():
-            if (found := _lone_surrogate(key, where) or _lone_surrogate(item, f"{where}.{key}".lstrip("."))) is not None:
+            if (found := lone_surrogate(key, where) or lone_surrogate(item, f"{where}.{key}".lstrip("."))) is not None:
                 return found
     elif isinstance(value, list):
         for i, item in enumerate(value):
-            if (found := _lone_surrogate(item, f"{where}[{i}]")) is not None:
+            if (found := lone_surrogate(item, f"{where}[{i}]")) is not None:
                 return found
     return None
 
@@ -238,6 +250,18 @@ def _brief(value: Any) -> str:
 
 
 def _read_header(obj: dict, path: Path, number: int) -> SessionHeader:
+    check_header(obj, path, number)
+    if isinstance(obj.get("world"), dict) and obj["world"].get("care") == "reach":
+        raise RecordingError(path, number, "world.care", "a reach recording, which careful fit reads; "
+                             "this command does not take reach recordings yet")
+    try:
+        return SessionHeader.model_validate(obj)
+    except ValidationError as exc:
+        raise line_error(path, number, exc, obj) from None
+
+
+def check_header(obj: dict, path: Path, number: int) -> None:
+    """That `obj` (line `number`) is a session header of the schema this careful reads, or a `RecordingError`."""
     if obj.get("kind") != "session":
         raise RecordingError(
             path, number, "kind", f"the first line must be the session header, not {_brief(obj.get('kind'))}"
@@ -252,13 +276,10 @@ def _read_header(obj: dict, path: Path, number: int) -> SessionHeader:
             f"schema version {_brief(schema)} is not supported (this careful reads version {SCHEMA_VERSION}); "
             "a newer careful may read it",
         )
-    try:
-        return SessionHeader.model_validate(obj)
-    except ValidationError as exc:
-        raise _line_error(path, number, exc, obj) from None
 
 
-def _line_error(path: Path, number: int, exc: ValidationError, obj: dict) -> RecordingError:
+def line_error(path: Path, number: int, exc: ValidationError, obj: dict) -> RecordingError:
+    """A line's first validation problem as `file:line: field: problem`, quoting the value found."""
     first = exc.errors()[0]
     loc = list(first["loc"])
     # The discriminated union puts the kind first in the location: drop it.

@@ -29,7 +29,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from irl_core.errors import TableError
 from irl_core.support.safe_files import read_toml
 from irl_core.support.safe_text import VALUE_LIMIT, printable
-from irl_core.worlds.world import Direction, field_path
+from irl_core.worlds.world import Direction
+from irl_core.worlds.world_text import field_path
 
 _MAX_MAP_FILE_BYTES = 1 << 20
 Column = str

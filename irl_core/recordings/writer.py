@@ -19,8 +19,9 @@ from pathlib import Path
 
 from irl_core.errors import RecordingLost
 from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, SessionHeader, Step, _Line
+from irl_core.recordings.reach_lines import ReachHeader, ReachStep
 
-BodyLine = Step | EpisodeEnd | CalibrationTrial
+BodyLine = Step | EpisodeEnd | CalibrationTrial | ReachStep
 
 
 def to_json_line(line: _Line) -> str:
@@ -62,7 +63,7 @@ class RecordingWriter:
         ValueError: a line holds a number JSON cannot hold, or a name that is not UTF-8 text.
     """
 
-    def __init__(self, path: str | Path, header: SessionHeader, *, sync_episodes: bool = True):
+    def __init__(self, path: str | Path, header: SessionHeader | ReachHeader, *, sync_episodes: bool = True):
         self.path = Path(path)
         self._sync_episodes = sync_episodes
         first = _encoded(header)

@@ -44,7 +44,8 @@ from irl_core.recordings.writer import slug
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import SAFE_NAME, SAFE_NAME_RULE, read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, printable
-from irl_core.worlds.world import BUILTIN_WORLDS, World, describe_validation_error, load_world
+from irl_core.worlds.world import BUILTIN_WORLDS, World, load_world
+from irl_core.worlds.world_text import describe_validation_error
 
 Phase = Literal["practice", "main"]
 # The folders careful itself writes under `<out>`, and what each holds: never a participant's folder

@@ -52,7 +52,9 @@ from pydantic import (
 from irl_core.errors import WorldError
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import read_toml, reference_problem
-from irl_core.support.safe_text import VALUE_LIMIT, cut, is_unsafe, printable
+from irl_core.support.safe_text import VALUE_LIMIT, printable
+from irl_core.worlds.reach import REACH_WORLDS, REFUSED, is_reach_data
+from irl_core.worlds.world_text import describe_validation_error, toml_escape, toml_str
 
 # A cell of the grid, (row, column) from the top left; a move's direction as recordings spell it.
 Cell = tuple[int, int]
@@ -330,40 +332,21 @@ class World(BaseModel):
             ]
         else:
             care = [f"levels = {self.levels}", f"cost_per_level = {self.cost_per_level!r}"]
-        slip = [] if self.care == "time" else [f"slip = {_toml_str(self.slip)}"]
+        slip = [] if self.care == "time" else [f"slip = {toml_str(self.slip)}"]
         lines = [
-            f"name = {_toml_str(self.name)}",
-            f'layout = """\n{_toml_escape(self.layout, keep_newlines=True)}"""',
+            f"name = {toml_str(self.name)}",
+            f'layout = """\n{toml_escape(self.layout, keep_newlines=True)}"""',
             *care,
             f"gamma = {self.gamma!r}",
             *slip,
-            "terminal = [" + ", ".join(_toml_str(t) for t in self.terminal) + "]",
+            "terminal = [" + ", ".join(toml_str(t) for t in self.terminal) + "]",
             f"start = {start}",
             f"initial_score = {self.initial_score!r}",
             f"max_steps = {self.max_steps}",
             "[rewards]",
-            *(f"{_toml_str(k)} = {v!r}" for k, v in self.rewards.items()),
+            *(f"{toml_str(k)} = {v!r}" for k, v in self.rewards.items()),
         ]
         return "\n".join(lines) + "\n"
-
-
-def _toml_str(value: str) -> str:
-    return '"' + _toml_escape(value) + '"'
-
-
-def _toml_escape(value: str, *, keep_newlines: bool = False) -> str:
-    """`value` for a TOML basic string: backslash, quote and control characters escaped."""
-    out = []
-    for ch in value:
-        if ch in '\\"':
-            out.append("\\" + ch)
-        elif ch == "\n" and keep_newlines:
-            out.append(ch)
-        elif is_unsafe(ch):  # controls (C0, DEL, C1) and bidi or invisible marks: never raw in a file shown
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    return "".join(out)
 
 
 def _layout_rows(layout: str) -> list[str]:
@@ -410,7 +393,10 @@ WORLD_PURPOSES: dict[str, str] = {
 
 
 def world_from_dict(data: dict, *, source: str = "world") -> World:
-    """Validate a world given as a mapping (a TOML table or a recording's header)."""
+    """Validate a world given as a mapping (a TOML table or a recording's header); a reach world is refused
+    in one line (`irl_core.worlds.reach` reads those)."""
+    if is_reach_data(data):
+        raise WorldError(f"{source} {REFUSED}")
     try:
         return World.model_validate(data)
     except ValidationError as exc:
@@ -421,11 +407,13 @@ def load_world(name_or_path: str | Path) -> World:
     """A built-in world by name, or a world read from a TOML file.
 
     Raises `WorldError` with a one-line message for an unknown name, an unreadable
-    file, bad TOML or a world that fails validation.
+    file, bad TOML, a world that fails validation or a reach world (`irl_core.worlds.reach`).
     """
     key = str(name_or_path)
     if key in BUILTIN_WORLDS:
         return BUILTIN_WORLDS[key]
+    if key in REACH_WORLDS:
+        raise WorldError(f"{key} {REFUSED}")
     path = Path(key)
     if problem := reference_problem(key):
         raise WorldError(f"no world named {printable(key, limit=VALUE_LIMIT)!r}, and it cannot be a file: {problem}")
@@ -442,18 +430,3 @@ def load_world(name_or_path: str | Path) -> World:
 
 
 _MAX_WORLD_FILE_BYTES = 16 << 20
-
-
-def describe_validation_error(exc: ValidationError) -> str:
-    """The first problem in a pydantic error as `field: problem` (or `problem` for the whole), readable by a user."""
-    first = exc.errors()[0]
-    where = field_path(first["loc"])
-    message = first["msg"].removeprefix("Value error, ")
-    # A check of the whole world (a start in a wall, say) has no field: its message names one.
-    return f"{where}: {message}" if where else message
-
-
-def field_path(loc: tuple[str | int, ...] | list[str | int]) -> str:
-    """A pydantic error location as `world.rewards.C`; a key that would break the line is quoted."""
-    return ".".join(cut(str(part), VALUE_LIMIT) if str(part).isprintable() else cut(repr(part), VALUE_LIMIT)
-                    for part in loc)

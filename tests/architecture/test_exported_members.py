@@ -16,6 +16,9 @@ PUBLIC = {
         "load_study", "load_world", "optimal_policy", "read_protocol", "read_recording", "read_recordings",
         "rollouts", "simulate_to_file", "simulated_participants", "value_iteration", "world_from_dict",
         "write_simulated_participant",
+        # reach worlds (docs/reach.md)
+        "REACH_WORLDS", "ReachFit", "ReachWorld", "expected_gain", "fit_reaches", "load_reach_world", "reacher",
+        "read_reaches", "simulate_reaches_to_file",
     ],
     "irl_core.irl": [
         "BadInputError", "FitError", "FitOptions", "FitResult", "InfeasibleError", "METHODS", "Note", "SolverError",

@@ -165,7 +165,7 @@ def test_the_kitty_module_was_written_for_the_installed_textual():
 
 
 # irl_core's wings, lowest first: a module may import its own wing and those before it.
-WINGS = ("support", "worlds", "recordings", "play", "players", "irl", "coverage", "experiment", "studies")
+WINGS = ("support", "worlds", "recordings", "play", "players", "reach", "irl", "coverage", "experiment", "studies")
 # Below every wing, beside them: the one tree of exceptions, which imports nothing of the project.
 BELOW_THE_WINGS = ("irl_core.errors",)
 

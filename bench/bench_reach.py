@@ -1,0 +1,98 @@
+"""Reach worlds' fit, measured against the issue's first target (docs/reach.md, "Validation").
+
+- ``maximiser``: the expected-gain maximiser (`careful simulate --policy optimal`), 100 trials, on each of
+  `reach-mild`, `reach` and `reach-severe`, 20 seeds each, fitted as `careful fit` does (spread law not given):
+  the fitted penalty within 20% of the truth, its interval covering the truth, the target's covering, the
+  three penalties in the right order in every seed. Again with the target's points known (``--known G=100``).
+- ``soft``: the soft-optimal player (beta 0.2, the fit's own model), the same counts.
+- ``time``: the wall time of one fit of 200 soft-optimal trials with intervals (spread law fitted), best of 3.
+
+    python -m bench.bench_reach --seeds 20 --trials 100
+
+A line of JSON per world and player as it finishes; the summary last.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from irl_core.reach.fit import ReachFit, fit_reaches
+from irl_core.reach.gain import best_choice, choice_grid, expected_gain
+from irl_core.reach.players import reacher, simulate_reaches_to_file
+from irl_core.recordings.reach_reader import read_reaches
+from irl_core.worlds.reach import REACH_WORLDS
+
+WORLDS = ("reach-mild", "reach", "reach-severe")
+SOFT_BETA = 0.2
+
+
+def fitted(folder: Path, name: str, policy: str, *, trials: int, seed: int, known: dict[str, float]) -> ReachFit:
+    world = REACH_WORLDS[name]
+    path = folder / f"{name}-{policy}-{seed}.jsonl"
+    if not path.exists():
+        simulate_reaches_to_file(path, world, reacher(world, policy, beta=SOFT_BETA), trials=trials, seed=seed)
+    return fit_reaches(read_reaches([path])[0], known=known)
+
+
+def measure(folder: Path, policy: str, *, seeds: int, trials: int, known: dict[str, float]) -> dict:
+    penalties: dict[str, list[float]] = {name: [] for name in WORLDS}
+    rows = {}
+    for name in WORLDS:
+        truth = REACH_WORLDS[name].points
+        fits = [fitted(folder, name, policy, trials=trials, seed=seed, known=known) for seed in range(seeds)]
+        penalties[name] = [fit.reward["C"] for fit in fits]
+        rows[name] = {
+            "penalty_median": float(np.median(penalties[name])),
+            "within_20%": sum(abs(fit.reward["C"] / truth["C"] - 1) <= 0.2 for fit in fits) / seeds,
+            "penalty_covered": sum(fit.interval["C"][0] <= truth["C"] <= fit.interval["C"][1] for fit in fits) / seeds,
+            "target_covered": sum(fit.interval["G"][0] <= truth["G"] <= fit.interval["G"][1] for fit in fits) / seeds,
+            "interval_kind": fits[0].interval_kind,
+            "penalty_interval_median": [float(np.median([fit.interval["C"][i] for fit in fits])) for i in (0, 1)],
+        }
+        print(json.dumps({"policy": policy, "known": known, "world": name, **rows[name]}), flush=True)
+    ordered = sum(penalties["reach-mild"][s] > penalties["reach"][s] > penalties["reach-severe"][s]
+                  for s in range(seeds)) / seeds
+    return {"worlds": rows, "ordered_in": ordered}
+
+
+def fit_time(folder: Path, *, trials: int = 200, repeats: int = 3) -> float:
+    world = REACH_WORLDS["reach"]
+    path = folder / "timed.jsonl"
+    simulate_reaches_to_file(path, world, reacher(world, "boltzmann", beta=SOFT_BETA), trials=trials, seed=99)
+    reaches = read_reaches([path])[0]
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fit_reaches(reaches)
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(prog="python -m bench.bench_reach", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--trials", type=int, default=100)
+    args = parser.parse_args()
+    for name in WORLDS:
+        world = REACH_WORLDS[name]
+        aim, duration = best_choice(choice_grid(world), list(world.points.values()))
+        print(json.dumps({"world": name, "best_aim": aim.tolist(), "best_ms": round(duration),
+                          "expected_gain": round(float(expected_gain(world, aim, duration)), 2)}), flush=True)
+    summary: dict[str, object] = {}
+    with tempfile.TemporaryDirectory() as folder:
+        for policy, known in (("optimal", {}), ("optimal", {"G": 100.0}), ("boltzmann", {}), ("boltzmann", {"G": 100.0})):
+            key = f"{policy}{' G known' if known else ''}"
+            summary[key] = measure(Path(folder), policy, seeds=args.seeds, trials=args.trials, known=known)
+        summary["fit_seconds_200_trials"] = round(fit_time(Path(folder)), 2)
+    print(json.dumps(summary, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,62 @@
+"""`careful fit` on reach recordings (docs/reach.md): read them, fit each symbol's points and the spread law,
+print the answer and write --json. There is no fit view or figure of a reach fit yet."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from rich.console import Console
+
+from careful_tui.arguments import FIT_FLAGS, options_from_args
+from careful_tui.commands.notices import ignored, warn
+from careful_tui.errors import EXIT_FAILURE, EXIT_OK
+from careful_tui.option_words import said
+from careful_tui.render.reach_fit import print_reach_fit
+from irl_core.errors import BadInputError, SolverError, UsageError
+from irl_core.reach.fit import fit_reaches
+from irl_core.recordings.reach_reader import is_reach_recording, read_reaches
+from irl_core.support.safe_files import check_output, write_output
+from irl_core.support.safe_text import printable
+
+# The fit options a reach fit uses; the others are for grid worlds and are ignored with a warning.
+USED = ("confidence", "known", "intervals")
+
+
+def run_reach_fit(args: argparse.Namespace, err: Console) -> int:
+    """Fit reach recordings as `careful fit` asks; every file must be one."""
+    for path in args.files:
+        if not is_reach_recording(path):
+            raise UsageError(f"{printable(str(path), limit=160)} is not a reach recording; careful fit fits the "
+                             "recordings of one world at a time")
+    for option in ("svg", "figure"):
+        if getattr(args, option) is not None:
+            raise UsageError(f"--{option}: there is no picture of a reach fit yet; --json writes the answer")
+    options = options_from_args(args)
+    if problem := options.problem():
+        raise UsageError(said(problem))
+    unused = [flag.flag for flag in FIT_FLAGS if flag.field not in USED
+              and getattr(args, flag.field) != flag.kwargs.get("default", False)]
+    if unused:
+        warn(err, ignored(unused, "to grid worlds"))
+    if args.json is not None:
+        check_output(args.json, option="--json", inputs=args.files)
+    reaches, warnings = read_reaches(args.files)
+    for warning in warnings:
+        warn(err, warning)
+    known = dict(options.known)
+    if strange := sorted(set(known) - set(reaches.world.symbols)):
+        raise UsageError(f"--known {printable(strange[0])}: the reach world has no circle of that symbol "
+                         f"(its symbols: {', '.join(reaches.world.symbols)})")
+    try:
+        fit = fit_reaches(reaches, spread_known=args.spread_known, confidence=options.confidence, known=known)
+    except BadInputError as exc:
+        raise UsageError(said(exc)) from None
+    except SolverError as exc:
+        err.print(f"careful fit: {said(exc)}", style="bold red", markup=False, soft_wrap=True)
+        return EXIT_FAILURE
+    if args.json is not None:
+        write_output(args.json, json.dumps(fit.to_json(), indent=2, allow_nan=False) + "\n", option="--json",
+                     inputs=args.files)
+    print_reach_fit(Console(highlight=False), fit)
+    return EXIT_OK
