@@ -95,9 +95,28 @@ def test_the_view_shows_the_numbers_of_json(tmp_path, mud_file, capsys):
 
     async def body(pilot):
         fitted, true = app.query_one("#fitted", Board), app.query_one("#true", Board)
-        np.testing.assert_allclose(fitted.values, as_grid(data["reward"]), atol=1e-6)
-        # Every cell's printed value, row by row, is the JSON's.
-        assert NUMBER.findall(shown(app, "#fitted")) == [format_value(v) for row in data["reward"] for v in row]
+        # Every cell's printed value, row by row, is the JSON's: its reward, or where the JSON's interval is open on
+        # one side only (at -rmax or +rmax), the interval's other end (the bound, drawn "≤-655", uncoloured).
+        rmax = data["options"]["rmax"]
+        expected, bounded = [], []
+        for r, row in enumerate(data["reward"]):
+            for c, value in enumerate(row):
+                low, high = (data["interval"][r][c] or (None, None))
+                if low is not None and low <= -rmax + 1e-6 * rmax and high < rmax - 1e-6 * rmax:
+                    expected.append(format_value(high))
+                    bounded.append((r, c))
+                elif low is not None and high >= rmax - 1e-6 * rmax and low > -rmax + 1e-6 * rmax:
+                    expected.append(format_value(low))
+                    bounded.append((r, c))
+                else:
+                    expected.append(format_value(value))
+        assert bounded, "the fixture's fit has rewards bounded on one side"
+        grid = as_grid(data["reward"])
+        for r, c in bounded:
+            grid[r, c] = np.nan
+        np.testing.assert_allclose(fitted.values, grid, atol=1e-6)
+        assert NUMBER.findall(shown(app, "#fitted")) == expected
+        assert shown(app, "#fitted").count("≤") + shown(app, "#fitted").count("≥") == len(bounded)
         assert NUMBER.findall(shown(app, "#true")) == [format_value(v) for v in true.values.ravel()]
         assert true.values[3, 1] == -1000 and true.values[1, 1] == -30
         assert fitted.scale == true.scale
