@@ -142,6 +142,7 @@ def main() -> None:
         problems = invariant_violations(result)
         if problems:
             broken[where] += 1
+            print(f"  violation, fit {sum(fits.values())} {where} ({what}): " + "; ".join(problems), flush=True)
             if len(shown) < 10:
                 shown.append(f"  {where} ({what}): " + "; ".join(problems))
 
