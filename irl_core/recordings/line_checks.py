@@ -1,7 +1,8 @@
 """What makes a recording's lines agree with its world and with each other (recordings/README.md).
 
 A step must be a move the header's world can make (a level it has, cells that are states, a
-next cell the move can reach, a `realised` direction that leads there), and the lines must tell
+next cell the move can reach with a chance above 0, a `realised` direction the move can take that leads
+there; in a world that drops moves into a wall, ``bump = "drop"``, no step stays where it started), and the lines must tell
 one story: episodes in increasing order; within one, `t` counting 0, 1, 2, ...; each step
 starting where the previous one ended; nothing of an episode after its `episode_end`; and each
 `episode_end` agreeing with its steps: `steps` is how many there were, a `terminal` end's last step
@@ -18,7 +19,7 @@ from irl_core.errors import Mismatch
 from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, Step
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.worlds.mdp import DIRECTIONS, MDP
+from irl_core.worlds.mdp import DIRECTIONS, MDP, action_index
 
 
 class LineChecker:
@@ -31,10 +32,19 @@ class LineChecker:
     def __init__(self, mdp: MDP):
         self.mdp = mdp
         self._neighbours = mdp.neighbour.tolist()
+        # (state, action): which directions a step can go with a chance above 0, worked out once per pair.
+        self._can_go: dict[tuple[int, int], list[bool]] = {}
         self._episode: int | None = None
         self._next_t = 0
         self._cell: tuple[int, int] | None = None
         self._ended_on: int | None = None
+
+    def _directions_possible(self, state: int, action: int) -> list[bool]:
+        """(4,) whether a step of `action` from `state` goes each way with a chance above 0 (`MDP.step_chances`)."""
+        key = (state, action)
+        if key not in self._can_go:
+            self._can_go[key] = (self.mdp.step_chances(state, action) > 0).tolist()
+        return self._can_go[key]
 
     @staticmethod
     def _error(number: int, field: str, problem: str) -> Mismatch:
@@ -139,17 +149,27 @@ class LineChecker:
         s = mdp.state_of[step.state]
         if not mdp.nonterminal[s]:
             raise self._error(number, "state", f"{list(step.state)} is a terminal cell: no move starts there")
-        # A halving world may slip in any direction; a world without slip only goes the chosen way.
-        reachable = self._neighbours[s]
-        if world.slip == "none":
-            reachable = [reachable[DIRECTIONS.index(step.direction)]]
+        # A time world may slip in any direction; a level world goes where its split (and its bump rule) lets the
+        # chosen action go: a world without slip only the chosen way, a dropping world nowhere that stays.
+        if world.care == "time":
+            can_go = [True] * 4
+        else:
+            assert step.carefulness is not None  # checked above: a level world's step has one
+            can_go = self._directions_possible(s, action_index(step.direction, step.carefulness, world.levels))
+        reachable = [n for n, possible in zip(self._neighbours[s], can_go) if possible]
         if mdp.state_of[step.next_state] not in reachable:
+            if world.bump == "drop" and step.next_state == step.state:
+                raise self._error(number, "next_state", f"{list(step.next_state)} is where the step started, but "
+                                  'this world drops a move into a wall or off the grid (bump = "drop"): no step stays')
             raise self._error(number, "next_state", f"the world cannot move from {list(step.state)} to "
                               f"{list(step.next_state)} going {step.direction} in one step")
         if step.realised is not None:
             if world.slip == "none" and step.realised != step.direction:
                 raise self._error(number, "realised", f"{step.realised}, but this world never slips "
                                   f"(the move was {step.direction})")
+            if not can_go[DIRECTIONS.index(step.realised)]:
+                raise self._error(number, "realised", f"{step.realised}: a step chosen {step.direction} from "
+                                  f"{list(step.state)} never goes that way in this world")
             if mdp.state_of[step.next_state] != self._neighbours[s][DIRECTIONS.index(step.realised)]:
                 raise self._error(number, "next_state", f"{list(step.next_state)} is not where going "
                                   f"{step.realised} from {list(step.state)} leads")
