@@ -366,3 +366,17 @@ def test_load_world_reads_the_lab_file(tmp_path):
     path = tmp_path / "slippery.toml"
     path.write_text(LAB_TOML)
     assert load_world(path) == lab_world()
+
+
+def test_the_manuals_worked_example_is_this_world_and_shows_as_the_manual_says(tmp_path, capsys):
+    manual = (Path(__file__).parents[2] / "docs" / "worlds.md").read_text("utf-8")
+    section = manual.split("## A task from another lab", 1)[1].split("\n## ", 1)[0]
+    toml = section.split("```toml\n", 1)[1].split("```", 1)[0]
+    shown = section.split("```text\n", 1)[1].split("```", 1)[0]
+    assert load_world_text(toml) == lab_world()
+    path = tmp_path / "slippery.toml"
+    path.write_text(toml)
+    assert main(["worlds", "--show", str(path)]) == 0
+    out = capsys.readouterr().out
+    for line in shown.strip().splitlines():
+        assert line in out
