@@ -147,14 +147,14 @@ def slip_split_problem(slip: object) -> str | None:
     if not isinstance(others, list | tuple) or not all(_is_number(p) for p in others):
         return "slip.others: must be a list of three numbers (left, up, right, down without the intended one)"
     if len(others) != 3:
-        return (f"slip.others: {len(others)} chances; a move has three other directions (left, up, right, down "
-                "without the intended one)")
+        return (f"slip.others: {plural(len(others), 'chance')}; a move has three other directions (left, up, right, "
+                "down without the intended one)")
     for name, value in (("intended", intended), *((f"others[{i}]", p) for i, p in enumerate(others))):
         if not math.isfinite(value) or value < 0:
             return f"slip.{name}: {value!r} is not a chance (at least 0)"
     total = math.fsum([intended, *others])
     if abs(total - 1.0) > SPLIT_SUM_TOLERANCE:
-        return f"slip.others: {list(others)} with intended {intended!r} sum to {total!r}, not 1"
+        return f"slip.others: {list(others)} with intended {intended!r} sum to {total:.12g}, not 1"
     return None
 
 
