@@ -77,7 +77,8 @@ def level_costs(world: World) -> list[float]:
 def level_slip_chances(world: World) -> list[float]:
     """The chance that a move of each carefulness level 1..L goes another way than chosen.
 
-    With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0.
+    With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0; with a fixed
+    split, 1 - intended at every level.
     """
     return list(world.slip_chances)
 
