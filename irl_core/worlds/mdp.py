@@ -70,8 +70,8 @@ def made_move_chances(split: np.ndarray, leads: np.ndarray, *, drop: bool) -> np
 
 def from_chosen(chances: np.ndarray, chosen: np.ndarray | int) -> np.ndarray:
     """(..., 4) `chances` (..., 4) of each direction in action order, turned to start at `chosen` (...): column
-    k is the direction (chosen + k) % 4. Every sampler draws k in this order, so that a seed plays the same
-    game whatever the slip's split."""
+    k is the direction (chosen + k) % 4. Every sampler draws k in this order, so that a seed plays the game it
+    played before fixed splits existed (a recording made again from its seed is the same)."""
     turn = (np.asarray(chosen)[..., None] + np.arange(4)) % 4
     return np.take_along_axis(chances, turn, axis=-1)
 

@@ -13,8 +13,9 @@ field                 meaning
 ``cost_per_level``    action cost R_A(a) = -cost_per_level * c
 ``gamma``             discount for planning and IRL, in [0, 1)
 ``slip``              ``halving``: P(chosen direction) = 1 - 2^-c, ``none``,
-                      or ``{intended = p, others = [l, u, r, d]}``: a fixed
-                      split at every level (`SlipSplit`)
+                      or ``{intended = p, others = [a, b, c]}``: a fixed split
+                      at every level, the others in the order left, up,
+                      right, down without the chosen one (`SlipSplit`)
 ``bump``              ``stay``: a move into a wall or off the grid is a step
                       that stays; ``drop``: no step is made or recorded
 ``terminal``          symbols whose cell ends the episode when entered
@@ -87,10 +88,10 @@ MAX_STEPS = 1_000_000
 # The fields only a time world has, and the ones only a level world has: each kind's header and
 # TOML hold its own (a level world's file reads and writes exactly as before time worlds existed).
 TIME_FIELDS = ("care", "p0", "p_inf", "tau_ms", "cost_per_second", "max_hold_ms", "duration_bins_ms", "show_hold")
+LEVEL_FIELDS = ("levels", "cost_per_level", "slip")
 # Fields a world's header leaves out at their default, so that a world without them writes and reads
 # exactly as before they existed.
 QUIET_DEFAULTS = {"bump": "stay"}
-LEVEL_FIELDS = ("levels", "cost_per_level", "slip")
 # A bin starting at 0 ms has its geometric mid-point computed as if it started here: no key is
 # held for less than the time a press takes to register.
 SHORTEST_HOLD_MS = 20.0
@@ -113,6 +114,13 @@ class SlipSplit(BaseModel):
 
     intended: float = Field(ge=0, le=1)
     others: tuple[float, float, float]
+
+    @model_validator(mode="after")
+    def _a_distribution(self) -> SlipSplit:
+        # A world file's split is checked (with its field named) before it gets here; this keeps one made in code honest.
+        if problem := slip_split_problem({"intended": self.intended, "others": list(self.others)}):
+            raise ValueError(problem)
+        return self
 
     def chances(self, chosen: int) -> tuple[float, float, float, float]:
         """The chance of each realised direction (in action order, `DIRECTIONS`) when `chosen` (0..3) is."""
