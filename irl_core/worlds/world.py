@@ -116,7 +116,7 @@ class SlipSplit(BaseModel):
     others: tuple[float, float, float]
 
     @model_validator(mode="after")
-    def _a_distribution(self) -> SlipSplit:
+    def _split_is_a_distribution(self) -> SlipSplit:
         # A world file's split is checked (with its field named) before it gets here; this keeps one made in code honest.
         if problem := slip_split_problem({"intended": self.intended, "others": list(self.others)}):
             raise ValueError(problem)
