@@ -376,6 +376,11 @@ class World(BaseModel):
             return (0.0,) * self.levels
         return tuple(2.0**-c for c in range(1, self.levels + 1))
 
+    @property
+    def slip_is_fixed(self) -> bool:
+        """Whether every level slips alike by the world file's own split (another lab's task): care then only costs."""
+        return isinstance(self.slip, SlipSplit)
+
     def direction_split(self) -> np.ndarray:
         """(L, 4, 4) the chance [c - 1, d, k] that a level-c move chosen in direction d goes in direction k
         (action order, `DIRECTIONS`), before a wall or the grid's edge has its say (`bump`). A fixed slip gives

@@ -1,5 +1,6 @@
 """Another lab's task in the browser (docs/worlds.md, "A task from another lab"): a move into a wall in a world
-with bump = "drop" is no step, the page says so, and the recording holds only the steps made."""
+with bump = "drop" is no step, the page says so, and the recording holds only the steps made; the instructions
+do not promise that care slips less where the world's split is the same at every level."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from irl_core.studies.study import load_study
 DROP_HALL = """\
 name = "drop hall"
 layout = "....G"
-levels = 1
+levels = 2
 slip = {intended = 1.0, others = [0.0, 0.0, 0.0]}
 bump = "drop"
 start = [0, 0]
@@ -36,6 +37,8 @@ def test_a_dropped_move_is_shown_and_not_recorded(tmp_path, seats):
     app, tokens = web_app(study, seats=seats_of_kind(study, seats))
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
+        words = " ".join(paragraph["text"] for paragraph in api.view["paragraphs"])
+        assert "A careful move costs more points and slips no less" in words  # the split is the same at each level
         api.key("space")
         for key in ("up", "left", "down"):
             assert api.hold(key, 60).status_code == 200
