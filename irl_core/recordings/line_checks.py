@@ -19,7 +19,9 @@ from irl_core.errors import Mismatch
 from irl_core.recordings.lines import CalibrationTrial, EpisodeEnd, Step
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
-from irl_core.worlds.mdp import DIRECTIONS, MDP, action_index
+from irl_core.worlds.mdp import DIRECTIONS, MDP
+
+_DIRECTION_INDEX = {name: d for d, name in enumerate(DIRECTIONS)}
 
 
 class LineChecker:
@@ -33,18 +35,22 @@ class LineChecker:
         self.mdp = mdp
         self._neighbours = mdp.neighbour.tolist()
         # (state, action): which directions a step can go with a chance above 0, worked out once per pair.
-        self._can_go: dict[tuple[int, int], list[bool]] = {}
+        self._can_go: dict[tuple[int, int], tuple[frozenset[int], tuple[bool, ...]]] = {}
         self._episode: int | None = None
         self._next_t = 0
         self._cell: tuple[int, int] | None = None
         self._ended_on: int | None = None
 
-    def _directions_possible(self, state: int, action: int) -> list[bool]:
-        """(4,) whether a step of `action` from `state` goes each way with a chance above 0 (`MDP.step_chances`)."""
+    def _possible(self, state: int, action: int) -> tuple[frozenset[int], tuple[bool, ...]]:
+        """The states a step of `action` (-1: any, a time world's) from `state` reaches with a chance above 0, and
+        whether it goes each way (`MDP.step_chances`), worked out once per pair: the reader asks for every step."""
         key = (state, action)
-        if key not in self._can_go:
-            self._can_go[key] = (self.mdp.step_chances(state, action) > 0).tolist()
-        return self._can_go[key]
+        found = self._can_go.get(key)
+        if found is None:
+            can_go = (True,) * 4 if action < 0 else tuple((self.mdp.step_chances(state, action) > 0).tolist())
+            reach = frozenset(n for n, possible in zip(self._neighbours[state], can_go) if possible)
+            found = self._can_go[key] = (reach, can_go)
+        return found
 
     @staticmethod
     def _error(number: int, field: str, problem: str) -> Mismatch:
@@ -151,12 +157,9 @@ class LineChecker:
             raise self._error(number, "state", f"{list(step.state)} is a terminal cell: no move starts there")
         # A time world may slip in any direction; a level world goes where its split (and its bump rule) lets the
         # chosen action go: a world without slip only the chosen way, a dropping world nowhere that stays.
-        if world.care == "time":
-            can_go = [True] * 4
-        else:
-            assert step.carefulness is not None  # checked above: a level world's step has one
-            can_go = self._directions_possible(s, action_index(step.direction, step.carefulness, world.levels))
-        reachable = [n for n, possible in zip(self._neighbours[s], can_go) if possible]
+        d = _DIRECTION_INDEX[step.direction]
+        action = -1 if world.care == "time" else d * world.levels + (step.carefulness or 1) - 1
+        reachable, can_go = self._possible(s, action)
         if mdp.state_of[step.next_state] not in reachable:
             if world.bump == "drop" and step.next_state == step.state:
                 raise self._error(number, "next_state", f"{list(step.next_state)} is where the step started, but "
@@ -167,7 +170,7 @@ class LineChecker:
             if world.slip == "none" and step.realised != step.direction:
                 raise self._error(number, "realised", f"{step.realised}, but this world never slips "
                                   f"(the move was {step.direction})")
-            if not can_go[DIRECTIONS.index(step.realised)]:
+            if not can_go[_DIRECTION_INDEX[step.realised]]:
                 raise self._error(number, "realised", f"{step.realised}: a step chosen {step.direction} from "
                                   f"{list(step.state)} never goes that way in this world")
             if mdp.state_of[step.next_state] != self._neighbours[s][DIRECTIONS.index(step.realised)]:
