@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 from starlette.testclient import TestClient
-from web.conftest import SEAT_KINDS, Api, recorded_lines, seats_of_kind, web_app
+from web.conftest import SEAT_KINDS, Api, recorded_lines, seats_of_kind, start_server, web_app
 
 from irl_core.studies.study import load_study
 
@@ -29,11 +29,15 @@ out = "data"
 """
 
 
+def drop_study(folder):
+    (folder / "hall.toml").write_text(DROP_HALL)
+    (folder / "study.toml").write_text(STUDY)
+    return load_study(folder / "study.toml")
+
+
 @pytest.mark.parametrize("seats", SEAT_KINDS)
 def test_a_dropped_move_is_shown_and_not_recorded(tmp_path, seats):
-    (tmp_path / "hall.toml").write_text(DROP_HALL)
-    (tmp_path / "study.toml").write_text(STUDY)
-    study = load_study(tmp_path / "study.toml")
+    study = drop_study(tmp_path)
     app, tokens = web_app(study, seats=seats_of_kind(study, seats))
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
@@ -46,3 +50,24 @@ def test_a_dropped_move_is_shown_and_not_recorded(tmp_path, seats):
         api.walk_to_goal()
     steps = [line for line in recorded_lines(study.participant_folder("p001")) if line["kind"] == "step"]
     assert [(s["state"], s["next_state"]) for s in steps] == [([0, c], [0, c + 1]) for c in range(4)]
+
+
+def test_chromium_shows_a_blocked_move_and_then_the_step(page, tmp_path):
+    study = drop_study(tmp_path)
+    live, server, thread = start_server(study)
+    try:
+        page.goto(live.link("p001"))
+        page.wait_for_selector("#text:not([hidden])")
+        page.keyboard.press(" ")
+        page.wait_for_selector("#play:not([hidden])")
+        page.keyboard.press("ArrowUp")
+        page.locator("#status", has_text="up: blocked, no move made").wait_for()
+        assert "step 0/" in page.inner_text("#status")
+        page.keyboard.press("ArrowRight")
+        page.locator("#status", has_text="step 1/").wait_for()
+        assert "blocked" not in page.inner_text("#status")
+    finally:
+        server.should_exit = True
+        thread.join(10)
+    steps = [line for line in recorded_lines(study.participant_folder("p001")) if line["kind"] == "step"]
+    assert [(s["state"], s["next_state"]) for s in steps] == [([0, 0], [0, 1])]
