@@ -408,7 +408,8 @@ class World(BaseModel):
             others = " / ".join(f"{p:g}" for p in self.slip.others)
             return (f"fixed at every level: the chosen way {self.slip.intended:g}, the others {others} "
                     "(in the order left, up, right, down, the chosen one left out)")
-        return "halving: a level-c move slips with 2^-c" if self.slip == "halving" else "none: moves never slip"
+        return ("halving: a level-c move goes another way with chance 2^-c, a third of it to each other direction"
+                if self.slip == "halving" else "none: every move goes where it is aimed")
 
     def describe_bump(self) -> str:
         """What a move into a wall or off the grid does, in words."""
