@@ -68,7 +68,8 @@ def policy_key(world: World) -> Text:
             (f"Holding costs {format_value(world.cost_per_second)} a second; a longer hold slips less.", "dim"),
         )
     level = f"the carefulness level (1-{world.levels})" if world.levels > 1 else "the level (one level)"
-    slip = ("a level-c move slips with probability 2^-c" if world.slip == "halving" else "moves never slip")
+    slip = ("a level-c move slips with probability 2^-c" if world.slip == "halving" else
+            "moves never slip" if world.slip == "none" else f"moves go {world.slip_label}")
     return Text.assemble(
         ("The most frequent action in each cell\n", "bold"),
         ("  →  ", "bold"), "the direction\n",

@@ -48,7 +48,7 @@ def world_board(world: World, *, show_rewards: bool = True) -> Board:
     reward when `show_rewards`)."""
     board = Board(world, id="board")
     care = ("care is how long you hold" if world.care == "time" else
-            f"{plural(world.levels, 'level')} · slip {world.slip}")
+            f"{plural(world.levels, 'level')} · slip {world.slip_label}")
     board.border_title = Text(f"{printable(world.name, limit=40)} · {care}")
     board.border_subtitle = legend(world, show_rewards=show_rewards)
     return board

@@ -62,7 +62,8 @@ class GameStatus(Static):
             elif self.world.care == "time":
                 status.append("Hold longer to be more careful: it costs more and slips less.", style="dim")
             elif self.world.levels > 1:
-                status.append("Careful moves cost more and slip less.", style="dim")
+                status.append("Careful moves cost more; they slip no less." if self.world.slip_is_fixed
+                              else "Careful moves cost more and slip less.", style="dim")
             else:  # one level: no carefulness to choose
                 status.append("Move with the arrow keys.", style="dim")
             status.append("\n")

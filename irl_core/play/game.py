@@ -13,6 +13,9 @@ score           undiscounted, reset to ``initial_score`` at each episode start;
                 adds its R_S once, at the episode end
 slip            the realised direction differs from the chosen one (a move into
                 a wall or off the grid that slips still counts as a slip)
+bump            ``stay``: a move into a wall or off the grid is a step that
+                stays; ``drop``: it is no step (`Game.move` returns None,
+                nothing is recorded, the step count and score do not move)
 episode end     ``terminal`` (entered a terminal cell), ``step_limit`` (after
                 ``max_steps`` moves), ``quit`` (`Game.quit` during an episode
                 that has at least one step; an episode without steps is not
@@ -32,7 +35,7 @@ import numpy as np
 
 from irl_core.errors import GameOver
 from irl_core.recordings.lines import EpisodeEnd, Step
-from irl_core.worlds.mdp import DIRECTIONS, MDP, action_index, build_mdp
+from irl_core.worlds.mdp import DIRECTIONS, MDP, action_index, build_mdp, sample_direction
 from irl_core.worlds.world import Cell, World
 
 
@@ -74,7 +77,8 @@ def level_costs(world: World) -> list[float]:
 def level_slip_chances(world: World) -> list[float]:
     """The chance that a move of each carefulness level 1..L goes another way than chosen.
 
-    With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0.
+    With ``slip = "halving"`` it is 2^-c (level 1: 0.5, level 2: 0.25, ...); with ``"none"``, 0; with a fixed
+    split, 1 - intended at every level.
     """
     return list(world.slip_chances)
 
@@ -103,6 +107,8 @@ class Game:
         self.score = world.initial_score
         self.live = False
         self.last_end: EpisodeEnd | None = None
+        # Where the last move that was dropped went (``bump = "drop"``), for the player's message.
+        self.last_dropped: str | None = None
 
     def __getstate__(self) -> dict[str, object]:
         # The world's arrays are built again where a pickled game is taken up (a web server's other worker).
@@ -128,8 +134,9 @@ class Game:
         return self.cell
 
     def move(self, direction: str, carefulness: int | None, *, hold_ms: float | None = None,
-             exact: bool = False) -> MoveResult:
-        """Play one move, record it, and end the episode if it ends here.
+             exact: bool = False) -> MoveResult | None:
+        """Play one move, record it, and end the episode if it ends here; None when the world drops the move
+        (``bump = "drop"``: it went into a wall or off the grid, and nothing happens or is recorded).
 
         On a time world `carefulness` is None and `hold_ms` the held time: the move slips with
         p(hold_ms) and costs the exact hold (capped at max_hold_ms); the step records its bin.
@@ -159,7 +166,12 @@ class Game:
                 raise ValueError(f"carefulness must be in 1..{self.world.levels}, got {carefulness}")
             bin_ = None
             a = action_index(direction, carefulness, self.world.levels)
-            s_next, realised = self.mdp.move(s, a, self._rng)
+            realised = sample_direction(self.mdp.split[a], DIRECTIONS.index(direction), self._rng)
+            if self.world.bump == "drop" and not self.mdp.leads[s, realised]:
+                # Into a wall or off the grid: no step is made, as if the key had not been pressed.
+                self.last_dropped = DIRECTIONS[realised]
+                return None
+            s_next = int(self.mdp.neighbour[s, realised])
             reward = float(self._reward[s, a])
             hold = None if hold_ms is None else round(float(hold_ms), 1)
         step = Step(

@@ -370,6 +370,12 @@ class PlaySession:
             except (OSError, ValueError) as exc:
                 self._stop(exc)
                 return Played(tuple(moves), stopped=True)
+            if result is None:
+                # One line of at most 42 characters: the status at the smallest terminal.
+                went = self.game.last_dropped
+                self.message = Message(f"{hold.key}: blocked, no move made" if went == hold.key
+                                       else f"{hold.key} slipped {went}, blocked: no move", "note")
+                continue
             moves.append(result)
             self.last_move = result
             self.message = (Message(f"you went {result.realised} instead of {result.step.direction}", "slip",

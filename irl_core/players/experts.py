@@ -25,7 +25,7 @@ from irl_core.recordings.demonstrations import Demonstrations, EpisodeFacts, epi
 from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.support.safe_files import built_beside
-from irl_core.worlds.mdp import DIRECTIONS, MDP, direction_probabilities
+from irl_core.worlds.mdp import DIRECTIONS, MDP, from_chosen
 from irl_core.worlds.planning import Plan, soft_value_iteration, value_iteration
 
 # Simulated sessions are a function of (world, policy, seed): their header carries this
@@ -138,7 +138,6 @@ def rollouts(
     given_starts = starts
     starts = np.array([mdp.state_of[cell] for cell in world.start_cells])
     choose = policy if callable(policy) else policy_chooser(policy)
-    slip_cdf = np.cumsum(direction_probabilities(mdp.carefulness, world=world), axis=1)  # (A, 4)
     R = mdp.reward_matrix()
     timed = world.care == "time"
     mids = np.asarray(world.bin_mids_ms)
@@ -162,12 +161,16 @@ def rollouts(
             hold = np.asarray(chosen[1], dtype=float) if isinstance(chosen, tuple) else mids[a % mdp.levels]
             slipped = rng.random(live.size) < world.hold_slip_chance(hold)
             k = np.where(slipped, 1 + rng.integers(3, size=live.size), 0)
+            d = (mdp.direction[a] + k) % 4
             reward = np.where(mdp.nonterminal[s], mdp.R_S[s] - world.hold_cost(hold), mdp.R_S[s])
             holds.append(hold)
         else:
-            k = np.minimum((slip_cdf[a] < rng.random((live.size, 1))).sum(axis=1), 3)
+            # The step as P has it (`MDP.step_chances`): in a world that drops moves into a wall, a player
+            # who presses the same key again until a step is made.
+            cdf = np.cumsum(from_chosen(mdp.step_chances(s, a), mdp.direction[a]), axis=1)
+            k = np.minimum((cdf < rng.random((live.size, 1))).sum(axis=1), 3)
+            d = (mdp.direction[a] + k) % 4
             reward = R[s, a]
-        d = (mdp.direction[a] + k) % 4
         s_next = mdp.neighbour[s, d]
         trace.append((live, np.full(live.size, t), s, a, d, s_next, reward))
         state[live] = s_next

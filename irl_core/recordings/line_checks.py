@@ -1,7 +1,8 @@
 """What makes a recording's lines agree with its world and with each other (recordings/README.md).
 
 A step must be a move the header's world can make (a level it has, cells that are states, a
-next cell the move can reach, a `realised` direction that leads there), and the lines must tell
+next cell the move can reach with a chance above 0, a `realised` direction the move can take that leads
+there; in a world that drops moves into a wall, ``bump = "drop"``, no step stays where it started), and the lines must tell
 one story: episodes in increasing order; within one, `t` counting 0, 1, 2, ...; each step
 starting where the previous one ended; nothing of an episode after its `episode_end`; and each
 `episode_end` agreeing with its steps: `steps` is how many there were, a `terminal` end's last step
@@ -20,6 +21,8 @@ from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
 from irl_core.worlds.mdp import DIRECTIONS, MDP
 
+_DIRECTION_INDEX = {name: d for d, name in enumerate(DIRECTIONS)}
+
 
 class LineChecker:
     """Checks that a step is a move the header's world can make, and that lines agree.
@@ -31,10 +34,23 @@ class LineChecker:
     def __init__(self, mdp: MDP):
         self.mdp = mdp
         self._neighbours = mdp.neighbour.tolist()
+        # (state, action): which directions a step can go with a chance above 0, worked out once per pair.
+        self._can_go: dict[tuple[int, int], tuple[frozenset[int], tuple[bool, ...]]] = {}
         self._episode: int | None = None
         self._next_t = 0
         self._cell: tuple[int, int] | None = None
         self._ended_on: int | None = None
+
+    def _possible(self, state: int, action: int) -> tuple[frozenset[int], tuple[bool, ...]]:
+        """The states a step of `action` (-1: any, a time world's) from `state` reaches with a chance above 0, and
+        whether it goes each way (`MDP.step_chances`), worked out once per pair: the reader asks for every step."""
+        key = (state, action)
+        found = self._can_go.get(key)
+        if found is None:
+            can_go = (True,) * 4 if action < 0 else tuple((self.mdp.step_chances(state, action) > 0).tolist())
+            reach = frozenset(n for n, possible in zip(self._neighbours[state], can_go) if possible)
+            found = self._can_go[key] = (reach, can_go)
+        return found
 
     @staticmethod
     def _error(number: int, field: str, problem: str) -> Mismatch:
@@ -139,17 +155,24 @@ class LineChecker:
         s = mdp.state_of[step.state]
         if not mdp.nonterminal[s]:
             raise self._error(number, "state", f"{list(step.state)} is a terminal cell: no move starts there")
-        # A halving world may slip in any direction; a world without slip only goes the chosen way.
-        reachable = self._neighbours[s]
-        if world.slip == "none":
-            reachable = [reachable[DIRECTIONS.index(step.direction)]]
+        # A time world may slip in any direction; a level world goes where its split (and its bump rule) lets the
+        # chosen action go: a world without slip only the chosen way, a dropping world nowhere that stays.
+        d = _DIRECTION_INDEX[step.direction]
+        action = -1 if world.care == "time" else d * world.levels + (step.carefulness or 1) - 1
+        reachable, can_go = self._possible(s, action)
         if mdp.state_of[step.next_state] not in reachable:
+            if world.bump == "drop" and step.next_state == step.state:
+                raise self._error(number, "next_state", f"{list(step.next_state)} is where the step started, but "
+                                  'this world drops a move into a wall or off the grid (bump = "drop"): no step stays')
             raise self._error(number, "next_state", f"the world cannot move from {list(step.state)} to "
                               f"{list(step.next_state)} going {step.direction} in one step")
         if step.realised is not None:
             if world.slip == "none" and step.realised != step.direction:
                 raise self._error(number, "realised", f"{step.realised}, but this world never slips "
                                   f"(the move was {step.direction})")
+            if not can_go[_DIRECTION_INDEX[step.realised]]:
+                raise self._error(number, "realised", f"{step.realised}: a step chosen {step.direction} from "
+                                  f"{list(step.state)} never goes that way in this world")
             if mdp.state_of[step.next_state] != self._neighbours[s][DIRECTIONS.index(step.realised)]:
                 raise self._error(number, "next_state", f"{list(step.next_state)} is not where going "
                                   f"{step.realised} from {list(step.state)} leads")

@@ -89,8 +89,12 @@ def plan(protocol: Protocol, *, input_name: str | None = None) -> Paragraph:
         return (*spans, Span("Move with the arrow keys."))
     some_timed = (Span(" In a world without a gauge, care is how long you hold the arrow: the move is made when "
                        "you let go.") if any(timed) else Span(""))
+    # Another lab's fixed split slips alike at every level: care then only costs, and the words say so.
+    slips_less = not all(world.slip_is_fixed for world in worlds_played if world.care == "levels")
     return (*spans, Span("Each move has a carefulness level. ", "bold"),
-            Span("A careful move costs more points and slips less: a slip sends you another way than you chose. "
+            Span(("A careful move costs more points and slips less" if slips_less else
+                  "A careful move costs more points and slips no less") +
+                 ": a slip sends you another way than you chose. "
                  "On the gauge, every level shows its cost and its chance of slipping.\n\n"),
             Span(input_mode(input_name or study.input).study_words), some_timed)
 

@@ -55,7 +55,10 @@ class CarefulEnv(gym.Env):
     A grid world from `careful` (a built-in world such as the paper's `paper`, or a world file).
     Each move has a direction and a carefulness c = 1..L: a careful move costs more and slips
     less. With `slip = "halving"` the move goes the chosen way with probability 1 - 2^-c and
-    slips to each other direction with 2^-c / 3; moving off the grid or into a wall `#` stays.
+    slips to each other direction with 2^-c / 3; a world file's fixed slip
+    (`slip = {intended = 0.76, others = [...]}`) has its own split. Moving off the grid or into a
+    wall `#` stays (`bump = "stay"`); with `bump = "drop"` such a move is not made and a step is one
+    of the moves that lead somewhere, as if the agent pressed again (the world's MDP, `P`).
     Entering a terminal cell (`C` cliff, `G` goal by default) ends the episode.
 
     ## Action Space

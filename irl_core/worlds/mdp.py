@@ -8,9 +8,14 @@ actions        a = d * L + (c - 1): direction d in (up, right, down, left),
 transitions    ``P``: (S * A, S) sparse, row ``s * A + a`` is P(. | s, a).
                Halving slip: the chosen direction with 1 - 2^-c, each other
                direction with 2^-c / 3 (a time world: p(d) of the bin's
-               mid-point for 2^-c); off the grid or into a wall: stay.
-               A terminal cell moves to the exit with any action; the exit
-               stays where it is.
+               mid-point for 2^-c); a fixed slip: its own split
+               (`World.direction_split`). ``bump = "stay"``: off the grid
+               or into a wall: stay. ``bump = "drop"``: such a move is not
+               made, so a step is one of the moves that lead somewhere, in
+               proportion to their chances (the player presses again); an
+               action with no such move keeps the stay rule (the game ignores
+               its key, so no recording holds it). A terminal cell moves to
+               the exit with any action; the exit stays where it is.
 rewards        R(s, a) = R_S(s) + R_A(a) at a non-terminal cell, with
                R_A(a) = -cost_per_level * c (a time world: the cost of the
                bin's mid-point); R_S(s) at a terminal cell (no
@@ -26,9 +31,8 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.worlds.world import Cell, Direction, World
+from irl_core.worlds.world import DIRECTIONS, Cell, World
 
-DIRECTIONS: tuple[Direction, ...] = ("up", "right", "down", "left")
 # (row, col) offsets in the order of DIRECTIONS.
 OFFSETS = np.array([(-1, 0), (0, 1), (1, 0), (0, -1)])
 
@@ -45,16 +49,36 @@ def action_parts(action: int, levels: int) -> tuple[str, int]:
     return DIRECTIONS[action // levels], action % levels + 1
 
 
-def direction_probabilities(carefulness: np.ndarray | int, *, world: World) -> np.ndarray:
-    """(..., 4) probability of each realised direction relative to the chosen one, for levels (...) in 1..L.
+def attempt_split(world: World) -> np.ndarray:
+    """(A, 4) the chance that action a, as pressed, goes in each direction (action order), before a wall or
+    the grid's edge has its say: `World.direction_split` by action."""
+    split = world.direction_split()  # (L, 4 chosen, 4 realised)
+    return split.transpose(1, 0, 2).reshape(4 * world.levels, 4)
 
-    Column 0 is the chosen direction; columns 1..3 are the others (each equally likely). The
-    slip chance of a level is `World.slip_chances` (a time world's: of its duration bin's mid-point).
-    """
-    c = np.asarray(carefulness, dtype=int)
-    other = np.asarray(world.slip_chances, dtype=float)[c - 1] / 3.0
-    main = 1.0 - 3.0 * other
-    return np.stack([main, other, other, other], axis=-1)
+
+def made_move_chances(split: np.ndarray, leads: np.ndarray, *, drop: bool) -> np.ndarray:
+    """(..., 4) the chance of each realised direction of a step that is made, from the attempts' chances
+    `split` (..., 4) and `leads` (..., 4), True where a direction leads to another cell. With `drop` the
+    moves that lead nowhere are not made: the rest share their chances in proportion (an attempt with no
+    such move keeps its own chances, each a step that stays); without it they are steps that stay."""
+    if not drop:
+        return split
+    kept = split * leads
+    total = kept.sum(axis=-1, keepdims=True)
+    return np.where(total > 0, kept / np.where(total > 0, total, 1.0), split)
+
+
+def from_chosen(chances: np.ndarray, chosen: np.ndarray | int) -> np.ndarray:
+    """(..., 4) `chances` (..., 4) of each direction in action order, turned to start at `chosen` (...): column
+    k is the direction (chosen + k) % 4. Every sampler draws k in this order, so that a seed plays the game it
+    played before fixed splits existed (a recording made again from its seed is the same)."""
+    turn = (np.asarray(chosen)[..., None] + np.arange(4)) % 4
+    return np.take_along_axis(chances, turn, axis=-1)
+
+
+def sample_direction(chances: np.ndarray, chosen: int, rng: np.random.Generator) -> int:
+    """One realised direction (index, action order) drawn from `chances` (4,) for a move chosen as `chosen`."""
+    return (chosen + int(rng.choice(4, p=from_chosen(chances, chosen)))) % 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +89,8 @@ class MDP:
         world: the world it was built from.
         cells: (S - 1) cells, state s is cells[s]; the exit state has no cell.
         neighbour: (S, 4) state reached by moving in each direction (the exit maps to itself).
+        leads: (S, 4) True where that direction leads to another cell (not a wall or off the grid).
+        split: (A, 4) the chance that action a, as pressed, goes in each direction (`attempt_split`).
         terminal: (S,) True at terminal cells.
         P: (S * A, S) sparse CSR transition probabilities, row s * A + a.
         R_S: (S,) true state rewards from the world (0 at the exit).
@@ -74,6 +100,8 @@ class MDP:
     world: World
     cells: tuple[Cell, ...]
     neighbour: np.ndarray
+    leads: np.ndarray
+    split: np.ndarray
     terminal: np.ndarray
     P: sp.csr_matrix
     R_S: np.ndarray
@@ -144,14 +172,17 @@ class MDP:
         """(S, A) sum_s' P(s' | s, a) V(s') for values V (S,)."""
         return (self.P @ V).reshape(self.n_states, self.n_actions)
 
+    def step_chances(self, state: np.ndarray | int, action: np.ndarray | int) -> np.ndarray:
+        """(..., 4) the chance of each realised direction (action order) of a step made with `action` (...)
+        from `state` (...): what P holds, by direction (`made_move_chances`)."""
+        return made_move_chances(self.split[action], self.leads[state], drop=self.world.bump == "drop")
+
     def move(self, state: int, action: int, rng: np.random.Generator) -> tuple[int, int]:
-        """Sample one move: (next state, realised direction index)."""
-        d, c = divmod(action, self.levels)
-        probs = direction_probabilities(c + 1, world=self.world)
-        realised = (d + rng.choice(4, p=probs)) % 4
+        """Sample one step as P has it: (next state, realised direction index)."""
+        realised = sample_direction(self.step_chances(state, action), action // self.levels, rng)
         if not self.nonterminal[state]:
             return self.exit_state, realised
-        return int(self.neighbour[state, realised]), int(realised)
+        return int(self.neighbour[state, realised]), realised
 
 
 def build_mdp(world: World) -> MDP:
@@ -174,19 +205,19 @@ def build_mdp(world: World) -> MDP:
     moved = np.where(inside, index[target[..., 0].clip(0, world.rows - 1), target[..., 1].clip(0, world.cols - 1)], -1)
     neighbour = np.where(moved >= 0, moved, np.arange(n_cells)[:, None])
     neighbour = np.vstack([neighbour, np.full((1, 4), exit_state)])
+    leads = np.vstack([moved >= 0, np.zeros((1, 4), dtype=bool)])
 
     terminal = np.zeros(S, dtype=bool)
     terminal[:n_cells] = [world.symbol(cell) in world.terminal for cell in cells]
     acting = np.flatnonzero(~terminal[:n_cells])
 
-    # For each acting state, action (d, c) and slip k in 0..3: realised direction (d + k) % 4.
-    d = np.arange(A) // L
+    # For each acting state, action a and realised direction k: the chance of the step (s, a) going k.
     c = np.arange(A) % L + 1
-    probs = direction_probabilities(c, world=world)  # (A, 4)
-    realised = (d[:, None] + np.arange(4)[None, :]) % 4  # (A, 4)
+    split = attempt_split(world)  # (A, 4)
     rows = (acting[:, None, None] * A + np.arange(A)[None, :, None]).repeat(4, axis=2)
-    cols = neighbour[acting][:, realised]  # (n_acting, A, 4)
-    data = np.broadcast_to(probs, cols.shape)
+    cols = np.broadcast_to(neighbour[acting][:, None, :], rows.shape)  # (n_acting, A, 4)
+    data = made_move_chances(split[None, :, :], leads[acting][:, None, :], drop=world.bump == "drop")
+    data = np.broadcast_to(data, cols.shape)
 
     # Terminal cells and the exit move to the exit with probability 1 under every action.
     absorbing = np.append(np.flatnonzero(terminal[:n_cells]), exit_state)
@@ -204,4 +235,5 @@ def build_mdp(world: World) -> MDP:
 
     R_S = np.array([world.reward_of(world.symbol(cell)) for cell in cells] + [0.0])
     R_A = -np.asarray(world.level_costs, dtype=float)[c - 1]
-    return MDP(world=world, cells=cells, neighbour=neighbour, terminal=terminal, P=P, R_S=R_S, R_A=R_A)
+    return MDP(world=world, cells=cells, neighbour=neighbour, leads=leads, split=split, terminal=terminal, P=P,
+               R_S=R_S, R_A=R_A)

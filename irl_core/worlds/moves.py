@@ -1,11 +1,13 @@
 """A world's transitions in direction form: products with P at the cost of its directions, not its actions.
 
-At an acting state every level of a direction reaches the same four neighbours, and the halving slip
-gives the chosen direction 1 - 3e and each other direction e (e = the level's slip chance / 3), so
+At an acting state every action reaches the same four neighbours, each direction k with its own chance, so
 
-    P(s' | s, (d, c)) = chosen[c] [s' = neighbour(s, d)] + even[c] sum_k [s' = neighbour(s, k)],
+    P(s' | s, a) = sum_k toward[a, k] [s' = neighbour(s, k)],
 
-chosen[c] = 1 - 4e and even[c] = e; a terminal cell and the exit lead to the exit under every action.
+toward (A, 4) the same at every state (`MDP.split`), except, in a world whose moves into a wall are dropped,
+at the cells beside a wall or the grid's edge, where a step's chances depend on which directions lead
+somewhere (`MDP.step_chances`; `blocked_toward` holds theirs); a terminal cell and the exit lead to the exit
+under every action.
 A pull-back X @ P then adds up 4 weights per state instead of 4 per action (56 actions in a 14-level
 world), and so does a policy's system I - gamma P^pi. Large worlds' maximum-entropy and people fits use
 both (`irl_core.irl.maxent`); `MDP.P` stays the definition, and `tests/core/test_moves.py` checks every
@@ -22,7 +24,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from irl_core.worlds.mdp import MDP, direction_probabilities
+from irl_core.worlds.mdp import MDP
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,8 +34,9 @@ class Moves:
     Attributes:
         neighbour: (S, 4) the state each direction leads to (`MDP.neighbour`).
         acting: (S,) True where the agent acts (`MDP.nonterminal`).
-        chosen: (L,) each level's chance of the chosen direction beyond the even share.
-        even: (L,) each level's chance of every direction, the chosen one included.
+        toward: (A, 4) each action's chance of each direction where nothing is in the way.
+        blocked: (n,) the states whose own chances differ (a dropping world's cells beside a wall or the edge);
+            blocked_toward: (n, A, 4) their chances.
         place: where each acting state's four neighbour weights, then each other state's exit weight, land in
             the CSC data of a policy system; diagonal (S,): where its diagonal lands; indices, indptr: the CSC
             structure.
@@ -46,8 +49,9 @@ class Moves:
     acting: np.ndarray
     exit_state: int
     levels: int
-    chosen: np.ndarray
-    even: np.ndarray
+    toward: np.ndarray
+    blocked: np.ndarray
+    blocked_toward: np.ndarray
     place: np.ndarray
     diagonal: np.ndarray
     indices: np.ndarray
@@ -61,11 +65,6 @@ class Moves:
         return self.neighbour.shape[0]
 
     @cached_property
-    def _even_by_action(self) -> np.ndarray:
-        """(4 L,) each action's even share, `even` repeated over the four directions."""
-        return np.tile(self.even, 4)
-
-    @cached_property
     def _one_by_action(self) -> np.ndarray:
         return np.ones(4 * self.levels)
 
@@ -76,7 +75,9 @@ class Moves:
         S, L = self.n_states, self.levels
         X = np.asarray(X, dtype=float).reshape(S, 4 * L)
         # Products, not sums over the middle axis: numpy's sum there was half the time of this function.
-        toward = (X.reshape(S, 4, L) @ self.chosen) + (X @ self._even_by_action)[:, None]
+        toward = X @ self.toward
+        if self.blocked.size:
+            toward[self.blocked] = np.einsum("sa,sak->sk", X[self.blocked], self.blocked_toward)
         toward[~self.acting] = 0.0
         to_exit = np.where(self.acting, 0.0, X @ self._one_by_action)
         return toward, to_exit
@@ -156,9 +157,10 @@ def moves_of(mdp: MDP) -> Moves:
 
 def _build(mdp: MDP) -> Moves:
     S, exit_state = mdp.n_states, mdp.exit_state
-    probs = direction_probabilities(np.arange(1, mdp.levels + 1), world=mdp.world)  # (L, 4)
-    even = probs[:, 1]
-    chosen = probs[:, 0] - even
+    # Only a dropping world's acting cells beside a wall or the edge have chances of their own.
+    blocked = np.flatnonzero(np.asarray(mdp.nonterminal) & ~np.asarray(mdp.leads).all(axis=1)) \
+        if mdp.world.bump == "drop" else np.zeros(0, dtype=int)
+    blocked_toward = mdp.step_chances(blocked[:, None], np.arange(mdp.n_actions)[None, :])  # (n, A, 4)
     neighbour = np.asarray(mdp.neighbour)
     acting = np.asarray(mdp.nonterminal)
     acting_states, others = np.flatnonzero(acting), np.flatnonzero(~acting)
@@ -170,7 +172,7 @@ def _build(mdp: MDP) -> Moves:
     below, above = int((row - col).max()), int((col - row).max())
     # Entry (i, j) in the band of the system (below, above) and of its transpose (above, below), flattened.
     in_band = np.stack([(below + above + row - col) * S + col, (above + below + col - row) * S + row])
-    return Moves(neighbour=neighbour, acting=acting, exit_state=exit_state, levels=mdp.levels, chosen=chosen,
-                 even=even, place=where[: rows.size - S], diagonal=where[rows.size - S:],
+    return Moves(neighbour=neighbour, acting=acting, exit_state=exit_state, levels=mdp.levels, toward=mdp.split,
+                 blocked=blocked, blocked_toward=blocked_toward, place=where[: rows.size - S], diagonal=where[rows.size - S:],
                  indices=row.astype(np.int32), indptr=np.searchsorted(col, np.arange(S + 1)).astype(np.int32),
                  below=below, above=above, in_band=in_band)

@@ -12,7 +12,12 @@ field                 meaning
 ``levels``            L, the number of carefulness levels (c = 1..L, L <= 53)
 ``cost_per_level``    action cost R_A(a) = -cost_per_level * c
 ``gamma``             discount for planning and IRL, in [0, 1)
-``slip``              ``halving``: P(chosen direction) = 1 - 2^-c, ``none``
+``slip``              ``halving``: P(chosen direction) = 1 - 2^-c, ``none``,
+                      or ``{intended = p, others = [a, b, c]}``: a fixed split
+                      at every level, the others in the order left, up,
+                      right, down without the chosen one (`SlipSplit`)
+``bump``              ``stay``: a move into a wall or off the grid is a step
+                      that stays; ``drop``: no step is made or recorded
 ``terminal``          symbols whose cell ends the episode when entered
 ``start``             ``random`` (uniform non-terminal cell) or ``[row, col]``
 ``initial_score``     the game's starting score (undiscounted)
@@ -59,6 +64,12 @@ from irl_core.worlds.world_text import describe_validation_error, toml_escape, t
 # A cell of the grid, (row, column) from the top left; a move's direction as recordings spell it.
 Cell = tuple[int, int]
 Direction = Literal["up", "right", "down", "left"]
+# Directions in action order (d = 0..3), and the order a fixed slip lists the other directions in
+# (the chosen one left out): left, up, right, down, as the labs whose tasks these are write them.
+DIRECTIONS: tuple[Direction, ...] = ("up", "right", "down", "left")
+SPLIT_ORDER: tuple[Direction, ...] = ("left", "up", "right", "down")
+# A fixed slip's chances sum to 1 within this (a table copied from a paper: 0.76 + 0.09 + 0.05 + 0.10).
+SPLIT_SUM_TOLERANCE = 1e-9
 
 WALL = "#"
 GROUND = "."
@@ -80,6 +91,9 @@ MAX_STEPS = 1_000_000
 # TOML hold its own (a level world's file reads and writes exactly as before time worlds existed).
 TIME_FIELDS = ("care", "p0", "p_inf", "tau_ms", "cost_per_second", "max_hold_ms", "duration_bins_ms", "show_hold")
 LEVEL_FIELDS = ("levels", "cost_per_level", "slip")
+# Fields a world's header leaves out at their default, so that a world without them writes and reads
+# exactly as before they existed.
+QUIET_DEFAULTS = {"bump": "stay"}
 # A bin starting at 0 ms has its geometric mid-point computed as if it started here: no key is
 # held for less than the time a press takes to register.
 SHORTEST_HOLD_MS = 20.0
@@ -94,6 +108,70 @@ def default_duration_bins(max_hold_ms: float, *, bins: int = DEFAULT_DURATION_BI
     return (0.0, *inner, float(max_hold_ms))
 
 
+class SlipSplit(BaseModel):
+    """A fixed slip (another lab's task): the chosen direction with `intended`, the other three with `others`,
+    listed in the order left, up, right, down with the chosen one left out; the same at every level."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    intended: float = Field(ge=0, le=1)
+    others: tuple[float, float, float]
+
+    @model_validator(mode="after")
+    def _split_is_a_distribution(self) -> SlipSplit:
+        # A world file's split is checked (with its field named) before it gets here; this keeps one made in code honest.
+        if problem := slip_split_problem({"intended": self.intended, "others": list(self.others)}):
+            raise ValueError(problem)
+        return self
+
+    def chances(self, chosen: int) -> tuple[float, float, float, float]:
+        """The chance of each realised direction (in action order, `DIRECTIONS`) when `chosen` (0..3) is."""
+        others = iter(self.others)
+        by_name = {name: self.intended if name == DIRECTIONS[chosen] else next(others) for name in SPLIT_ORDER}
+        up, right, down, left = (by_name[name] for name in DIRECTIONS)
+        return up, right, down, left
+
+    def to_toml(self) -> str:
+        return f"{{intended = {self.intended!r}, others = [{', '.join(repr(p) for p in self.others)}]}}"
+
+
+def slip_split_problem(slip: object) -> str | None:
+    """What is wrong with a world file's `slip` (None: nothing), as `slip...: problem`, the field named."""
+    if isinstance(slip, str):
+        return None if slip in ("halving", "none") else (
+            f'slip: {printable(slip, limit=VALUE_LIMIT)!r} is not "halving", "none" or a table '
+            "{intended = ..., others = [left, up, right, down without the intended one]}")
+    if isinstance(slip, SlipSplit):
+        return None
+    if not isinstance(slip, dict):
+        return 'slip: must be "halving", "none" or a table {intended = ..., others = [...]}'
+    unknown = sorted(set(slip) - {"intended", "others"})
+    if unknown:
+        return f"slip.{printable(str(unknown[0]), limit=VALUE_LIMIT)}: not a field of a slip (intended, others)"
+    for name in ("intended", "others"):
+        if name not in slip:
+            return f"slip.{name}: missing (a fixed slip gives intended and others)"
+    intended, others = slip["intended"], slip["others"]
+    if not _is_number(intended):
+        return "slip.intended: must be a number"
+    if not isinstance(others, list | tuple) or not all(_is_number(p) for p in others):
+        return "slip.others: must be a list of three numbers (left, up, right, down without the intended one)"
+    if len(others) != 3:
+        return (f"slip.others: {plural(len(others), 'chance')}; a move has three other directions (left, up, right, "
+                "down without the intended one)")
+    for name, value in (("intended", intended), *((f"others[{i}]", p) for i, p in enumerate(others))):
+        if not math.isfinite(value) or value < 0:
+            return f"slip.{name}: {value!r} is not a chance (at least 0)"
+    total = math.fsum([intended, *others])
+    if abs(total - 1.0) > SPLIT_SUM_TOLERANCE:
+        return f"slip.others: {list(others)} with intended {intended!r} sum to {total:.12g}, not 1"
+    return None
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
 class World(BaseModel):
     """One gridworld, exactly as docs/worlds.md and the recordings' headers describe it."""
 
@@ -105,7 +183,8 @@ class World(BaseModel):
     levels: int = Field(14, ge=1, le=MAX_LEVELS, strict=True)
     cost_per_level: float = Field(1.0, ge=0, strict=True)
     gamma: float = Field(0.95, ge=0, lt=1, strict=True)
-    slip: Literal["halving", "none"] = "halving"
+    slip: Literal["halving", "none"] | SlipSplit = Field("halving", union_mode="left_to_right")
+    bump: Literal["stay", "drop"] = "stay"
     terminal: tuple[str, ...] = ("C", "G")
     start: Literal["random"] | tuple[int, int] = "random"
     initial_score: float = Field(200.0, strict=True, ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE)
@@ -127,6 +206,15 @@ class World(BaseModel):
         """A time world gives no levels (its bins are its levels); a level world gives no time field."""
         if not isinstance(data, dict):
             return data
+        if "slip" in data and (problem := slip_split_problem(data["slip"])):
+            raise ValueError(problem)
+        if "bump" in data and data["bump"] not in ("stay", "drop"):
+            bump = data["bump"]
+            shown = printable(bump, limit=VALUE_LIMIT) if isinstance(bump, str) else type(bump).__name__
+            raise ValueError(f'bump: {shown!r} is neither "stay" (a move into a wall is a step that stays) nor '
+                             '"drop" (no step is made)')
+        if data.get("care", "levels") == "time" and data.get("bump", "stay") != "stay":
+            raise ValueError('bump: a time world (care = "time") has bump = "stay" only')
         if data.get("care", "levels") != "time":
             for name in TIME_FIELDS[1:]:
                 if name in data:
@@ -149,7 +237,8 @@ class World(BaseModel):
     def _dump_its_kind(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
         data = handler(self)
         drop = LEVEL_FIELDS if self.care == "time" else TIME_FIELDS
-        return {key: value for key, value in data.items() if key not in drop}
+        return {key: value for key, value in data.items()
+                if key not in drop and not (key in QUIET_DEFAULTS and value == QUIET_DEFAULTS[key])}
 
     @field_validator("layout")
     @classmethod
@@ -283,9 +372,52 @@ class World(BaseModel):
         2^-c with halving slip, 0 without, p(mid-point) on a time world."""
         if self.care == "time":
             return tuple(float(p) for p in self.hold_slip_chance(self.bin_mids_ms))
+        if isinstance(self.slip, SlipSplit):
+            return (1.0 - self.slip.intended,) * self.levels
         if self.slip == "none":
             return (0.0,) * self.levels
         return tuple(2.0**-c for c in range(1, self.levels + 1))
+
+    @property
+    def slip_is_fixed(self) -> bool:
+        """Whether every level slips alike by the world file's own split (another lab's task): care then only costs."""
+        return isinstance(self.slip, SlipSplit)
+
+    def direction_split(self) -> np.ndarray:
+        """(L, 4, 4) the chance [c - 1, d, k] that a level-c move chosen in direction d goes in direction k
+        (action order, `DIRECTIONS`), before a wall or the grid's edge has its say (`bump`). A fixed slip gives
+        its own split; every other slip shares a level's slip chance evenly over the other three directions."""
+        if isinstance(self.slip, SlipSplit):
+            one = np.array([self.slip.chances(d) for d in range(4)])
+            return np.broadcast_to(one, (self.levels, 4, 4)).copy()
+        other = np.asarray(self.slip_chances, dtype=float)[:, None, None] / 3.0
+        eye = np.eye(4)[None, :, :]
+        return eye * (1.0 - 3.0 * other) + (1.0 - eye) * other
+
+    @property
+    def slip_label(self) -> str:
+        """The slip in a table's cell or a title: ``halving``, ``none`` or ``0.76/0.09/0.05/0.1`` (a fixed
+        split: the chosen way, then the others), with ``, bump drop`` when moves into a wall are dropped."""
+        slip = (f"{self.slip.intended:g}/" + "/".join(f"{p:g}" for p in self.slip.others)
+                if isinstance(self.slip, SlipSplit) else self.slip)
+        return slip + (", bump drop" if self.bump == "drop" else "")
+
+    def describe_slip(self) -> str:
+        """The world's slip in words, for a status line or a figure's caption."""
+        if self.care == "time":
+            return f"a hold of d ms slips with p0 {self.p0:g}, p_inf {self.p_inf:g}, tau {self.tau_ms:g} ms"
+        if isinstance(self.slip, SlipSplit):
+            others = " / ".join(f"{p:g}" for p in self.slip.others)
+            return (f"fixed at every level: the chosen way {self.slip.intended:g}, the others {others} "
+                    "(in the order left, up, right, down, the chosen one left out)")
+        return ("halving: a level-c move goes another way with chance 2^-c, a third of it to each other direction"
+                if self.slip == "halving" else "none: every move goes where it is aimed")
+
+    def describe_bump(self) -> str:
+        """What a move into a wall or off the grid does, in words."""
+        if self.bump == "drop":
+            return "drop: a move into a wall or off the grid is not made and not recorded"
+        return "stay: a move into a wall or off the grid is a step that stays"
 
     @cached_property
     def grid(self) -> list[str]:
@@ -332,13 +464,16 @@ class World(BaseModel):
             ]
         else:
             care = [f"levels = {self.levels}", f"cost_per_level = {self.cost_per_level!r}"]
-        slip = [] if self.care == "time" else [f"slip = {toml_str(self.slip)}"]
+        slip = [] if self.care == "time" else [
+            f"slip = {self.slip.to_toml() if isinstance(self.slip, SlipSplit) else toml_str(self.slip)}"]
+        bump = [] if self.bump == "stay" else [f"bump = {toml_str(self.bump)}"]
         lines = [
             f"name = {toml_str(self.name)}",
             f'layout = """\n{toml_escape(self.layout, keep_newlines=True)}"""',
             *care,
             f"gamma = {self.gamma!r}",
             *slip,
+            *bump,
             "terminal = [" + ", ".join(toml_str(t) for t in self.terminal) + "]",
             f"start = {start}",
             f"initial_score = {self.initial_score!r}",

@@ -14,8 +14,13 @@ WALLED = World(layout="\n".join(["......", "..#...", ".U#...", "..#...", "......
                rewards={"C": -100.0, "G": 10.0, "U": -3.0})
 
 
-@pytest.mark.parametrize("world", [WALLED, BUILTIN_WORLDS["mud-time"], BUILTIN_WORLDS["cliffwalking"]],
-                         ids=["walled", "mud-time", "cliffwalking"])
+# Another lab's rules: a fixed split, and moves into a wall dropped (a step's chances then depend on the cell).
+WALLED_DROP = WALLED.model_validate({**WALLED.model_dump(), "slip": {"intended": 0.76, "others": [0.09, 0.05, 0.1]},
+                                     "bump": "drop"})
+
+
+@pytest.mark.parametrize("world", [WALLED, WALLED_DROP, BUILTIN_WORLDS["mud-time"], BUILTIN_WORLDS["cliffwalking"]],
+                         ids=["walled", "walled-drop", "mud-time", "cliffwalking"])
 def test_every_product_in_direction_form_is_the_product_with_P(world):
     mdp = build_mdp(world)
     moves = moves_of(mdp)
@@ -50,7 +55,8 @@ def test_a_narrow_system_is_solved_as_a_band_and_a_wide_one_by_superlu_to_the_sa
     assert not np.allclose(solve_system(twice, b), solve_system(narrow, b))
 
 
-@pytest.mark.parametrize("world", [WALLED, BUILTIN_WORLDS["cliffwalking"]], ids=["walled", "cliffwalking"])
+@pytest.mark.parametrize("world", [WALLED, WALLED_DROP, BUILTIN_WORLDS["cliffwalking"]],
+                         ids=["walled", "walled-drop", "cliffwalking"])
 def test_a_policy_system_and_its_transpose_solve_from_the_worlds_band_as_dense_lapack_does(world):
     mdp = build_mdp(world)
     S, A = mdp.n_states, mdp.n_actions

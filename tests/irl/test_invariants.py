@@ -21,7 +21,7 @@ from irl_core.players.experts import boltzmann_policy, demonstrations_of, optima
 from irl_core.players.person_like import person_like
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.worlds.mdp import build_mdp
-from irl_core.worlds.world import BUILTIN_WORLDS, World
+from irl_core.worlds.world import BUILTIN_WORLDS, SlipSplit, World
 
 # Few resamples: the rules hold for any number, and each example is a whole fit with intervals.
 FAST = {"intervals": True, "resamples": 20, "rmax": 1000.0, "workers": 1}
@@ -29,9 +29,14 @@ EXAMPLES = settings(max_examples=6, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 
 
+# Another lab's slip (docs/worlds.md, "A task from another lab"): the same split at every level.
+LAB_SPLIT = SlipSplit(intended=0.76, others=(0.09, 0.05, 0.10))
+
+
 @st.composite
 def worlds(draw, *, levels=None):
-    """A small level world: one goal, some cliff and mud, maybe walls; 1 or 3 levels; costs zero or one."""
+    """A small level world: one goal, some cliff and mud, maybe walls; 1 or 3 levels; costs zero or one; moves that
+    halve their slip, never slip or slip as another lab's task; moves into a wall a step that stays or none."""
     rows, cols = draw(st.integers(2, 4)), draw(st.integers(3, 5))
     cells = draw(st.lists(st.sampled_from(".....UC#"), min_size=rows * cols, max_size=rows * cols))
     cells[draw(st.integers(0, rows * cols - 1))] = "G"
@@ -42,7 +47,8 @@ def worlds(draw, *, levels=None):
         return World(name="drawn", layout=layout, rewards=rewards,
                      levels=levels or draw(st.sampled_from([1, 3])),
                      cost_per_level=draw(st.sampled_from([0.0, 1.0])),
-                     slip=draw(st.sampled_from(["halving", "none"])), max_steps=60)
+                     slip=draw(st.sampled_from(["halving", "none", LAB_SPLIT])),
+                     bump=draw(st.sampled_from(["stay", "drop"])), max_steps=60)
     except ValueError:  # a layout the world refuses (no cell to start from, a goal walled in...)
         return draw(st.nothing())
 

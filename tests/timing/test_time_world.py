@@ -13,7 +13,7 @@ from irl_core.errors import RecordingError, WorldError
 from irl_core.play.game import Game
 from irl_core.players.experts import optimal_policy, simulate_to_file
 from irl_core.recordings.demonstrations import Demonstrations, read_recording
-from irl_core.worlds.mdp import build_mdp, direction_probabilities
+from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import BUILTIN_WORLDS, World, world_from_dict
 
 MUD_TIME = BUILTIN_WORLDS["mud-time"]
@@ -36,9 +36,9 @@ def test_a_bins_action_slips_and_costs_as_its_geometric_mid_point():
     mids = [np.sqrt(20 * 100), np.sqrt(100 * 400), np.sqrt(400 * 4000)]
     assert world.bin_mids_ms == pytest.approx(mids)
     p = [0.5 * np.exp(-m / 400) for m in mids]
-    probs = direction_probabilities(np.array([1, 2, 3]), world=world)
-    assert probs[:, 0] == pytest.approx([1 - x for x in p]) and probs[:, 1] == pytest.approx([x / 3 for x in p])
     mdp = build_mdp(world)
+    probs = mdp.split[:3]  # the three bins of "up": up, right, down, left
+    assert probs[:, 0] == pytest.approx([1 - x for x in p]) and probs[:, 1] == pytest.approx([x / 3 for x in p])
     assert mdp.R_A[:3] == pytest.approx([-5 * m / 1000 for m in mids])
     assert [int(world.bin_of(d)) for d in (0, 99.9, 100, 399, 400, 3999, 4000, 9000)] == [0, 0, 1, 1, 2, 2, 2, 2]
 

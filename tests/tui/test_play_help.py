@@ -122,3 +122,12 @@ def test_a_game_numbers_its_episodes_from_first_episode() -> None:
     assert [line.episode for line in lines] == [4, 4, 4] and lines[-1].outcome == "terminal"
     game.begin_episode()
     assert game.episode == 5
+
+
+def test_another_labs_world_shows_its_split_and_bump_rule_and_no_claim_that_care_slips_less(tmp_path: Path) -> None:
+    lab = World(name="lab", layout="....\n.CCG\n", levels=3, slip={"intended": 0.76, "others": [0.09, 0.05, 0.10]},
+                bump="drop", start=(0, 0), rewards={"C": -10.0, "G": 10.0})
+    seen = screen_texts(lab, "hold", tmp_path)
+    assert seen["title"] == "lab · 3 levels · slip 0.76/0.09/0.05/0.1, bump drop"
+    assert [line.split()[-1] for line in seen["gauge"]] == ["24%"] * 3
+    assert "Careful moves cost more; they slip no less." in seen["status"]
