@@ -185,6 +185,7 @@ class IntervalChart:
         symbols = _low_to_high(symbol_intervals(result))
         rows = sorted(range(len(result.labels)), key=lambda j: (symbols.index(result.unknowns.symbols[j]), j))
         spans = [interval_span(float(lo), float(hi), rmax) for lo, hi in intervals]
+        sides = one_sided(np.asarray(intervals, dtype=float), rmax)
         # Tied unknowns are named by their symbol: "cliff" reads better than "C".
         labels = [symbol_name(s) for s in result.unknowns.symbols] if result.options.tie else result.labels
         label_width = max(map(len, labels), default=0)
@@ -197,14 +198,16 @@ class IntervalChart:
             open_low, open_high = _open_ends(low, high, rmax)
             line = Text(f"{labels[j]:<{label_width}}  ", no_wrap=True, overflow="crop")
             line.append("◀" if open_low else " ", style="bold")
-            line.append_text(self._bar(axis, rmax, low, high, float(result.theta[j]),
-                                       None if true is None else float(true[j])))
+            # A reward bounded on one side only is its bound: no point is marked as its estimate.
+            fitted = None if sides[j] else float(result.theta[j])
+            line.append_text(self._bar(axis, rmax, low, high, fitted, None if true is None else float(true[j])))
             line.append("▶" if open_high else " ", style="bold")
             line.append(f"  {spans[j]:>{span_width}}", style="bold")
             yield line
         indent = " " * (label_width + 3)
         yield Text(indent) + _axis_ticks(axis, rmax)
-        yield Text.assemble(indent, ("● fitted  ○ true  ◉ both  ", "dim"),
+        fitted_key = "● fitted if two-sided  " if sides.any() else "● fitted  "
+        yield Text.assemble(indent, (f"{fitted_key}○ true  ◉ both  ", "dim"),
                             ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
                             (f" {self._what()}  ◀ ▶ no bound", "dim"))
 
@@ -214,7 +217,7 @@ class IntervalChart:
         return "allowed"
 
     @staticmethod
-    def _bar(axis: int, rmax: float, low: float, high: float, fitted: float, true: float | None) -> Text:
+    def _bar(axis: int, rmax: float, low: float, high: float, fitted: float | None, true: float | None) -> Text:
         def at(value: float) -> int:
             return round((signed_log_fraction(value, rmax) + 1) / 2 * (axis - 1))
 
@@ -226,7 +229,7 @@ class IntervalChart:
             chars[i] = "━"
             value = signed_log_value(i / (axis - 1) * 2 - 1, rmax)
             styles[i] = Style(color=diverging_colour(value, rmax), bold=True)
-        marks = {at(fitted): "●"}
+        marks = {} if fitted is None else {at(fitted): "●"}
         if true is not None:
             marks[at(true)] = "◉" if at(true) in marks else "○"
         for i, glyph in marks.items():

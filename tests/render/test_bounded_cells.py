@@ -39,3 +39,18 @@ def test_one_sided_cells_show_their_bound_and_no_colour_and_the_rest_their_point
     assert "bounded on one side only, no point" in printed
     for word in words.values():
         assert word in printed
+
+
+def test_the_interval_chart_marks_no_estimate_on_a_row_bounded_on_one_side():
+    from careful_tui.render.intervals import IntervalChart
+
+    result = loose_fit()
+    sides = one_sided(np.asarray(result.intervals), result.rmax)
+    console = Console(width=120, record=True)
+    console.print(IntervalChart(result))
+    lines = {line.split("  ")[0].strip(): line for line in console.export_text().splitlines() if "━" in line}
+    for label, side in zip(result.labels, sides):
+        if label in lines:
+            marked = "●" in lines[label] or "◉" in lines[label]  # ◉: the estimate on the truth
+            assert marked == (side == 0), (label, lines[label])
+    assert "● fitted if two-sided" in console.export_text()
