@@ -48,9 +48,10 @@ def test_the_interval_chart_marks_no_estimate_on_a_row_bounded_on_one_side():
     sides = one_sided(np.asarray(result.intervals), result.rmax)
     console = Console(width=120, record=True)
     console.print(IntervalChart(result))
-    lines = {line.split("  ")[0].strip(): line for line in console.export_text().splitlines() if "━" in line}
+    printed = console.export_text()
+    lines = {line.split("  ")[0].strip(): line for line in printed.splitlines() if "━" in line}
     for label, side in zip(result.labels, sides):
         if label in lines:
             marked = "●" in lines[label] or "◉" in lines[label]  # ◉: the estimate on the truth
             assert marked == (side == 0), (label, lines[label])
-    assert "● fitted if two-sided" in console.export_text()
+    assert "● fitted if two-sided" in printed
