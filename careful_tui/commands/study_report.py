@@ -24,7 +24,7 @@ from careful_tui.errors import EXIT_OK
 from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
-from irl_core.errors import SchedulerError, StudyError, UsageError
+from irl_core.errors import ClusterLost, SchedulerError, StudyError, UsageError
 from irl_core.irl import at_bound
 from irl_core.irl.notes import CODES
 from irl_core.irl.options import FitOptions
@@ -85,6 +85,8 @@ def run_study_report(args: argparse.Namespace) -> int:
         raise UsageError(f"--scheduler {printable(str(exc), limit=300)}") from None
     try:
         return _report(args, study, out, options, executor, err, pool_model=pool_model)
+    except ClusterLost as exc:  # every worker, or the scheduler, gone mid-report: nothing was written
+        raise UsageError(f"--scheduler {printable(str(exc), limit=600)}; nothing written") from None
     finally:
         close(executor)
 
