@@ -19,7 +19,9 @@ A Dask worker that dies takes its running tasks with it; the scheduler reruns th
 left (up to `distributed.scheduler.allowed-failures` times). When every worker holding the shared data
 dies at once, the calls that need it are sent again with the data (up to `MAX_RESENDS` times). A call
 that cannot be rerun is handed to `on_lost` with the reason, so that the caller can say which answers
-are missing; without `on_lost` it raises `LostCall`. Dask is the optional extra ``careful[cluster]``:
+are missing; without `on_lost` it raises `LostCall`. A cluster lost altogether (no worker for `NO_WORKERS_S`,
+or the scheduler gone for good) raises `ClusterLost` naming the calls not done, and connecting to a scheduler
+(the connection and Dask's handshake) is bounded by `CONNECT_TIMEOUT_S`. Dask is the optional extra ``careful[cluster]``:
 it is imported only here, and only when a scheduler is named.
 """
 
