@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import threading
-from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -12,9 +10,6 @@ import pytest
 from irl_core.recordings.lines import EpisodeEnd, SessionHeader, Step, StudyTag
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.studies.study import LoadedStudy, load_study
-
-# The longest a closed Dask client's thread may take to end on a loaded machine (a bound on an event, not a wait).
-THREAD_END_S = 60
 
 STUDY_TOML = """\
 name = "pilot"
@@ -33,21 +28,6 @@ def write_study(folder: Path, *, worlds: str = '["paper", "mud"]', order: str = 
     path = folder / "pilot.toml"
     path.write_text(STUDY_TOML.format(worlds=worlds, order=order, practice=practice, episodes=episodes))
     return path
-
-
-@pytest.fixture(scope="module")
-def no_dask_thread_left_behind() -> Iterator[None]:
-    """Dask keeps threads after its clients close; a process with a second thread forks its pools from a server
-    (`pool.process_context`), which would change how later tests' pools start. Their end is waited for here (each
-    thread's own end, up to a bound), never a fixed time."""
-    before = set(threading.enumerate())
-    yield
-    import distributed
-
-    distributed.utils._offload_executor.shutdown(wait=True)
-    for thread in set(threading.enumerate()) - before:
-        thread.join(timeout=THREAD_END_S)
-    assert set(threading.enumerate()) <= before, [thread.name for thread in set(threading.enumerate()) - before]
 
 
 @pytest.fixture

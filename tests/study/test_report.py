@@ -377,7 +377,7 @@ def test_the_tables_are_readable_in_100_columns(study):
     headers = [line.split() for line in lines if line.strip().startswith("participant ")]
     assert headers == [["participant", "world", "episodes", "outcomes", "careful", "fit"],
                        ["participant", "world", "cliff", "mud", "goal"]]
-    for cell, fit in zip(data.cells, fits):
+    for cell in data.cells:
         who = "population" if cell.participant == POOLED else cell.participant
         rows = [line for line in lines if line.strip().startswith(who + " ")
                 and f" {data.study.worlds[cell.world_index].name} " in line]
