@@ -231,7 +231,7 @@ def run_play_in_a_terminal(cwd: Path, out: str) -> tuple[int, str, bytes]:
         os.close(slave)
         slave = -1
         try:
-            _, err = process.communicate(timeout=30)
+            _, err = process.communicate(timeout=TIMEOUT_S)  # a bound on its exit: Python's start at load 8 took 30 s
         except subprocess.TimeoutExpired:
             process.kill()
             process.communicate()
