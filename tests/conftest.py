@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
@@ -21,7 +22,10 @@ def no_dask_thread_left_behind() -> Iterator[None]:
     yield
     import distributed
 
+    # Dask's one offload thread ends only with its executor: ended, and a new one put in its place (its thread
+    # starts at its first use), so that a later test's cluster still has one.
     distributed.utils._offload_executor.shutdown(wait=True)
+    distributed.utils._offload_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="Dask-Offload")
     for thread in set(threading.enumerate()) - before:
         thread.join(timeout=THREAD_END_S)
     assert set(threading.enumerate()) <= before, [thread.name for thread in set(threading.enumerate()) - before]

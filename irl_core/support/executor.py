@@ -208,6 +208,9 @@ class DaskExecutor:
     def close(self) -> None:
         """Close the client, and the cluster where this process started it."""
         self.client.close()
+        # A client that closed itself (its scheduler lost for good) returns from close() at once and leaves its
+        # event loop's thread running: stopped here, so no thread outlives the run (stopping twice does nothing).
+        self.client._loop_runner.stop()
         if self.cluster is not None:
             self.cluster.close()
 

@@ -19,6 +19,8 @@ from irl_core.support.executor import LocalPool, close, scheduler
 
 distributed = pytest.importorskip("distributed")
 pytestmark = pytest.mark.usefixtures("no_dask_thread_left_behind")
+# How long a restarted worker may take to join on a loaded machine (a bound on an event, not a wait).
+START_S = 120
 
 
 @pytest.fixture(scope="module")
@@ -130,6 +132,9 @@ def test_a_call_whose_worker_dies_reruns_elsewhere(cluster, tmp_path):
 def test_calls_whose_workers_all_die_at_once_with_the_shared_data_are_sent_again(cluster, tmp_path):
     # Scattered data cannot be recomputed: the scheduler cancels the calls that needed it (CI saw this
     # as "already forgotten" when both of the test above's calls died at once). They are sent again.
+    # Both calls must run at once: the worker the test above killed is back first (on a loaded machine its
+    # nanny takes a while), else both go to the one worker left, where the first waits for the second.
+    cluster.client.wait_for_workers(2, timeout=START_S)
     got = {}
     cluster.run(_die_together_first_time, [(1,), (2,)], shared=(str(tmp_path),), on_result=got.__setitem__)
     assert got == {0: 10, 1: 20}
