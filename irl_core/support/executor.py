@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import contextlib
+import logging
 import os
 import re
 import socket
@@ -123,8 +124,10 @@ class DaskExecutor:
 
     remote = True
 
-    def __init__(self, client: Any, *, cluster: Any = None, address: str = "") -> None:
+    def __init__(self, client: Any, *, cluster: Any = None, address: str = "",
+                 quiet: contextlib.ExitStack | None = None) -> None:
         self.client, self.cluster, self.address = client, cluster, address
+        self.quiet = quiet or contextlib.ExitStack()  # Dask's logs silenced until `close`
 
     @property
     def workers(self) -> int:
@@ -211,6 +214,7 @@ class DaskExecutor:
         # A client that closed itself (its scheduler lost for good) returns from close() at once and leaves its
         # event loop's thread running: stopped here, so no thread outlives the run (stopping twice does nothing).
         self.client._loop_runner.stop()
+        self.quiet.close()
         if self.cluster is not None:
             self.cluster.close()
 
@@ -275,8 +279,22 @@ def scheduler(address: str | None, *, workers: int | None = None) -> Executor:
     if "://" not in address:
         raise SchedulerError(f"{address}: not local:N nor a scheduler address such as tcp://HOST:8786")
     _listening(address)
+    # Dask's own log lines ("Failed to reconnect to scheduler ...") would come beside careful's one line on stderr;
+    # silenced while the client lives, as a local cluster's are (`silence_logs`): what went wrong is said once.
+    quiet = contextlib.ExitStack()
+    quiet.enter_context(distributed.utils.silence_logging_cmgr(logging.CRITICAL))
     try:
-        client = _client(distributed, address)
+        client = _connected(distributed, address)
+    except BaseException:
+        quiet.close()
+        raise
+    return DaskExecutor(client, address=address, quiet=quiet)
+
+
+def _connected(distributed: Any, address: str) -> Any:
+    """`_client`, its failures as `SchedulerError`."""
+    try:
+        return _client(distributed, address)
     except TimeoutError:
         raise SchedulerError(f"{address}: what accepted the connection did not answer as a Dask scheduler within "
                              f"{CONNECT_TIMEOUT_S:g} s (not a Dask scheduler, or one too busy to answer)") from None
@@ -284,7 +302,6 @@ def scheduler(address: str | None, *, workers: int | None = None) -> Executor:
         raise SchedulerError(f"{address}: no Dask scheduler answered ({_first_line(exc)})") from None
     except Exception as exc:  # noqa: BLE001 - whatever answered there is not a Dask scheduler, a user's error
         raise SchedulerError(f"{address}: what answered is not a Dask scheduler ({_first_line(exc)})") from None
-    return DaskExecutor(client, address=address)
 
 
 def _client(distributed: Any, address: str) -> Any:

@@ -156,12 +156,30 @@ def test_every_worker_killed_mid_report_is_one_line_naming_what_is_missing_and_e
     assert not (study_path.parent / "data" / "report").exists()  # nothing half-written
 
 
-def test_the_scheduler_killed_mid_report_is_one_line_and_exit_2(study_path, cluster, capsys, monkeypatch):
-    _on_first_run(monkeypatch, lambda: _killed(cluster.scheduler))
+# The report in a process of its own, so that its stderr is the user's (Dask's log handler included); the
+# scheduler is killed as the report hands its first fits to the cluster.
+KILL_THEN_REPORT = """
+import os, signal, sys
+from careful_tui.cli import main
+from irl_core.support.executor import DaskExecutor
+real_run = DaskExecutor.run
+def run(self, *args, **kwargs):
+    if not getattr(run, "done", False):
+        run.done = True
+        os.kill(int(sys.argv[3]), signal.SIGKILL)
+    return real_run(self, *args, **kwargs)
+DaskExecutor.run = run
+sys.exit(main(["study", "report", sys.argv[1], "--scheduler", sys.argv[2], "--resamples", "20"]))
+"""
+
+
+def test_the_scheduler_killed_mid_report_is_one_line_and_exit_2(study_path, cluster):
     start = time.perf_counter()
-    assert main(["study", "report", str(study_path), "--scheduler", cluster.address, "--resamples", "20"]) == 2
+    report = subprocess.run([sys.executable, "-c", KILL_THEN_REPORT, str(study_path), cluster.address,
+                             str(cluster.scheduler.pid)], capture_output=True, text=True, timeout=START_S)
     seconds = time.perf_counter() - start
-    line = one_line(capsys.readouterr().err)
+    assert report.returncode == 2, report.stderr
+    line = one_line(report.stderr)  # Dask's own "Failed to reconnect to scheduler" line is not there
     assert cluster.address in line and "scheduler" in line and "not fitted: " in line
     assert seconds < 60, seconds
 
