@@ -86,7 +86,7 @@ def test_a_folder_named_pooled_is_left_out_not_taken_for_the_pool(study):
 
 def test_the_last_line_counts_the_folders_left_out_too(study):
     """A folder whose name cannot be a participant's ("P 07", a typo) holds a participant's files:
-    the command's last line counts it beside the files left out, not only the warning above the table."""
+    the command's last line counts it beside the files left out, not only the warning above the tables."""
     from careful_tui.commands.study_report import left_out_text
 
     recording = write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
