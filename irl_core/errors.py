@@ -18,6 +18,7 @@ The tree; a builtin base in brackets is the one the class had before the tree, k
             LinksError      careful serve's links.csv cannot be read or written
             PlanError       an option of `careful study plan` (`field` names it)
             SchedulerError  a --scheduler that cannot be used
+                ClusterLost       the cluster lost every worker, or its scheduler, mid-run (`missing`: calls not done)
             NotConverged    value iteration stopped at its cap: no expert for this world's gamma (or beta)
             BadInputError   demonstrations that cannot be fitted as given (also a FitError: its `code`)
                 InfeasibleError   no reward satisfies the constraints: the demonstrations or the bound
@@ -171,6 +172,15 @@ class PlanError(InputError):
 
 class SchedulerError(InputError):
     """A scheduler that cannot be used: the address and the reason, in one line."""
+
+
+class ClusterLost(SchedulerError):
+    """The cluster lost every worker, or its scheduler, mid-run: the address, what was lost, and `missing` (the
+    indices of the calls not done)."""
+
+    def __init__(self, message: str, missing: tuple[int, ...] = ()) -> None:
+        super().__init__(message)
+        self.missing = missing
 
 
 class NotConverged(InputError):

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rich import box
-from rich.console import Console
+from rich.console import Console, Group
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
@@ -24,7 +24,7 @@ from careful_tui.errors import EXIT_OK
 from careful_tui.option_words import said
 from careful_tui.render.grid import SYMBOL_NAMES, format_value
 from careful_tui.render.session import outcome_words
-from irl_core.errors import SchedulerError, StudyError, UsageError
+from irl_core.errors import ClusterLost, SchedulerError, StudyError, UsageError
 from irl_core.irl import at_bound
 from irl_core.irl.notes import CODES
 from irl_core.irl.options import FitOptions
@@ -51,11 +51,14 @@ FIGURE_FORMATS = (".png", ".pdf")
 # The codes of the fits' notes on what the table shows already (the method, beta) or that say all is well.
 TABLE_NOTES = frozenset({"auto_chose", "beta_estimated", "beta_interval", "player_model", "player_estimated",
                          "fit_check_passed"})
-TABLE_WIDTH = 200
+# The tables are laid out for a terminal this wide, and a file or a pipe gets them so (rows of a typical study fit).
+TABLE_WIDTH = 100
 INFLUENTIAL_MARK = "†"
 OUTLIER_MARK = "‡"
 CHECK_FAILED_MARK = "✗"
 EXCLUDED_MARK = "(excluded)"
+PREDICTION_ROW = "95% prediction"
+WRAPPING_COLUMNS = ("outcomes", "fit")
 
 
 @dataclass
@@ -85,6 +88,8 @@ def run_study_report(args: argparse.Namespace) -> int:
         raise UsageError(f"--scheduler {printable(str(exc), limit=300)}") from None
     try:
         return _report(args, study, out, options, executor, err, pool_model=pool_model)
+    except ClusterLost as exc:  # every worker, or the scheduler, gone mid-report: nothing was written
+        raise UsageError(f"--scheduler {printable(str(exc), limit=600)}; nothing written") from None
     finally:
         close(executor)
 
@@ -123,7 +128,7 @@ def _report(args: argparse.Namespace, study: LoadedStudy, out: Path, options: Fi
     # The table goes out once the progress display on stderr is gone, so the two never interleave.
     out_console = Console(highlight=False)
     if not out_console.is_terminal:
-        out_console.width = TABLE_WIDTH  # a file or a pipe: one line per row, not wrapped at 80
+        out_console.width = TABLE_WIDTH  # a file or a pipe: as a terminal of 100 columns, not wrapped at 80
     out_console.print(report_table(data, fits))
     for legend in mark_legends(fits):
         out_console.print(Text(legend), soft_wrap=True)
@@ -142,10 +147,10 @@ def _report(args: argparse.Namespace, study: LoadedStudy, out: Path, options: Fi
 
 
 def left_out_text(data: StudyData) -> str:
-    """"; 1 file and 2 folders left out (named above the table)", or "" when nothing was."""
+    """"; 1 file and 2 folders left out (named above the tables)", or "" when nothing was."""
     counts = [(sum(data.left_out.values()), "file"), (data.folders_left_out, "folder")]
     said = " and ".join(plural(n, word) for n, word in counts if n)
-    return f"; {said} left out (named above the table)" if said else ""
+    return f"; {said} left out (named above the tables)" if said else ""
 
 
 def write_report(data: StudyData, fits: list[CellFit], out: Path) -> list[Path]:
@@ -184,18 +189,33 @@ def interval_caption(fits: list[CellFit]) -> str:
     return "[low, high]: " + "; ".join(kinds) if kinds else "No intervals could be computed"
 
 
-def table_caption(data: StudyData, fits: list[CellFit]) -> str:
-    """What the table's brackets, columns and marks mean, as far as this report has them."""
+def played_caption(data: StudyData) -> str:
+    """What the first table's columns and marks mean, and what the participants were shown."""
     careful = "Careful: mean carefulness level one step from a terminal cell"
     if any(cell.hold_ms_next_to_terminal is not None for cell in data.cells):
         careful += " (on a time world, the geometric mean hold)"
-    parts = [interval_caption(fits), careful,
-             "Episodes quit or unfinished are counted, not fitted"]
+    parts = [careful, "Episodes quit or unfinished are counted, not fitted", shown_text(data.study)]
+    if data.left_out:
+        parts.append("*: a file of this participant was left out (named above the tables)")
+    return ". ".join(parts) + "."
+
+
+def shown_text(study: LoadedStudy) -> str:
+    """What the board's legend told every participant, from the study file's ``show_rewards``."""
+    if study.study.show_rewards:
+        return "Participants saw each symbol's reward in the board's legend (the study file's show_rewards = true)"
+    return "Participants saw the symbols' names only, no rewards (the study file's show_rewards = false)"
+
+
+def rewards_caption(fits: list[CellFit]) -> str:
+    """What the second table's brackets mean, as far as this report has them."""
+    parts = [interval_caption(fits)]
+    if any(f.prediction is not None for f in fits):
+        parts.append(f"{PREDICTION_ROW}: where a new participant's rewards would lie, from the population's "
+                     "prediction interval")
     boxed = [f for f in fits if f.intervals is not None and at_bound(f.intervals, f.rmax).any()]
     if boxed:
         parts.append(f"An end at ±{boxed[0].rmax:g} is the fit's bound (--rmax), not a bound from the data")
-    if data.left_out:
-        parts.append("*: a file of this participant was left out (named above the table)")
     return ". ".join(parts) + "."
 
 
@@ -206,48 +226,75 @@ def careful_text(cell: Cell) -> str:
     return "" if cell.careful_next_to_terminal is None else f"{cell.careful_next_to_terminal:.1f}"
 
 
-def report_table(data: StudyData, fits: list[CellFit]) -> Table:
-    """A row per participant and world, then the world's pooled fit; rewards per symbol with intervals."""
-    study = data.study
-    symbols = report_symbols(study, fits)
-    table = Table(title=Text(f"study {printable(study.study.name, limit=80)}: main-phase episodes, fitted per "
-                             "participant and pooled"),
-                  caption=Text(table_caption(data, fits)),
-                  header_style="bold", box=box.SIMPLE_HEAD, padding=(0, 1))
-    for name in ("participant", "world", "episodes", "steps", "outcomes", "careful", "fit"):
-        table.add_column(name, justify="right" if name in ("episodes", "steps", "careful") else "left")
-    for symbol in symbols:
-        table.add_column(symbol_name(symbol), justify="right")
+def report_table(data: StudyData, fits: list[CellFit]) -> Group:
+    """The report's two tables, each readable in `TABLE_WIDTH` columns: how each participant played and was
+    fitted (`played_table`), then the fitted rewards with their intervals (`rewards_table`). The CSV has every
+    column in one table."""
+    return Group(played_table(data, fits), Text(""), rewards_table(data, fits))
+
+
+def _titled(title: str, caption: str) -> Table:
+    return Table(title=Text(title), caption=Text(caption), header_style="bold", box=box.SIMPLE_HEAD, padding=(0, 1))
+
+
+def _who(data: StudyData, cell: Cell, result: CellFit, *, marked: bool = True) -> Text:
+    """The first column: the participant (with their marks, where `marked`), or the pool."""
+    pooled = cell.participant == POOLED
+    if pooled:
+        who = f"population ({result.pooled})" if result.pooled is not None else f"pooled ({cell.participants})"
+    else:
+        who = cell.participant + (" *" if data.left_out.get(cell.participant) else "")
+    for mark, has in ((INFLUENTIAL_MARK, result.influential), (OUTLIER_MARK, result.outlier),
+                      (CHECK_FAILED_MARK, result.fit_check_passed is False), (EXCLUDED_MARK, bool(result.excluded_why))):
+        if has and marked:
+            who += f" {mark}"
+    return Text(who, style="bold" if pooled else "")
+
+
+def _rows(data: StudyData, fits: list[CellFit], table: Table):
+    """Each cell and its fit, world by world (a section each), with the row's style."""
     previous_world = None
     for cell, result in zip(data.cells, fits):
-        world = study.worlds[cell.world_index]
         if previous_world is not None and cell.world_index != previous_world:
             table.add_section()
         previous_world = cell.world_index
         pooled = cell.participant == POOLED
-        who = (f"population ({result.pooled})" if result.pooled is not None else f"pooled ({cell.participants})") \
-            if pooled else cell.participant
-        if not pooled and data.left_out.get(cell.participant):
-            who += " *"
-        if result.influential:
-            who += f" {INFLUENTIAL_MARK}"
-        if result.outlier:
-            who += f" {OUTLIER_MARK}"
-        if result.fit_check_passed is False:
-            who += f" {CHECK_FAILED_MARK}"
-        if result.excluded_why:
-            who += f" {EXCLUDED_MARK}"
+        yield cell, result, "bold" if pooled else ("dim" if result.excluded_why else None)
+
+
+def played_table(data: StudyData, fits: list[CellFit]) -> Table:
+    """A row per participant and world, then the world's pool: episodes, outcomes, carefulness, the fit."""
+    table = _titled(f"study {printable(data.study.study.name, limit=80)}: main-phase episodes, fitted per participant "
+                    "and pooled", played_caption(data))
+    # The short columns never wrap (an id is never cut); the outcomes and the fit wrap within their cells when the
+    # terminal is narrow. The marks are on this table's rows, beside the fit they qualify.
+    table.add_column("participant", no_wrap=True, overflow="fold")
+    for name in ("world", "episodes", "outcomes", "careful", "fit"):  # steps are in the CSV
+        table.add_column(name, justify="right" if name in ("episodes", "careful") else "left",
+                         no_wrap=name not in WRAPPING_COLUMNS)
+    for cell, result, style in _rows(data, fits, table):
         table.add_row(
-            Text(who, style="bold" if pooled else ""), Text(printable(world.name, limit=40)),
-            str(cell.episodes), str(cell.steps), Text(outcomes_text(cell.outcomes, cell.interrupted_outcomes)),
-            careful_text(cell),
-            Text(fit_text(result), style="red" if result.error else ""),
-            *(Text(reward_text(result, symbol)) for symbol in symbols),
-            style="bold" if pooled else ("dim" if result.excluded_why else None),
-        )
-        if pooled and result.prediction is not None:
-            table.add_row(Text("  a new participant"), "", "", "", Text("95% prediction interval"), "", "",
-                          *(Text(prediction_text(result, symbol)) for symbol in symbols))
+            _who(data, cell, result), Text(printable(data.study.worlds[cell.world_index].name, limit=40)),
+            str(cell.episodes), Text(outcomes_text(cell.outcomes, cell.interrupted_outcomes)),
+            careful_text(cell), Text(fit_text(result), style="red" if result.error else ""), style=style)
+    return table
+
+
+def rewards_table(data: StudyData, fits: list[CellFit]) -> Table:
+    """The same rows' fitted rewards per symbol with intervals, and a population's prediction for a new participant
+    (the rows' marks are in `played_table`: each reward column keeps its room)."""
+    symbols = report_symbols(data.study, fits)
+    table = _titled("fitted rewards per participant and pooled", rewards_caption(fits))
+    table.add_column("participant", no_wrap=True, overflow="fold")
+    table.add_column("world", no_wrap=True)
+    for symbol in symbols:
+        table.add_column(symbol_name(symbol), justify="right")
+    for cell, result, style in _rows(data, fits, table):
+        table.add_row(_who(data, cell, result, marked=False),
+                      Text(printable(data.study.worlds[cell.world_index].name, limit=40)),
+                      *(Text(reward_text(result, symbol)) for symbol in symbols), style=style)
+        if cell.participant == POOLED and result.prediction is not None:
+            table.add_row(Text(f"  {PREDICTION_ROW}"), "", *(Text(prediction_text(result, symbol)) for symbol in symbols))
     return table
 
 

@@ -22,11 +22,12 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from irl_core.errors import ClusterLost
 from irl_core.irl import FitError, FitOptions, Note, fit
 from irl_core.irl.choices import DEFAULT_POOL_MODEL, player_model
 from irl_core.irl.choices import pool_model as pool_model_named
@@ -34,10 +35,13 @@ from irl_core.studies.population import pool_participants
 from irl_core.studies.report_cells import POOLED, Cell, StudyData, leave_out, without_participants
 from irl_core.studies.study import Exclusions
 from irl_core.support.executor import Executor, LocalPool
+from irl_core.support.safe_text import printable
 from irl_core.support.stopping import stop_check
 
 # A population needs this many included participants with a fit.
 MIN_POPULATION = 2
+# A cluster lost mid-report names this many of the fits it did not do, then counts the rest.
+MISSING_NAMED = 8
 
 
 def report_options(*, resamples: int = 200, seed: int = 0, rmax: float = 5000.0) -> FitOptions:
@@ -166,9 +170,11 @@ def fit_cell(cell: Cell, options: FitOptions, *, stop: Callable[[], bool] | None
 
 
 def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = None,
-             progress: Callable[[int, int], None] | None = None, executor: Executor | None = None) -> list[CellFit]:
+             progress: Callable[[int, int], None] | None = None, executor: Executor | None = None,
+             world_names: Sequence[str] = ()) -> list[CellFit]:
     """Fit every cell, on `executor` (default: a process pool of `workers`, default the cores); results in
-    `cells`' order. A cell whose worker died and could not be rerun comes back with the error saying so.
+    `cells`' order. A cell whose worker died and could not be rerun comes back with the error saying so; a
+    cluster lost altogether raises `ClusterLost` naming the cells not fitted (`cell_name`, with `world_names`).
 
     The biggest cells (the pools) are sent first, so the last fits to finish are small ones.
     """
@@ -185,17 +191,31 @@ def run_fits(cells: list[Cell], options: FitOptions, *, workers: int | None = No
         if progress:
             progress(done, len(cells))
 
-    if len(cells) == 1 or executor.workers == 1 and not executor.remote:
-        # One cell at a time (a world's pool, fitted first): its bootstrap takes the cores (or the cluster) instead.
-        inside = executor if executor.remote else None
-        for k, i in enumerate(order):
-            returned(k, fit_cell(cells[i], options, workers=workers or os.cpu_count() or 1, executor=inside))
-    else:
-        executor.run(_fit_in_worker, [(cells[i], options) for i in order], on_result=returned,
-                     on_lost=lambda k, reason: returned(k, CellFit(error=f"not fitted: {reason}")))
+    try:
+        if len(cells) == 1 or executor.workers == 1 and not executor.remote:
+            # One cell at a time (a world's pool, fitted first): its bootstrap takes the cores (or the cluster) instead.
+            inside = executor if executor.remote else None
+            for k, i in enumerate(order):
+                returned(k, fit_cell(cells[i], options, workers=workers or os.cpu_count() or 1, executor=inside))
+        else:
+            executor.run(_fit_in_worker, [(cells[i], options) for i in order], on_result=returned,
+                         on_lost=lambda k, reason: returned(k, CellFit(error=f"not fitted: {reason}")))
+    except ClusterLost as exc:
+        missing = [cell_name(cell, world_names) for cell, fitted in zip(cells, fits) if fitted is None]
+        raise ClusterLost(f"{exc}; not fitted: {', '.join(missing[:MISSING_NAMED])}"
+                          + (f" and {len(missing) - MISSING_NAMED} more" if len(missing) > MISSING_NAMED else ""),
+                          tuple(i for i, fitted in enumerate(fits) if fitted is None)) from None
     fitted = [fit for fit in fits if fit is not None]
     assert len(fitted) == len(cells), "every cell came back fitted"
     return fitted
+
+
+def cell_name(cell: Cell, world_names: Sequence[str] = ()) -> str:
+    """ "p001 · mud", "pooled · mud", "pooled without p001 · mud" (the world's index, from 1, without its name)."""
+    who = cell.participant if cell.without is None else f"{cell.participant} without {cell.without}"
+    world = (printable(world_names[cell.world_index], limit=40) if cell.world_index < len(world_names)
+             else f"world {cell.world_index + 1}")
+    return f"{who}{' (rival model)' if cell.rival else ''} · {world}"
 
 
 def _fit_in_worker(cell: Cell, options: FitOptions) -> CellFit:
@@ -237,7 +257,7 @@ def fit_report(data: StudyData, options: FitOptions, *, pool_model: str = DEFAUL
     """
     pool_model_named(pool_model)
     exclusions = data.study.study.exclusions if exclusions is None else exclusions
-    tally = _Tally(progress)
+    tally = _Tally(progress, tuple(world.name for world in data.study.worlds))
     pools = {i: cell for i, cell in enumerate(data.cells) if cell.participant == POOLED}
     choices = dict(zip(pools, tally.run([dataclasses.replace(c, without=None) for c in pools.values()],
                                         dataclasses.replace(options, intervals=False), workers, executor)))
@@ -269,8 +289,9 @@ def fit_report(data: StudyData, options: FitOptions, *, pool_model: str = DEFAUL
 class _Tally:
     """Counts fits across the report's rounds for one progress callback."""
 
-    def __init__(self, progress: Callable[[int, int], None] | None) -> None:
+    def __init__(self, progress: Callable[[int, int], None] | None, world_names: tuple[str, ...] = ()) -> None:
         self.progress, self.done, self.total = progress, 0, 0
+        self.world_names = world_names
 
     def run(self, cells: list[Cell], options: FitOptions, workers: int | None, executor: Executor | None
             ) -> list[CellFit]:
@@ -282,7 +303,8 @@ class _Tally:
             if self.progress:
                 self.progress(self.done, self.total)
 
-        return run_fits(cells, options, workers=workers, progress=counted, executor=executor) if cells else []
+        return run_fits(cells, options, workers=workers, progress=counted, executor=executor,
+                        world_names=self.world_names) if cells else []
 
 
 def excluded_why(cell: Cell, result: CellFit, exclusions: Exclusions) -> str | None:

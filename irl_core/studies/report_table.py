@@ -28,7 +28,8 @@ def report_symbols(study: LoadedStudy, fits: list[CellFit]) -> list[str]:
 def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[list[str]]]:
     """The report's CSV: its columns and one row per cell (world by world: participants, then the pool).
 
-    Columns: study, participant, world_index, world, episodes, steps, interrupted,
+    Columns: study, participant, world_index, world, show_rewards (``true`` or ``false``: whether the board's
+    legend gave the participants each symbol's reward, the study file's), episodes, steps, interrupted,
     ``ended_<T>`` per terminal symbol, step_limit, careful_next_to_terminal, hold_ms_next_to_terminal, method, beta,
     interval_kind, confidence, pool_model (a pool's row: ``population`` or ``shared``), ``reward_<S>``,
     ``reward_<S>_low``, ``reward_<S>_high``, ``reward_<S>_spread``, ``reward_<S>_pred_low``,
@@ -41,7 +42,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
     study = data.study
     terminals = sorted({t for w in study.worlds for t in w.terminal})
     symbols = report_symbols(study, fits)
-    columns = ["study", "participant", "world_index", "world", "episodes", "steps", "interrupted",
+    columns = ["study", "participant", "world_index", "world", "show_rewards", "episodes", "steps", "interrupted",
                *(f"ended_{t}" for t in terminals), "step_limit", "careful_next_to_terminal",
                "hold_ms_next_to_terminal", "method", "beta",
                "interval_kind", "confidence",
@@ -59,7 +60,8 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
                 rewards += [""] * len(REWARD_COLUMNS)
         terminal_counts = [str(cell.outcomes.get(t, 0)) if t in world.terminal else "" for t in terminals]
         rows.append([
-            text_cell(study.study.name), cell.participant, str(cell.world_index), text_cell(world.name), str(cell.episodes),
+            text_cell(study.study.name), cell.participant, str(cell.world_index), text_cell(world.name),
+            _flag(study.study.show_rewards), str(cell.episodes),
             str(cell.steps), str(cell.interrupted), *terminal_counts, str(cell.outcomes.get("step_limit", 0)),
             _number(cell.careful_next_to_terminal), _number(cell.hold_ms_next_to_terminal), result.method, _number(result.beta),
             result.interval_kind or "", _number(result.confidence) if result.interval_kind == "confidence" else "",

@@ -2,8 +2,6 @@
 whole or not at all (Ctrl+C leaves none, or the earlier one as it was), and the same seed gives the same
 check.csv on one worker and on a Dask LocalCluster of two started by the command inside this test."""
 
-import threading
-import time
 
 import pytest
 
@@ -79,17 +77,8 @@ def test_a_recording_under_the_name_is_never_replaced(recording, tmp_path, capsy
     assert code == 2 and "is a recording" in err
 
 
-@pytest.fixture
-def no_thread_left_behind():
-    distributed = pytest.importorskip("distributed")
-    before = threading.active_count()
-    yield
-    distributed.utils._offload_executor.shutdown(wait=True)
-    time.sleep(0.5)
-
-
 def test_one_worker_and_a_local_cluster_of_two_write_the_same_check_csv(recording, tmp_path, capsys,
-                                                                        no_thread_left_behind):
+                                                                        no_dask_thread_left_behind):
     common = [recording, *QUICK, "--datasets", 3, "--players", "loose", "--seed", 5]
     code, out, _ = run(capsys, *common, "--workers", 1, "--out", tmp_path / "one")
     assert code == 0 and "boltzmann: " in out

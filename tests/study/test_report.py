@@ -14,7 +14,7 @@ from careful_tui.cli import main
 from careful_tui.commands.study_report import outcomes_text, report_table
 from careful_tui.render.session import outcome_words
 from irl_core.irl import Note
-from irl_core.studies.report import POOLED, CellFit, fit_cell, gather, report_options, run_fits
+from irl_core.studies.report import POOLED, CellFit, fit_cell, gather, report_options, report_rows, run_fits
 from irl_core.studies.simulated import simulated_participants, write_simulated_participant
 from irl_core.studies.study import load_study
 
@@ -86,7 +86,7 @@ def test_a_folder_named_pooled_is_left_out_not_taken_for_the_pool(study):
 
 def test_the_last_line_counts_the_folders_left_out_too(study):
     """A folder whose name cannot be a participant's ("P 07", a typo) holds a participant's files:
-    the command's last line counts it beside the files left out, not only the warning above the table."""
+    the command's last line counts it beside the files left out, not only the warning above the tables."""
     from careful_tui.commands.study_report import left_out_text
 
     recording = write_block(study, "p01", 0, "main", name="a.jsonl", finished=2)
@@ -95,9 +95,9 @@ def test_the_last_line_counts_the_folders_left_out_too(study):
     (study.out / "P 07" / "a.jsonl").write_bytes(recording.read_bytes())
     data = gather(study)
     assert any("P 07: participant id 'P 07' cannot name a folder" in p for p in data.problems)
-    assert left_out_text(data) == "; 1 folder left out (named above the table)"
+    assert left_out_text(data) == "; 1 folder left out (named above the tables)"
     (study.participant_folder("p01") / "b.jsonl").write_text("not json\n")
-    assert left_out_text(gather(study)) == "; 1 file and 1 folder left out (named above the table)"
+    assert left_out_text(gather(study)) == "; 1 file and 1 folder left out (named above the tables)"
 
 
 def test_parallel_fits_equal_serial_ones(study_path):
@@ -118,10 +118,12 @@ def test_study_report_prints_a_row_per_participant_and_world_and_writes_csv_and_
     assert code == 0
     report = study_path.parent / "data" / "report"
     # The table: each participant in each world, and each world's pool.
-    table = [line for line in out.splitlines() if line.strip().startswith(("sim0", "population", "a new"))]
-    assert len(table) == 10
-    assert sum("population (3)" in line for line in table) == 2
-    assert sum("95% prediction interval" in line for line in table) == 2
+    # Two tables: how each played, then the rewards (with each population's prediction for a new participant).
+    table = [line for line in out.splitlines() if line.strip().startswith(("sim0", "population (", "95% prediction"))]
+    assert len(table) == 8 + 10
+    assert sum("population (3)" in line for line in table) == 4
+    assert sum(line.strip().startswith("95% prediction") for line in table) == 2
+    assert max(len(line) for line in out.splitlines() if line.strip().startswith(("sim0", "population ("))) <= 100
     assert "95% confidence interval" in out
     assert "corrupt.jsonl:2: direction:" in err.replace("\n", "")
     rows = list(csv.DictReader((report / "report.csv").open()))
@@ -338,3 +340,78 @@ def test_outcomes_are_worded_as_replay_and_play_word_them(study, capsys):
     assert outcomes_text({"G": 8, "C": 1, "step_limit": 1}, {}) == \
         "1 fell off the cliff, 8 reached the goal, 1 ran out of steps"
     assert outcomes_text({}, {}) == "-"
+
+
+def _worst_case_fits(data):
+    """Fits with the longest texts a report shows: wide rewards with intervals on three symbols, every mark, an
+    exclusion, and each pool a population with its prediction."""
+    wide = dict(method="maxent", beta=0.27, beta_auto=True, symbols=("C", "U", "G"), confidence=0.95, rmax=5000.0,
+                estimate=np.array([-1935.44, -46.55, 427.3]), interval_kind="confidence",
+                intervals=np.array([[-5000.0, -1325.7], [-3269.2, -18.66], [92.71, 4815.5]]))
+    fits = []
+    for cell in data.cells:
+        if cell.participant == POOLED:
+            fits.append(CellFit(**wide, pool_model="population", pooled=cell.participants,
+                                prediction=np.array([[-5000.0, -83.41], [-1720.5, -0.61], [0.21, 5000.0]])))
+        else:
+            fits.append(CellFit(**wide, influential=True, outlier=True, fit_check_passed=False,
+                                excluded_why="fit check failed"))
+    return fits
+
+
+def test_the_tables_are_readable_in_100_columns(study):
+    """Issue 45, item 18: the report's table needed about 190 columns and wrapped into `particip…` at 110. Now two
+    tables fit a terminal of 100 columns: no line longer, no name cut, every row's id, world and rewards whole on
+    its line, however long the outcomes (which wrap within their cell)."""
+    for participant in ("p0001", "participant-long-7"):
+        write_block(study, participant, 0, "main", name="a.jsonl", finished=9, then="quit")
+        write_block(study, participant, 0, "main", name="b.jsonl", first=10, then="crash")
+        write_block(study, participant, 1, "main", name="c.jsonl", finished=3)
+    data = gather(study)
+    fits = _worst_case_fits(data)
+    console = Console(width=100, file=io.StringIO(), record=True)
+    console.print(report_table(data, fits))
+    lines = console.export_text().splitlines()
+    assert max(len(line) for line in lines) <= 100
+    assert "…" not in "\n".join(lines)
+    headers = [line.split() for line in lines if line.strip().startswith("participant ")]
+    assert headers == [["participant", "world", "episodes", "outcomes", "careful", "fit"],
+                       ["participant", "world", "cliff", "mud", "goal"]]
+    for cell in data.cells:
+        who = "population" if cell.participant == POOLED else cell.participant
+        rows = [line for line in lines if line.strip().startswith(who + " ")
+                and f" {data.study.worlds[cell.world_index].name} " in line]
+        assert len(rows) == 2, (who, rows)  # one in each table
+        played, rewards = rows
+        assert f" {cell.episodes} " in played and "maxent β 0.27" in played  # the steps are in the CSV
+        for text in ("-1935 [-5000, -1326]", "-46.5 [-3269, -18.7]", "427 [92.7, 4816]"):
+            assert text in rewards
+        if who != "population":  # the marks beside the fit they qualify; the rewards keep their room
+            assert all(mark in played and mark not in rewards for mark in ("†", "‡", "✗", "(excluded)"))
+    predictions = [line for line in lines if line.strip().startswith("95% prediction")]
+    assert len(predictions) == 2 and all("[-5000, -83.4]" in line and "[0.2, 5000]" in line for line in predictions)
+    # The longest outcomes wrap within their cell, whole words on each line: read down the column, they are whole.
+    start = lines[2].index("outcomes")
+    column = " ".join(" ".join(line[start:start + 16].split()) for line in lines[4:10])
+    assert "9 fell off the cliff; 1 quit, 1 unfinished" in column, column
+
+
+@pytest.mark.parametrize("show_rewards", [True, False])
+def test_the_report_says_whether_the_participants_saw_the_rewards(tmp_path, show_rewards):
+    """Issue 45, item 14: the study file's show_rewards decides both front ends' legend; the report says which the
+    participants saw, in the CSV (a column, every row) and the first table's caption."""
+    path = write_study(tmp_path)
+    path.write_text(path.read_text() + f"show_rewards = {str(show_rewards).lower()}\n")
+    study = load_study(path)
+    write_block(study, "p1", 0, "main", name="a.jsonl", finished=2)
+    data = gather(study)
+    fits = [CellFit(error="not fitted here")] * len(data.cells)
+    columns, rows = report_rows(data, fits)
+    assert {row[columns.index("show_rewards")] for row in rows} == {str(show_rewards).lower()}
+    console = Console(width=100, file=io.StringIO(), record=True)
+    console.print(report_table(data, fits))
+    text = " ".join(console.export_text().split())
+    said = ("Participants saw each symbol's reward in the board's legend (the study file's show_rewards = true)"
+            if show_rewards else "Participants saw the symbols' names only, no rewards (the study file's show_rewards = "
+            "false)")
+    assert said in text

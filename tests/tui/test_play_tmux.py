@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from play_fixtures import corner_world_toml
-from tmux_terminal import needs_tmux, terminal
+from tmux_terminal import TIMEOUT_S, needs_tmux, terminal
 
 from irl_core.recordings.demonstrations import Recording, read_recording
 
@@ -23,7 +23,7 @@ def play(tmp_path: Path):
                                "--player", "e2e", "--seed", "3"])
 
 
-def finished_recording(out: Path, timeout: float = 10.0) -> Recording:
+def finished_recording(out: Path, timeout: float = TIMEOUT_S) -> Recording:
     """The session file in `out`, once it ends with an episode end."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
