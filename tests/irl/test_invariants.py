@@ -166,3 +166,14 @@ def test_worlds_whose_care_cost_fixes_the_units_never_say_it_does_not(name):
     free = world.model_copy(update={"cost_per_second": 0.0} if world.care == "time" else {"cost_per_level": 0.0})
     assert units_unfixed_why(free) is not None
     assert np.isfinite(world.cost_per_second)
+
+
+@pytest.mark.parametrize(("bounds", "flat"), [
+    ([[1000.0 - 5e-4, 1000.0]], [0]),  # refits that all but stayed at the bound (found by bench_invariants, fit 484)
+    ([[1000.0 - 5e-4, 1000.0 - 1e-4]], [1]),  # bounded below only, its lower end at the bound it sits on
+])
+def test_a_point_stuck_at_the_bound_with_an_interval_of_no_width_gets_the_whole_range(bounds, flat):
+    from irl_core.irl.intervals.honest import honest_intervals
+
+    honest = honest_intervals(np.array([1000.0]), np.array(bounds), flat=np.array(flat), rmax=1000.0)
+    assert honest.bounds.tolist() == [[-1000.0, 1000.0]] and honest.opened.tolist() == [0]

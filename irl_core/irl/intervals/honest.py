@@ -50,11 +50,13 @@ def honest_intervals(theta: np.ndarray, bounds: np.ndarray, *, flat: np.ndarray 
     out = np.array(bounds, dtype=float, copy=True)
     sides = np.zeros(len(theta)) if flat is None else np.asarray(flat)
     slack = TOLERANCE * max(rmax, 1.0)
-    # A point at ±rmax whose refits never left the bound: the bound set it, and the interval says nothing.
-    stuck = at_bound(theta, rmax) & (out[:, 1] - out[:, 0] <= slack)
-    opened = np.flatnonzero(((sides < 0) & (out[:, 0] > -rmax)) | ((sides > 0) & (out[:, 1] < rmax)) | stuck)
+    one_side = ((sides < 0) & (out[:, 0] > -rmax)) | ((sides > 0) & (out[:, 1] < rmax))
     out[sides < 0, 0] = -rmax
     out[sides > 0, 1] = rmax
+    # A point at ±rmax whose interval has no width (its refits never left the bound, or it is open towards the
+    # bound it sits on): the bound set it, and the interval says nothing. `ZERO_WIDTH`, as the rules judge width.
+    stuck = at_bound(theta, rmax) & (out[:, 1] - out[:, 0] <= ZERO_WIDTH * max(rmax, 1.0))
+    opened = np.flatnonzero(one_side | stuck)
     out[stuck] = [-rmax, rmax]
     widened = np.flatnonzero((theta < out[:, 0] - slack) | (theta > out[:, 1] + slack))
     out[:, 0] = np.minimum(out[:, 0], theta)
