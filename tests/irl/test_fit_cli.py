@@ -195,14 +195,15 @@ def test_bad_input_with_a_terminal_exits_2_before_the_view(tmp_path, capsys, ope
 
 
 def test_the_interval_chart_marks_an_open_end_even_under_the_estimate(capsys, mud_file):
-    """On mud every cliff cell's identified set runs to -rmax, and its estimate (and the truth,
-    -1000) sits at that end: the ◀ that says "no lower bound" must still be drawn."""
+    """On mud every cliff cell's identified set runs to -rmax, and its truth (-1000) sits at that end: the ◀ that
+    says "no lower bound" must still be drawn beside it. A reward bounded on one side is its bound, so no estimate
+    is marked (the truth's ○ only)."""
     code, out, err = run(capsys, mud_file, "--intervals", "--no-view")
     assert code == 0, err
     chart = [line for line in out.splitlines() if line.startswith("C (") and "─" in line]
     assert len(chart) == 4
     for line in chart:
-        assert "◀" in line and ("◉" in line or "●" in line), line
+        assert "◀" in line and "○" in line and "●" not in line and "◉" not in line, line
         assert "▶" not in line
     goal = next(line for line in out.splitlines() if line.startswith("G (") and "─" in line)
     assert "◀" not in goal and "▶" not in goal
