@@ -37,10 +37,10 @@ import os
 import re
 import shutil
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -141,17 +141,24 @@ def write_csv(path: str | Path, recordings: list[Recording], *, progress: Callab
     """
     path = Path(path)
     columns = csv_columns(recordings)
-    rows = 0
     with built_beside(path) as temporary, open(temporary, "x", encoding="utf-8", newline="") as handle:
-        writer = csv_writer(handle, lineterminator="\r\n")
-        writer.writerow(header(columns))
-        for recording in recordings:
-            writer.writerows(csv_rows(recording, study_columns=STUDY_COLUMNS[0] in columns,
-                                      time_columns=TIME_COLUMNS[0] in columns))
-            rows += len(recording.steps)
-            if progress:
-                progress(rows)
+        rows = _write_table(handle, columns, recordings, done=0, progress=progress)
     return rows
+
+
+def _write_table(handle: TextIO, columns: Sequence[str], recordings: Sequence[Recording], *, done: int,
+                 progress: Callable[[int], None] | None) -> int:
+    """The CSV table of `recordings` (their steps, `columns`) to `handle`; returns `done` plus the rows written,
+    the count `progress` is called with after each recording."""
+    writer = csv_writer(handle, lineterminator="\r\n")
+    writer.writerow(header(columns))
+    for recording in recordings:
+        writer.writerows(csv_rows(recording, study_columns=STUDY_COLUMNS[0] in columns,
+                                  time_columns=TIME_COLUMNS[0] in columns))
+        done += len(recording.steps)
+        if progress:
+            progress(done)
+    return done
 
 
 # ---------------------------------------------------------------------------- Psych-DS
@@ -227,14 +234,7 @@ def write_psych_ds(out: str | Path, recordings: list[Recording], *, name: str, d
             json.dumps(document, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
         for file_name, group in files.items():
             with open(temporary / "data" / file_name, "x", encoding="utf-8", newline="") as handle:
-                writer = csv_writer(handle, lineterminator="\r\n")
-                writer.writerow(header(columns))
-                for recording in group:
-                    writer.writerows(csv_rows(recording, study_columns=STUDY_COLUMNS[0] in columns,
-                                              time_columns=TIME_COLUMNS[0] in columns))
-                    written += len(recording.steps)
-                    if progress:
-                        progress(written)
+                written = _write_table(handle, columns, group, done=written, progress=progress)
             rows[file_name] = sum(len(recording.steps) for recording in group)
     return rows
 

@@ -12,12 +12,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from bench.bench_invariants import play  # the bench draws its players the same way
 from irl_core.errors import InputError
 from irl_core.irl import fit
 from irl_core.irl.identification import units_unfixed_why
 from irl_core.irl.intervals.honest import invariant_violations
 from irl_core.irl.notes import Note
-from irl_core.players.experts import boltzmann_policy, demonstrations_of, optimal_policy, rollouts, simulate_to_file
+from irl_core.players.experts import simulate_to_file
 from irl_core.players.person_like import person_like
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.worlds.mdp import build_mdp
@@ -53,17 +54,6 @@ def worlds(draw, *, levels=None):
         return draw(st.nothing())
 
 
-def demonstrations(world, player, episodes, seed):
-    mdp = build_mdp(world)
-    if player == "optimal":
-        policy = optimal_policy(mdp)
-    elif player == "boltzmann":
-        policy = boltzmann_policy(mdp, beta=0.5)
-    else:
-        policy = person_like(mdp, player).choose
-    return demonstrations_of(mdp, rollouts(mdp, policy, episodes=episodes, seed=seed))
-
-
 def fitted(demos, **options):
     """The fit, or None where the recordings are the user's error to fix (an lp with no solution, no steps)."""
     try:
@@ -89,21 +79,21 @@ def assert_honest(result):
 @EXAMPLES
 @given(world=worlds(), episodes=st.integers(3, 20), seed=st.integers(0, 2**16), tie=st.booleans())
 def test_lp_and_its_identified_set_on_optimal_play(world, episodes, seed, tie):
-    assert_honest(fitted(demonstrations(world, "optimal", episodes, seed), method="lp", tie=tie))
+    assert_honest(fitted(play(world, "optimal", episodes, seed), method="lp", tie=tie))
 
 
 @EXAMPLES
 @given(world=worlds(), episodes=st.integers(3, 20), seed=st.integers(0, 2**16),
        player=st.sampled_from(["optimal", "boltzmann"]))
 def test_loss_and_its_bootstrap(world, episodes, seed, player):
-    assert_honest(fitted(demonstrations(world, player, episodes, seed), method="loss", tie=True))
+    assert_honest(fitted(play(world, player, episodes, seed), method="loss", tie=True))
 
 
 @EXAMPLES
 @given(world=worlds(), episodes=st.integers(3, 20), seed=st.integers(0, 2**16),
        beta=st.sampled_from(["auto", 0.5]), tie=st.booleans())
 def test_maxent_with_beta_given_or_estimated(world, episodes, seed, beta, tie):
-    assert_honest(fitted(demonstrations(world, "boltzmann", episodes, seed), method="maxent", beta=beta, tie=tie,
+    assert_honest(fitted(play(world, "boltzmann", episodes, seed), method="maxent", beta=beta, tie=tie,
                          player_model="boltzmann"))
 
 
@@ -112,7 +102,7 @@ def test_maxent_with_beta_given_or_estimated(world, episodes, seed, beta, tie):
        player=st.sampled_from(["loose", "timed", "hasty"]),
        model=st.sampled_from(["ends", "hand", "person", "naive", "auto"]))
 def test_each_model_of_people_on_person_like_play(world, episodes, seed, player, model):
-    assert_honest(fitted(demonstrations(world, player, episodes, seed), method="maxent", tie=True,
+    assert_honest(fitted(play(world, player, episodes, seed), method="maxent", tie=True,
                          player_model=model))
 
 
@@ -120,7 +110,7 @@ def test_each_model_of_people_on_person_like_play(world, episodes, seed, player,
 @given(world=worlds(levels=1), episodes=st.integers(3, 15), seed=st.integers(0, 2**16),
        known=st.sampled_from([(), (("G", 100.0),)]))
 def test_one_level_worlds_relative_or_in_points_with_a_known_reward(world, episodes, seed, known):
-    result = fitted(demonstrations(world, "loose", episodes, seed), method="auto", tie=True, known=known)
+    result = fitted(play(world, "loose", episodes, seed), method="auto", tie=True, known=known)
     assert_honest(result)
     if result is not None and known:
         assert result.reward_unit == "points" and "rewards_held" in [note.code for note in result.notes]
@@ -143,7 +133,7 @@ def test_timing_on_time_worlds_with_and_without_a_cost(tmp_path_factory, cost, e
 
 
 def test_the_checker_names_a_point_outside_its_interval_and_a_note_that_contradicts_the_table():
-    demos = demonstrations(BUILTIN_WORLDS["mud"], "loose", 20, 0)
+    demos = play(BUILTIN_WORLDS["mud"], "loose", 20, 0)
     result = fit(demos, **FAST, tie=True)
     assert invariant_violations(result) == []
     theta = result.theta.copy()
