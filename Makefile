@@ -10,8 +10,10 @@ play: $(STAMP)
 	$(BIN)/careful play
 
 # Lint and types first: a failure there is quicker to read than the tests it would break.
+# Two processes; a file's tests stay on one (--dist loadfile), so a file's fixtures (a server, a
+# tmux session, a cluster) are made once and its tests never race each other.
 test: lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check irl_core careful_tui bench

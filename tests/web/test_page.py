@@ -7,7 +7,6 @@ from __future__ import annotations
 import re
 import time
 
-import pytest
 from web.conftest import recorded_lines
 
 from careful_tui.web.session_adapter import browser_profile
@@ -80,16 +79,19 @@ def test_holds_are_recorded_to_within_20_ms_exact_at_the_timings_level(page, liv
             shortest, longest = timed_hold(page, "ArrowUp", ms)  # up bumps the hall's top wall: the episode goes on
             step = wait_for(lambda: steps_of(live_server, "p001")[before:], f"the {ms} ms hold to be recorded")[0]
             assert shortest - 2 <= step["hold_ms"] <= longest + 2
-            on_time[ms] = step
+            on_time[ms] = (step, shortest, longest)
             if abs(step["hold_ms"] - ms) <= 20:
                 break
-    steps = [on_time[ms] for ms in (50, 300, 800)]
-    assert [step["hold_ms"] for step in steps] == pytest.approx([50, 300, 800], abs=20)
+    # Within 20 ms of the script whenever the driver kept to it (its calls began and returned within 20 ms of
+    # the script); on a busy machine they can be late in every try, and then the window above is the check.
+    for ms, (step, shortest, longest) in on_time.items():
+        kept_to_script = ms - 20 <= shortest and longest <= ms + 20
+        assert abs(step["hold_ms"] - ms) <= 20 or not kept_to_script, (ms, step["hold_ms"], shortest, longest)
     recorded = steps_of(live_server, "p001")
     assert all(step["hold_exact"] for step in recorded)
     assert [step["carefulness"] for step in recorded] == [browser_profile(14).level_for(s["hold_ms"]) for s in recorded]
     # The terminal's scale: under 500 ms is a tap, 800 ms is level 4 (as in `careful play`).
-    assert [step["carefulness"] for step in steps] == [1, 1, 4]
+    assert [browser_profile(14).level_for(ms) for ms in (50, 300, 800)] == [1, 1, 4]
     page.locator("#hold-info", has_text="last move").wait_for()
 
 
