@@ -166,6 +166,12 @@ class ReachWorld(_Strict):
         return "\n".join(lines) + "\n"
 
 
+def endpoint_of(world: ReachWorld, aim: ArrayLike, duration_ms: float, rng: np.random.Generator) -> np.ndarray:
+    """(2,) where a simulated reach aimed at `aim` (2,) taking `duration_ms` lands: aim + N(0, sd^2) per axis
+    (the computer reachers' and a person's reach in play alike)."""
+    return np.asarray(aim, dtype=float) + rng.normal(0.0, float(world.sd(aim, duration_ms)), 2)
+
+
 def _builtin(name: str, penalty: float) -> ReachWorld:
     # Dean, Wu & Maloney (2007)'s layout scaled to the field: a target with a penalty circle
     # overlapping it by half a radius on the left, reached from below.
