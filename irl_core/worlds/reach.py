@@ -193,8 +193,8 @@ REACH_PURPOSES: dict[str, str] = {
     "reach-severe": "the same with a severe penalty (-5000)",
 }
 
-REFUSED = ("is a reach world (care = \"reach\"); play, serve and studies do not take reach worlds yet "
-           "(careful worlds, simulate and fit do)")
+REFUSED = ("is a reach world (care = \"reach\"); serve and studies do not take reach worlds yet "
+           "(careful play in a terminal, worlds, simulate and fit do)")
 
 
 def is_reach_data(data: object) -> bool:
