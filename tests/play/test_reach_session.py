@@ -226,3 +226,21 @@ def test_a_lone_late_repeat_after_a_launch_is_dropped_without_a_word(tmp_path):
     clock.advance(2.0)  # a tap of its own, long after: too quick, and said
     assert legacy_reach(s, clock, repeats=0) is None
     assert s.view().message.text == too_quick_words(WORLD, inferred=True)
+
+
+@pytest.mark.parametrize("first_repeat", [0.45, 0.75, 1.1])
+def test_a_late_first_repeat_still_times_the_hold_from_its_press(tmp_path, first_repeat):
+    # A slow keyboard or a busy machine: the first autorepeat comes late, the rest 33 ms apart; the screen
+    # ticks every 10 ms. The hold is one reach, timed from the press, not a string of refused taps.
+    s, clock = session(tmp_path)
+    start = clock.now
+    s.press("space", at=start)
+    repeats = [start + first_repeat + 0.033 * k for k in range(8)]
+    launched = []
+    while clock.now < start + 3.0:
+        clock.advance(0.01)
+        while repeats and repeats[0] <= clock.now:
+            launched.append(s.press("space", at=repeats.pop(0)))
+        launched.append(s.tick(until=clock.now))
+    (step,) = [step for step in launched if step is not None]
+    assert step.duration_ms == pytest.approx((first_repeat + 7 * 0.033 + 0.033 / 2) * 1000, abs=1)
