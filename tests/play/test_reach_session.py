@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from irl_core.play.reach_session import (
     ReachOptions,
@@ -244,3 +246,20 @@ def test_a_late_first_repeat_still_times_the_hold_from_its_press(tmp_path, first
         launched.append(s.tick(until=clock.now))
     (step,) = [step for step in launched if step is not None]
     assert step.duration_ms == pytest.approx((first_repeat + 7 * 0.033 + 0.033 / 2) * 1000, abs=1)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(st.floats(-500, 500), st.floats(-500, 500), st.floats(0, 3000)), min_size=1, max_size=8))
+def test_any_play_records_exactly_the_reaches_within_the_limits(tmp_path_factory, plays):
+    tmp_path = tmp_path_factory.mktemp("any")
+    s, clock = session(tmp_path, trials=len(plays))
+    for dx, dy, ms in plays:
+        s.move_aim(dx, dy)
+        assert 0 <= s.aim[0] <= WORLD.field[0] and 0 <= s.aim[1] <= WORLD.field[1]
+        exact_reach(s, clock, ms)
+        clock.advance(1.0)
+    s.quit()
+    within = [ms for _, _, ms in plays if WORLD.min_ms <= round(ms, 3) <= WORLD.max_ms]
+    recorded = read_reach_recording(s.recorder.paths[0]).steps if s.recorder.paths else []
+    assert [step.duration_ms for step in recorded] == pytest.approx(within, abs=1e-3)
+    assert [step.episode for step in recorded] == list(range(len(within)))
