@@ -28,17 +28,20 @@ from careful_tui.arguments import options_from_args
 from careful_tui.render.palette import BACKGROUND, BAD, FRAME, GOOD, INK, NOTE, PANEL, SLIP, SURFACE, WARN
 from careful_tui.screens.fit import FitScreen
 from careful_tui.screens.play import PlayScreen
+from careful_tui.screens.reach import ReachScreen
 from careful_tui.screens.replay import FRAME_S, ReplayScreen
 from careful_tui.screens.study import StudyScreen
 from careful_tui.version import app_version
 from irl_core.irl import FitResult
 from irl_core.play.hold import Clock, HoldProfile
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE
+from irl_core.play.reach_session import ReachOptions, new_reach_session
 from irl_core.play.session import PlayOptions, new_session
 from irl_core.recordings.demonstrations import Demonstrations, Recording
 from irl_core.recordings.lines import StudyTag
 from irl_core.studies.flow import StudyFlow
 from irl_core.studies.study import LoadedStudy
+from irl_core.worlds.reach import ReachWorld
 from irl_core.worlds.world import World
 
 CAREFUL_THEME = Theme(
@@ -126,6 +129,16 @@ def new_play_screen(world: World, *, out: str | Path, player: str, seed: int, in
     session = new_session(world, out=out, seed=seed, options=options, clock=clock, app_version=app_version(),
                           study=study, first_episode=first_episode)
     return PlayScreen(session, event_times=event_times)
+
+
+def make_reach_app(world: ReachWorld, *, out: str | Path, player: str, seed: int, trials: int,
+                   clock: Clock = time.monotonic, event_times: bool | None = None,
+                   driver_class: type[Driver] | None = None) -> CarefulApp[ReachScreen]:
+    """The app on the reach screen: a block of `trials` reaches recording to a new file in `out` (the CLI and
+    the tests both build it here)."""
+    session = new_reach_session(world, out=out, seed=seed, app_version=app_version(), clock=clock,
+                                options=ReachOptions(player=player, trials=trials))
+    return CarefulApp(ReachScreen(session, event_times=event_times), driver_class=driver_class)
 
 
 def make_study_app(study: LoadedStudy, participant: str, *, clock: Clock = time.monotonic,

@@ -34,6 +34,7 @@ from careful_tui.version import app_version
 from irl_core.errors import InputError
 from irl_core.irl.choices import DEFAULT_POOL_MODEL, LEVEL_MODELS, PLAN_FITS, POOL_MODELS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
+from irl_core.play.reach_session import DEFAULT_TRIALS
 from irl_core.players.person_like import KINDS as PERSON_LIKE
 from irl_core.players.person_like import LEVEL_KINDS
 from irl_core.support.safe_text import one_line
@@ -66,7 +67,9 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_play(commands: Any) -> None:
     play = commands.add_parser("play", help="play the game and record every step", description=(
         "Play the cliff gridworld. Arrow keys move; hold a key longer to be more careful "
-        "(careful moves cost more and slip less). Every step is saved as JSONL."))
+        "(careful moves cost more and slip less). Every step is saved as JSONL. On a reach world "
+        "(reach, reach-mild, reach-severe or a reach world file) the arrow keys aim, holding space times "
+        "the reach and letting go launches it (docs/reach.md)."))
     play.add_argument("--world", default="paper", metavar="NAME|FILE", help="built-in world or TOML file (default: paper)")
     play.add_argument("--player", type=text_argument, default=None, help="name recorded in the session (default: your user name)")
     play.add_argument("--out", type=Path, default=Path("recordings"), metavar="DIR",
@@ -76,6 +79,8 @@ def _add_play(commands: Any) -> None:
         for mode in INPUT_MODES.values()))
     play.add_argument("--seed", type=seed_int, default=None, help="seed for the world's randomness (default: random)")
     play.add_argument("--calibrate", action="store_true", help="measure your keyboard's autorepeat before playing")
+    play.add_argument("--trials", type=positive_int, default=None, metavar="N",
+                      help=f"reach worlds: the reaches in the block (default {DEFAULT_TRIALS})")
 
 
 def _add_replay(commands: Any) -> None:

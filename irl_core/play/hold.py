@@ -297,11 +297,13 @@ class HoldDetector(SilenceEnded):
     """
 
     mode = "hold"
-    keys = frozenset(DIRECTIONS)
 
-    def __init__(self, profile: HoldProfile, *, clock: Clock = time.monotonic) -> None:
+    def __init__(self, profile: HoldProfile, *, clock: Clock = time.monotonic,
+                 keys: frozenset[str] = frozenset(DIRECTIONS)) -> None:
         self.profile = profile
         self._clock = clock
+        # The keys whose holds it times: the arrows in play, the launch keys of a reach (`irl_core.play.reach_session`).
+        self.keys = keys
         self._pending: PendingHold | None = None
         self._cancelled: PendingHold | None = None
         self._tail: PendingHold | None = None

@@ -21,7 +21,7 @@ from irl_core.reach.gain import ChoiceGrid, best_choice, choice_grid, soft_choic
 from irl_core.recordings.reach_lines import ReachHeader, ReachStep
 from irl_core.recordings.writer import RecordingWriter
 from irl_core.support.safe_files import built_beside
-from irl_core.worlds.reach import ReachWorld
+from irl_core.worlds.reach import ReachWorld, endpoint_of
 
 
 class Reacher(Protocol):
@@ -69,11 +69,6 @@ class SoftReacher:
         k, j = np.unravel_index(rng.choice(self._probabilities.size, p=self._probabilities), self.grid.hits.shape[1:])
         aim = np.clip(self.grid.aims[k] + rng.normal(0.0, self.aim_sd, 2), 0.0, self.extent)
         return aim, float(self.grid.durations[j])
-
-
-def endpoint_of(world: ReachWorld, aim: np.ndarray, duration_ms: float, rng: np.random.Generator) -> np.ndarray:
-    """(2,) where a simulated reach aimed at `aim` (2,) taking `duration_ms` lands: aim + N(0, sd^2) per axis."""
-    return aim + rng.normal(0.0, float(world.sd(aim, duration_ms)), 2)
 
 
 def reacher(world: ReachWorld, policy: str, *, beta: float = 1.0) -> Reacher:

@@ -98,7 +98,7 @@ class RecordingWriter:
         return self._sync_episodes
 
     @classmethod
-    def create_in(cls, folder: str | Path, header: SessionHeader) -> RecordingWriter:
+    def create_in(cls, folder: str | Path, header: SessionHeader | ReachHeader) -> RecordingWriter:
         """A writer for a new file in `folder` (created if missing), named by the time and player.
 
         Two sessions started in the same second get distinct names (`-2`, `-3`, ...).
@@ -217,7 +217,7 @@ class SessionRecorder:
     `notices` tells the player. A file that cannot be written at all raises `OSError`.
     """
 
-    def __init__(self, folder: str | Path, header: SessionHeader) -> None:
+    def __init__(self, folder: str | Path, header: SessionHeader | ReachHeader) -> None:
         self.folder = Path(folder)
         self.header = header
         self.paths: list[Path] = []
@@ -232,7 +232,7 @@ class SessionRecorder:
         """The file being written, or None before the first line (or after a header change)."""
         return None if self._writer is None else self._writer.path
 
-    def set_header(self, header: SessionHeader) -> None:
+    def set_header(self, header: SessionHeader | ReachHeader) -> None:
         self.close()
         self.header = header
 
@@ -244,6 +244,10 @@ class SessionRecorder:
 
     def write_trial(self, trial: CalibrationTrial) -> None:
         self._record(trial, lambda writer: writer.write_trial(trial))
+
+    def write_reach(self, step: ReachStep) -> None:
+        """A reach trial, synced at once as an episode's end is: a trial is an episode (docs/reach.md)."""
+        self._record(step, lambda writer: writer.write_encoded(_encoded(step), episode_end=True))
 
     def close(self) -> None:
         if self._writer is None:

@@ -166,6 +166,12 @@ class ReachWorld(_Strict):
         return "\n".join(lines) + "\n"
 
 
+def endpoint_of(world: ReachWorld, aim: ArrayLike, duration_ms: float, rng: np.random.Generator) -> np.ndarray:
+    """(2,) where a simulated reach aimed at `aim` (2,) taking `duration_ms` lands: aim + N(0, sd^2) per axis
+    (the computer reachers' and a person's reach in play alike)."""
+    return np.asarray(aim, dtype=float) + rng.normal(0.0, float(world.sd(aim, duration_ms)), 2)
+
+
 def _builtin(name: str, penalty: float) -> ReachWorld:
     # Dean, Wu & Maloney (2007)'s layout scaled to the field: a target with a penalty circle
     # overlapping it by half a radius on the left, reached from below.
@@ -187,8 +193,8 @@ REACH_PURPOSES: dict[str, str] = {
     "reach-severe": "the same with a severe penalty (-5000)",
 }
 
-REFUSED = ("is a reach world (care = \"reach\"); play, serve and studies do not take reach worlds yet "
-           "(careful worlds, simulate and fit do)")
+REFUSED = ("is a reach world (care = \"reach\"); serve and studies do not take reach worlds yet "
+           "(careful play in a terminal, worlds, simulate and fit do)")
 
 
 def is_reach_data(data: object) -> bool:

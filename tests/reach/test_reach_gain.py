@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from irl_core.reach.gain import best_choice, choice_grid, expected_gain, hit_chances, soft_choice_log_probabilities
-from irl_core.reach.players import OptimalReacher, SoftReacher, endpoint_of
-from irl_core.worlds.reach import REACH_WORLDS
+from irl_core.reach.players import OptimalReacher, SoftReacher
+from irl_core.worlds.reach import REACH_WORLDS, endpoint_of
 
 WORLD = REACH_WORLDS["reach"]
 
