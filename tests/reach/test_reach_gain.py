@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from irl_core.reach.gain import best_choice, choice_grid, expected_gain, hit_chances, soft_choice_log_probabilities
-from irl_core.reach.players import OptimalReacher, SoftReacher, endpoint_of
+from irl_core.reach.players import OptimalReacher, SoftReacher
 from irl_core.worlds.reach import REACH_WORLDS
 
 WORLD = REACH_WORLDS["reach"]
@@ -88,5 +88,5 @@ def test_the_reachers_choose_on_the_grid_and_scatter_by_the_spread_law():
     assert all(aim.tolist() in lattice for aim, _ in chosen[:20])  # without aim noise, the grid's own aims
     assert len({duration for _, duration in chosen}) > 1
     aim, duration = np.array([200.0, 80.0]), 400.0
-    ends = np.array([endpoint_of(WORLD, aim, duration, rng) for _ in range(4000)])
+    ends = np.array([WORLD.endpoint(aim, duration, rng) for _ in range(4000)])
     assert ends.std(axis=0) == pytest.approx([float(WORLD.sd(aim, duration))] * 2, rel=0.06)
