@@ -1,5 +1,5 @@
 """`careful fit` on reach recordings (docs/reach.md): read them, fit each symbol's points and the spread law,
-print the answer, write --json and draw --figure."""
+write --json and draw --figure, then open the reach fit view (a terminal) or print the answer (--no-view)."""
 
 from __future__ import annotations
 
@@ -24,8 +24,8 @@ from irl_core.support.safe_text import printable
 USED = ("confidence", "known", "intervals")
 
 
-def run_reach_fit(args: argparse.Namespace, err: Console) -> int:
-    """Fit reach recordings as `careful fit` asks; every file must be one."""
+def run_reach_fit(args: argparse.Namespace, err: Console, *, view: bool) -> int:
+    """Fit reach recordings as `careful fit` asks (every file must be one), and open the view if `view`."""
     for path in args.files:
         if not is_reach_recording(path):
             raise UsageError(f"{printable(str(path), limit=160)} is not a reach recording; careful fit fits the "
@@ -67,5 +67,15 @@ def run_reach_fit(args: argparse.Namespace, err: Console) -> int:
         from careful_tui.render.figures.style import save_figure
 
         save_figure(reach_fit_figure(fit, reaches), args.figure, option="--figure", inputs=args.files)
+    if view:
+        # Imported here for start-up speed: Textual loads only when the view opens.
+        from careful_tui.app import make_reach_fit_app
+        from careful_tui.keys.kitty import PassiveKittyDriver
+
+        app = make_reach_fit_app(args, fit, reaches, driver_class=PassiveKittyDriver)
+        app.run()
+        for path in dict.fromkeys(app.first_screen.saved):
+            print(f"saved {printable(str(path))}")
+        return EXIT_OK
     print_reach_fit(Console(highlight=False), fit)
     return EXIT_OK

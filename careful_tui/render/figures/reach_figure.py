@@ -10,7 +10,6 @@ only is drawn as its bound, never with a point.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -30,12 +29,19 @@ from careful_tui.render.figures.intervals import (
     worst_first,
 )
 from careful_tui.render.figures.style import INK, PAGE_WIDTH, QUIET, figure_style, new_figure, plain
-from careful_tui.render.reach_fit import point_sides, reach_fit_title, shown_points
+from careful_tui.render.reach_fit import (
+    Optima,
+    has_point,
+    optima,
+    penalty_distance,
+    penalty_symbols,
+    reach_fit_title,
+    shown_points,
+    view_box,
+)
 from irl_core.reach.fit import RMAX, ReachFit
-from irl_core.reach.gain import best_choice, choice_grid
 from irl_core.recordings.reach_reader import Reaches
 from irl_core.support.plural import plural
-from irl_core.worlds.reach import ReachWorld
 
 FIELD_HEIGHT = 2.6  # inches: the first row
 # The optimum for the fitted points a small filled diamond, for the world's points a larger open one drawn
@@ -44,44 +50,6 @@ FITTED_STYLE: dict[str, Any] = {"marker": "D", "markersize": 3.5, "markerfacecol
                 "markeredgewidth": 0.8, "zorder": 5}
 TRUE_STYLE: dict[str, Any] = {"marker": "D", "markersize": 6.5, "markerfacecolor": "none", "markeredgecolor": INK,
               "markeredgewidth": 1.0, "zorder": 6}
-
-
-@dataclass(frozen=True)
-class Optima:
-    """The expected-gain maximiser's (aim (2,), duration ms) for the fitted points and for the world's own."""
-
-    fitted: tuple[np.ndarray, float]
-    true: tuple[np.ndarray, float]
-
-
-def optima(fit: ReachFit) -> Optima:
-    """Both optimal choices, on the grid the fit reasoned over (its spread law)."""
-    grid = choice_grid(fit.world, spread=fit.spread.spread)
-    world = fit.world
-    return Optima(best_choice(grid, [fit.reward[s] for s in world.symbols]),
-                  best_choice(grid, [world.points[s] for s in world.symbols]))
-
-
-def penalty_symbols(world: ReachWorld) -> list[str]:
-    """The symbols whose distance the durations are drawn against: those of the lowest points (the penalty)."""
-    lowest = min(world.points.values())
-    return [symbol for symbol, points in world.points.items() if points == lowest]
-
-
-def penalty_distance(world: ReachWorld, aims: np.ndarray) -> np.ndarray:
-    """(n,) the distance of each aim (n, 2) from the nearest rim of a penalty circle (below 0: inside it)."""
-    symbols = penalty_symbols(world)
-    circles = [region for region in world.regions if region.symbol in symbols]
-    return np.min([np.hypot(*(aims - np.asarray(c.centre)).T) - c.radius for c in circles], axis=0)
-
-
-def view_box(world: ReachWorld) -> tuple[np.ndarray, np.ndarray]:
-    """The field's part drawn: the circles' bounding box widened by the largest radius, inside the field."""
-    centres = np.array([region.centre for region in world.regions])
-    radii = np.array([region.radius for region in world.regions])
-    low = np.maximum((centres - radii[:, None]).min(axis=0) - radii.max(), 0.0)
-    high = np.minimum((centres + radii[:, None]).max(axis=0) + radii.max(), np.asarray(world.field))
-    return low, high
 
 
 def draw_field(ax: Axes, fit: ReachFit, reaches: Reaches, best: Optima) -> None:
@@ -138,12 +106,11 @@ def draw_durations(ax: Axes, fit: ReachFit, reaches: Reaches, best: Optima) -> N
 
 def interval_rows(fit: ReachFit) -> list[IntervalRow]:
     """A row per fitted symbol (a known one has no interval to show); one bounded on one side has no estimate."""
-    sides = point_sides(fit)
     rows = []
     for symbol, (low, high) in fit.interval.items():
         if low == high:
             continue  # held at a known value
-        estimate = float("nan") if sides[symbol] else fit.reward[symbol]
+        estimate = fit.reward[symbol] if has_point(fit, symbol) else float("nan")
         rows.append(IntervalRow(plain(symbol), symbol, low, high, estimate, fit.world.points[symbol]))
     return rows
 
