@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irl_core.reach.fit import ReachFit, fit_reaches
+from irl_core.reach.fit import RMAX, ReachFit, fit_reaches
 from irl_core.reach.gain import best_choice, choice_grid, expected_gain
 from irl_core.reach.players import reacher, simulate_reaches_to_file
 from irl_core.recordings.reach_reader import read_reaches
@@ -63,7 +63,7 @@ def told_apart(folder: Path, *, seeds: int, trials: int, known: dict[str, float]
     do not overlap, with the duration free and fixed at each of FIXED_MS."""
     rows = {}
     for label, duration in (("free", None), *((f"fixed {ms:g} ms", ms) for ms in FIXED_MS)):
-        apart, covered, widths = 0, 0, []
+        apart, covered, whole, widths = 0, 0, 0, []
         for seed in range(seeds):
             pair = []
             for name in ("reach", "reach-severe"):
@@ -73,7 +73,8 @@ def told_apart(folder: Path, *, seeds: int, trials: int, known: dict[str, float]
             apart += high_5000 < low_500 or high_500 < low_5000
             covered += (low_500 <= -500 <= high_500) + (low_5000 <= -5000 <= high_5000)
             widths += [high_500 - low_500, high_5000 - low_5000]
-        rows[label] = {"told_apart": apart / seeds, "covered": covered / (2 * seeds),
+            whole += sum(fit.interval["C"][0] <= -RMAX and fit.interval["C"][1] >= RMAX for fit in pair)
+        rows[label] = {"told_apart": apart / seeds, "covered": covered / (2 * seeds), "whole_range": whole / (2 * seeds),
                        "median_width": float(np.median(widths))}
         print(json.dumps({"part": "fixed", "known": known, "duration": label, **rows[label]}), flush=True)
     return rows
@@ -92,6 +93,8 @@ def measure(folder: Path, policy: str, *, seeds: int, trials: int, known: dict[s
             "penalty_covered": sum(fit.interval["C"][0] <= truth["C"] <= fit.interval["C"][1] for fit in fits) / seeds,
             "target_covered": sum(fit.interval["G"][0] <= truth["G"] <= fit.interval["G"][1] for fit in fits) / seeds,
             "interval_kind": fits[0].interval_kind,
+            # intervals that are the whole range (the points' scale not pinned): they cover, and say nothing
+            "whole_range": sum(fit.interval["C"][0] <= -RMAX and fit.interval["C"][1] >= RMAX for fit in fits) / seeds,
             "penalty_interval_median": [float(np.median([fit.interval["C"][i] for fit in fits])) for i in (0, 1)],
         }
         print(json.dumps({"policy": policy, "known": known, "world": name, **rows[name]}), flush=True)
@@ -129,7 +132,8 @@ def main() -> None:
     summary: dict[str, object] = {}
     with tempfile.TemporaryDirectory() as folder:
         for part, policy in (("maximiser", "optimal"), ("soft", "boltzmann"), ("hand", "hand")):
-            for known in ({}, {"G": 100.0}) if part in parts else ():
+            # The hand's coverage is measured as careful fit runs on it, the target unknown.
+            for known in (({}, {"G": 100.0}) if part != "hand" else ({},)) if part in parts else ():
                 key = f"{policy}{' G known' if known else ''}"
                 summary[key] = measure(Path(folder), policy, seeds=args.seeds, trials=args.trials, known=known)
         for known in ({}, {"G": 100.0}) if "fixed" in parts else ():
