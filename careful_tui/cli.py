@@ -93,7 +93,8 @@ def _add_fit(commands: Any) -> None:
     fit = commands.add_parser("fit", help="fit a reward to recordings (inverse RL)", description=(
         "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "
         "the fit view; without one, or with --no-view, it prints the result and exits. On reach recordings it "
-        "fits each circle's points and the spread law, and prints them (no view)."))
+        "fits each circle's points and the spread law, and shows them in the reach fit view or prints them "
+        "(docs/reach.md)."))
     fit.add_argument("files", type=Path, nargs="+", metavar="FILE",
                      help="recordings (JSONL) of one world, fitted together")
     add_fit_options(fit)
