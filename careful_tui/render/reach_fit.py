@@ -25,17 +25,25 @@ from irl_core.worlds.reach import ReachWorld
 
 @dataclass(frozen=True)
 class Optima:
-    """The expected-gain maximiser's (aim (2,), duration ms) for the fitted points and for the world's own."""
+    """The expected-gain maximiser's (aim (2,), duration ms) for the fitted points (None when some symbol's
+    points may be any value: its fitted value is where a search stopped, and so is that choice) and for the
+    world's own."""
 
-    fitted: tuple[np.ndarray, float]
+    fitted: tuple[np.ndarray, float] | None
     true: tuple[np.ndarray, float]
+
+    @property
+    def shown(self) -> list[tuple[tuple[np.ndarray, float], str]]:
+        """The choices to draw, each with whose it is ("fitted", then "true")."""
+        return [(choice, name) for choice, name in ((self.fitted, "fitted"), (self.true, "true")) if choice is not None]
 
 
 def optima(fit: ReachFit) -> Optima:
     """Both optimal choices, on the grid the fit reasoned over (its spread law)."""
     grid = choice_grid(fit.world, spread=fit.spread.spread)
     world = fit.world
-    return Optima(best_choice(grid, [fit.reward[s] for s in world.symbols]),
+    unbounded = any(low <= -RMAX and high >= RMAX for low, high in fit.interval.values())
+    return Optima(None if unbounded else best_choice(grid, [fit.reward[s] for s in world.symbols]),
                   best_choice(grid, [world.points[s] for s in world.symbols]))
 
 
@@ -153,7 +161,8 @@ class ReachField:
             column, row = int(x), int(y)
             dots[row, column] |= _BRAILLE_BITS[min(int((x - column) * 2), 1)][min(int((y - row) * 4), 3)]
         marks: dict[tuple[int, int], str] = {}
-        for (aim, _), mark in ((self.best.fitted, FITTED_MARK), (self.best.true, TRUE_MARK)):
+        for (aim, _), name in self.best.shown:
+            mark = FITTED_MARK if name == "fitted" else TRUE_MARK
             x, y = (aim - low) / np.array([step, 2 * step])
             if 0 <= x < columns and 0 <= y < rows:
                 marks[int(y), int(x)] = BOTH_MARK if (int(y), int(x)) in marks else mark
@@ -177,7 +186,9 @@ class ReachField:
                    f"{list(world.start)}" + (f"; {plural(outside, 'endpoint')} outside this view" if outside else ""),
                    style="dim")
         key = Text("⣿ endpoints  ", style="dim")
-        key.append(f"{FITTED_MARK} best aim, fitted points  {TRUE_MARK} the world's  {BOTH_MARK} both  ", style="dim")
+        key.append(f"{FITTED_MARK} best aim, fitted points  {TRUE_MARK} the world's  {BOTH_MARK} both  "
+                   if self.best.fitted is not None else f"{TRUE_MARK} best aim, the world's points (none for the "
+                   "fitted: some symbol's points may be any value)  ", style="dim")
         for symbol in world.symbols:
             key.append("  ", Style(bgcolor=SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR)))
             key.append(f" {printable(symbol)} {shown_points(self.fit, symbol)}  ")

@@ -67,3 +67,13 @@ def test_careful_fit_writes_the_figure_and_never_over_a_recording(tmp_path, caps
     assert main(["fit", str(recording), "--no-view", "--figure", str(recording.with_suffix(".png")),
                  "--json", str(recording)]) == 2
     assert recording.read_bytes() == before
+
+
+def test_points_that_may_be_any_value_show_as_any_with_no_best_aim_of_their_own(tmp_path):
+    # 60 trials of the hand on reach with seed 3: it means the longest reach every time, so nothing pins the
+    # points' scale (beta at its smallest) and both intervals are the whole range
+    fit = fit_reaches(read_reaches([simulated(tmp_path, "reach", "hand", 60, 3)])[0])
+    assert all(low <= -1e5 and high >= 1e5 for low, high in fit.interval.values())
+    assert [shown_points(fit, symbol) for symbol in "GC"] == ["any", "any"]
+    assert optima(fit).fitted is None and [name for _, name in optima(fit).shown] == ["true"]
+    assert all(np.isnan(row.estimate) for row in interval_rows(fit))

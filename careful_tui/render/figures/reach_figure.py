@@ -69,8 +69,8 @@ def draw_field(ax: Axes, fit: ReachFit, reaches: Reaches, best: Optima) -> None:
                label="endpoint")
     ax.scatter(reaches.aims[:, 0], reaches.aims[:, 1], s=9, marker="x", color=INK, linewidths=0.5, alpha=0.6,
                zorder=3, label="aim")
-    for (aim, _), style in ((best.fitted, FITTED_STYLE), (best.true, TRUE_STYLE)):
-        ax.plot([aim[0]], [aim[1]], linestyle="", **style)
+    for (aim, _), name in best.shown:
+        ax.plot([aim[0]], [aim[1]], linestyle="", **(FITTED_STYLE if name == "fitted" else TRUE_STYLE))
     ax.set_xlim(low[0], high[0])
     ax.set_ylim(high[1], low[1])  # y runs down the field, as in the world file
     ax.set_aspect("equal")
@@ -78,6 +78,8 @@ def draw_field(ax: Axes, fit: ReachFit, reaches: Reaches, best: Optima) -> None:
     notes = [f"x (field units); the start is at y = {world.start[1]:g}"]
     if outside:
         notes.append(f"{plural(outside, 'endpoint')} outside this view")
+    if best.fitted is None:
+        notes.append("no best aim for the fitted points: some may be any value")
     ax.set_xlabel("\n".join(notes), labelpad=2)
     ax.set_ylabel("y (down)", labelpad=2)
     ax.set_title("endpoints and aims", pad=3)
@@ -89,10 +91,11 @@ def draw_durations(ax: Axes, fit: ReachFit, reaches: Reaches, best: Optima) -> N
     world = fit.world
     distance = penalty_distance(world, reaches.aims)
     ax.scatter(distance, reaches.durations, s=6, color=INK, alpha=0.5, linewidths=0, zorder=2)
-    for (aim, duration), style in ((best.fitted, FITTED_STYLE), (best.true, TRUE_STYLE)):
-        ax.plot(penalty_distance(world, aim[None, :]), [duration], linestyle="", **style)
+    for (aim, duration), name in best.shown:
+        ax.plot(penalty_distance(world, aim[None, :]), [duration], linestyle="",
+                **(FITTED_STYLE if name == "fitted" else TRUE_STYLE))
     ax.axvline(0, color="#bbbbbb", linewidth=0.5, zorder=1)  # the rim
-    shown = np.r_[distance, penalty_distance(world, np.array([best.fitted[0], best.true[0]])), 0.0]
+    shown = np.r_[distance, penalty_distance(world, np.array([aim for (aim, _), _ in best.shown])), 0.0]
     margin = max(float(np.ptp(shown)) * 0.08, 1.0)
     ax.set_xlim(float(shown.min()) - margin, float(shown.max()) + margin)
     ax.set_ylim(world.min_ms * 0.95, world.max_ms * 1.05)
