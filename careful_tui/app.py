@@ -29,6 +29,7 @@ from careful_tui.render.palette import BACKGROUND, BAD, FRAME, GOOD, INK, NOTE, 
 from careful_tui.screens.fit import FitScreen
 from careful_tui.screens.play import PlayScreen
 from careful_tui.screens.reach import ReachScreen
+from careful_tui.screens.reach_fit import ReachFitScreen
 from careful_tui.screens.replay import FRAME_S, ReplayScreen
 from careful_tui.screens.study import StudyScreen
 from careful_tui.version import app_version
@@ -37,8 +38,10 @@ from irl_core.play.hold import Clock, HoldProfile
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE
 from irl_core.play.reach_session import ReachOptions, new_reach_session
 from irl_core.play.session import PlayOptions, new_session
+from irl_core.reach.fit import ReachFit
 from irl_core.recordings.demonstrations import Demonstrations, Recording
 from irl_core.recordings.lines import StudyTag
+from irl_core.recordings.reach_reader import Reaches
 from irl_core.studies.flow import StudyFlow
 from irl_core.studies.study import LoadedStudy
 from irl_core.worlds.reach import ReachWorld
@@ -157,6 +160,12 @@ def make_replay_app(*recordings: Recording, skipped: Sequence[str] = (), playing
     file left out; the CLI plays at once; the tests start paused)."""
     return CarefulApp(ReplayScreen(recordings, skipped=skipped, playing=playing, frame_seconds=frame_seconds),
                       driver_class=driver_class)
+
+
+def make_reach_fit_app(args: argparse.Namespace, fit: ReachFit, reaches: Reaches, *,
+                       driver_class: type[Driver] | None = None) -> CarefulApp[ReachFitScreen]:
+    """The app on the reach fit view `careful fit` opens for reach recordings (the CLI and the tests build it here)."""
+    return CarefulApp(ReachFitScreen(fit, reaches.endpoints, sources=list(args.files)), driver_class=driver_class)
 
 
 def make_fit_app(args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,

@@ -36,7 +36,7 @@ from irl_core.irl.choices import DEFAULT_POOL_MODEL, LEVEL_MODELS, PLAN_FITS, PO
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, INPUT_MODE_NAMES, INPUT_MODES
 from irl_core.play.reach_session import DEFAULT_TRIALS
 from irl_core.players.person_like import KINDS as PERSON_LIKE
-from irl_core.players.person_like import LEVEL_KINDS
+from irl_core.players.person_like import LEVEL_KINDS, REACH_KINDS
 from irl_core.support.safe_text import one_line
 
 
@@ -98,7 +98,8 @@ def _add_fit(commands: Any) -> None:
     fit = commands.add_parser("fit", help="fit a reward to recordings (inverse RL)", description=(
         "Fit the state rewards R_S that explain the recorded behaviour. With a terminal it opens "
         "the fit view; without one, or with --no-view, it prints the result and exits. On reach recordings it "
-        "fits each circle's points and the spread law, and prints them (no view)."))
+        "fits each circle's points and the spread law, and shows them in the reach fit view or prints them "
+        "(docs/reach.md)."))
     fit.add_argument("files", type=Path, nargs="+", metavar="FILE",
                      help="recordings (JSONL) of one world, fitted together")
     add_fit_options(fit)
@@ -145,21 +146,26 @@ def _add_simulate(commands: Any) -> None:
     simulate = commands.add_parser("simulate", help="record a computer expert or a person-like player", description=(
         "Roll out a computer expert or a person-like player and write its episodes as a recording."))
     simulate.add_argument("--world", required=True, metavar="NAME|FILE", help="built-in world or TOML file")
-    simulate.add_argument("--policy", choices=["optimal", "boltzmann", *PERSON_LIKE], required=True,
+    simulate.add_argument("--policy", choices=["optimal", "boltzmann", *PERSON_LIKE, *REACH_KINDS], required=True,
                           help="optimal: the best action in every state; boltzmann: actions with probability "
                                "proportional to exp(beta Q); loose, timed, hasty, inverted, reckless: person-like "
                                "players over the optimal plan (docs/people.md); timing, steady: players of a time "
                                "world who hold the key for a time (docs/timing.md); on a reach world optimal is the "
-                               "expected-gain maximiser and boltzmann the soft-optimal reacher (docs/reach.md)")
+                               "expected-gain maximiser, boltzmann the soft-optimal reacher and hand a person-like "
+                               "reacher with aim noise, timing noise and lapses (docs/reach.md)")
     simulate.add_argument("--beta", type=positive_float, default=None,
                           help="Boltzmann inverse temperature, for --policy boltzmann (default 1.0)")
     simulate.add_argument("--lapse", type=probability, default=None, metavar="P",
                           help="share of lapsed directions: loose, inverted, timing, steady 0.1 (random), timed 0.1 "
-                               "(the previous one), reckless 0.25 (random)")
+                               "(the previous one), reckless 0.25 (random); hand: share of lapsed reaches, 0.1 "
+                               "(half aimed at random, half rushed)")
     simulate.add_argument("--spread", type=non_negative_float, default=None, metavar="LEVELS",
                           help="sd of the level's noise: loose, inverted 1.75, hasty 1")
     simulate.add_argument("--weber", type=non_negative_float, default=None, metavar="SD",
-                          help="timed, timing: sd of the log hold time (default 0.25, about 25%%)")
+                          help="timed, timing: sd of the log hold time (default 0.25, about 25%%); hand: sd of "
+                               "the log reach duration (default 0.15)")
+    simulate.add_argument("--aim-sd", dest="aim_sd", type=non_negative_float, default=None, metavar="UNITS",
+                          help="hand: sd of the hand's own aim noise per axis, in field units (default 4)")
     simulate.add_argument("--poll-ms", dest="poll_ms", type=non_negative_float, default=None, metavar="MS",
                           help="timing: key-ups land on this polling grid, as a USB keyboard's (default 8)")
     simulate.add_argument("--hold-ms", dest="hold_ms", type=positive_float, default=None, metavar="MS",

@@ -56,7 +56,7 @@ if TYPE_CHECKING:  # for type checkers and the API reference; at run time __geta
     from irl_core.recordings.reach_reader import read_reaches  # noqa: F401
     from irl_core.studies.simulated import simulated_participants, write_simulated_participant  # noqa: F401
     from irl_core.studies.study import LoadedStudy, Study, load_study, read_protocol  # noqa: F401
-    from irl_core.worlds.env import ENV_ID, CarefulEnv  # noqa: F401
+    from irl_core.worlds.env import ENV_ID, REACH_ENV_ID, CarefulEnv, ReachEnv  # noqa: F401
     from irl_core.worlds.mdp import MDP, build_mdp  # noqa: F401
     from irl_core.worlds.planning import value_iteration  # noqa: F401
     from irl_core.worlds.reach import REACH_WORLDS, ReachWorld, load_reach_world  # noqa: F401
@@ -92,7 +92,7 @@ _HOMES = {
     "load_reach_world": "irl_core.worlds.reach", "expected_gain": "irl_core.reach.gain",
     "reacher": "irl_core.reach.players", "simulate_reaches_to_file": "irl_core.reach.players",
     "read_reaches": "irl_core.recordings.reach_reader", "fit_reaches": "irl_core.reach.fit",
-    "ReachFit": "irl_core.reach.fit",
+    "ReachFit": "irl_core.reach.fit", "ReachEnv": "irl_core.worlds.env", "REACH_ENV_ID": "irl_core.worlds.env",
     # the tree's root, and its branch that `except` takes for every refusal of the input (irl_core.errors draws it)
     "CarefulError": "irl_core.errors", "InputError": "irl_core.errors",
 }

@@ -1,4 +1,5 @@
-"""`careful export FILE... --format csv|minari|psych-ds --out PATH|DATASET_ID|DIR` (docs/environment.md).
+"""`careful export FILE... --format csv|minari|psych-ds --out PATH|DATASET_ID|DIR` (docs/environment.md; reach
+recordings: docs/reach.md).
 
 The files are read and checked with the recording reader before anything is written, so a
 bad file ends the command (exit 2, one line) with no output left behind. Gymnasium and
@@ -29,6 +30,8 @@ from irl_core.recordings.export import (
     write_minari,
     write_psych_ds,
 )
+from irl_core.recordings.reach_export import write_reach_csv, write_reach_minari, write_reach_psych_ds
+from irl_core.recordings.reach_reader import is_reach_recording, read_reach_recording
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output
 from irl_core.support.safe_text import for_markup, printable
@@ -54,6 +57,12 @@ def run_export(args: argparse.Namespace) -> int:
         if problem := dataset_place_problem(args.out):
             raise UsageError(f"{problem}; choose another id (or a new version, -v1, -v2, ...)")
 
+    reach = [is_reach_recording(path) for path in args.files]
+    if any(reach):
+        if not all(reach):
+            raise UsageError(f"{printable(str(args.files[reach.index(False)]), limit=160)} is not a reach recording "
+                             f"but {printable(str(args.files[reach.index(True)]), limit=160)} is: export one kind at a time")
+        return _export_reaches(args, err)
     sizes = [_size(path) for path in args.files]
     with Progress(console=err, transient=True, disable=sum(sizes) < PROGRESS_FROM_BYTES) as progress:
         reading = progress.add_task("reading", total=sum(sizes))
@@ -71,6 +80,46 @@ def run_export(args: argparse.Namespace) -> int:
             summary = _export_psych_ds(Path(args.out), recordings, progress)
         else:
             summary = _export_minari(args.out, recordings, progress)
+    err.print(Text(summary), soft_wrap=True)
+    return 0
+
+
+def _export_reaches(args: argparse.Namespace, err: Console) -> int:
+    """Reach recordings (docs/reach.md, "Exporting"): a row per trial, or a Minari episode per trial."""
+    recordings = [read_reach_recording(path) for path in args.files]
+    for recording in recordings:
+        for warning in recording.warnings:
+            warn(err, warning)
+    trials = sum(len(recording.steps) for recording in recordings)
+    files = plural(len(recordings), "file")
+    out = printable(str(args.out), limit=160)
+    try:
+        if args.format == "csv":
+            rows = write_reach_csv(Path(args.out), recordings)
+            summary = f"wrote {plural(rows, 'row')} (one per trial) from {files} to {out}"
+        elif args.format == "psych-ds":
+            worlds = sorted({recording.world.name for recording in recordings})
+            written = write_reach_psych_ds(
+                Path(args.out), recordings, name=f"careful reach recordings of {', '.join(worlds)}",
+                description=(f"{plural(trials, 'trial')} recorded with careful {app_version()} (one row per reach) in "
+                             f"{', '.join(worlds)}; each data file is one player of one world. variableMeasured "
+                             "gives every column's unit."))
+            summary = (f"wrote a Psych-DS dataset of {plural(sum(written.values()), 'row')} (one per trial) in "
+                       f"{plural(len(written), 'data file')} from {files} to {out}")
+        else:
+            if trials == 0:
+                raise UsageError("the recordings hold no trials: there is nothing to export")
+            dataset = write_reach_minari(args.out, recordings, description=(
+                f"{plural(trials, 'trial')} recorded in the careful reach world {recordings[0].world.name!r} by "
+                f"{', '.join(sorted({r.header.player for r in recordings}))}, exported by careful {app_version()}. "
+                "One episode per reach: observations the start and the endpoint, actions (aim x, aim y, duration ms)."))
+            summary = (f"wrote Minari dataset {args.out}: {plural(dataset.total_episodes, 'episode')} (one per trial) "
+                       f"at {printable(str(minari_dataset_path(args.out)))}; load it with minari.load_dataset({args.out!r})")
+    except FileExistsError as exc:
+        raise UsageError(f"--out {out}: {exc if args.format == 'minari' else 'already exists; export never overwrites'}"
+                         ) from None
+    except OSError as exc:
+        raise UsageError(f"--out {out}: cannot write the export ({exc.strerror or exc})") from None
     err.print(Text(summary), soft_wrap=True)
     return 0
 

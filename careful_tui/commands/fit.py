@@ -147,7 +147,7 @@ def run_fit(args: argparse.Namespace) -> int:
     """`careful fit`: fit, write --json and --figure, then open the fit view (a terminal) or print (--svg of the printout)."""
     err = Console(stderr=True, highlight=False)
     if any(is_reach_recording(path) for path in args.files):
-        return run_reach_fit(args, err)
+        return run_reach_fit(args, err, view=wants_view(args))
     if args.spread_known:
         warn(err, ignored(["--spread-known"], "to reach worlds"))
     if args.figure is not None and (problem := figure_suffix_problem(args.figure)):

@@ -1,5 +1,5 @@
 """`careful fit` on reach recordings (docs/reach.md): read them, fit each symbol's points and the spread law,
-print the answer and write --json. There is no fit view or figure of a reach fit yet."""
+write --json and draw --figure, then open the reach fit view (a terminal) or print the answer (--no-view)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from careful_tui.arguments import FIT_FLAGS, options_from_args
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import EXIT_FAILURE, EXIT_OK
 from careful_tui.option_words import said
+from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.reach_fit import print_reach_fit
 from irl_core.errors import BadInputError, SolverError, UsageError
 from irl_core.reach.fit import fit_reaches
@@ -23,15 +24,16 @@ from irl_core.support.safe_text import printable
 USED = ("confidence", "known", "intervals")
 
 
-def run_reach_fit(args: argparse.Namespace, err: Console) -> int:
-    """Fit reach recordings as `careful fit` asks; every file must be one."""
+def run_reach_fit(args: argparse.Namespace, err: Console, *, view: bool) -> int:
+    """Fit reach recordings as `careful fit` asks (every file must be one), and open the view if `view`."""
     for path in args.files:
         if not is_reach_recording(path):
             raise UsageError(f"{printable(str(path), limit=160)} is not a reach recording; careful fit fits the "
                              "recordings of one world at a time")
-    for option in ("svg", "figure"):
-        if getattr(args, option) is not None:
-            raise UsageError(f"--{option}: there is no picture of a reach fit yet; --json writes the answer")
+    if args.svg is not None:
+        raise UsageError("--svg: there is no text picture of a reach fit; --figure draws one, --json writes the answer")
+    if args.figure is not None and (wrong_suffix := figure_suffix_problem(args.figure)):
+        raise UsageError(wrong_suffix)
     options = options_from_args(args)
     if problem := options.problem():
         raise UsageError(said(problem))
@@ -39,8 +41,9 @@ def run_reach_fit(args: argparse.Namespace, err: Console) -> int:
               and getattr(args, flag.field) != flag.kwargs.get("default", False)]
     if unused:
         warn(err, ignored(unused, "to grid worlds"))
-    if args.json is not None:
-        check_output(args.json, option="--json", inputs=args.files)
+    for option, path in (("--json", args.json), ("--figure", args.figure)):
+        if path is not None:
+            check_output(path, option=option, inputs=args.files)
     reaches, warnings = read_reaches(args.files)
     for warning in warnings:
         warn(err, warning)
@@ -58,5 +61,21 @@ def run_reach_fit(args: argparse.Namespace, err: Console) -> int:
     if args.json is not None:
         write_output(args.json, json.dumps(fit.to_json(), indent=2, allow_nan=False) + "\n", option="--json",
                      inputs=args.files)
+    if args.figure is not None:
+        # Imported here for start-up speed: matplotlib loads only when a figure is asked for.
+        from careful_tui.render.figures.reach_figure import reach_fit_figure
+        from careful_tui.render.figures.style import save_figure
+
+        save_figure(reach_fit_figure(fit, reaches), args.figure, option="--figure", inputs=args.files)
+    if view:
+        # Imported here for start-up speed: Textual loads only when the view opens.
+        from careful_tui.app import make_reach_fit_app
+        from careful_tui.keys.kitty import PassiveKittyDriver
+
+        app = make_reach_fit_app(args, fit, reaches, driver_class=PassiveKittyDriver)
+        app.run()
+        for path in dict.fromkeys(app.first_screen.saved):
+            print(f"saved {printable(str(path))}")
+        return EXIT_OK
     print_reach_fit(Console(highlight=False), fit)
     return EXIT_OK

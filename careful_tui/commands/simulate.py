@@ -14,7 +14,7 @@ from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import EXIT_OK
 from irl_core.errors import NotConverged, UsageError
 from irl_core.players.experts import Chooser, boltzmann_policy, expert_name, optimal_policy, simulate_to_file
-from irl_core.players.person_like import KINDS, person_like
+from irl_core.players.person_like import KINDS, REACH_KINDS, person_like
 from irl_core.reach.players import reacher, simulate_reaches_to_file
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import check_output
@@ -24,8 +24,10 @@ from irl_core.worlds.reach import is_reach_world, load_reach_world
 from irl_core.worlds.world import load_world
 
 DEFAULT_BETA = 1.0  # --beta's default (cli.py's help says so)
-# The person-like players' options: one per parameter of irl_core.players.person_like.KINDS, named as it is.
-PLAYER_OPTIONS = tuple(dict.fromkeys(name for parameters in KINDS.values() for name in parameters))
+# The person-like players' options: one per parameter of irl_core.players.person_like.KINDS and REACH_KINDS,
+# named as it is.
+PLAYER_OPTIONS = tuple(dict.fromkeys(name for kinds in (KINDS, REACH_KINDS) for parameters in kinds.values()
+                                     for name in parameters))
 
 
 def run_simulate(args: argparse.Namespace) -> int:
@@ -55,14 +57,18 @@ def run_simulate(args: argparse.Namespace) -> int:
 def _simulate_reaches(args: argparse.Namespace) -> int:
     """A reach world's computer player: one reach a trial, each trial an episode (docs/reach.md)."""
     world = load_reach_world(args.world)
-    if args.policy not in ("optimal", "boltzmann"):
-        raise UsageError(f"--policy {args.policy}: a reach world has the optimal and boltzmann players")
+    players = ("optimal", "boltzmann", *REACH_KINDS)
+    if args.policy not in players:
+        raise UsageError(f"--policy {args.policy}: a reach world has the {', '.join(players[:-1])} and "
+                         f"{players[-1]} players")
     err = Console(stderr=True, highlight=False)
-    if args.beta is not None and args.policy != "boltzmann":
-        warn(err, ignored(["--beta"], "to --policy boltzmann"))
-    if unused := [f"--{name}" for name in PLAYER_OPTIONS if getattr(args, name) is not None]:
-        warn(err, ignored(unused, "to a grid world's person-like players"))
-    player = reacher(world, args.policy, beta=DEFAULT_BETA if args.beta is None else args.beta)
+    _warn_unused_options(args, REACH_KINDS, "the person-like players of grid worlds")
+    taken = REACH_KINDS.get(args.policy, {})
+    parameters = {name: getattr(args, name) for name in taken if getattr(args, name) is not None}
+    try:
+        player = reacher(world, args.policy, beta=DEFAULT_BETA if args.beta is None else args.beta, **parameters)
+    except ValueError as exc:
+        raise UsageError(f"--policy {args.policy}: {exc}") from None
     try:
         hits = simulate_reaches_to_file(args.out, world, player, trials=args.episodes, seed=args.seed)
     except OSError as exc:
@@ -74,15 +80,28 @@ def _simulate_reaches(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _warn_unused_options(args: argparse.Namespace, kinds: dict[str, dict[str, float]], elsewhere: str) -> None:
+    """Name in a warning each option given that `--policy` does not take, and the policies of this kind of world
+    (`kinds`: the person-like players' registry) that do; an option none of them takes is for `elsewhere`."""
+    for name in ("beta", *PLAYER_OPTIONS):
+        policies = ["boltzmann"] if name == "beta" else [kind for kind, names in kinds.items() if name in names]
+        if getattr(args, name) is not None and args.policy not in policies:
+            listed = (f"--policy {policies[0]}" if len(policies) == 1 else
+                      f"--policy {', '.join(policies[:-1])} and {policies[-1]}" if policies else elsewhere)
+            warn(Console(stderr=True, highlight=False), ignored([_flag(name)], f"to {listed}"))
+
+
+def _flag(name: str) -> str:
+    """The command-line flag of a player's parameter (``aim_sd`` is ``--aim-sd``)."""
+    return "--" + name.replace("_", "-")
+
+
 def _player(mdp: MDP, args: argparse.Namespace) -> tuple[np.ndarray | Chooser, str]:
     """The policy (or chooser) `--policy` and its options ask for, and its player name; an option the
     policy does not take is named in a warning and ignored."""
-    takers = {"beta": ["boltzmann"], **{name: [kind for kind, names in KINDS.items() if name in names]
-                                         for name in PLAYER_OPTIONS}}
-    for name, policies in takers.items():
-        if getattr(args, name) is not None and args.policy not in policies:
-            listed = policies[0] if len(policies) == 1 else f"{', '.join(policies[:-1])} and {policies[-1]}"
-            warn(Console(stderr=True, highlight=False), ignored([f"--{name}"], f"to --policy {listed}"))
+    if args.policy in REACH_KINDS:
+        raise UsageError(f"--policy {args.policy}: a player of reach worlds (docs/reach.md), not of a grid world")
+    _warn_unused_options(args, KINDS, "the person-like player of reach worlds")
     try:
         if args.policy == "optimal":
             return optimal_policy(mdp), expert_name("optimal")

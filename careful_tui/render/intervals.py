@@ -200,12 +200,12 @@ class IntervalChart:
             line.append("◀" if open_low else " ", style="bold")
             # A reward bounded on one side only is its bound: no point is marked as its estimate.
             fitted = None if sides[j] else float(result.theta[j])
-            line.append_text(self._bar(axis, rmax, low, high, fitted, None if true is None else float(true[j])))
+            line.append_text(interval_bar(axis, rmax, low, high, fitted, None if true is None else float(true[j])))
             line.append("▶" if open_high else " ", style="bold")
             line.append(f"  {spans[j]:>{span_width}}", style="bold")
             yield line
         indent = " " * (label_width + 3)
-        yield Text(indent) + _axis_ticks(axis, rmax)
+        yield Text(indent) + axis_ticks(axis, rmax)
         fitted_key = "● fitted if two-sided  " if sides.any() else "● fitted  "
         yield Text.assemble(indent, (f"{fitted_key}○ true  ◉ both  ", "dim"),
                             ("━", diverging_colour(-rmax, rmax)), ("━", diverging_colour(rmax, rmax)),
@@ -216,29 +216,32 @@ class IntervalChart:
             return f"{self.result.options.confidence:.0%} confidence"
         return "allowed"
 
-    @staticmethod
-    def _bar(axis: int, rmax: float, low: float, high: float, fitted: float | None, true: float | None) -> Text:
-        def at(value: float) -> int:
-            return round((signed_log_fraction(value, rmax) + 1) / 2 * (axis - 1))
 
-        chars = ["─"] * axis
-        styles = [Style(color="#3a4452")] * axis
-        chars[axis // 2] = "┼"
-        start, end = at(low), at(high)
-        for i in range(start, end + 1):
-            chars[i] = "━"
-            value = signed_log_value(i / (axis - 1) * 2 - 1, rmax)
-            styles[i] = Style(color=diverging_colour(value, rmax), bold=True)
-        marks = {} if fitted is None else {at(fitted): "●"}
-        if true is not None:
-            marks[at(true)] = "◉" if at(true) in marks else "○"
-        for i, glyph in marks.items():
-            chars[i] = glyph
-            styles[i] = Style(color="#ffffff", bold=True)
-        text = Text()
-        for char, style in zip(chars, styles):
-            text.append(char, style)
-        return text
+def interval_bar(axis: int, rmax: float, low: float, high: float, fitted: float | None, true: float | None) -> Text:
+    """One interval as `axis` characters of the signed-log axis from -rmax to rmax: the bar in the reward colours,
+    ● the fitted value (None: none, bounded on one side only), ○ the true one, ◉ both."""
+
+    def at(value: float) -> int:
+        return round((signed_log_fraction(value, rmax) + 1) / 2 * (axis - 1))
+
+    chars = ["─"] * axis
+    styles = [Style(color="#3a4452")] * axis
+    chars[axis // 2] = "┼"
+    start, end = at(low), at(high)
+    for i in range(start, end + 1):
+        chars[i] = "━"
+        value = signed_log_value(i / (axis - 1) * 2 - 1, rmax)
+        styles[i] = Style(color=diverging_colour(value, rmax), bold=True)
+    marks = {} if fitted is None else {at(fitted): "●"}
+    if true is not None:
+        marks[at(true)] = "◉" if at(true) in marks else "○"
+    for i, glyph in marks.items():
+        chars[i] = glyph
+        styles[i] = Style(color="#ffffff", bold=True)
+    text = Text()
+    for char, style in zip(chars, styles):
+        text.append(char, style)
+    return text
 
 
 def signed_log_value(fraction: float, scale: float) -> float:
@@ -246,7 +249,7 @@ def signed_log_value(fraction: float, scale: float) -> float:
     return float(np.sign(fraction) * LINEAR_THRESHOLD * np.expm1(abs(fraction) * np.log1p(scale / LINEAR_THRESHOLD)))
 
 
-def _axis_ticks(axis: int, rmax: float) -> Text:
+def axis_ticks(axis: int, rmax: float) -> Text:
     """Labels under the axis: -rmax, the powers of ten between, 0 and up to rmax, where they fit."""
     powers = [10.0**k for k in range(1, 16) if 10.0**k < rmax / 2]
     values = [-rmax, *(-p for p in reversed(powers)), 0.0, *powers, rmax]

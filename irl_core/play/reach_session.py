@@ -49,7 +49,7 @@ from irl_core.play.session import Message
 from irl_core.recordings.reach_lines import ReachHeader, ReachStep
 from irl_core.recordings.writer import SessionRecorder
 from irl_core.support.safe_text import printable
-from irl_core.worlds.reach import ReachWorld, endpoint_of
+from irl_core.worlds.reach import ReachWorld
 
 LAUNCH_KEYS = frozenset({"space", "enter"})
 """The keys held for a reach's duration (Textual's names; a browser maps " " and "Enter" to them)."""
@@ -297,7 +297,7 @@ class ReachSession:
             # To the microsecond: a clock's float arithmetic makes a 150 ms hold 149.99999999997 ms.
             duration_ms = round(hold.hold_ms, 3)
             if self._allowed(duration_ms, inferred=not hold.exact):
-                end = endpoint_of(self.world, self.aim, duration_ms, self.rng)
+                end = self.world.endpoint(self.aim, duration_ms, self.rng)
                 recorded = self._record(self.aim, (float(end[0]), float(end[1])), duration_ms, exact=hold.exact)
         return recorded
 

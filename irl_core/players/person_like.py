@@ -73,6 +73,11 @@ KINDS: dict[str, dict[str, float]] = {
     "timing": {"lapse": 0.1, "weber": 0.25, "poll_ms": 8.0},
     "steady": {"lapse": 0.1, "hold_ms": 600.0},
 }
+# The person-like players of a reach world (`irl_core.reach.players.HandReacher`, docs/reach.md), apart from the
+# grid's: their parameters' defaults, in the order the player's name gives them.
+REACH_KINDS: dict[str, dict[str, float]] = {
+    "hand": {"lapse": 0.1, "aim_sd": 4.0, "weber": 0.15},
+}
 # The players that hold for a time and so need a time world; ``timed`` times the level world's windows.
 TIME_KINDS = frozenset({"timing", "steady"})
 LEVEL_KINDS = tuple(kind for kind in KINDS if kind not in TIME_KINDS)

@@ -37,7 +37,7 @@ import os
 import re
 import shutil
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -142,19 +142,21 @@ def write_csv(path: str | Path, recordings: list[Recording], *, progress: Callab
     path = Path(path)
     columns = csv_columns(recordings)
     with built_beside(path) as temporary, open(temporary, "x", encoding="utf-8", newline="") as handle:
-        rows = _write_table(handle, columns, recordings, done=0, progress=progress)
+        rows = write_table(handle, columns, recordings, done=0, progress=progress)
     return rows
 
 
-def _write_table(handle: TextIO, columns: Sequence[str], recordings: Sequence[Recording], *, done: int,
-                 progress: Callable[[int], None] | None) -> int:
-    """The CSV table of `recordings` (their steps, `columns`) to `handle`; returns `done` plus the rows written,
-    the count `progress` is called with after each recording."""
+def write_table(handle: TextIO, columns: Sequence[str], recordings: Sequence[Any], *, done: int,
+                 progress: Callable[[int], None] | None,
+                 rows: Callable[[Any], Iterable[list[str]]] | None = None) -> int:
+    """The CSV table of `recordings` (their steps, `columns`; each recording's rows by `rows`, `csv_rows` by
+    default) to `handle`; returns `done` plus the rows written, the count `progress` is called with after each
+    recording."""
     writer = csv_writer(handle, lineterminator="\r\n")
     writer.writerow(header(columns))
     for recording in recordings:
-        writer.writerows(csv_rows(recording, study_columns=STUDY_COLUMNS[0] in columns,
-                                  time_columns=TIME_COLUMNS[0] in columns))
+        writer.writerows(rows(recording) if rows else csv_rows(recording, study_columns=STUDY_COLUMNS[0] in columns,
+                                                                time_columns=TIME_COLUMNS[0] in columns))
         done += len(recording.steps)
         if progress:
             progress(done)
@@ -169,7 +171,7 @@ def psych_ds_value(text: str) -> str:
     return _KEYWORD_VALUE.sub("", text)
 
 
-def psych_ds_files(recordings: list[Recording]) -> dict[str, list[Recording]]:
+def psych_ds_files(recordings: Sequence[Any]) -> dict[str, list[Any]]:
     """The Psych-DS data files' names (``study-<name>_participant-<id>_data.csv``), each with its recordings.
 
     The study is the header's study name (outside a study, the world's name) and the participant the study's
@@ -178,7 +180,7 @@ def psych_ds_files(recordings: list[Recording]) -> dict[str, list[Recording]]:
     Raises:
         RecordingError: a name without a letter or digit, or two names that become one value (``p-1``, ``p1``).
     """
-    files: dict[str, list[Recording]] = {}
+    files: dict[str, list[Any]] = {}
     named: dict[tuple[str, str], tuple[str, str]] = {}
     for recording in recordings:
         study = _study(recording)
@@ -198,45 +200,50 @@ def psych_ds_files(recordings: list[Recording]) -> dict[str, list[Recording]]:
     return files
 
 
-def psych_ds_description(columns: tuple[str, ...], *, name: str, description: str) -> dict[str, Any]:
-    """``dataset_description.json``: a schema.org Dataset whose `variableMeasured` names every column with its unit."""
+def psych_ds_description(columns: Sequence[str], *, name: str, description: str,
+                         units: Mapping[str, tuple[str, str]] = COLUMN_UNITS) -> dict[str, Any]:
+    """``dataset_description.json``: a schema.org Dataset whose `variableMeasured` names every column with its unit
+    (from `units`: the grid's columns by default)."""
     return {
         "@context": PSYCH_DS_CONTEXT,
         "@type": "Dataset",
         "name": name,
         "description": description,
         "variableMeasured": [
-            {"@type": "PropertyValue", "name": column, "unitText": COLUMN_UNITS[column][0],
-             "description": COLUMN_UNITS[column][1]}
+            {"@type": "PropertyValue", "name": column, "unitText": units[column][0],
+             "description": units[column][1]}
             for column in columns
         ],
     }
 
 
-def write_psych_ds(out: str | Path, recordings: list[Recording], *, name: str, description: str,
-                   progress: Callable[[int], None] | None = None) -> dict[str, int]:
+def write_psych_ds(out: str | Path, recordings: Sequence[Any], *, name: str, description: str,
+                   progress: Callable[[int], None] | None = None, columns: Sequence[str] | None = None,
+                   units: Mapping[str, tuple[str, str]] = COLUMN_UNITS,
+                   rows: Callable[[Any], Iterable[list[str]]] | None = None) -> dict[str, int]:
     """Write `recordings` as a new Psych-DS dataset in the folder `out`; returns each data file's rows by name.
 
     The folder is built beside `out` and renamed into place whole (`safe_files.built_beside`):
     `FileExistsError` if `out` exists by then, and a failure or a kill leaves nothing under its name.
     Every data file has the same columns (`csv_columns` of all the recordings), its text cells made text
-    (`csv_cells.text_cell`). `progress(rows)` is called after each recording.
+    (`csv_cells.text_cell`). `progress(rows)` is called after each recording. Another kind of recording (a
+    reach's) gives its `columns`, their `units` and its `rows` (a recording's rows).
     """
     out = Path(out)
     files = psych_ds_files(recordings)
-    columns = csv_columns(recordings)
-    rows: dict[str, int] = {}
+    columns = csv_columns(list(recordings)) if columns is None else columns
+    counts: dict[str, int] = {}
     written = 0
     with built_beside(out) as temporary:
         (temporary / "data").mkdir(parents=True)
-        document = psych_ds_description(columns, name=name, description=description)
+        document = psych_ds_description(columns, name=name, description=description, units=units)
         (temporary / "dataset_description.json").write_text(
             json.dumps(document, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
         for file_name, group in files.items():
             with open(temporary / "data" / file_name, "x", encoding="utf-8", newline="") as handle:
-                written = _write_table(handle, columns, group, done=written, progress=progress)
-            rows[file_name] = sum(len(recording.steps) for recording in group)
-    return rows
+                written = write_table(handle, columns, group, done=written, progress=progress, rows=rows)
+            counts[file_name] = sum(len(recording.steps) for recording in group)
+    return counts
 
 
 # ---------------------------------------------------------------------------- episodes
@@ -385,8 +392,6 @@ def write_minari(
     renamed into place whole; a failure removes it. `progress(episodes)` is called after each
     batch of episodes.
     """
-    import gymnasium as gym
-    import minari
     from minari.data_collector import EpisodeBuffer
 
     from irl_core.worlds.env import ENV_ID
@@ -396,9 +401,6 @@ def write_minari(
     episodes = [e for r in recordings for e in recorded_episodes(r)]
     if not episodes:
         raise ValueError("the recordings hold no steps: there is nothing to export")
-    target = minari_dataset_path(dataset_id)
-    if problem := dataset_place_problem(dataset_id):
-        raise FileExistsError(problem)
 
     def buffers(start: int) -> list:
         return [
@@ -406,12 +408,30 @@ def write_minari(
             for i, e in enumerate(episodes[start : start + MINARI_BATCH])
         ]
 
+    return create_minari(dataset_id, buffers, len(episodes), env_id=ENV_ID, world=world.model_dump(mode="json"),
+                         author={r.header.player for r in recordings}, description=description, progress=progress)
+
+
+def create_minari(dataset_id: str, buffers: Callable[[int], list], count: int, *, env_id: str,
+                  world: dict[str, Any], author: set[str], description: str,
+                  progress: Callable[[int], None] | None = None) -> Any:
+    """Create the local Minari dataset `dataset_id` of `count` episodes, `buffers(start)` giving the
+    `EpisodeBuffer`s from episode `start` on (MINARI_BATCH at a time), naming the environment `env_id` with
+    `world`. Returns the `minari.MinariDataset`.
+
+    Built in a hidden root beside the real one (Minari lists no hidden folder), then renamed into place only
+    if no dataset took the id meanwhile: a kill leaves no dataset that loads part of the episodes, and two
+    exports to one id never delete each other's. Raises `FileExistsError` when the id is taken."""
+    import gymnasium as gym
+    import minari
+
+    import irl_core.worlds.env  # noqa: F401  (registers the environments)
+
+    target = minari_dataset_path(dataset_id)
+    if problem := dataset_place_problem(dataset_id):
+        raise FileExistsError(problem)
     _ensure_namespace(dataset_id)
-    env = gym.make(ENV_ID, world=world.model_dump(mode="json"))
-    players = {r.header.player for r in recordings}
-    # Built whole in a hidden root beside the real one (Minari lists no hidden folder), then
-    # renamed into place only if no dataset took the id meanwhile: a kill leaves no dataset
-    # that loads part of the episodes, and two exports to one id never delete each other's.
+    env = gym.make(env_id, world=world)
     root = minari_dataset_path("")
     building = temporary_name(root / "careful-export")
     try:
@@ -420,9 +440,9 @@ def write_minari(
             warnings.filterwarnings("ignore", category=UserWarning, module=r"minari\.")
             dataset = minari.create_dataset_from_buffers(
                 dataset_id, buffers(0), env=env, algorithm_name="careful recordings",
-                author=players, description=description, data_format="hdf5", requirements=["careful"],
+                author=author, description=description, data_format="hdf5", requirements=["careful"],
             )
-            for start in range(MINARI_BATCH, len(episodes), MINARI_BATCH):
+            for start in range(MINARI_BATCH, count, MINARI_BATCH):
                 if progress:
                     progress(start)
                 dataset.update_dataset_from_buffer(buffers(start))
@@ -439,5 +459,5 @@ def write_minari(
         shutil.rmtree(building, ignore_errors=True)
     dataset = minari.load_dataset(dataset_id)
     if progress:
-        progress(len(episodes))
+        progress(count)
     return dataset

@@ -1,6 +1,7 @@
-"""A Gymnasium environment over a careful world's MDP (docs/environment.md).
+"""Gymnasium environments over careful's worlds (docs/environment.md): a grid world's MDP, and a reach world.
 
-``import irl_core.worlds.env`` registers ``careful/Careful-v0``::
+``import irl_core.worlds.env`` registers ``careful/Careful-v0`` (grid worlds) and ``careful/Reach-v0``
+(reach worlds, `ReachEnv`)::
 
     import gymnasium as gym
     import irl_core.worlds.env  # noqa: F401  (registers careful/Careful-v0)
@@ -24,9 +25,11 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from irl_core.worlds.mdp import DIRECTIONS, build_mdp
+from irl_core.worlds.reach import ReachWorld, load_reach_world, reach_world_from_dict
 from irl_core.worlds.world import Cell, World, load_world, world_from_dict
 
 ENV_ID = "careful/Careful-v0"
+REACH_ENV_ID = "careful/Reach-v0"
 
 
 
@@ -214,5 +217,121 @@ class CarefulEnv(gym.Env):
         }
 
 
+def resolve_reach_world(world: str | Path | ReachWorld | Mapping[str, Any]) -> ReachWorld:
+    """A built-in reach world's name, a reach world file, a `ReachWorld`, or one as a mapping (its TOML fields).
+
+    Raises `irl_core.errors.WorldError` (a one-line message) for anything else that is not a reach world."""
+    if isinstance(world, ReachWorld):
+        return world
+    if isinstance(world, Mapping):
+        return reach_world_from_dict(dict(world))
+    return load_reach_world(world)
+
+
+class ReachEnv(gym.Env):
+    """
+    careful's reach worlds: one quick reach to a target beside a penalty circle, its aim and duration chosen.
+
+    ## Description
+    A reach world from `careful` (`reach`, `reach-mild`, `reach-severe`, or a reach world file; docs/reach.md).
+    An episode is one reach from the world's start: the agent chooses where to aim and how long to take. The
+    endpoint is the aim plus a normal scatter per axis of sd a + b * distance / (duration_ms / 1000), the
+    world's spread law: a slower reach lands closer to its aim, and costs more time.
+
+    ## Action Space
+    `Box([0, 0, min_ms], [width, height, max_ms], (3,), float64)`: aim x, aim y (field units, y down) and the
+    duration in ms.
+
+    ## Observation Space
+    `Box([-inf, -inf], [inf, inf], (2,), float64)`: where the hand is. At reset, the world's start; after the
+    step, the reach's endpoint (which may lie outside the field: the scatter is not clipped). The world itself
+    never changes, so the hand's place is the whole state, as the cell is in careful/Careful-v0.
+
+    ## Rewards
+    The points of every circle holding the endpoint (circles that overlap add), less cost_per_second *
+    duration_ms / 1000: the `reward` a reach recording holds.
+
+    ## Starting State
+    The world's start, always.
+
+    ## Episode End
+    - Termination: after the one step (a trial is one reach). Truncation: never.
+    Calling `step` after it raises `gymnasium.error.ResetNeeded`.
+
+    ## Information
+    `reset` and `step` return `aim` (np.array([x, y]), the start at reset), `duration_ms` (0 at reset) and
+    `hit` (np.array of 0 or 1 per symbol of the world, in its order: 1 where a circle of that symbol holds the
+    endpoint; all 0 at reset). Numbers only, so Minari's datasets store them.
+
+    ## Arguments
+    ```python
+    gym.make("careful/Reach-v0", world="reach", render_mode=None)
+    ```
+    `world`: a built-in reach world's name, a reach world file, a `ReachWorld` or its fields as a dict.
+    `render_mode="ansi"`: `render()` returns the last reach in a line of text.
+
+    ## Version History
+    - v0: Initial version.
+    """
+
+    metadata = {"render_modes": ["ansi"], "render_fps": 4}
+
+    def __init__(self, world: str | Path | ReachWorld | Mapping[str, Any] = "reach", *,
+                 render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+        self.world = resolve_reach_world(world)
+        self.render_mode = render_mode
+        width, height = self.world.field
+        self.action_space = spaces.Box(low=np.array([0.0, 0.0, self.world.min_ms]),
+                                       high=np.array([width, height, self.world.max_ms]), dtype=np.float64)
+        self.observation_space = spaces.Box(low=-np.inf, high=np.inf, shape=(2,), dtype=np.float64)
+        self._hand: np.ndarray | None = None
+        self._done = False
+        self._last: dict[str, Any] | None = None
+
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self._hand, self._done, self._last = np.array(self.world.start, dtype=np.float64), False, None
+        return self._hand.copy(), self._info(np.array(self.world.start, dtype=np.float64), 0.0, [])
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._hand is None or self._done:
+            raise ResetNeeded("the reach has been made (or the episode never began): call reset() first")
+        action = np.asarray(action, dtype=np.float64)
+        if action.shape != (3,) or not self.action_space.contains(action):
+            raise ValueError(f"{action!r} is not an action of {self.action_space}")
+        aim, duration = action[:2], float(action[2])
+        self._hand = self.world.endpoint(aim, duration, self.np_random)
+        endpoint = (float(self._hand[0]), float(self._hand[1]))
+        reward = self.world.score_of(endpoint, duration)
+        regions = self.world.regions_holding(endpoint)
+        self._done = True
+        self._last = {"aim": aim, "duration_ms": duration, "endpoint": endpoint, "regions": regions, "reward": reward}
+        return self._hand.copy(), reward, True, False, self._info(aim, duration, regions)
+
+    def render(self) -> str | None:
+        if self.render_mode != "ansi":
+            return None
+        if self._last is None:
+            return f"{self.world.name}: at the start {list(self.world.start)}, no reach yet\n"
+        last = self._last
+        return (f"{self.world.name}: aimed at ({last['aim'][0]:.1f}, {last['aim'][1]:.1f}) in "
+                f"{last['duration_ms']:.0f} ms, ended at ({last['endpoint'][0]:.1f}, {last['endpoint'][1]:.1f}) in "
+                f"{', '.join(last['regions']) or 'no circle'}: reward {last['reward']:g}\n")
+
+    def _info(self, aim: np.ndarray, duration: float, regions: list[str]) -> dict[str, Any]:
+        return {"aim": np.array(aim, dtype=np.float64), "duration_ms": duration,
+                "hit": symbol_hits(self.world, regions)}
+
+
+def symbol_hits(world: ReachWorld, regions: list[str] | tuple[str, ...]) -> np.ndarray:
+    """(S,) int8: 1 for each of the world's symbols (its order) that `regions` names, else 0."""
+    return np.array([symbol in regions for symbol in world.symbols], dtype=np.int8)
+
+
 if ENV_ID not in gym.registry:
     gym.register(id=ENV_ID, entry_point="irl_core.worlds.env:CarefulEnv")
+if REACH_ENV_ID not in gym.registry:
+    gym.register(id=REACH_ENV_ID, entry_point="irl_core.worlds.env:ReachEnv")

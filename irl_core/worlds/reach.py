@@ -137,6 +137,12 @@ class ReachWorld(_Strict):
         """(...) the time cost (positive) of reaches of durations (...) in ms."""
         return self.cost_per_second * np.asarray(duration_ms, dtype=float) / 1000.0
 
+    def endpoint(self, aim: ArrayLike, duration_ms: float, rng: np.random.Generator) -> np.ndarray:
+        """(2,) where a simulated reach aimed at `aim` (2,) taking `duration_ms` lands: aim + N(0, sd^2) per axis
+        by the world's spread law (the simulators and careful/Reach-v0 draw it here)."""
+        aim = np.asarray(aim, dtype=float)
+        return aim + rng.normal(0.0, float(self.sd(aim, duration_ms)), 2)
+
     def regions_holding(self, endpoint: Point) -> list[str]:
         """The symbols of the circles holding `endpoint` (on the rim counts), each once, in the file's order."""
         return list(dict.fromkeys(region.symbol for region in self.regions
@@ -164,12 +170,6 @@ class ReachWorld(_Strict):
             f"max_ms = {self.max_ms!r}",
         ]
         return "\n".join(lines) + "\n"
-
-
-def endpoint_of(world: ReachWorld, aim: ArrayLike, duration_ms: float, rng: np.random.Generator) -> np.ndarray:
-    """(2,) where a simulated reach aimed at `aim` (2,) taking `duration_ms` lands: aim + N(0, sd^2) per axis
-    (the computer reachers' and a person's reach in play alike)."""
-    return np.asarray(aim, dtype=float) + rng.normal(0.0, float(world.sd(aim, duration_ms)), 2)
 
 
 def _builtin(name: str, penalty: float) -> ReachWorld:

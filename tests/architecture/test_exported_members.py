@@ -17,8 +17,8 @@ PUBLIC = {
         "rollouts", "simulate_to_file", "simulated_participants", "value_iteration", "world_from_dict",
         "write_simulated_participant",
         # reach worlds (docs/reach.md)
-        "REACH_WORLDS", "ReachFit", "ReachWorld", "expected_gain", "fit_reaches", "load_reach_world", "reacher",
-        "read_reaches", "simulate_reaches_to_file",
+        "REACH_ENV_ID", "REACH_WORLDS", "ReachEnv", "ReachFit", "ReachWorld", "expected_gain", "fit_reaches",
+        "load_reach_world", "reacher", "read_reaches", "simulate_reaches_to_file",
     ],
     "irl_core.irl": [
         "BadInputError", "FitError", "FitOptions", "FitResult", "InfeasibleError", "METHODS", "Note", "SolverError",

@@ -113,7 +113,8 @@ def test_careful_fit_writes_the_reach_json(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(("extra", "words"), [
-    (["--figure", "x.pdf"], "--figure: there is no picture of a reach fit yet"),
+    (["--svg", "x.svg"], "--svg: there is no text picture of a reach fit"),
+    (["--figure", "x.gif"], "a figure must end in .pdf, .png, .svg"),
     (["--known", "U=-3"], "--known U: the reach world has no circle of that symbol"),
 ])
 def test_careful_fit_refuses_what_a_reach_fit_cannot_do_in_one_line(tmp_path, capsys, extra, words):

@@ -7,10 +7,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from irl_core.reach.gain import best_choice, choice_grid, expected_gain, hit_chances, soft_choice_log_probabilities
-from irl_core.reach.players import OptimalReacher, SoftReacher
-from irl_core.worlds.reach import REACH_WORLDS, endpoint_of
+from irl_core.reach.players import HandReacher, OptimalReacher, SoftReacher
+from irl_core.worlds.reach import REACH_WORLDS
 
 WORLD = REACH_WORLDS["reach"]
+GRID = choice_grid(WORLD)
 
 
 def monte_carlo_gain(world, aim, duration, n, rng):
@@ -88,5 +89,16 @@ def test_the_reachers_choose_on_the_grid_and_scatter_by_the_spread_law():
     assert all(aim.tolist() in lattice for aim, _ in chosen[:20])  # without aim noise, the grid's own aims
     assert len({duration for _, duration in chosen}) > 1
     aim, duration = np.array([200.0, 80.0]), 400.0
-    ends = np.array([endpoint_of(WORLD, aim, duration, rng) for _ in range(4000)])
+    ends = np.array([WORLD.endpoint(aim, duration, rng) for _ in range(4000)])
     assert ends.std(axis=0) == pytest.approx([float(WORLD.sd(aim, duration))] * 2, rel=0.06)
+
+
+@settings(max_examples=40, deadline=None)
+@given(lapse=st.floats(0, 1), aim_sd=st.floats(0, 80), weber=st.floats(0, 3), seed=st.integers(0, 2**32 - 1))
+def test_the_hand_always_reaches_inside_the_field_and_the_limits(lapse, aim_sd, weber, seed):
+    hand = HandReacher(GRID, np.array(list(WORLD.points.values())), limits=(WORLD.min_ms, WORLD.max_ms),
+                       extent=WORLD.field, lapse=lapse, aim_sd=aim_sd, weber=weber)
+    rng = np.random.default_rng(seed)
+    for _ in range(30):
+        aim, duration = hand.choose(rng)
+        assert np.all((aim >= 0) & (aim <= WORLD.field)) and WORLD.min_ms <= duration <= WORLD.max_ms

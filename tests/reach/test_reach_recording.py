@@ -4,6 +4,7 @@ naming file, line and field; the grid reader and its commands refuse a reach rec
 
 import json
 
+import numpy as np
 import pytest
 
 from careful_tui.cli import main
@@ -61,7 +62,7 @@ def test_the_optimal_player_aims_at_one_point(tmp_path):
 def test_a_person_like_policy_is_refused_on_a_reach_world(tmp_path, capsys):
     assert main(["simulate", "--world", "reach", "--policy", "loose", "--episodes", "3", "--seed", "0",
                  "--out", str(tmp_path / "x.jsonl")]) == 2
-    assert "a reach world has the optimal and boltzmann players" in capsys.readouterr().err
+    assert "a reach world has the optimal, boltzmann and hand players" in capsys.readouterr().err
     assert not (tmp_path / "x.jsonl").exists()
 
 
@@ -110,3 +111,32 @@ def test_the_grid_commands_refuse_a_reach_recording_in_one_line(recording, capsy
     assert main(["replay", str(recording)]) == 2
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1 and ":1: world.care: a reach recording" in error
+
+
+def test_the_person_like_hand_lapses_times_by_hand_and_is_named_with_its_parameters(tmp_path, capsys):
+    path = tmp_path / "hand.jsonl"
+    assert main(["simulate", "--world", "reach", "--policy", "hand", "--episodes", "400", "--seed", "5",
+                 "--lapse", "0.2", "--aim-sd", "3", "--spread", "2", "--out", str(path)]) == 0
+    assert "--spread applies only to the person-like players of grid worlds" in capsys.readouterr().err
+    header = json.loads(path.read_text().splitlines()[0])
+    assert header["player"] == "person:hand(lapse=0.2, aim_sd=3, weber=0.15)"
+    reaches, _ = read_reaches([path])
+    world = REACH_WORLDS["reach"]
+    best_aim = np.array([218.0, 84.0])  # the maximiser's (docs/reach.md)
+    off = np.hypot(*(reaches.aims - best_aim).T)
+    rushed = reaches.durations < 2 * world.min_ms
+    wild = off > 6 * 3  # beyond 6 sd of the hand's own aim noise: aimed at random
+    # half the lapses (0.2 x 400 = 80) rushed, half aimed at random (some of those land near the best aim)
+    assert 25 <= rushed.sum() <= 60 and 20 <= wild.sum() <= 60 and not np.any(rushed & wild)
+    steady = ~rushed & ~wild
+    assert np.std(reaches.aims[steady] - best_aim, axis=0) == pytest.approx([3, 3], rel=0.2)
+    # the meant duration is the longest allowed: a reach timed past it is refused and repeated, never clipped
+    assert np.all(reaches.durations <= world.max_ms) and np.sum(reaches.durations == world.max_ms) == 0
+    assert np.median(reaches.durations[steady]) == pytest.approx(1500 * np.exp(-0.15 * 0.6745), rel=0.05)
+
+
+def test_the_hand_is_refused_on_a_grid_world_in_one_line(tmp_path, capsys):
+    assert main(["simulate", "--world", "mud", "--policy", "hand", "--episodes", "3", "--seed", "0",
+                 "--out", str(tmp_path / "x.jsonl")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "a player of reach worlds" in error

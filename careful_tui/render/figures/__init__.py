@@ -13,6 +13,7 @@ writes one in the format its path's suffix names.
 - `intervals`: one row per unknown, interval as a bar, estimate as a dot, truth as a mark.
 - `carefulness`: mean carefulness against distance to the nearest terminal cell.
 - `fit_figure`: the panels of one `careful fit` result in one figure.
+- `reach_figure`: a reach fit in one figure (the field with the reaches, durations by distance, intervals).
 - `small_multiples`: a small panel per participant (rewards, carefulness) on shared scales.
 - `study_figures`: the figures of `careful study report`, named as their files.
 
