@@ -14,7 +14,7 @@ from rich.syntax import Syntax
 from rich.text import Text
 
 from careful_tui.render.grid import OTHER_SYMBOL_COLOUR, SYMBOL_COLOURS, format_value
-from careful_tui.render.palette import BAD, INK, NOTE, WARN, WHITE
+from careful_tui.render.palette import BAD, INK, NOTE, ON_NOTE, WARN, WHITE
 from irl_core.support.safe_text import VALUE_LIMIT, printable
 from irl_core.worlds.reach import ReachWorld
 
@@ -127,26 +127,27 @@ def field_pixels(world: ReachWorld, columns: int, rows: int, marks: FieldMarks) 
     colour[count > 1] = overlap_colour(world)
     if marks.ring_sd is not None and marks.ring_sd >= min(unit_x, unit_y) / 2:
         off = np.abs(np.hypot(px - marks.aim[0], py - marks.aim[1]) - marks.ring_sd)
-        colour[off <= 0.6 * max(unit_x, unit_y)] = RING_COLOURS.get(marks.within, WHITE)
+        colour[off <= 0.5 * max(unit_x, unit_y)] = RING_COLOURS.get(marks.within, WHITE)
 
     def cell_of(point: tuple[float, float]) -> tuple[int, int]:
         return (min(int(point[0] / unit_x), columns - 1), min(int(point[1] / (2 * unit_y)), rows - 1))
 
-    # Later marks win a shared character: the aim over the endpoint over the start over a circle's symbol.
+    # Later marks win a shared character: the aim over the endpoint over the start over a circle's symbol. On
+    # the ground a mark has its colour; on a circle (gold, red) it is dark, which reads on both.
     letters: dict[tuple[int, int], tuple[str, str]] = {}
     for region in world.regions:
-        letters[cell_of(region.centre)] = (printable(region.symbol), f"bold {INK}")
-    letters[cell_of(world.start)] = (START_MARK, f"bold {INK}")
+        letters[cell_of(region.centre)] = (printable(region.symbol), INK)
+    letters[cell_of(world.start)] = (START_MARK, INK)
     if marks.endpoint is not None:
-        letters[cell_of(marks.endpoint)] = (END_MARK, f"bold {WHITE}")
-    letters[cell_of(marks.aim)] = (AIM_MARK, f"bold {NOTE}")
+        letters[cell_of(marks.endpoint)] = (END_MARK, WHITE)
+    letters[cell_of(marks.aim)] = (AIM_MARK, NOTE)
     text = Text(no_wrap=True, overflow="crop")
     for row in range(rows):
         for col in range(columns):
             top, bottom = colour[2 * row, col], colour[2 * row + 1, col]
             if (col, row) in letters:
-                letter, style = letters[(col, row)]
-                text.append(letter, style=f"{style} on {bottom}")
+                letter, ink = letters[(col, row)]
+                text.append(letter, style=f"bold {ink if bottom == GROUND else ON_NOTE} on {bottom}")
             else:
                 text.append(HALF_BLOCK, style=Style(color=top, bgcolor=bottom))
         if row < rows - 1:
@@ -155,13 +156,14 @@ def field_pixels(world: ReachWorld, columns: int, rows: int, marks: FieldMarks) 
 
 
 def field_legend(world: ReachWorld) -> Text:
-    """A key to play's field: each symbol's colour and points, the overlap's blend, the marks."""
+    """A key to play's field, short enough for the field's border at 80 columns: each symbol's colour and
+    points, the overlap's blend, the marks."""
     legend = Text()
     for symbol, points in world.points.items():
-        legend.append("  ", style=Style(bgcolor=SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR)))
+        legend.append("\u25a0", style=SYMBOL_COLOURS.get(symbol, OTHER_SYMBOL_COLOUR))
         legend.append(f" {printable(symbol)} {format_value(points)}  ")
     if len(world.symbols) > 1:
-        legend.append("  ", style=Style(bgcolor=overlap_colour(world)))
-        legend.append(" both add  ")
-    legend.append(f"{AIM_MARK} aim {END_MARK} landed")
+        legend.append("\u25a0", style=overlap_colour(world))
+        legend.append(f" {'+'.join(printable(symbol) for symbol in world.symbols[:2])}  ")
+    legend.append(f"{AIM_MARK} aim  {END_MARK} landed")
     return legend

@@ -36,6 +36,7 @@ from careful_tui.widgets import KeyBar
 from careful_tui.widgets.reach_field import ReachField
 from careful_tui.widgets.too_small import TooSmall
 from irl_core.play.reach_session import REACH_INTRO, ReachSession, ReachView
+from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
 
 TICK_S = 1 / 30
@@ -179,7 +180,9 @@ def panel_text(view: ReachView, session: ReachSession) -> Text:
     if view.done:
         done = "Block done." if session.write_error is None else "Stopped: the trial could not be written."
         text.append(f"{done}\n", style=f"bold {GOOD if session.write_error is None else BAD}")
-        text.append(f"{len(session.steps)} trials · score {view.score:.1f}\n\n")
+        text.append(f"{plural(len(session.steps), 'trial')} · score {view.score:.1f}\n\n")
+        text.append_text(message_text(view.message))
+        text.append("\n\n")
         # Not space: a held key's last autorepeats would leave before the result is seen.
         text.append("q leaves.", style="dim")
         return text

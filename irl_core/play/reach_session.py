@@ -178,6 +178,7 @@ class ReachSession:
         self.write_error: OSError | ValueError | None = None
         self.releases_seen = False
         self._last_key_at: float | None = None
+        self._last_hold_end: float | None = None
 
     @property
     def keys(self) -> frozenset[str]:
@@ -281,12 +282,24 @@ class ReachSession:
         for hold in holds:
             if self.done:
                 break
+            if self._tail_of_last_launch(hold):
+                continue
             # To the microsecond: a clock's float arithmetic makes a 150 ms hold 149.99999999997 ms.
             duration_ms = round(hold.hold_ms, 3)
             if self._allowed(duration_ms, inferred=not hold.exact):
                 end = endpoint_of(self.world, self.aim, duration_ms, self.rng)
                 recorded = self._record(self.aim, (float(end[0]), float(end[1])), duration_ms, exact=hold.exact)
         return recorded
+
+    def _tail_of_last_launch(self, hold: Hold) -> bool:
+        """Whether `hold` is a lone late autorepeat of the reach just launched, not a press of its own.
+
+        Without releases a reach is launched by the silence after its autorepeats; on a busy machine that
+        silence can be a delivery gap with the key still down, and a lone repeat that comes after it reads
+        as a tap. It is dropped without a word: called too quick, it would hide the reach's result."""
+        last, self._last_hold_end = self._last_hold_end, None if hold.exact else hold.started + hold.hold_ms / 1000
+        return (not hold.exact and hold.repeats == 0 and last is not None
+                and hold.started - last < self.profile.first_repeat_timeout_ms / 1000)
 
     def _allowed(self, duration_ms: float, *, inferred: bool) -> bool:
         """Whether a reach of `duration_ms` may be launched; if not, the message says why (nothing is recorded)."""

@@ -215,3 +215,14 @@ def test_a_trial_that_cannot_be_written_stops_the_block(tmp_path):
 def test_a_block_needs_a_trial():
     with pytest.raises(ValueError, match="at least 1"):
         ReachOptions(trials=0)
+
+
+def test_a_lone_late_repeat_after_a_launch_is_dropped_without_a_word(tmp_path):
+    s, clock = session(tmp_path)
+    step = legacy_reach(s, clock, repeats=10)
+    clock.advance(0.05)  # the key was still down: one more repeat, held back by a busy machine
+    assert legacy_reach(s, clock, repeats=0) is None
+    assert s.view().message.text.startswith("Landed") and s.steps == [step]
+    clock.advance(2.0)  # a tap of its own, long after: too quick, and said
+    assert legacy_reach(s, clock, repeats=0) is None
+    assert s.view().message.text == too_quick_words(WORLD, inferred=True)

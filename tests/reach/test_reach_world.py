@@ -94,10 +94,13 @@ def test_careful_worlds_lists_and_draws_reach_worlds(capsys, monkeypatch):
     assert "points = -5000.0" in drawn
 
 
-def test_play_and_a_study_refuse_a_reach_world_in_one_line(tmp_path, capsys):
-    assert main(["play", "--world", "reach"]) == 2
+def test_a_study_refuses_a_reach_world_and_play_an_own_noise_one_in_one_line(tmp_path, capsys):
+    own = tmp_path / "own.toml"
+    own.write_text(GOOD.replace('noise = "simulated"', 'noise = "own"'))
+    assert main(["play", "--world", str(own), "--out", str(tmp_path / "rec")]) == 2
     error = capsys.readouterr().err.strip()
-    assert len(error.splitlines()) == 1 and "reach is a reach world" in error
+    assert len(error.splitlines()) == 1 and 'noise = "own"' in error and "careful serve" in error
+    assert not (tmp_path / "rec").exists()  # refused before anything was made
     world = tmp_path / "mine.toml"
     world.write_text(GOOD)
     with pytest.raises(WorldError, match="is a reach world"):
