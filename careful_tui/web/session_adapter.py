@@ -277,13 +277,24 @@ class WebSession:
     def _reach_written(self, session: ReachSession) -> None:
         if session.write_error is not None:
             raise session.write_error
+        if self.reach_calibrating and session.done:
+            # The block is whole on disk: its law is fitted and stored now, whether or not the participant goes on.
+            session.quit()
+            block = self.protocol.next_block
+            assert block is not None
+            fit = self.flow.reach_calibration_ended(block.world_index)
+            if fit is not None:
+                self.say(f"{self.participant}: finished the calibration block (a = {fit.spread.spread.a:.3g}, "
+                         f"b = {fit.spread.spread.b:.3g})")
 
     def _start_reach(self) -> bool:
         """The next block's calibration block or reach block, if its world is a reach world."""
         block = self.protocol.next_block
         session = self.flow.reach_calibration()
         self.reach_calibrating = session is not None
-        if session is None:
+        if session is None and block is not None:
+            # A block made whole by a participant who left before its law was stored (a crash): stored now.
+            self.flow.reach_calibration_ended(block.world_index)
             session = self.flow.next_reach_block()
         if session is None or block is None:
             return False
@@ -301,13 +312,7 @@ class WebSession:
         assert session is not None
         session.quit()
         self.reach = None
-        block = self.protocol.next_block
         if self.reach_calibrating:
-            assert block is not None
-            fit = self.flow.reach_calibration_ended(block.world_index)
-            if fit is not None:
-                self.say(f"{self.participant}: calibration block done (a = {fit.spread.spread.a:.3g}, "
-                         f"b = {fit.spread.spread.b:.3g})")
             self.reach_calibrating = False
             self._start_block()
             return

@@ -176,21 +176,22 @@ class StudyFlow:
         return schedule[min(done + trial, len(schedule) - 1)]
 
     def reach_calibration_ended(self, world_index: int) -> CalibrationFit | None:
-        """The calibration block was left or made whole: the folder is read again and, once whole, the spread
-        law fitted from every calibration reach of the world is written beside the recordings (never over
-        one written before) and returned."""
+        """The calibration block of the world at `world_index` was left or made whole: the folder is read again
+        and, once whole, the spread law fitted from every calibration reach of the world is written beside the
+        recordings and returned; None when the block is not whole, the world has no such block, or its law was
+        stored before (never written over)."""
         self.protocol = read_protocol(self.study, self.participant)
         world = self.study.worlds[world_index]
-        if self.protocol.reach_calibration_left or not isinstance(world, ReachWorld):
+        path = self.protocol.folder / SPREAD_FILE.format(index=world_index)
+        if (self.protocol.reach_calibration_left or not isinstance(world, ReachWorld) or world.noise != "own"
+                or path.exists()):
             return None
         lone = calibration_world(world)
         steps = [step for _, reach in read_participant(self.study, self.participant).reaches if reach.world == lone
                  for step in reach.steps]
         fit = fit_calibration(world, [step.duration_ms for step in steps], [step.endpoint for step in steps])
-        path = self.protocol.folder / SPREAD_FILE.format(index=world_index)
-        if not path.exists():
-            with built_beside(path) as temporary:
-                temporary.write_text(json.dumps(fit.to_json(), indent=1) + "\n", encoding="utf-8")
+        with built_beside(path) as temporary:
+            temporary.write_text(json.dumps(fit.to_json(), indent=1) + "\n", encoding="utf-8")
         return fit
 
     def _reach_session(self, world: ReachWorld, block: Block, *, trials: int, heading: str) -> ReachSession:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from starlette.testclient import TestClient
-from web.conftest import Api, start_server, web_app
+from web.conftest import SEAT_KINDS, Api, seats_of_kind, start_server, web_app
 
 from irl_core.reach.calibration import calibration_deadlines, fit_calibration
 from irl_core.recordings.reach_reader import read_reach_recording
@@ -53,9 +53,10 @@ def wait_for(condition, timeout: float = 20.0):
 # ---------------------------------------------------------------------- through the requests
 
 
-def test_a_simulated_reach_is_recorded_and_reads_back_and_a_refused_one_is_not(tmp_path):
+@pytest.mark.parametrize("seats", SEAT_KINDS)
+def test_a_simulated_reach_is_recorded_and_reads_back_and_a_refused_one_is_not(tmp_path, seats):
     study = reach_study(tmp_path)
-    app, tokens = web_app(study)
+    app, tokens = web_app(study, seats=seats_of_kind(study, seats))
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
         api.key("space")
@@ -79,11 +80,12 @@ def test_a_simulated_reach_is_recorded_and_reads_back_and_a_refused_one_is_not(t
     assert protocol.progress == (1, 2)
 
 
-def test_an_own_noise_world_asks_its_calibration_block_first_and_stores_the_fitted_law(tmp_path):
+@pytest.mark.parametrize("seats", SEAT_KINDS)
+def test_an_own_noise_world_asks_its_calibration_block_first_and_stores_the_fitted_law(tmp_path, seats):
     study = reach_study(tmp_path, noise="own", per_deadline=2)
     world = study.worlds[0]
     rng = np.random.default_rng(0)
-    app, tokens = web_app(study)
+    app, tokens = web_app(study, seats=seats_of_kind(study, seats))
     driven = []
     with TestClient(app) as client:
         api = Api(client, token=tokens["p001"])
@@ -171,7 +173,7 @@ def test_a_simulated_reach_in_the_browser_is_aimed_by_the_pointer_and_timed_by_t
         thread.join(10)
 
 
-def own_reach(page, endpoint, ms: float, *, steps: int = 12) -> float:
+def own_reach(page, endpoint, ms: float, *, steps: int = 5) -> float:
     """A pointer's reach driven at a set speed: down on the start, out in `steps` moves evenly spread over `ms` of
     the page's clock to `endpoint`, up. Returns the duration driven: from just after the first move out of the start
     to just before the button comes up, on the page's clock."""
@@ -241,3 +243,25 @@ def test_own_noise_in_the_browser_the_calibration_block_and_a_refused_reach(page
         server.should_exit = True
         thread.join(10)
     assert (study.participant_folder("p001") / "spread-0.json").exists()
+
+
+def test_a_participant_who_leaves_mid_calibration_is_asked_only_the_rest(tmp_path):
+    study = reach_study(tmp_path, noise="own", per_deadline=2)
+    schedule = sorted(calibration_deadlines(study.worlds[0]) * 2, reverse=True)
+    app, tokens = web_app(study)
+    asked = []
+    with TestClient(app) as client:
+        for reaches in (3, None):
+            api = Api(client, token=tokens["p001"])
+            api.key("space")
+            while api.view["stage"] == "reach" and api.view["reach"]["calibration"] and reaches != 0:
+                if api.view["reach"]["done"]:
+                    break
+                asked.append(api.view["reach"]["deadline_ms"])
+                api.key("reach_own", endpoint=[201.0, 82.0], duration_ms=asked[-1])
+                reaches = None if reaches is None else reaches - 1
+            api.key("quit")
+    assert asked == schedule
+    assert read_protocol(study, "p001").reach_calibration_left == 0
+    # The law was stored as the block became whole, though the participant left before going on.
+    assert json.loads((study.participant_folder("p001") / "spread-0.json").read_text())["trials"] == 8
