@@ -7,8 +7,8 @@ import pytest
 
 from careful_tui.cli import main
 from irl_core.errors import StudyError
-from irl_core.players.experts import SIMULATED_AT
 from irl_core.play.reach_session import ReachOptions, ReachSession, reach_header
+from irl_core.players.experts import SIMULATED_AT
 from irl_core.recordings.lines import StudyTag
 from irl_core.recordings.writer import SessionRecorder
 from irl_core.studies.study import load_study, read_protocol
@@ -28,7 +28,7 @@ def test_a_study_reads_built_in_and_file_reach_worlds_beside_grid_ones(tmp_path)
     assert study.worlds[0] == BUILTIN_WORLDS["paper"] and study.worlds[1] == REACH_WORLDS["reach-mild"]
     assert study.worlds[2].noise == "own" and study.study.calibration_reaches == 10
     with pytest.raises(StudyError, match="worlds\\[1\\]: this command does not take reach worlds"):
-        study.grid_worlds
+        _ = study.grid_worlds
 
 
 def test_a_level_calibration_block_cannot_come_before_a_reach_world(tmp_path):
