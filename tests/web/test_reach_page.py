@@ -218,15 +218,31 @@ def test_own_noise_in_the_browser_the_calibration_block_and_a_refused_reach(page
         driven = []
         for deadline in sorted(calibration_deadlines(study.worlds[0]), reverse=True):
             endpoint = (200.0 + rng.normal(0, 5), 80.0 + rng.normal(0, 5))
-            ms = own_reach(page, endpoint, deadline)
-            driven.append((ms, stamped_reach(page, stamped(page)), endpoint))
-            wait_for(lambda: len(reach_lines(study, "p001")) == len(driven))
+            target = deadline
+            while True:
+                ms = own_reach(page, endpoint, target)
+                stamps = stamped_reach(page, stamped(page))
+                if stamps <= 1500:
+                    wait_for(lambda: len(reach_lines(study, "p001")) > len(driven))
+                    break
+                # A reach driven on a loaded machine can run long, and past max_ms it is (rightly) refused and
+                # not recorded; it is driven again, shorter.
+                page.locator("#reach-status", has_text="Too slow").wait_for()
+                assert len(reach_lines(study, "p001")) == len(driven)
+                target -= 200
+            driven.append((ms, stamps, endpoint))
         recorded = reach_lines(study, "p001")
         for line, (ms, stamps, endpoint) in zip(recorded, driven):
             print("own reach", round(ms, 1), round(stamps, 1), line["duration_ms"])
             assert abs(line["duration_ms"] - stamps) <= 20 and line["duration_ms"] >= ms - 1
             assert line["endpoint"] == pytest.approx(list(endpoint), abs=0.5)
         page.locator("#reach-status", has_text="Press space").wait_for()
+        # The law stored is the one of the reaches as driven: their endpoints and the browser's own times.
+        stored = json.loads(wait_for(lambda: (study.participant_folder("p001") / "spread-0.json").exists()
+                                     and (study.participant_folder("p001") / "spread-0.json").read_text()))
+        expected = fit_calibration(study.worlds[0], [stamps for _, stamps, _ in driven],
+                                   [endpoint for *_, endpoint in driven]).spread.spread
+        assert (stored["a"], stored["b"]) == pytest.approx((expected.a, expected.b), rel=0.02)
         page.keyboard.press(" ")
         page.locator("#reach-status", has_text="score").wait_for()
         # Too slow (over max_ms 1500; a driven reach can only run long, so this one is sure): refused in the
