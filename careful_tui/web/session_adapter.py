@@ -16,6 +16,10 @@ calibration     the motor calibration block: a level to make with the gauge visi
                 on to practice once every target has a trial
 play            the board, the gauge and the score; arrows move (hold longer: more
                 careful), space starts the next episode once one has ended
+reach           a reach world's block (or, for "own" noise, its calibration block first): the
+                field, the aim and the last endpoint; ``reach_press``/``reach_release`` time a
+                simulated reach, ``reach_own`` hands over a pointer's reach (docs/reach.md);
+                space goes on once the block is done
 between         practice over, or a world done; space goes on
 end             the end of the study (and, for a Prolific participant with a
                 completion code, the address to go back to)
@@ -384,11 +388,7 @@ class WebSession:
         """The page's key and time, as they came, once they are an arrow and a time (else KeyRefused)."""
         if not (isinstance(key, str) and key in DIRECTIONS):
             raise KeyRefused(f"not an arrow: {printable(str(key), limit=20)!r}")
-        # bool is an int to Python (true was taken as 1 ms), and a 1,900-digit int overflows a float:
-        # the type first, then the range (int and float compare exactly), only then arithmetic.
-        if type(at_ms) not in (int, float) or not 0 <= at_ms < 1e12:  # type: ignore[operator]
-            raise KeyRefused("a key's time must be a number of milliseconds")
-        return key, float(at_ms)  # type: ignore[arg-type]
+        return key, _time(at_ms)
 
     def _played(self, played: Played) -> None:
         assert self.session is not None
@@ -537,9 +537,11 @@ def _pair(value: object, name: str) -> tuple[float, float]:
 
 
 def _time(value: object) -> float:
-    """A time the page sent, in ms (else KeyRefused): the type first, then the range, as `_check`."""
+    """A time the page sent, in ms (else KeyRefused)."""
+    # bool is an int to Python (true was taken as 1 ms), and a 1,900-digit int overflows a float:
+    # the type first, then the range (int and float compare exactly), only then arithmetic.
     if type(value) not in (int, float) or not 0 <= value < 1e12:  # type: ignore[operator]
-        raise KeyRefused("a time must be a number of milliseconds")
+        raise KeyRefused("a key's time must be a number of milliseconds")
     return float(value)  # type: ignore[arg-type]
 
 
