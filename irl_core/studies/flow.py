@@ -167,7 +167,7 @@ class StudyFlow:
         if left <= 0 or block is None or not isinstance(world := self.protocol.study_world(block), ReachWorld):
             return None
         return self._reach_session(calibration_world(world), block, trials=left,
-                                   heading=f"{block_heading(self.protocol, block)} · calibration")
+                                   heading=f"{block_heading(self.protocol, block).rsplit(' · ', 1)[0]} · calibration")
 
     def reach_deadline(self, world: ReachWorld, trial: int) -> float:
         """The deadline (ms) asked of the calibration block's `trial`-th reach (0-based) still to make."""

@@ -92,6 +92,7 @@ def test_an_own_noise_world_asks_its_calibration_block_first_and_stores_the_fitt
         api.key("space")
         reach = api.view["reach"]
         assert reach["calibration"] and len(reach["regions"]) == 1 and reach["regions"][0]["points"] is None
+        assert reach["heading"] == "reach pilot · world 1 of 1 (reach-own) · calibration"
         asked = []
         while not api.view["reach"]["done"]:
             deadline = api.view["reach"]["deadline_ms"]
