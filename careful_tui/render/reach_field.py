@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from rich.console import Console
@@ -141,18 +142,31 @@ def field_pixels(world: ReachWorld, columns: int, rows: int, marks: FieldMarks) 
     if marks.endpoint is not None:
         letters[cell_of(marks.endpoint)] = (END_MARK, WHITE)
     letters[cell_of(marks.aim)] = (AIM_MARK, NOTE)
+    # Runs of one colour pair are appended at once: the field is redrawn at 30 Hz while a key is held.
     text = Text(no_wrap=True, overflow="crop")
     for row in range(rows):
+        run, pair = 0, ("", "")
         for col in range(columns):
             top, bottom = colour[2 * row, col], colour[2 * row + 1, col]
+            if (col, row) in letters or (top, bottom) != pair:
+                if run:
+                    text.append(HALF_BLOCK * run, style=_pixel_style(*pair))
+                run, pair = 0, (top, bottom)
             if (col, row) in letters:
                 letter, ink = letters[(col, row)]
                 text.append(letter, style=f"bold {ink if bottom == GROUND else ON_NOTE} on {bottom}")
             else:
-                text.append(HALF_BLOCK, style=Style(color=top, bgcolor=bottom))
+                run += 1
+        if run:
+            text.append(HALF_BLOCK * run, style=_pixel_style(*pair))
         if row < rows - 1:
             text.append("\n")
     return text
+
+
+@lru_cache(maxsize=256)
+def _pixel_style(top: str, bottom: str) -> Style:
+    return Style(color=top, bgcolor=bottom)
 
 
 def field_legend(world: ReachWorld) -> Text:

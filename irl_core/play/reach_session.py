@@ -57,6 +57,16 @@ LAUNCH_KEYS = frozenset({"space", "enter"})
 DEFAULT_TRIALS = 20
 """Trials in a block when the front end does not say."""
 
+FIRST_REPEAT_MARGIN_MS = 1000.0
+"""Without releases, how long past the keyboard's assumed autorepeat delay (500 ms) a press waits for its first
+repeat before it counts as a tap. Play waits 200 ms, as a tap there is a move; a reach's tap is refused anyway,
+so the wait costs nothing, and a first repeat that a slow keyboard (X11's 660 ms) or a busy machine makes late
+still extends the hold from its press instead of splitting it into refused taps."""
+
+LATE_REPEAT_S = 0.5
+"""A lone autorepeat this soon after the end of the hold that launched a reach is that hold's tail (see
+`ReachSession._tail_of_last_launch`)."""
+
 REACH_TITLE = "Reach"
 REACH_INTRO = ("Aim with the arrow keys, then hold space for as long as the reach should take and let go. "
                "The ring is where the reach may land: the longer you hold, the smaller it gets, "
@@ -168,7 +178,7 @@ class ReachSession:
         self.recorder = recorder
         self.options = options
         self.clock = clock
-        self.profile = profile or HoldProfile()
+        self.profile = profile or HoldProfile(first_repeat_margin_ms=FIRST_REPEAT_MARGIN_MS)
         self.rng = np.random.default_rng(seed)
         self.input = HoldDetector(self.profile, clock=clock, keys=LAUNCH_KEYS)
         self.aim: tuple[float, float] = starting_aim(world)
@@ -299,7 +309,7 @@ class ReachSession:
         as a tap. It is dropped without a word: called too quick, it would hide the reach's result."""
         last, self._last_hold_end = self._last_hold_end, None if hold.exact else hold.started + hold.hold_ms / 1000
         return (not hold.exact and hold.repeats == 0 and last is not None
-                and hold.started - last < self.profile.first_repeat_timeout_ms / 1000)
+                and hold.started - last < LATE_REPEAT_S)
 
     def _allowed(self, duration_ms: float, *, inferred: bool) -> bool:
         """Whether a reach of `duration_ms` may be launched; if not, the message says why (nothing is recorded)."""

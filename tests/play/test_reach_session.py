@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from irl_core.play.reach_session import (
     ReachOptions,
@@ -226,3 +228,38 @@ def test_a_lone_late_repeat_after_a_launch_is_dropped_without_a_word(tmp_path):
     clock.advance(2.0)  # a tap of its own, long after: too quick, and said
     assert legacy_reach(s, clock, repeats=0) is None
     assert s.view().message.text == too_quick_words(WORLD, inferred=True)
+
+
+@pytest.mark.parametrize("first_repeat", [0.45, 0.75, 1.1])
+def test_a_late_first_repeat_still_times_the_hold_from_its_press(tmp_path, first_repeat):
+    # A slow keyboard or a busy machine: the first autorepeat comes late, the rest 33 ms apart; the screen
+    # ticks every 10 ms. The hold is one reach, timed from the press, not a string of refused taps.
+    s, clock = session(tmp_path)
+    start = clock.now
+    s.press("space", at=start)
+    repeats = [start + first_repeat + 0.033 * k for k in range(8)]
+    launched = []
+    while clock.now < start + 3.0:
+        clock.advance(0.01)
+        while repeats and repeats[0] <= clock.now:
+            launched.append(s.press("space", at=repeats.pop(0)))
+        launched.append(s.tick(until=clock.now))
+    (step,) = [step for step in launched if step is not None]
+    assert step.duration_ms == pytest.approx((first_repeat + 7 * 0.033 + 0.033 / 2) * 1000, abs=1)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(st.floats(-500, 500), st.floats(-500, 500), st.floats(0, 3000)), min_size=1, max_size=8))
+def test_any_play_records_exactly_the_reaches_within_the_limits(tmp_path_factory, plays):
+    tmp_path = tmp_path_factory.mktemp("any")
+    s, clock = session(tmp_path, trials=len(plays))
+    for dx, dy, ms in plays:
+        s.move_aim(dx, dy)
+        assert 0 <= s.aim[0] <= WORLD.field[0] and 0 <= s.aim[1] <= WORLD.field[1]
+        exact_reach(s, clock, ms)
+        clock.advance(1.0)
+    s.quit()
+    within = [ms for _, _, ms in plays if WORLD.min_ms <= round(ms, 3) <= WORLD.max_ms]
+    recorded = read_reach_recording(s.recorder.paths[0]).steps if s.recorder.paths else []
+    assert [step.duration_ms for step in recorded] == pytest.approx(within, abs=1e-3)
+    assert [step.episode for step in recorded] == list(range(len(within)))

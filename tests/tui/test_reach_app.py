@@ -53,8 +53,8 @@ async def press_repeats(pilot: Pilot, clock: FakeClock, repeats: int) -> None:
 
 
 async def let_go(pilot: Pilot, clock: FakeClock) -> None:
-    """Silence until the hold ends, and the screen's tick that launches it."""
-    clock.advance(1.0)
+    """Silence until the hold ends (a tap waits 1.5 s for a first repeat), and the screen's tick that launches it."""
+    clock.advance(2.0)
     pilot.app.first_screen.tick()
     await pilot.pause()
 
