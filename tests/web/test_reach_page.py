@@ -282,3 +282,17 @@ def test_a_participant_who_leaves_mid_calibration_is_asked_only_the_rest(tmp_pat
     assert read_protocol(study, "p001").reach_calibration_left == 0
     # The law was stored as the block became whole, though the participant left before going on.
     assert json.loads((study.participant_folder("p001") / "spread-0.json").read_text())["trials"] == 8
+
+
+def test_a_reach_whose_window_lost_focus_is_dropped_not_recorded(tmp_path):
+    study = reach_study(tmp_path)
+    app, tokens = web_app(study)
+    with TestClient(app) as client:
+        api = Api(client, token=tokens["p001"])
+        api.key("space")
+        api.key("reach_press", aim=[200.0, 80.0], t=1000.0)
+        api.key("cancel")
+        api.key("reach_release", t=1600.0)
+        assert api.view["reach"]["message"] == "Reach cancelled (the window lost focus)."
+        assert api.view["reach"]["trial"] == 1
+    assert reach_lines(study, "p001") == []

@@ -628,6 +628,8 @@
     if (reach.own) { reach.own = null; paintField(); }
     if (reach.held) { reach.held = null; send({ type: "cancel" }); paintField(); }
   }
+  // The browser took the pointer away (a touch turned into a scroll, a system gesture): no reach.
+  $("field").addEventListener("pointercancel", reachFocusLost);
   window.addEventListener("resize", () => { if (state.view && state.view.stage === "reach") paintField(); });
 
   function stamp(event) { return event.timeStamp > 0 ? event.timeStamp : performance.now(); }
