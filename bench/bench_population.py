@@ -48,7 +48,7 @@ def reckless_study(seed: int, *, resamples: int, folder: Path) -> dict:
     path.parent.mkdir(parents=True)
     path.write_text('name = "bench"\nworlds = ["mud"]\npractice_episodes = 0\nepisodes = 10\nout = "data"\n')
     study = load_study(path)
-    mdp = build_mdp(study.worlds[0])
+    mdp = build_mdp(study.grid_worlds[0])
     players = [(f"p{i + 1:02d}", person_like(mdp, "loose", **CAREFUL)) for i in range(11)]
     players.append(("reckless", person_like(mdp, "reckless")))
     for i, (who, player) in enumerate(players):

@@ -68,7 +68,7 @@ def run_study_plan(args: argparse.Namespace) -> int:
                         spread=args.spread, seed=args.seed, pool=args.pool_model, model=args.player_model,
                         fits=args.fits, resamples=args.resamples, exclusions=study.study.exclusions,
                         calibration=study.study.calibration_block if args.calibration is None else args.calibration)
-        worlds = planned_worlds(study.worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
+        worlds = planned_worlds(study.grid_worlds, parse_truth(args.truth) if args.truth else {}, rmax=grid.rmax)
     except PlanError as exc:
         raise UsageError(f"--{exc.field}: {exc.reason}") from None
     worlds, left_out = without_time_worlds(worlds)

@@ -13,7 +13,7 @@ from careful_tui.keys.kitty import KittyDriver
 from irl_core.errors import StudyError, UsageError
 from irl_core.recordings.writer import check_writable
 from irl_core.studies.participant_lock import participant_lock
-from irl_core.studies.study import LoadedStudy, check_participant, load_study, read_protocol
+from irl_core.studies.study import LoadedStudy, check_participant, grid_world, load_study, read_protocol
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
 
@@ -23,6 +23,8 @@ def run_study_run(args: argparse.Namespace) -> int:
     one session per participant at a time (`participant_lock`)."""
     try:
         study = load_study(args.study)
+        for index, world in enumerate(study.worlds):  # reach worlds are played in a browser only
+            grid_world(world, f"{study.path}: worlds[{index}]: careful study run")
         check_participant(args.participant)
         with participant_lock(study, args.participant, holder="careful study run"):
             return _run_participant(study, args)

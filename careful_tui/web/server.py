@@ -17,7 +17,9 @@ GET /?PROLIFIC_PID=..  when Prolific links are on (``--prolific``, or no links):
 POST /api/start        the page claims its participant: its page id and the first view;
                        409 while another page of theirs plays, 429 beyond the address's
                        budget of new pages, 503 when every seat is taken
-POST /api/key          a key (press, release, cancel, space, quit): the new view;
+POST /api/key          a key (press, release, cancel, space, quit) or a reach (reach_press
+                       with its aim, reach_release; reach_own with the pointer's endpoint
+                       and duration): the new view;
                        410 for a page that no longer plays, 429 beyond the key budget
 POST /api/alive        the page's heartbeat: 204, or 410
 POST /api/leave        the page closes (sent as a beacon): 204
@@ -76,7 +78,7 @@ SECURITY_HEADERS = {
     "cache-control": "no-store",
     "x-frame-options": "DENY",
 }
-KEY_TYPES = ("press", "release", "cancel", "space", "quit")
+KEY_TYPES = ("press", "release", "cancel", "space", "quit", "reach_press", "reach_release", "reach_own")
 
 
 class SecurityHeaders:
@@ -374,6 +376,12 @@ def play_locked(served: Served, seat: Seat, kind: str, data: dict[str, Any]) -> 
             session.press(data.get("key"), data.get("t"))
         elif kind == "release":
             session.release(data.get("key"), data.get("t"))
+        elif kind == "reach_press":
+            session.reach_press(data.get("aim"), data.get("t"))
+        elif kind == "reach_release":
+            session.reach_release(data.get("t"))
+        elif kind == "reach_own":
+            session.reach_own(data.get("endpoint"), data.get("duration_ms"))
         elif kind == "cancel":
             session.cancel()
         elif kind == "space":

@@ -16,6 +16,10 @@ calibration     the motor calibration block: a level to make with the gauge visi
                 on to practice once every target has a trial
 play            the board, the gauge and the score; arrows move (hold longer: more
                 careful), space starts the next episode once one has ended
+reach           a reach world's block (or, for "own" noise, its calibration block first): the
+                field, the aim and the last endpoint; ``reach_press``/``reach_release`` time a
+                simulated reach, ``reach_own`` hands over a pointer's reach (docs/reach.md);
+                space goes on once the block is done
 between         practice over, or a world done; space goes on
 end             the end of the study (and, for a Prolific participant with a
                 completion code, the address to go back to)
@@ -47,6 +51,7 @@ from irl_core.errors import KeyRefused
 from irl_core.play.game import level_costs, level_slip_chances
 from irl_core.play.hold import HoldProfile
 from irl_core.play.motor_block import MOTOR_INTRO, MOTOR_TITLE, MotorBlock, result_words
+from irl_core.play.reach_session import REACH_INTRO_OWN, ReachSession
 from irl_core.play.session import Played, PlaySession
 from irl_core.recordings.lines import ProlificTag
 from irl_core.recordings.summary import outcome_code
@@ -56,7 +61,14 @@ from irl_core.studies.study import LoadedStudy, Protocol, read_protocol
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
 from irl_core.worlds.mdp import DIRECTIONS
+from irl_core.worlds.reach import ReachWorld
+from irl_core.worlds.world import World
 
+REACH_INTRO_POINTER = ("Point where to aim, then press and hold the mouse button for as long as the reach should "
+                       "take and let go. The ring is where the reach may land: the longer you hold, the smaller it "
+                       "gets, but time costs points.")
+CALIBRATION_INTRO = ("Calibration: reach for the lone circle. Press on the start, move to the circle's centre and "
+                     "let go, taking about the time asked each time. These reaches score nothing.")
 # A hold longer than this is a key left down, not a choice; it is refused (no move).
 LONGEST_HOLD_MS = 600_000.0
 USER_AGENT_LIMIT = 400
@@ -114,8 +126,11 @@ class WebSession:
         self.say = say
         self.study = browser_study(study)
         self.flow = StudyFlow(self.study, participant, seed=seed, app_version=app_version())
-        self.flow.profile = browser_profile(max(world.levels for world in study.worlds))  # each block's levels
+        levels = [world.levels for world in study.worlds if isinstance(world, World)]
+        self.flow.profile = browser_profile(max(levels, default=1))  # each block's levels
         self.session: PlaySession | None = None
+        self.reach: ReachSession | None = None  # a reach block, or an "own" noise world's calibration block
+        self.reach_calibrating = False
         self.motor: MotorBlock | None = None
         self.stage = "end" if self.flow.stage == "end" else "instructions"
         self.held: _Held | None = None
@@ -169,7 +184,10 @@ class WebSession:
 
     def cancel(self) -> None:
         """The window lost focus (or the page could not send the release): the hold is dropped."""
-        if self.held is not None and self._calibrating():
+        if self.held is not None and self.stage == "reach" and self.reach is not None:
+            self.held = None
+            self.reach.cancel_hold("the window lost focus")
+        elif self.held is not None and self._calibrating():
             assert self.motor is not None
             self.held = None
             self.motor.cancel_hold()
@@ -180,6 +198,10 @@ class WebSession:
     def space(self) -> None:
         """Space: begin, go on, or start the next episode."""
         self.note = ""
+        if self.stage == "reach":
+            if self.reach is not None and self.reach.done and self.held is None:
+                self._end_reach()
+            return
         if self.stage == "instructions" and self._start_calibration():
             return
         if self.stage == "calibration":
@@ -198,6 +220,8 @@ class WebSession:
         if self.left:
             return
         self.left, self.held = True, None
+        if self.reach is not None:
+            self.reach.quit()
         self.flow.quit()
         if self.flow.write_error is not None:
             self.say(f"{self.participant}: cannot close the recording ({printable(str(self.flow.write_error), limit=200)})")
@@ -205,6 +229,127 @@ class WebSession:
             self.stage = "left"
         done, total = read_protocol(self.study, self.participant).progress
         self.say(f"{self.participant}: {why} ({done} of {plural(total, 'episode')} done)")
+
+    # ------------------------------------------------------------------ reach worlds
+
+    def reach_press(self, aim: object, at_ms: object) -> None:
+        """The pointer went down at `aim` (field units) at `at_ms`: a simulated reach aimed there starts being
+        timed (its duration is the hold)."""
+        session = self._reach_live("simulated")
+        x, y = _pair(aim, "aim")
+        at = _time(at_ms)
+        if session is None or self.held is not None:
+            return
+        session.move_aim(x - session.aim[0], y - session.aim[1])
+        self.held = _Held("space", at)
+        self.note = ""
+        session.press("space", at=0.0, repeat=False)
+
+    def reach_release(self, at_ms: object) -> None:
+        """The pointer came up at `at_ms`: the simulated reach is launched (or refused, in the session's words)."""
+        at = _time(at_ms)
+        session, held = self.reach, self.held
+        if session is None or held is None or self.stage != "reach":
+            return
+        self.held = None
+        if not 0 <= at - held.at_ms <= LONGEST_HOLD_MS:
+            session.cancel_hold("held too long to be a reach")
+            return
+        session.release("space", at=(at - held.at_ms) / 1000)
+        self._reach_written(session)
+
+    def reach_own(self, endpoint: object, duration_ms: object) -> None:
+        """A reach the page measured ("own" noise): where the pointer was when it ended and how long it took from
+        leaving the start; refused in the session's words when outside the world's limits."""
+        session = self._reach_live("own")
+        point = _pair(endpoint, "endpoint")
+        duration = _time(duration_ms)
+        if session is None:
+            return
+        self.note = ""
+        # The pointer's own reach has no aim apart from where it went: the endpoint is recorded as the aim too
+        # (the scatter is the calibration block's law, not this trial's).
+        session.launch_own(point, duration, aim=point)
+        self._reach_written(session)
+
+    def _reach_live(self, noise: str) -> ReachSession | None:
+        session = self.reach
+        if self.stage != "reach" or session is None or session.done or session.world.noise != noise:
+            return None
+        return session
+
+    def _reach_written(self, session: ReachSession) -> None:
+        if session.write_error is not None:
+            raise session.write_error
+        if self.reach_calibrating and session.done:
+            # The block is whole on disk: its law is fitted and stored now, whether or not the participant goes on.
+            session.quit()
+            block = self.protocol.next_block
+            assert block is not None
+            fit = self.flow.reach_calibration_ended(block.world_index)
+            if fit is not None:
+                self.say(f"{self.participant}: finished the calibration block (a = {fit.spread.spread.a:.3g}, "
+                         f"b = {fit.spread.spread.b:.3g})")
+
+    def _start_reach(self) -> bool:
+        """The next block's calibration block or reach block, if its world is a reach world."""
+        block = self.protocol.next_block
+        session = self.flow.reach_calibration()
+        self.reach_calibrating = session is not None
+        if session is None and block is not None:
+            # A block made whole by a participant who left before its law was stored (a crash): stored now.
+            self.flow.reach_calibration_ended(block.world_index)
+            session = self.flow.next_reach_block()
+        if session is None or block is None:
+            return False
+        recorder = session.recorder
+        recorder.set_header(recorder.header.model_copy(update={
+            "input": reach_input_header(session.world, self.user_agent), "prolific": self.prolific}))
+        self.reach, self.stage = session, "reach"
+        what = "the calibration block" if self.reach_calibrating else f"{block.phase}, {block.remaining} to go"
+        self.say(f"{self.participant}: started world {block.position + 1} of {len(self.protocol.order)} "
+                 f"({printable(session.world.name, limit=40)}), {what}")
+        return True
+
+    def _end_reach(self) -> None:
+        session = self.reach
+        assert session is not None
+        session.quit()
+        self.reach = None
+        if self.reach_calibrating:
+            self.reach_calibrating = False
+            self._start_block()
+            return
+        stage = self.flow.reach_block_ended(session)
+        self.stage = "end" if stage == "end" else "between"
+        if self.stage == "end":
+            self.say(f"{self.participant}: finished the study")
+
+    def _reach_view(self) -> dict[str, Any]:
+        session = self.reach
+        assert session is not None
+        now = session.view()
+        world = now.world
+        last = now.last
+        deadline = (self.flow.reach_deadline(_study_world(self.protocol), now.trial - 1)
+                    if self.reach_calibrating else None)
+        return {
+            "heading": session.options.heading,
+            "field": list(world.field), "start": list(world.start),
+            "regions": [{"symbol": printable(r.symbol), "centre": list(r.centre), "radius": r.radius,
+                         "points": None if self.reach_calibrating else format_value(r.points)} for r in world.regions],
+            "noise": world.noise, "spread": {"a": world.spread.a, "b": world.spread.b},
+            "min_ms": world.min_ms, "max_ms": world.max_ms,
+            "intro": (CALIBRATION_INTRO if self.reach_calibrating else
+                      REACH_INTRO_OWN if world.noise == "own" else REACH_INTRO_POINTER),
+            "calibration": self.reach_calibrating, "deadline_ms": deadline,
+            "aim": list(now.aim), "trial": now.trial, "trials": now.trials, "done": now.done,
+            "score": format_value(now.score),
+            "last": None if last is None else {
+                "aim": list(last.aim), "endpoint": list(last.endpoint), "regions": list(last.regions),
+                "reward": format_value(last.reward), "duration_ms": last.duration_ms},
+            "message": self.note or now.message.text, "tone": now.message.kind,
+        }
 
     # ------------------------------------------------------------------ the flow
 
@@ -243,11 +388,7 @@ class WebSession:
         """The page's key and time, as they came, once they are an arrow and a time (else KeyRefused)."""
         if not (isinstance(key, str) and key in DIRECTIONS):
             raise KeyRefused(f"not an arrow: {printable(str(key), limit=20)!r}")
-        # bool is an int to Python (true was taken as 1 ms), and a 1,900-digit int overflows a float:
-        # the type first, then the range (int and float compare exactly), only then arithmetic.
-        if type(at_ms) not in (int, float) or not 0 <= at_ms < 1e12:  # type: ignore[operator]
-            raise KeyRefused("a key's time must be a number of milliseconds")
-        return key, float(at_ms)  # type: ignore[arg-type]
+        return key, _time(at_ms)
 
     def _played(self, played: Played) -> None:
         assert self.session is not None
@@ -257,6 +398,8 @@ class WebSession:
             raise error
 
     def _start_block(self) -> None:
+        if self._start_reach():
+            return
         session = self.flow.next_block()
         if session is None:
             self.stage = "end"
@@ -295,6 +438,15 @@ class WebSession:
             held = [["←↑→↓", "hold until the gauge shows the level, then let go"]]
             calibration = view["calibration"]
             view["keys"] = ([["space", calibration["begin"]]] if calibration["done"] else held) + [["q", "leave"]]
+        elif self.stage == "reach":
+            view["reach"] = self._reach_view()
+            if view["reach"]["done"]:
+                keys = [["space", "go on"]]
+            elif view["reach"]["noise"] == "own":
+                keys = [["mouse", "press on the start, move, let go where the reach ends"]]
+            else:
+                keys = [["mouse", "point to aim; hold the button for the reach's time, let go"]]
+            view["keys"] = keys + [["q", "leave"]]
         elif self.stage == "play":
             view["play"] = self._play_view()
             if self._live():
@@ -374,6 +526,38 @@ class WebSession:
             view["end"] = {"text": outcome_text(now.last_end), "code": outcome_code(now.last_end),
                            "score": format_value(now.last_end.score)}
         return view
+
+
+def _pair(value: object, name: str) -> tuple[float, float]:
+    """A point the page sent: two finite numbers (else KeyRefused)."""
+    if not (isinstance(value, list) and len(value) == 2
+            and all(type(x) in (int, float) and abs(x) < 1e9 for x in value)):  # NaN fails abs(x) < 1e9
+        raise KeyRefused(f"{name} must be a pair of numbers [x, y]")
+    return float(value[0]), float(value[1])
+
+
+def _time(value: object) -> float:
+    """A time the page sent, in ms (else KeyRefused)."""
+    # bool is an int to Python (true was taken as 1 ms), and a 1,900-digit int overflows a float:
+    # the type first, then the range (int and float compare exactly), only then arithmetic.
+    if type(value) not in (int, float) or not 0 <= value < 1e12:  # type: ignore[operator]
+        raise KeyRefused("a key's time must be a number of milliseconds")
+    return float(value)  # type: ignore[arg-type]
+
+
+def _study_world(protocol: Protocol) -> ReachWorld:
+    block = protocol.next_block
+    assert block is not None
+    world = protocol.study_world(block)
+    assert isinstance(world, ReachWorld)
+    return world
+
+
+def reach_input_header(world: ReachWorld, user_agent: str) -> dict[str, object]:
+    """A browser reach recording's ``input``: how its durations (and, with "own" noise, endpoints) were taken."""
+    timing = ("from the pointer leaving the start to the button coming up, event timestamps (performance.now())"
+              if world.noise == "own" else "button down to button up, event timestamps (performance.now())")
+    return {"mode": "pointer", "front_end": "browser", "user_agent": user_agent[:USER_AGENT_LIMIT], "timing": timing}
 
 
 def _paragraphs(paragraphs: list[words.Paragraph]) -> list[dict[str, str]]:

@@ -11,12 +11,14 @@ from typing import Any, Literal
 
 from pydantic import Field, field_validator
 
-from irl_core.recordings.lines import MAX_COUNT, SCHEMA_VERSION, _Line
+from irl_core.recordings.lines import MAX_COUNT, SCHEMA_VERSION, ProlificTag, StudyTag, _Line
 from irl_core.worlds.reach import ReachWorld
 
 
 class ReachHeader(_Line):
-    """A reach recording's first line: the world, who played (``expert:optimal``, a participant) and when."""
+    """A reach recording's first line: the world, who played (``expert:optimal``, a participant) and when; in a
+    study, its place (``study``), how it was played (``input``: the browser's) and Prolific's ids, as a grid
+    recording's header holds them."""
 
     kind: Literal["session"] = "session"
     schema_version: int = Field(SCHEMA_VERSION, alias="schema")
@@ -25,6 +27,9 @@ class ReachHeader(_Line):
     created: datetime = Field(strict=False)
     seed: int | None = None
     app_version: str = ""
+    input: dict[str, Any] | None = None
+    study: StudyTag | None = None
+    prolific: ProlificTag | None = None
 
 
 class ReachStep(_Line):

@@ -31,7 +31,7 @@ def to_json_line(line: _Line) -> str:
         ValueError: a number JSON cannot hold (NaN, Infinity); nothing is written for it.
     """
     data = line.model_dump(mode="json", by_alias=True)
-    for optional in ("realised", "study", "prolific", "bin"):
+    for optional in ("realised", "study", "prolific", "bin", "input"):
         if data.get(optional, "") is None:
             del data[optional]
     return json.dumps(data, ensure_ascii=False, allow_nan=False) + "\n"

@@ -19,6 +19,7 @@ a file of their own, the participant's first of the study, tagged as the first b
 
 from __future__ import annotations
 
+import json
 import secrets
 import time
 from dataclasses import replace
@@ -26,10 +27,17 @@ from typing import Literal
 
 from irl_core.play.hold import Clock, HoldProfile
 from irl_core.play.motor_block import MotorBlock, calibration_targets
+from irl_core.play.reach_session import ReachOptions, ReachSession, reach_header
 from irl_core.play.session import PlayOptions, PlaySession, new_session, session_header
+from irl_core.reach.calibration import CalibrationFit, calibration_schedule, calibration_world, fit_calibration
 from irl_core.recordings.writer import SessionRecorder
-from irl_core.studies.study import Block, LoadedStudy, Protocol, read_protocol
+from irl_core.studies.study import Block, LoadedStudy, Protocol, read_participant, read_protocol
+from irl_core.support.safe_files import built_beside
 from irl_core.support.safe_text import cut, printable
+from irl_core.worlds.reach import ReachWorld
+
+# The spread law a participant's calibration block gave, beside their recordings: spread-<world index>.json.
+SPREAD_FILE = "spread-{index}.json"
 
 Stage = Literal["instructions", "calibration", "practice_over", "next_world", "end"]
 # A block's heading is shown in this much; the study's name takes at most STUDY_NAME_LIMIT of it.
@@ -44,7 +52,7 @@ def block_heading(protocol: Protocol, block: Block) -> str:
     place = f" · world {block.position + 1} of {len(protocol.order)} ("
     phase = f") · {block.phase}"
     room = max(8, HEADING_LIMIT - len(name) - len(place) - len(phase))
-    world = cut(printable(protocol.world(block).name), room, say_length=False)
+    world = cut(printable(protocol.study_world(block).name), room, say_length=False)
     return f"{name}{place}{world}{phase}"
 
 
@@ -140,11 +148,76 @@ class StudyFlow:
         self._playing = block
         return session
 
+    def next_reach_block(self) -> ReachSession | None:
+        """The next block's session when its world is a reach world (None otherwise): a `ReachSession` of the
+        block's remaining trials, its file tagged as the block's (docs/reach.md)."""
+        block = self.protocol.next_block
+        if block is None or not isinstance(world := self.protocol.study_world(block), ReachWorld):
+            return None
+        session = self._reach_session(world, block, trials=block.remaining,
+                                      heading=block_heading(self.protocol, block))
+        self._playing = block
+        return session
+
+    def reach_calibration(self) -> ReachSession | None:
+        """The calibration block of the next block's reach world with "own" noise, its remaining reaches (to the
+        lone target, `irl_core.reach.calibration`); None when there is none to make."""
+        left = self.protocol.reach_calibration_left
+        block = self.protocol.next_block
+        if left <= 0 or block is None or not isinstance(world := self.protocol.study_world(block), ReachWorld):
+            return None
+        return self._reach_session(calibration_world(world), block, trials=left,
+                                   heading=f"{block_heading(self.protocol, block).rsplit(' · ', 1)[0]} · calibration")
+
+    def reach_deadline(self, world: ReachWorld, trial: int) -> float:
+        """The deadline (ms) asked of the calibration block's `trial`-th reach (0-based) still to make."""
+        schedule = calibration_schedule(world, self.study.study.calibration_reaches)
+        done = len(schedule) - self.protocol.reach_calibration_left
+        return schedule[min(done + trial, len(schedule) - 1)]
+
+    def reach_calibration_ended(self, world_index: int) -> CalibrationFit | None:
+        """The calibration block of the world at `world_index` was left or made whole: the folder is read again
+        and, once whole, the spread law fitted from every calibration reach of the world is written beside the
+        recordings and returned; None when the block is not whole, the world has no such block, or its law was
+        stored before (never written over)."""
+        self.protocol = read_protocol(self.study, self.participant)
+        world = self.study.worlds[world_index]
+        path = self.protocol.folder / SPREAD_FILE.format(index=world_index)
+        if (self.protocol.reach_calibration_left or not isinstance(world, ReachWorld) or world.noise != "own"
+                or path.exists()):
+            return None
+        lone = calibration_world(world)
+        steps = [step for _, reach in read_participant(self.study, self.participant).reaches if reach.world == lone
+                 for step in reach.steps]
+        fit = fit_calibration(world, [step.duration_ms for step in steps], [step.endpoint for step in steps])
+        with built_beside(path) as temporary:
+            temporary.write_text(json.dumps(fit.to_json(), indent=1) + "\n", encoding="utf-8")
+        return fit
+
+    def _reach_session(self, world: ReachWorld, block: Block, *, trials: int, heading: str) -> ReachSession:
+        seed = secrets.randbelow(2**32) if self.seed is None else self.seed
+        header = reach_header(world, player=self.participant, seed=seed, app_version=self.app_version)
+        header = header.model_copy(update={"study": self.protocol.tag(block)})
+        options = ReachOptions(player=self.participant, trials=trials, heading=heading, command=STUDY_COMMAND)
+        return ReachSession(world, SessionRecorder(self.protocol.folder, header), seed=seed, options=options,
+                            clock=self.clock)
+
+    def reach_block_ended(self, session: ReachSession) -> Stage:
+        """A reach block's session is done or left: its file is closed and the folder read again."""
+        session.quit()
+        block, self._playing = self._playing, None
+        assert block is not None, "reach_block_ended without next_reach_block"
+        return self._after(block)
+
     def block_ended(self) -> Stage:
         """The block's session played its episodes: read where the participant stands now."""
         block, self._playing = self._playing, None
         assert block is not None, "block_ended without next_block"
         self.profile = self.sessions[-1].profile
+        return self._after(block)
+
+    def _after(self, block: Block) -> Stage:
+        """Where the participant stands once `block` was played: the folder read again."""
         self.protocol = read_protocol(self.study, self.participant)
         self.finished = block
         if self.protocol.finished:

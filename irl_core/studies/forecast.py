@@ -40,7 +40,7 @@ def write_simulated_study(folder: Path, world: World, played: list[tuple[str, Ro
     path.write_text(f'name = "{STUDY_NAME}"\nworlds = ["{WORLD_FILE}"]\npractice_episodes = 0\nepisodes = {episodes}\n'
                     f'out = "data"\ncalibration_block = {calibration}\n', encoding="utf-8")
     study = load_study(path)
-    mdp = build_mdp(study.worlds[0])
+    mdp = build_mdp(study.grid_worlds[0])
     width = max(2, len(str(len(played))))
     for i, ((player, rollouts), block) in enumerate(zip(played, trials)):
         who = f"p{i + 1:0{width}d}"

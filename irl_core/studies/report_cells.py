@@ -123,7 +123,7 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
     """
     ids, problems = participant_ids(study)
     folders_left_out = len(problems)
-    per_world: dict[int, list[Recording]] = {i: [] for i in range(len(study.worlds))}
+    per_world: dict[int, list[Recording]] = {i: [] for i in range(len(study.grid_worlds))}
     trials_of: dict[str, np.ndarray] = {}
     cells, left_out = [], {}
     for n, participant in enumerate(ids, 1):
@@ -131,7 +131,7 @@ def gather(study: LoadedStudy, *, progress: Callable[[int, int], None] | None = 
         problems.extend(found.problems)
         if found.left_out:
             left_out[participant] = found.left_out
-        mine: dict[int, list[Recording]] = {i: [] for i in range(len(study.worlds))}
+        mine: dict[int, list[Recording]] = {i: [] for i in range(len(study.grid_worlds))}
         for tag, recording in found.recordings:
             if tag.phase == "main":
                 mine[tag.world_index].append(recording)
@@ -215,7 +215,7 @@ def _cell(study: LoadedStudy, participant: str, world_index: int, recordings: li
         interrupted.update(outcome_code(ends.get(episode)) for episode in interrupted_episodes(recording))
     finished = [_finished_only(r) for r in recordings]
     outcomes = Counter(outcome_code(end) for recording in finished for end in recording.episode_ends)
-    world = study.worlds[world_index]
+    world = study.grid_worlds[world_index]
     near = {cell for cell, d in distance_to_terminal(world).items() if d == 1}
     near_steps = [step for r in finished for step in r.steps if step.state in near]
     levels = [step.level for step in near_steps] if world.care == "levels" else []

@@ -257,7 +257,7 @@ def fit_report(data: StudyData, options: FitOptions, *, pool_model: str = DEFAUL
     """
     pool_model_named(pool_model)
     exclusions = data.study.study.exclusions if exclusions is None else exclusions
-    tally = _Tally(progress, tuple(world.name for world in data.study.worlds))
+    tally = _Tally(progress, tuple(world.name for world in data.study.grid_worlds))
     pools = {i: cell for i, cell in enumerate(data.cells) if cell.participant == POOLED}
     choices = dict(zip(pools, tally.run([dataclasses.replace(c, without=None) for c in pools.values()],
                                         dataclasses.replace(options, intervals=False), workers, executor)))
@@ -279,7 +279,7 @@ def fit_report(data: StudyData, options: FitOptions, *, pool_model: str = DEFAUL
     for i, cell in pools.items():
         members = [(j, data.cells[j]) for j in mine if data.cells[j].world_index == cell.world_index]
         if pool_model == "population":
-            fits[i] = population_row(choices[i], members, fits, layout=data.study.worlds[cell.world_index].layout)
+            fits[i] = population_row(choices[i], members, fits, layout=data.study.grid_worlds[cell.world_index].layout)
         else:
             left_out = {c.participant for j, c in members if fits[j].excluded_why}
             fits[i] = shared_row(without_participants(cell, left_out), options, fits, data, tally, workers, executor)

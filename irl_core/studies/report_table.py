@@ -21,7 +21,7 @@ REWARD_COLUMNS = ("", "_low", "_high", "_spread", "_pred_low", "_pred_high")
 def report_symbols(study: LoadedStudy, fits: list[CellFit]) -> list[str]:
     """Every fitted symbol of any world, worst true reward first (cliff, mud, ..., goal)."""
     symbols = {s for f in fits for s in f.symbols}
-    truth = {s: min(w.reward_of(s) for w in study.worlds if s in w.layout) for s in symbols}
+    truth = {s: min(w.reward_of(s) for w in study.grid_worlds if s in w.layout) for s in symbols}
     return sorted(symbols, key=lambda s: (truth[s], s))
 
 
@@ -40,7 +40,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
     (a participant's row), finding (a pool's row: `pooled_finding`). Empty where a value does not apply.
     """
     study = data.study
-    terminals = sorted({t for w in study.worlds for t in w.terminal})
+    terminals = sorted({t for w in study.grid_worlds for t in w.terminal})
     symbols = report_symbols(study, fits)
     columns = ["study", "participant", "world_index", "world", "show_rewards", "episodes", "steps", "interrupted",
                *(f"ended_{t}" for t in terminals), "step_limit", "careful_next_to_terminal",
@@ -50,7 +50,7 @@ def report_rows(data: StudyData, fits: list[CellFit]) -> tuple[list[str], list[l
                "note", "fit_check", "outlier", "influential", "excluded", "excluded_why", "finding"]
     rows = []
     for cell, result in zip(data.cells, fits):
-        world = study.worlds[cell.world_index]
+        world = study.grid_worlds[cell.world_index]
         rewards: list[str] = []
         for symbol in symbols:
             if symbol in result.symbols:
@@ -114,7 +114,7 @@ def pooled_finding(data: StudyData, cell: Cell, result: CellFit) -> str:
     A population's row says so ("the population's cliff interval"), and names its outliers and influential
     participants and those the study's exclusions left out.
     """
-    world = data.study.worlds[cell.world_index]
+    world = data.study.grid_worlds[cell.world_index]
     if result.error:
         return f"{world.name}: no pooled fit ({result.error})."
     if result.intervals is None:

@@ -90,7 +90,7 @@ def write_simulated_participant(study: LoadedStudy, who: SimulatedParticipant, *
     if study.study.calibration_block and first in phases:  # the block comes before the first block
         written.append(_write_calibration_block(study, who, order[0], folder, phase=first))
     for world_index in order:
-        mdp = build_mdp(study.worlds[world_index])
+        mdp = build_mdp(study.grid_worlds[world_index])
         policy, player = who.player(mdp)
         for phase_number, phase in enumerate(("practice", "main")):
             if phase not in phases or targets[phase] == 0:
@@ -110,7 +110,7 @@ def _write_calibration_block(study: LoadedStudy, who: SimulatedParticipant, worl
     """`who`'s motor calibration block, in a file of its own tagged as their first block, as a study writes it: the
     study's `calibration_block` targets on the first world's levels, each produced by their own hand (a Boltzmann
     expert's hand is exact)."""
-    world = study.worlds[world_index]
+    world = study.grid_worlds[world_index]
     mdp = build_mdp(world)
     seed = int(np.random.SeedSequence([who.seed, CALIBRATION_STREAM]).generate_state(1)[0])
     asked = np.array(calibration_targets(world.levels, study.study.calibration_block, seed=seed), dtype=np.int64)

@@ -28,7 +28,7 @@ order on every machine and Python version (never Python's salted ``hash()``).
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -38,16 +38,21 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from irl_core.errors import EmptyRecording, RecordingError, StudyError, WorldError
 from irl_core.play.hold import MS_PER_LEVEL, TAP_MS
 from irl_core.play.input_modes import DEFAULT_INPUT_MODE, input_mode
+from irl_core.reach.calibration import calibration_schedule, calibration_world
 from irl_core.recordings.demonstrations import Recording, read_recording
 from irl_core.recordings.lines import StudyTag
+from irl_core.recordings.reach_reader import ReachRecording, is_reach_recording, read_reach_recording
 from irl_core.recordings.writer import slug
 from irl_core.support.plural import plural
 from irl_core.support.safe_files import SAFE_NAME, SAFE_NAME_RULE, read_toml, reference_problem
 from irl_core.support.safe_text import VALUE_LIMIT, printable
+from irl_core.worlds.reach import REACH_WORLDS, ReachWorld, is_reach_world, load_reach_world
 from irl_core.worlds.world import BUILTIN_WORLDS, World, load_world
 from irl_core.worlds.world_text import describe_validation_error
 
 Phase = Literal["practice", "main"]
+# A study's world: a grid world, or a reach world (docs/reach.md: served in a browser, a trial an episode).
+StudyWorld = World | ReachWorld
 # The folders careful itself writes under `<out>`, and what each holds: never a participant's folder
 # (`check_participant` refuses their names as ids; the report's `participant_ids` passes them by).
 REPORT_FOLDER = "report"
@@ -96,6 +101,8 @@ class Study(BaseModel):
     # Targets of the motor calibration block before practice (0: no block).
     calibration_block: int = Field(0, ge=0, le=100)
     episodes: int = Field(5, ge=1, le=100_000)
+    # Reaches a deadline of the calibration block of a reach world with "own" noise (docs/reach.md).
+    calibration_reaches: int = Field(10, ge=1, le=1000)
     input: str = DEFAULT_INPUT_MODE
     tap_ms: float = Field(TAP_MS, ge=50.0, le=5_000.0)
     ms_per_level: float = Field(MS_PER_LEVEL, ge=20.0, le=5_000.0)
@@ -124,7 +131,7 @@ class LoadedStudy:
 
     path: Path
     study: Study
-    worlds: tuple[World, ...]
+    worlds: tuple[StudyWorld, ...]
     out: Path
 
     def participant_folder(self, participant: str) -> Path:
@@ -134,6 +141,15 @@ class LoadedStudy:
     @property
     def report_folder(self) -> Path:
         return self.out / REPORT_FOLDER
+
+    @property
+    def grid_worlds(self) -> tuple[World, ...]:
+        """The worlds, for what takes grid worlds only (the report, the plan, simulated participants).
+
+        Raises:
+            StudyError: a world is a reach world."""
+        return tuple(grid_world(world, f"{self.path}: worlds[{i}]: this command")
+                     for i, world in enumerate(self.worlds))
 
 
 def load_study(path: str | Path) -> LoadedStudy:
@@ -152,8 +168,8 @@ def load_study(path: str | Path) -> LoadedStudy:
         study = Study.model_validate(data)
     except ValidationError as exc:
         raise StudyError(f"{path}: {describe_validation_error(exc)}") from None
-    worlds: list[World] = []
-    read: dict[str, World] = {}
+    worlds: list[StudyWorld] = []
+    read: dict[str, StudyWorld] = {}
     for i, entry in enumerate(study.worlds):
         source = _world_source(entry, path.parent)
         shown = printable(entry, limit=VALUE_LIMIT)
@@ -161,26 +177,28 @@ def load_study(path: str | Path) -> LoadedStudy:
             raise StudyError(f"{path}: worlds[{i}]: {shown!r} is not a built-in world and cannot be a file: {problem}")
         if not isinstance(source, str) and not source.exists():
             raise StudyError(f"{path}: worlds[{i}]: {shown!r} is neither a built-in world "
-                             f"({', '.join(BUILTIN_WORLDS)}) nor a world file (looked for {source})")
+                             f"({', '.join([*BUILTIN_WORLDS, *REACH_WORLDS])}) nor a world file (looked for {source})")
         try:
             # A world named twice is read once.
-            worlds.append(read[entry] if entry in read else read.setdefault(entry, load_world(source)))
+            worlds.append(read[entry] if entry in read else read.setdefault(entry, _load_world(source)))
         except WorldError as exc:
             raise StudyError(f"{path}: worlds[{i}]: {exc}") from None
     timed = [i for i, world in enumerate(worlds) if world.care == "time"]
+    reach = [i for i, world in enumerate(worlds) if isinstance(world, ReachWorld)]
     if timed and study.input != "hold":
         # A time world's care is the hold itself, from key-down to key-up: taps or digits cannot give it.
         raise StudyError(f"{path}: input: {study.input!r} cannot play worlds[{timed[0]}], a time world (care is how "
                          'long an arrow is held): use input = "hold"')
     # The calibration block's targets are levels of the participant's first world; a time world has none
-    # (docs/timing.md), so no time world may come first in a study with a block.
-    first_possible = timed if study.order == "shuffled" else [i for i in timed if i == 0]
+    # (docs/timing.md), nor has a reach world, so neither may come first in a study with a block.
+    levelless = sorted(timed + reach)
+    first_possible = levelless if study.order == "shuffled" else [i for i in levelless if i == 0]
     if study.calibration_block and first_possible:
+        kind = "a time world" if first_possible[0] in timed else "a reach world"
         where = "a shuffled order may put first" if study.order == "shuffled" else "comes first"
-        raise StudyError(f"{path}: calibration_block: worlds[{first_possible[0]}] is a time world that {where}, and "
-                         "a time world has no calibration (the hold itself is the care; the block's targets are levels "
-                         "of the first world): set calibration_block = 0, or put a world with levels first in a fixed "
-                         "order")
+        raise StudyError(f"{path}: calibration_block: worlds[{first_possible[0]}] is {kind} that {where}, and "
+                         f"{kind} has no levels to calibrate (the block's targets are levels of the first world): set "
+                         "calibration_block = 0, or put a world with levels first in a fixed order")
     return LoadedStudy(path=path, study=study, worlds=tuple(worlds), out=path.parent / study.out)
 
 
@@ -191,8 +209,24 @@ def world_files(study: LoadedStudy) -> list[Path]:
 
 
 def _world_source(entry: str, folder: Path) -> str | Path:
-    """A built-in world's name as it is; anything else is a file relative to the study file."""
-    return entry if entry in BUILTIN_WORLDS else folder / entry
+    """A built-in world's name (grid or reach) as it is; anything else is a file relative to the study file."""
+    return entry if entry in BUILTIN_WORLDS or entry in REACH_WORLDS else folder / entry
+
+
+def _load_world(source: str | Path) -> StudyWorld:
+    """A study's world: a reach world when the name or file says ``care = "reach"``, else a grid world."""
+    return load_reach_world(source) if is_reach_world(source) else load_world(source)
+
+
+def grid_world(world: StudyWorld, what: str) -> World:
+    """`world` as a grid world, for `what` (a command or a screen that plays or fits grid worlds only).
+
+    Raises:
+        StudyError: it is a reach world."""
+    if isinstance(world, ReachWorld):
+        raise StudyError(f"{what} does not take reach worlds ({printable(world.name, limit=VALUE_LIMIT)!r} is one): "
+                         "a study with reach worlds is served in a browser (careful serve)")
+    return world
 
 
 def check_participant(participant: str) -> str:
@@ -250,6 +284,7 @@ class ParticipantRecordings:
     recordings: tuple[tuple[StudyTag, Recording], ...]
     problems: tuple[str, ...]
     left_out: int = 0
+    reaches: tuple[tuple[StudyTag, ReachRecording], ...] = ()
 
 
 def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordings:
@@ -261,9 +296,14 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
     """
     folder = study.participant_folder(participant)
     found: list[tuple[StudyTag, Recording]] = []
+    reaches: list[tuple[StudyTag, ReachRecording]] = []
     problems: list[str] = []
     paths = sorted(folder.glob("*.jsonl")) if folder.is_dir() else []
     for path in paths:
+        if is_reach_recording(path):
+            if (reach := _read_reach(study, participant, path, problems)) is not None:
+                reaches.append(reach)
+            continue
         try:
             recording = read_recording(path)
         except EmptyRecording:
@@ -282,7 +322,29 @@ def read_participant(study: LoadedStudy, participant: str) -> ParticipantRecordi
         found.append((tag, recording))
     found, copies = _one_per_session(found)
     problems.extend(copies)
-    return ParticipantRecordings(participant, folder, tuple(found), tuple(problems), left_out=len(paths) - len(found))
+    return ParticipantRecordings(participant, folder, tuple(found), tuple(problems),
+                                 left_out=len(paths) - len(found) - len(reaches), reaches=tuple(reaches))
+
+
+def _read_reach(study: LoadedStudy, participant: str, path: Path,
+                problems: list[str]) -> tuple[StudyTag, ReachRecording] | None:
+    """A reach recording of the participant's folder with its study tag, or None (and a line in `problems`)."""
+    try:
+        recording = read_reach_recording(path)
+    except RecordingError as exc:
+        problems.append(f"{exc}; left out")
+        return None
+    tag = recording.header.study
+    problem = _foreign_tag(study, participant, tag)
+    if problem is None and tag is not None:
+        world = study.worlds[tag.world_index]
+        if not isinstance(world, ReachWorld) or recording.world not in (world, calibration_world(world)):
+            problem = f"recorded in another world than the study's worlds[{tag.world_index}] (was the study file changed?)"
+    if problem is not None or tag is None:
+        problems.append(f"{path}: {problem}; left out")
+        return None
+    problems.extend(f"{warning}; the rest of the file is counted" for warning in recording.warnings)
+    return tag, recording
 
 
 def _one_per_session(found: list[tuple[StudyTag, Recording]]) -> tuple[list[tuple[StudyTag, Recording]], list[str]]:
@@ -326,6 +388,16 @@ def _prefix(short: Recording, long: Recording) -> bool:
 def _foreign(study: LoadedStudy, participant: str, recording: Recording) -> str | None:
     """Why a recording is not one of this participant's in this study, or None."""
     tag = recording.header.study
+    if (problem := _foreign_tag(study, participant, tag)) is not None:
+        return problem
+    assert tag is not None
+    if recording.world != study.worlds[tag.world_index]:
+        return f"recorded in another world than the study's worlds[{tag.world_index}] (was the study file changed?)"
+    return None
+
+
+def _foreign_tag(study: LoadedStudy, participant: str, tag: StudyTag | None) -> str | None:
+    """Why a recording's study tag is not one of this participant's in this study, or None."""
     if tag is None:
         return "not a study recording (its header has no study field)"
     if tag.name != study.study.name:
@@ -334,8 +406,6 @@ def _foreign(study: LoadedStudy, participant: str, recording: Recording) -> str 
         return f"recorded for participant {printable(tag.participant, limit=VALUE_LIMIT)!r}, not {participant!r}"
     if tag.world_index >= len(study.worlds):
         return f"study.world_index {tag.world_index} is beyond the study's {plural(len(study.worlds), 'world')}"
-    if recording.world != study.worlds[tag.world_index]:
-        return f"recorded in another world than the study's worlds[{tag.world_index}] (was the study file changed?)"
     return None
 
 
@@ -393,11 +463,26 @@ class Protocol:
     blocks: tuple[Block, ...]
     problems: tuple[str, ...]
     calibration_trials: int = 0
+    # Per reach world with "own" noise (by world index): the calibration reaches its folder holds.
+    reach_calibration_trials: dict[int, int] = field(default_factory=dict)
 
     @property
     def calibration_left(self) -> int:
         """Targets of the study's calibration block still to ask (0 once done, or for a finished participant)."""
         return 0 if self.finished else max(0, self.study.study.calibration_block - self.calibration_trials)
+
+    @property
+    def reach_calibration_left(self) -> int:
+        """Reaches of the calibration block still to make before the next block: its world is a reach world with
+        "own" noise whose block the folder does not hold whole (0 otherwise; docs/reach.md)."""
+        block = self.next_block
+        if block is None:
+            return 0
+        world = self.study_world(block)
+        if not (isinstance(world, ReachWorld) and world.noise == "own"):
+            return 0
+        wanted = len(calibration_schedule(world, self.study.study.calibration_reaches))
+        return max(0, wanted - self.reach_calibration_trials.get(block.world_index, 0))
 
     @property
     def next_block(self) -> Block | None:
@@ -419,6 +504,11 @@ class Protocol:
         return any(block.done or block.interrupted for block in self.blocks)
 
     def world(self, block: Block) -> World:
+        """The block's world, which a grid session plays (`StudyError` for a reach world: `study_world`)."""
+        return grid_world(self.study_world(block), f"{self.study.path}: worlds[{block.world_index}]: a grid session")
+
+    def study_world(self, block: Block) -> StudyWorld:
+        """The block's world, grid or reach."""
         return self.study.worlds[block.world_index]
 
     def tag(self, block: Block) -> StudyTag:
@@ -439,11 +529,28 @@ def read_protocol(study: LoadedStudy, participant: str) -> Protocol:
     by_block: dict[tuple[int, str], list[Recording]] = {}
     for tag, recording in found.recordings:
         by_block.setdefault((tag.world_index, tag.phase), []).append(recording)
+    reach_blocks: dict[tuple[int, str], list[ReachRecording]] = {}
+    reach_calibration: dict[int, int] = {}
+    for tag, reach in found.reaches:
+        if reach.world == study.worlds[tag.world_index]:
+            reach_blocks.setdefault((tag.world_index, tag.phase), []).append(reach)
+        else:  # the calibration block's lone target (`_read_reach` lets no other world by)
+            reach_calibration[tag.world_index] = reach_calibration.get(tag.world_index, 0) + len(reach.steps)
     problems = list(found.problems)
     blocks = []
     phases: list[tuple[Phase, int]] = [("practice", study.study.practice_episodes), ("main", study.study.episodes)]
     for position, world_index in enumerate(order):
         for phase, target in phases:
+            if isinstance(study.worlds[world_index], ReachWorld):
+                # A reach trial is an episode, whole once written (a reach being made is no line at all).
+                reached = reach_blocks.pop((world_index, phase), []) if target else []
+                steps = [step for reach in reached for step in reach.steps]
+                if target:
+                    blocks.append(Block(position=position, world_index=world_index, phase=phase, target=target,
+                                        done=len(steps), interrupted=0,
+                                        next_episode=max((step.episode for step in steps), default=-1) + 1,
+                                        files=tuple(reach.path for reach in reached)))
+                continue
             recordings = by_block.pop((world_index, phase), [])
             if target == 0:
                 if recordings:
@@ -460,4 +567,5 @@ def read_protocol(study: LoadedStudy, participant: str) -> Protocol:
             ))
     trials = sum(len(recording.calibration_trials) for _, recording in found.recordings)
     return Protocol(study=study, participant=participant, folder=found.folder, order=tuple(order),
-                    blocks=tuple(blocks), problems=tuple(problems), calibration_trials=trials)
+                    blocks=tuple(blocks), problems=tuple(problems), calibration_trials=trials,
+                    reach_calibration_trials=reach_calibration)

@@ -25,6 +25,8 @@ from irl_core.play.input_modes import input_mode
 from irl_core.studies.study import Block, Protocol
 from irl_core.support.plural import plural
 from irl_core.support.safe_text import printable
+from irl_core.worlds.reach import ReachWorld
+from irl_core.worlds.world import World
 
 TONES = ("", "title", "good", "warn", "dim", "bold")
 PROBLEMS_SHOWN = 3
@@ -56,7 +58,7 @@ def where_next(protocol: Protocol) -> str:
     """The next block, as the participant is told: "World 2 of 2 (mud): episode 3 of 5.\""""
     block = protocol.next_block
     assert block is not None
-    world = protocol.world(block)
+    world = protocol.study_world(block)
     word = "practice episode" if block.phase == "practice" else "episode"
     return (f"World {block.position + 1} of {len(protocol.order)} ({printable(world.name, limit=40)}): "
             f"{word} {block.done + 1} of {block.target}.")
@@ -76,9 +78,18 @@ def plan(protocol: Protocol, *, input_name: str | None = None) -> Paragraph:
                           "gauge shows. "))
     spans.append(Span(f"You will play {plural(worlds, 'world')}" + (f". In each: {each}. " if worlds > 1
                                                                     else f": {each}. ")))
+    reaches = [world for world in protocol.study.worlds if isinstance(world, ReachWorld)]
+    worlds_played = [world for world in protocol.study.worlds if isinstance(world, World)]
+    if reaches:
+        own = any(world.noise == "own" for world in reaches)
+        spans.append(Span("In a reach world each episode is one reach from the start: where it lands scores the "
+                          "points of every circle holding it, less the time it took. " +
+                          ("First, a calibration: a few reaches to a lone circle, each in about the time asked. "
+                           if own else "")))
+        if not worlds_played:
+            return (*spans,)
     spans.append(Span("Every episode ends when you reach a cell that ends it (the goal, or worse) or run out of "
                       "steps.\n\n"))
-    worlds_played = protocol.study.worlds
     timed = [world.care == "time" for world in worlds_played]
     if all(timed):
         # A time world shows no levels: the hold itself is the care.

@@ -31,7 +31,7 @@ from irl_core.support.plural import plural
 
 def world_key(data: StudyData, world_index: int) -> str:
     """``w0-paper``: the world's index in the study file and its name, as a file-name piece."""
-    return f"w{world_index}-{slug(data.study.worlds[world_index].name, default='world')}"
+    return f"w{world_index}-{slug(data.study.grid_worlds[world_index].name, default='world')}"
 
 
 def method_phrase(fits: list[CellFit]) -> str:
@@ -46,7 +46,7 @@ def method_phrase(fits: list[CellFit]) -> str:
 def report_figures(data: StudyData, fits: list[CellFit]) -> list[tuple[str, Figure]]:
     """(file name without suffix, figure) for every figure of the report."""
     figures = []
-    for world_index, world in enumerate(data.study.worlds):
+    for world_index, world in enumerate(data.study.grid_worlds):
         mine = [(cell, fit) for cell, fit in zip(data.cells, fits) if cell.world_index == world_index]
         board = Board.for_world(world)
         key = world_key(data, world_index)
@@ -90,7 +90,7 @@ def _pooled_interval_figures(data: StudyData, fits: list[CellFit]) -> list[tuple
         rows = [IntervalRow(symbol_label(symbol), symbol, float(low), float(high),
                             float(estimate), float(truth))
                 for symbol, (low, high), estimate, truth in zip(fit.symbols, fit.intervals, fit.estimate, fit.truth)]
-        world = data.study.worlds[cell.world_index]
+        world = data.study.grid_worlds[cell.world_index]
         title = (f"{plain(world.name)}: the population of {plural(fit.pooled, 'participant')}" if fit.pooled is not None
                  else f"{plain(world.name)}: pooled over {plural(cell.participants, 'participant')}, "
                       f"{plural(cell.episodes, 'episode')}")

@@ -22,7 +22,7 @@
   }
 
   function show(section) {
-    for (const id of ["notice", "text", "play", "calib"]) $(id).hidden = id !== section;
+    for (const id of ["notice", "text", "play", "calib", "reach"]) $(id).hidden = id !== section;
   }
 
   function notice(title, text, button) {
@@ -150,7 +150,8 @@
       chip.append(el("kbd", "", key), document.createTextNode(what));
       return chip;
     }));
-    if (view.stage === "play") drawPlay(view.play);
+    if (view.stage === "reach") drawReach(view.reach);
+    else if (view.stage === "play") drawPlay(view.play);
     else if (view.stage === "calibration") drawCalibration(view.calibration);
     else drawText(view);
     if (view.stage === "left") { state.over = true; state.page = null; clearInterval(state.beat); }
@@ -392,6 +393,245 @@
     if (held) state.frame = requestAnimationFrame(drawHold);
   }
 
+
+  // ------------------------------------------------------------------ reach worlds
+  // The field on a canvas. "simulated": the pointer aims, a press held times the reach (a ring of the endpoint's
+  // sd shrinks while it is held), the release launches it. "own": the reach is the pointer's real movement, from
+  // leaving the start to the button coming up; where the pointer is then is the endpoint. Times are the events'
+  // timeStamps (performance.now()'s clock); the server words every result and refusal.
+  const START_RADIUS = 10;  // field units: a reach begins when the pointer is this far from the start
+  const reach = { pointer: null, held: null, own: null, path: [] };
+
+  function regionColour(region) {
+    if (region.points === null) return "rgba(158, 203, 255, 0.55)";
+    const value = parseFloat(region.points.replace("−", "-"));
+    return value > 0 ? "rgba(201, 162, 39, 0.6)" : value < 0 ? "rgba(200, 40, 40, 0.55)" : "rgba(120, 120, 170, 0.55)";
+  }
+
+  function fieldScale(view) {
+    // As wide as the room, but short enough that the words under it stay in the window.
+    const canvas = $("field");
+    const room = canvas.parentElement.clientWidth || 640;
+    const tall = Math.max(200, window.innerHeight - canvas.getBoundingClientRect().top - 150);
+    const scale = Math.min(room / view.field[0], tall / view.field[1]);
+    const ratio = window.devicePixelRatio || 1;
+    const width = Math.round(view.field[0] * scale);
+    const height = Math.round(view.field[1] * scale);
+    if (canvas.width !== Math.round(width * ratio) || canvas.height !== Math.round(height * ratio)) {
+      canvas.width = Math.round(width * ratio);
+      canvas.height = Math.round(height * ratio);
+      canvas.style.width = width + "px";
+      canvas.style.height = height + "px";
+    }
+    return { scale, ratio };
+  }
+
+  function toField(event) {
+    const view = state.view && state.view.reach;
+    const rect = $("field").getBoundingClientRect();
+    const scale = rect.width / view.field[0];
+    const x = Math.min(Math.max((event.clientX - rect.left) / scale, 0), view.field[0]);
+    const y = Math.min(Math.max((event.clientY - rect.top) / scale, 0), view.field[1]);
+    return [x, y];
+  }
+
+  function reachSd(view, aim, ms) {
+    const d = Math.min(Math.max(ms, view.min_ms), view.max_ms);
+    const distance = Math.hypot(aim[0] - view.start[0], aim[1] - view.start[1]);
+    return view.spread.a + view.spread.b * distance / (d / 1000);
+  }
+
+  function drawReach(view) {
+    $("reach-heading").textContent = view.heading;
+    $("reach-intro").textContent = view.intro;
+    show("reach");
+    if (view.done) { reach.held = null; reach.own = null; }
+    paintField();
+    const status = $("reach-status");
+    const lines = [];
+    const head = el("p");
+    head.append(el("strong", "", (view.calibration ? "calibration reach " : "reach ") + view.trial + " of " + view.trials),
+      el("span", "sep", view.calibration ? "" : "score " + view.score));
+    lines.push(head);
+    if (view.deadline_ms !== null && !view.done) lines.push(el("p", "deadline", "Take about " + Math.round(view.deadline_ms) + " ms."));
+    if (view.message) lines.push(el("p", view.tone === "warn" ? "warn" : "", view.message));
+    if (view.done) lines.push(el("p", "dim", "Press space to go on."));
+    status.replaceChildren(...lines);
+  }
+
+  function paintField() {
+    cancelAnimationFrame(state.frame);
+    const view = state.view && state.view.reach;
+    if (!view) return;
+    const canvas = $("field");
+    const { scale, ratio } = fieldScale(view);
+    const g = canvas.getContext("2d");
+    g.setTransform(ratio * scale, 0, 0, ratio * scale, 0, 0);
+    g.clearRect(0, 0, view.field[0], view.field[1]);
+    const px = 1 / scale;  // one CSS pixel in field units
+    for (const region of view.regions) {
+      g.beginPath();
+      g.arc(region.centre[0], region.centre[1], region.radius, 0, 2 * Math.PI);
+      g.fillStyle = regionColour(region);
+      g.fill();
+      g.lineWidth = 1.5 * px;
+      g.strokeStyle = "rgba(255, 255, 255, 0.5)";
+      g.stroke();
+    }
+    g.font = (14 * px) + "px system-ui, sans-serif";
+    g.textAlign = "center";
+    g.textBaseline = "middle";
+    g.fillStyle = "#ffffff";
+    // Each label pushed half a radius away from the circles' middle, so two overlapping circles' labels and an
+    // endpoint at a centre do not cover one another.
+    const middle = [0, 1].map((k) => view.regions.reduce((sum, r) => sum + r.centre[k], 0) / view.regions.length);
+    for (const region of view.regions) {
+      const label = region.symbol + (region.points === null ? "" : " " + region.points);
+      const away = [region.centre[0] - middle[0], region.centre[1] - middle[1]];
+      const length = Math.hypot(away[0], away[1]) || 1;
+      const shift = view.regions.length > 1 ? region.radius * 0.5 / length : 0;
+      g.fillText(label, region.centre[0] + away[0] * shift, region.centre[1] + away[1] * shift);
+    }
+    // The start: where every reach begins.
+    g.beginPath();
+    g.arc(view.start[0], view.start[1], START_RADIUS, 0, 2 * Math.PI);
+    g.fillStyle = reach.own ? "rgba(126, 231, 135, 0.6)" : "rgba(207, 216, 227, 0.25)";
+    g.fill();
+    g.strokeStyle = "#cfd8e3";
+    g.lineWidth = 1.5 * px;
+    g.stroke();
+    g.fillStyle = "#cfd8e3";
+    g.fillText("start", view.start[0], view.start[1] + START_RADIUS + 12 * px);
+    const last = view.last;
+    if (last) {
+      g.strokeStyle = "rgba(255, 255, 255, 0.35)";
+      g.setLineDash([4 * px, 4 * px]);
+      g.beginPath();
+      g.moveTo(view.start[0], view.start[1]);
+      g.lineTo(last.endpoint[0], last.endpoint[1]);
+      g.stroke();
+      g.setLineDash([]);
+      cross(g, last.endpoint, 6 * px, "#ffffff", 2.5 * px);
+    }
+    if (view.noise === "own") {
+      if (reach.own && reach.path.length > 1) {
+        g.strokeStyle = "#7ee787";
+        g.lineWidth = 2 * px;
+        g.beginPath();
+        g.moveTo(reach.path[0][0], reach.path[0][1]);
+        for (const point of reach.path) g.lineTo(point[0], point[1]);
+        g.stroke();
+      }
+      return;
+    }
+    const aim = reach.held ? reach.held.aim : reach.pointer || view.aim;
+    plus(g, aim, 7 * px, "#9ecbff", 2 * px);
+    if (reach.held) {
+      const ms = performance.now() - reach.held.t;
+      const within = ms < view.min_ms ? "short" : ms > view.max_ms ? "long" : "ok";
+      g.beginPath();
+      g.arc(aim[0], aim[1], reachSd(view, aim, ms), 0, 2 * Math.PI);
+      g.strokeStyle = { short: "#ffd54f", ok: "#ffffff", long: "#ff6b6b" }[within];
+      g.lineWidth = 2 * px;
+      g.stroke();
+      $("reach-status").firstChild.lastChild.textContent = "  held " + Math.round(ms) + " ms";
+      state.frame = requestAnimationFrame(paintField);
+    }
+  }
+
+  function cross(g, [x, y], r, colour, width) {
+    g.strokeStyle = colour;
+    g.lineWidth = width;
+    g.beginPath();
+    g.moveTo(x - r, y - r); g.lineTo(x + r, y + r);
+    g.moveTo(x - r, y + r); g.lineTo(x + r, y - r);
+    g.stroke();
+  }
+
+  function plus(g, [x, y], r, colour, width) {
+    g.strokeStyle = colour;
+    g.lineWidth = width;
+    g.beginPath();
+    g.moveTo(x - r, y); g.lineTo(x + r, y);
+    g.moveTo(x, y - r); g.lineTo(x, y + r);
+    g.stroke();
+  }
+
+  function reachLive() {
+    const view = state.view;
+    return Boolean(state.page && view && view.stage === "reach" && !view.reach.done);
+  }
+
+  $("field").addEventListener("pointerdown", (event) => {
+    if (!reachLive() || event.button !== 0) return;
+    event.preventDefault();
+    const view = state.view.reach;
+    const at = toField(event);
+    $("field").setPointerCapture(event.pointerId);
+    flash("");
+    if (view.noise === "own") {
+      if (Math.hypot(at[0] - view.start[0], at[1] - view.start[1]) > START_RADIUS) {
+        flash("Press on the start to begin a reach.");
+        return;
+      }
+      reach.own = { left: null };
+      reach.path = [at];
+      paintField();
+      return;
+    }
+    reach.held = { t: stamp(event), aim: at };
+    send({ type: "reach_press", aim: at, t: reach.held.t });
+    paintField();
+  });
+
+  $("field").addEventListener("pointermove", (event) => {
+    if (!reachLive()) return;
+    const view = state.view.reach;
+    const at = toField(event);
+    if (view.noise === "own") {
+      if (!reach.own) return;
+      // The reach begins at the first event outside the start (its timeStamp: when the pointer was there).
+      if (reach.own.left === null && Math.hypot(at[0] - view.start[0], at[1] - view.start[1]) > START_RADIUS) {
+        reach.own.left = stamp(event);
+      }
+      reach.path.push(at);
+      paintField();
+      return;
+    }
+    if (!reach.held) { reach.pointer = at; paintField(); }
+  });
+
+  $("field").addEventListener("pointerup", (event) => {
+    if (event.button !== 0) return;
+    const view = state.view && state.view.reach;
+    if (!view) return;
+    const at = toField(event);
+    if (reach.own) {
+      const own = reach.own;
+      reach.own = null;
+      if (own.left === null) {
+        flash("Move out of the start, then let go where the reach ends.");
+        paintField();
+        return;
+      }
+      send({ type: "reach_own", endpoint: at, duration_ms: stamp(event) - own.left });
+      return;
+    }
+    if (reach.held) {
+      reach.held = null;
+      send({ type: "reach_release", t: stamp(event) });
+      paintField();
+    }
+  });
+
+  function reachFocusLost() {
+    if (reach.own) { reach.own = null; paintField(); }
+    if (reach.held) { reach.held = null; send({ type: "cancel" }); paintField(); }
+  }
+  // The browser took the pointer away (a touch turned into a scroll, a system gesture): no reach.
+  $("field").addEventListener("pointercancel", reachFocusLost);
+  window.addEventListener("resize", () => { if (state.view && state.view.stage === "reach") paintField(); });
+
   function stamp(event) { return event.timeStamp > 0 ? event.timeStamp : performance.now(); }
 
   function canMove() {
@@ -431,6 +671,7 @@
 
   // No keyup comes for a key let go in another window: a hold cut short by lost focus is no move.
   function focusLost() {
+    reachFocusLost();
     if (!state.held) return;
     state.held = null;
     send({ type: "cancel" });
