@@ -47,6 +47,9 @@ SIGMA_STEPS = (0.25, 64.0)
 # Below this share of the largest |points| fitted, the spread of the time cost over the allowed durations is
 # said not to fix the points' scale (a world whose limits leave one duration: no care to choose).
 WEAK_SCALE = 0.01
+# Under this many trials (one choice each, against four or more unknowns) a fit says its intervals are rough:
+# the grid's few_episodes note, for reaches.
+FEW_TRIALS = 30
 
 
 @dataclass(frozen=True)
@@ -121,6 +124,10 @@ def fit_reaches(reaches: Reaches, *, spread_known: bool = False, confidence: flo
     if not unknown:
         raise BadInputError("every symbol's points are given as known: there is nothing to fit", code="nothing_to_fit")
     notes: list[Note] = []
+    if reaches.trials < FEW_TRIALS:
+        notes.append(Note("few_episodes", f"only {reaches.trials} trials: intervals from so few are rough (a Laplace "
+                          "interval tends to be too narrow, and an identified set may rest on a choice so few trials "
+                          "do not show to be the player's)"))
     spread = fit_spread(reaches, known=spread_known, confidence=confidence, notes=notes)
     grid = choice_grid(world, spread=spread.spread)
     cost_span = float(np.ptp(grid.cost))

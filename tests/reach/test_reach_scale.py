@@ -39,3 +39,11 @@ def test_free_durations_keep_their_intervals(tmp_path):
     fit = fit_reaches(reaches_of(REACH_WORLDS["reach"], tmp_path))
     assert "scale_not_identified" not in [note.code for note in fit.notes]
     assert all(-RMAX < low and high < RMAX for low, high in fit.interval.values())
+
+
+def test_a_fit_of_few_trials_says_its_intervals_are_rough(tmp_path):
+    world = REACH_WORLDS["reach"]
+    path = tmp_path / "few.jsonl"
+    simulate_reaches_to_file(path, world, reacher(world, "boltzmann", beta=0.2), trials=7, seed=1)
+    notes = [note for note in fit_reaches(read_reaches([path])[0]).notes if note.code == "few_episodes"]
+    assert len(notes) == 1 and "only 7 trials" in notes[0].text
