@@ -75,21 +75,26 @@ class Terminal:
     def resize(self, width: int, height: int) -> None:
         self.command(f"resize-window -t {self.name} -x {width} -y {height}")
 
-    def repeat(self, key: str, seconds: float, *, period: float = 0.033) -> None:
-        """Autorepeats of `key` every `period` for `seconds` (each on time, not after the last)."""
-        start = time.monotonic()
+    def repeat(self, key: str, seconds: float, *, period: float = 0.033) -> float:
+        """Autorepeats of `key` every `period` for `seconds` (each on time, not after the last); returns when
+        the last was sent (time.monotonic)."""
+        start = last = time.monotonic()
         n = 1
         while (due := start + n * period) - start <= seconds:
             time.sleep(max(0.0, due - time.monotonic()))
             self.send(key)
+            last = time.monotonic()
             n += 1
+        return last
 
-    def hold(self, key: str, seconds: float, *, delay: float = 0.5) -> None:
-        """Hold `key` as a terminal reports it: a press, `delay` of silence, then autorepeats."""
+    def hold(self, key: str, seconds: float, *, delay: float = 0.5) -> float:
+        """Hold `key` as a terminal reports it: a press, `delay` of silence, then autorepeats. Returns the
+        seconds from the press to the last repeat as sent: on a busy machine longer than asked."""
+        pressed = time.monotonic()
         self.send(key)
         time.sleep(delay)
         self.send(key)
-        self.repeat(key, seconds)
+        return self.repeat(key, seconds) - pressed
 
     def screen(self) -> str:
         return self.tmux("capture-pane", "-p", "-t", self.name)

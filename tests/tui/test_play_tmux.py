@@ -37,16 +37,18 @@ def finished_recording(out: Path, timeout: float = TIMEOUT_S) -> Recording:
 def test_holding_an_arrow_in_a_terminal_records_its_carefulness(tmp_path: Path) -> None:
     with play(tmp_path) as session:
         session.wait_for("carefulness")
-        session.hold("Right", 1.0)
+        held_s = session.hold("Right", 1.0)
         session.wait_for("step 1/200")
         session.send("q")
         rec = finished_recording(tmp_path / "rec")
         session.wait_for("recorded to")
     (step,) = rec.steps
     assert step.direction == "right" and step.state == (0, 0) and step.next_state == (0, 1)
-    # The press, 500 ms, then ~1 s of repeats: about 1.5 s, level 8 with the default profile.
-    assert 1350 <= step.hold_ms <= 1700 and not step.hold_exact
-    assert 7 <= step.carefulness <= 9
+    # The press, 500 ms, then ~1 s of repeats: about 1.5 s, level 8 with the default profile. The hold runs from
+    # the press to the last repeat as the program read them: within the driver's own span (longer than 1.5 s
+    # on a busy machine), give or take a repeat period and the time keys take to arrive.
+    assert held_s * 1000 - 150 <= step.hold_ms <= held_s * 1000 + 200 and not step.hold_exact
+    assert step.hold_ms >= 1350 and step.carefulness >= 7
     (end,) = rec.episode_ends
     assert end.outcome == "quit" and end.steps == 1 and end.score == 200 - step.carefulness
     assert rec.header.input["mode"] == "hold" and rec.header.player == "e2e"
