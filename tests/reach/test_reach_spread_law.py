@@ -112,6 +112,7 @@ def test_careful_fit_holds_the_law_of_the_file_and_says_where_it_came_from(tmp_p
     law = written_law(tmp_path / "p001")
     out = tmp_path / "fit.json"
     assert main(["fit", str(recording), "--spread-law", str(law), "--json", str(out), "--no-view"]) == 0
+    assert f"spread law (from {law}): sd = " in capsys.readouterr().out
     written = json.loads(out.read_text())
     stored = json.loads(law.read_text())
     assert written["spread"]["known"] is True and written["spread"]["source"] == str(law)
