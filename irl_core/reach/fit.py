@@ -202,6 +202,11 @@ def fit_spread(reaches: Reaches, *, known: bool, confidence: float, notes: list[
         notes.append(Note("spread_not_identified", "every reach has the same distance and duration, so the spread "
                           "law's a and b cannot be told apart: the world's own law is used"))
         return SpreadFit(world.spread, None, True)
+    if not squared.any():
+        notes.append(Note("spread_not_identified", "every reach ended where it was aimed (a pointer's reaches, whose "
+                          "aim is recorded as the endpoint): they cannot give the spread law, so the world's own law "
+                          "is used; give the participant's calibration with --spread-law"))
+        return SpreadFit(world.spread, None, True)
 
     def negative_log_likelihood(params: np.ndarray) -> tuple[float, np.ndarray]:
         a, b = params

@@ -69,6 +69,13 @@ def test_the_calibrated_law_covers_the_points_where_the_worlds_law_misses_them(t
     assert sum(calibrated) == 4 and sum(worlds) <= 1, (calibrated, worlds)
 
 
+def test_own_noise_reaches_alone_cannot_give_the_law_and_say_so():
+    # Before this was said, the law was fitted to misses of 0: a = 1e-6, b = 0 and every interval the whole range.
+    fit = fit_reaches(own_noise_reaches(200, 0))
+    assert fit.spread.known and fit.spread.spread == WORLD.spread
+    assert "--spread-law" in {note.code: note.text for note in fit.notes}["spread_not_identified"]
+
+
 def test_the_laws_uncertainty_widens_the_points_intervals_and_a_law_without_one_is_held_fixed(tmp_path):
     reaches = own_noise_reaches(200, 1)
     carried = fit_reaches(reaches, spread_law=read_spread_law(written_law(tmp_path, 1), WORLD))
