@@ -17,7 +17,7 @@ from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.reach_fit import print_reach_fit
 from irl_core.errors import BadInputError, SolverError, UsageError
-from irl_core.reach.calibration import calibration_beside, read_spread_law
+from irl_core.reach.calibration import calibration_beside, read_spread_law, study_worlds
 from irl_core.reach.fit import Note, fit_reaches
 from irl_core.recordings.reach_reader import is_reach_recording, read_reaches
 from irl_core.support.safe_files import check_output, write_output
@@ -56,7 +56,9 @@ def run_reach_fit(args: argparse.Namespace, err: Console, *, view: bool) -> int:
                          f"(its symbols: {', '.join(reaches.world.symbols)})")
     if args.spread_known and args.spread_law is not None:
         raise UsageError("--spread-known and --spread-law: give one spread law (the world's, or the file's)")
-    spread_law = None if args.spread_law is None else read_spread_law(args.spread_law, reaches.world)
+    indices = study_worlds(args.files)
+    spread_law = (None if args.spread_law is None
+                  else read_spread_law(args.spread_law, reaches.world, world_indices=indices.values()))
     try:
         fit = fit_reaches(reaches, spread_known=args.spread_known, confidence=options.confidence, known=known,
                           spread_law=spread_law)
@@ -65,7 +67,7 @@ def run_reach_fit(args: argparse.Namespace, err: Console, *, view: bool) -> int:
     except SolverError as exc:
         err.print(f"careful fit: {said(exc)}", style="bold red", markup=False, soft_wrap=True)
         return EXIT_FAILURE
-    if spread_law is None and (calibration := calibration_beside(args.files, reaches.world)) is not None:
+    if spread_law is None and (calibration := calibration_beside(indices, reaches.world)) is not None:
         shown = printable(str(calibration), limit=160)
         law = ("used the world's law" if fit.spread.known
                else "fitted the law to the recorded aims, which for a pointer are its endpoints")

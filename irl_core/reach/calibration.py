@@ -42,6 +42,8 @@ from irl_core.worlds.reach import MAX_SIZE, ReachWorld, Region, Spread
 
 # The spread law a participant's calibration block gave, beside their recordings: spread-<world index>.json.
 SPREAD_FILE = "spread-{index}.json"
+# The name of a calibration's file, its group the world index.
+_SPREAD_NAME = re.compile(r"spread-(\d+)\.json")
 # A spread law file is a few lines; anything larger is not one.
 SPREAD_FILE_LIMIT = 1 << 16
 # The confidence of a law file's interval when it does not say (the calibration block's).
@@ -110,15 +112,17 @@ def fit_calibration(world: ReachWorld, durations_ms: ArrayLike, endpoints: Array
     return CalibrationFit(law, len(durations), tuple(notes), world=world.name, confidence=confidence)
 
 
-def read_spread_law(path: str | Path, world: ReachWorld) -> SpreadFit:
-    """The spread law in `path` for fitting recordings of `world`: a calibration's ``spread-<i>.json`` or a JSON
-    or TOML (by the suffix ``.toml``) giving ``a`` and ``b``, and optionally ``world`` (the world's name),
+def read_spread_law(path: str | Path, world: ReachWorld, *, world_indices: Iterable[int] = ()) -> SpreadFit:
+    """The spread law in `path` for fitting recordings of `world` (of a study's worlds `world_indices`, as
+    `study_worlds` gives them, if a study wrote them): a calibration's ``spread-<i>.json`` or a JSON or TOML (by the
+    suffix ``.toml``) giving ``a`` and ``b``, and optionally ``world`` (the world's name),
     ``covariance`` ([[var a, cov], [cov, var b]]) or ``interval`` ({"a": [low, high], "b": [...]}, at
     ``confidence``, default 0.95). The law's uncertainty is its covariance, else a diagonal one from the
     interval (each half-width from the value up, the lower ends being clipped at 0), else none.
 
     Raises `SpreadLawError` naming the file, the line and the field of the first problem: unreadable, not a
-    law, another world's law, a or b missing, negative or not a number, a covariance or interval malformed."""
+    law, another world's law (by its ``world``, or for a ``spread-<i>.json`` without one by i), a or b missing,
+    negative or not a number, a covariance or interval malformed."""
     path = Path(path)
     shown = printable(str(path), limit=200)
     try:
@@ -148,6 +152,11 @@ def read_spread_law(path: str | Path, world: ReachWorld) -> SpreadFit:
     if "world" in found and found["world"] != world.name:
         raise refuse("world", f"the law of world {printable(str(found['world']), limit=60)!r}, not of the "
                      f"recordings' world {printable(world.name, limit=60)!r}")
+    indices = set(world_indices)
+    if "world" not in found and indices and (named := _SPREAD_NAME.fullmatch(path.name)) is not None \
+            and int(named[1]) not in indices:
+        raise SpreadLawError(shown, None, "world", f"the calibration of the study's world {named[1]}, not of the "
+                             f"recordings' (world {', '.join(map(str, sorted(indices)))})")
     law = {name: _law_number(found, name, refuse) for name in ("a", "b")}
     if law["a"] <= 0:
         raise refuse("a", f"must be above 0 (the scatter at any speed), got {law['a']:g}")
@@ -209,14 +218,22 @@ def _line_of(text: str, key: str, *, toml: bool) -> int | None:
     return None if match is None else text.count("\n", 0, match.start()) + 1
 
 
-def calibration_beside(paths: Iterable[str | Path], world: ReachWorld) -> Path | None:
-    """The calibration of `world` beside own-noise recordings (`paths`): the ``spread-<world index>.json`` in a
-    recording's folder, the index from its header's study tag; None when the world's noise is not "own" or no
-    such file is there."""
+def study_worlds(paths: Iterable[str | Path]) -> dict[Path, int]:
+    """Each reach recording of `paths` that a study wrote, and the index of its world in the study's worlds."""
+    found = {}
+    for path in paths:
+        if (study := read_reach_recording(path).header.study) is not None:
+            found[Path(path)] = study.world_index
+    return found
+
+
+def calibration_beside(indices: dict[Path, int], world: ReachWorld) -> Path | None:
+    """The calibration of `world` beside its own-noise study recordings (`indices`, as `study_worlds` gives
+    them): the ``spread-<world index>.json`` in a recording's folder; None when the world's noise is not "own"
+    or no such file is there."""
     if world.noise != "own":
         return None
-    for path in paths:
-        study = read_reach_recording(path).header.study
-        if study is not None and (found := Path(path).parent / SPREAD_FILE.format(index=study.world_index)).is_file():
+    for path, index in indices.items():
+        if (found := path.parent / SPREAD_FILE.format(index=index)).is_file():
             return found
     return None

@@ -171,6 +171,30 @@ def test_a_bad_spread_law_file_stops_careful_fit_in_one_line_naming_file_line_an
         read_spread_law(law, WORLD)
 
 
+def test_a_calibration_without_its_world_is_refused_for_a_study_world_of_another_index(tmp_path, capsys):
+    recording = own_recording(tmp_path / "p001", world_index=0)
+    stored = json.loads(written_law(tmp_path).read_text())
+    del stored["world"]  # as the calibrations stored before the file named its world
+    other = tmp_path / "p001" / "spread-1.json"
+    other.write_text(json.dumps(stored))
+    assert main(["fit", str(recording), "--spread-law", str(other), "--no-view"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "spread-1.json: world: the calibration of the study's world 1" in error
+    same = tmp_path / "p001" / "spread-0.json"
+    same.write_text(json.dumps(stored))
+    assert main(["fit", str(recording), "--spread-law", str(same), "--no-view"]) == 0
+
+
+def test_a_grid_fit_names_the_spread_law_as_ignored(tmp_path, capsys):
+    grid = tmp_path / "grid.jsonl"
+    assert main(["simulate", "--world", "mud", "--policy", "optimal", "--episodes", "3", "--seed", "0",
+                 "--out", str(grid)]) == 0
+    law = tmp_path / "law.toml"
+    law.write_text("a = 2\nb = 0.05\n")
+    assert main(["fit", str(grid), "--no-view", "--spread-law", str(law)]) == 0
+    assert "--spread-law applies only to reach worlds; ignored" in capsys.readouterr().err
+
+
 def test_the_worlds_law_and_a_files_law_together_are_refused(tmp_path, capsys):
     recording = own_recording(tmp_path / "p001")
     law = written_law(tmp_path / "p001")
