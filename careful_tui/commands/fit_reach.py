@@ -10,7 +10,7 @@ import json
 
 from rich.console import Console
 
-from careful_tui.arguments import FIT_FLAGS, options_from_args
+from careful_tui.arguments import FIT_FLAGS, fit_inputs, options_from_args
 from careful_tui.commands.notices import ignored, warn
 from careful_tui.errors import EXIT_FAILURE, EXIT_OK
 from careful_tui.option_words import said
@@ -44,9 +44,12 @@ def run_reach_fit(args: argparse.Namespace, err: Console, *, view: bool) -> int:
               and getattr(args, flag.field) != flag.kwargs.get("default", False)]
     if unused:
         warn(err, ignored(unused, "to grid worlds"))
+    if args.spread_known and args.spread_law is not None:
+        raise UsageError("--spread-known and --spread-law: give one spread law (the world's, or the file's)")
+    inputs = fit_inputs(args)
     for option, path in (("--json", args.json), ("--figure", args.figure)):
         if path is not None:
-            check_output(path, option=option, inputs=args.files)
+            check_output(path, option=option, inputs=inputs)
     reaches, warnings = read_reaches(args.files)
     for warning in warnings:
         warn(err, warning)
@@ -54,8 +57,6 @@ def run_reach_fit(args: argparse.Namespace, err: Console, *, view: bool) -> int:
     if strange := sorted(set(known) - set(reaches.world.symbols)):
         raise UsageError(f"--known {printable(strange[0])}: the reach world has no circle of that symbol "
                          f"(its symbols: {', '.join(reaches.world.symbols)})")
-    if args.spread_known and args.spread_law is not None:
-        raise UsageError("--spread-known and --spread-law: give one spread law (the world's, or the file's)")
     indices = study_worlds(args.files)
     spread_law = (None if args.spread_law is None
                   else read_spread_law(args.spread_law, reaches.world, world_indices=indices.values()))
@@ -75,13 +76,13 @@ def run_reach_fit(args: argparse.Namespace, err: Console, *, view: bool) -> int:
                               f"is in {shown}; this fit {law}: add --spread-law {shown} to hold it at theirs"))
     if args.json is not None:
         write_output(args.json, json.dumps(fit.to_json(), indent=2, allow_nan=False) + "\n", option="--json",
-                     inputs=args.files)
+                     inputs=inputs)
     if args.figure is not None:
         # Imported here for start-up speed: matplotlib loads only when a figure is asked for.
         from careful_tui.render.figures.reach_figure import reach_fit_figure
         from careful_tui.render.figures.style import save_figure
 
-        save_figure(reach_fit_figure(fit, reaches), args.figure, option="--figure", inputs=args.files)
+        save_figure(reach_fit_figure(fit, reaches), args.figure, option="--figure", inputs=inputs)
     if view:
         # Imported here for start-up speed: Textual loads only when the view opens.
         from careful_tui.app import make_reach_fit_app

@@ -195,6 +195,14 @@ def test_a_grid_fit_names_the_spread_law_as_ignored(tmp_path, capsys):
     assert "--spread-law applies only to reach worlds; ignored" in capsys.readouterr().err
 
 
+def test_careful_fit_never_writes_over_the_law_it_reads(tmp_path, capsys):
+    recording = own_recording(tmp_path / "p001")
+    law = written_law(tmp_path / "p001")
+    before = law.read_bytes()
+    assert main(["fit", str(recording), "--spread-law", str(law), "--json", str(law), "--no-view"]) == 2
+    assert law.read_bytes() == before and len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
 def test_the_worlds_law_and_a_files_law_together_are_refused(tmp_path, capsys):
     recording = own_recording(tmp_path / "p001")
     law = written_law(tmp_path / "p001")
