@@ -24,7 +24,7 @@ import json
 import math
 import re
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,6 +42,8 @@ from irl_core.worlds.reach import MAX_SIZE, ReachWorld, Region, Spread
 
 # The spread law a participant's calibration block gave, beside their recordings: spread-<world index>.json.
 SPREAD_FILE = "spread-{index}.json"
+# Builds the error of a law file's field: (field, problem) -> the error naming the file and the field's line.
+Refuse = Callable[[str, str], SpreadLawError]
 # The name of a calibration's file, its group the world index.
 _SPREAD_NAME = re.compile(r"spread-(\d+)\.json")
 # A spread law file is a few lines; anything larger is not one.
@@ -178,7 +180,7 @@ def read_spread_law(path: str | Path, world: ReachWorld, *, world_indices: Itera
     return SpreadFit(Spread(a=law["a"], b=law["b"]), interval, True, covariance, source=shown)
 
 
-def _law_number(found: dict[str, Any], name: str, refuse: Any) -> float:
+def _law_number(found: dict[str, Any], name: str, refuse: Refuse) -> float:
     """`found[name]` as a finite number of 0 or more (at most the world's largest size)."""
     if name not in found:
         raise refuse(name, "missing: a spread law gives a and b (sd = a + b * distance / seconds)")
@@ -190,7 +192,7 @@ def _law_number(found: dict[str, Any], name: str, refuse: Any) -> float:
     return float(value)
 
 
-def _law_pair(value: Any, field: str, refuse: Any) -> tuple[float, float]:
+def _law_pair(value: Any, field: str, refuse: Refuse) -> tuple[float, float]:
     """An interval [low, high] of finite numbers, low <= high."""
     if (not isinstance(value, (list, tuple)) or len(value) != 2
             or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
@@ -199,7 +201,7 @@ def _law_pair(value: Any, field: str, refuse: Any) -> tuple[float, float]:
     return float(value[0]), float(value[1])
 
 
-def _law_covariance(value: Any, refuse: Any) -> np.ndarray:
+def _law_covariance(value: Any, refuse: Refuse) -> np.ndarray:
     """A 2 x 2 covariance of (a, b): finite, symmetric, positive semi-definite."""
     try:
         matrix = np.array(value, dtype=float)
