@@ -24,7 +24,7 @@ from textual.driver import Driver
 from textual.screen import Screen
 from textual.theme import Theme
 
-from careful_tui.arguments import options_from_args
+from careful_tui.arguments import fit_inputs, options_from_args
 from careful_tui.render.palette import BACKGROUND, BAD, FRAME, GOOD, INK, NOTE, PANEL, SLIP, SURFACE, WARN
 from careful_tui.screens.fit import FitScreen
 from careful_tui.screens.play import PlayScreen
@@ -165,7 +165,7 @@ def make_replay_app(*recordings: Recording, skipped: Sequence[str] = (), playing
 def make_reach_fit_app(args: argparse.Namespace, fit: ReachFit, reaches: Reaches, *,
                        driver_class: type[Driver] | None = None) -> CarefulApp[ReachFitScreen]:
     """The app on the reach fit view `careful fit` opens for reach recordings (the CLI and the tests build it here)."""
-    return CarefulApp(ReachFitScreen(fit, reaches.endpoints, sources=list(args.files)), driver_class=driver_class)
+    return CarefulApp(ReachFitScreen(fit, reaches.endpoints, sources=fit_inputs(args)), driver_class=driver_class)
 
 
 def make_fit_app(args: argparse.Namespace, demos: Demonstrations, result: FitResult | None = None,

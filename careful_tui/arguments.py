@@ -8,6 +8,7 @@ import argparse
 import dataclasses
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import irl_core.irl.choices as choices
@@ -170,3 +171,9 @@ def add_fit_options(parser: argparse.ArgumentParser) -> None:
 def options_from_args(args: argparse.Namespace) -> FitOptions:
     """The fit's settings from `careful fit`'s parsed arguments (built once; the view refits with replace)."""
     return FitOptions(**{option.field: getattr(args, option.field) for option in FIT_FLAGS})
+
+
+def fit_inputs(args: argparse.Namespace) -> list[Path]:
+    """Every file `careful fit` reads (the recordings, and a reach fit's --spread-law), which none of its outputs
+    may be written over."""
+    return [*args.files, *([] if getattr(args, "spread_law", None) is None else [args.spread_law])]

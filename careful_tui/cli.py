@@ -110,6 +110,9 @@ def _add_fit(commands: Any) -> None:
     fit.add_argument("--no-view", action="store_true", help="print the result instead of opening the fit view")
     fit.add_argument("--spread-known", action="store_true", help=(
         "a reach world: use the world's own spread law instead of fitting it to the recorded aims and endpoints"))
+    fit.add_argument("--spread-law", type=Path, metavar="FILE", help=(
+        "a reach world: hold the spread law at the one in FILE (a participant's calibration, spread-<i>.json beside "
+        "their recordings, or a JSON or TOML giving a and b), its interval carried into the points' intervals"))
 
 
 def _add_check(commands: Any) -> None:

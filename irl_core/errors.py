@@ -10,6 +10,7 @@ The tree; a builtin base in brackets is the one the class had before the tree, k
             WorldError      a world file or name that cannot be used
             RecordingError  a recording that cannot be used: `file:line: field: problem`
                 EmptyRecording    a recording without a single line
+            SpreadLawError  a spread law file (`careful fit --spread-law`) that cannot be used: `file:line: field: problem`
             TableError      a trial table (or its column map) `careful import` refuses: every refused row, one line each
             Mismatch        a recording's line at odds with its world or the lines before (read as a RecordingError)
             StudyError      a study file or participant id that cannot be used
@@ -104,18 +105,32 @@ class WorldError(InputError):
     """A world file or name that cannot be used; the message is one sentence for the user."""
 
 
+def _file_line_field(path: str, line: int | None, field: str | None, problem: str) -> str:
+    """`file:line: field: problem`, the path and field cut to a readable length."""
+    where = _cut(path, 200) if line is None else f"{_cut(path, 200)}:{line}"
+    field = None if field is None else _cut(field, _VALUE_LIMIT)
+    return f"{where}: {field}: {problem}" if field else f"{where}: {problem}"
+
+
 class RecordingError(InputError):
     """A recording that cannot be used. `str()` is `file:line: field: problem`."""
 
     def __init__(self, path: str | Path, line: int | None, field: str | None, problem: str):
         self.path, self.line, self.field, self.problem = str(path), line, field, problem
-        where = _cut(self.path, 200) if line is None else f"{_cut(self.path, 200)}:{line}"
-        field = None if field is None else _cut(field, _VALUE_LIMIT)
-        super().__init__(f"{where}: {field}: {problem}" if field else f"{where}: {problem}")
+        super().__init__(_file_line_field(self.path, line, field, problem))
 
 
 class EmptyRecording(RecordingError):
     """A recording without a single line (what a failed first write used to leave)."""
+
+
+class SpreadLawError(InputError):
+    """A spread law file `careful fit --spread-law` refuses (not a law, another world's, a negative a or b).
+    `str()` is `file:line: field: problem`, as a `RecordingError`'s."""
+
+    def __init__(self, path: str | Path, line: int | None, field: str | None, problem: str):
+        self.path, self.line, self.field, self.problem = str(path), line, field, problem
+        super().__init__(_file_line_field(self.path, line, field, problem))
 
 
 class TableError(InputError):

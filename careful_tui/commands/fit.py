@@ -148,8 +148,9 @@ def run_fit(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     if any(is_reach_recording(path) for path in args.files):
         return run_reach_fit(args, err, view=wants_view(args))
-    if args.spread_known:
-        warn(err, ignored(["--spread-known"], "to reach worlds"))
+    if spread_flags := [flag for flag, used in (("--spread-known", args.spread_known),
+                                                ("--spread-law", args.spread_law is not None)) if used]:
+        warn(err, ignored(spread_flags, "to reach worlds"))
     if args.figure is not None and (problem := figure_suffix_problem(args.figure)):
         raise UsageError(problem)
     outputs: dict[Path, str] = {}

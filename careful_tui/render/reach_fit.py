@@ -122,7 +122,8 @@ def print_reach_fit(console: Console, fit: ReachFit) -> None:
 def spread_line(fit: ReachFit) -> str:
     """The spread law in a line: whose it is, its a and b, and their intervals when fitted."""
     law = fit.spread.spread
-    where = "the world's own" if fit.spread.known else "fitted to the endpoints"
+    where = (f"from {fit.spread.source}" if fit.spread.source is not None
+             else "the world's own" if fit.spread.known else "fitted to the endpoints")
     line = f"spread law ({where}): sd = {law.a:.3g} + {law.b:.3g} x distance / seconds"
     if fit.spread.interval is not None:
         (a_low, a_high), (b_low, b_high) = fit.spread.interval["a"], fit.spread.interval["b"]

@@ -6,7 +6,8 @@ Two likelihoods, fitted one after the other:
    is normal with sd_i = a + b * x_i per axis, x_i = distance_i / (duration_i / 1000); (a, b) by maximum
    likelihood, intervals by the Laplace approximation (the inverse of the negative log-likelihood's Hessian at
    the maximum). With `spread_known`, or when every reach has the same x (a and b cannot be told apart), the
-   world's own law is used and said so.
+   world's own law is used and said so; with `spread_law` (a calibration's, `irl_core.reach.calibration`) that
+   law is used, its covariance carried into the points' intervals when it has one.
 2. **The points**, from where the player aimed and how long they took. The player is soft-optimal over the
    `ChoiceGrid` built with that spread law: choice (k, j) with probability pi[k, j] = exp(beta EG[k, j]) / Z,
    then an aim error of their own, N(0, sigma^2) per axis. A trial's duration is read as its nearest grid
@@ -62,12 +63,14 @@ class Note:
 
 @dataclass(frozen=True)
 class SpreadFit:
-    """The spread law a fit used: fitted (with its intervals and the covariance (2, 2) of (a, b)) or `known`."""
+    """The spread law a fit used: fitted (with its intervals and the covariance (2, 2) of (a, b)) or `known`
+    (the world's, or one read from the file `source`)."""
 
     spread: Spread
     interval: dict[str, tuple[float, float]] | None
     known: bool
     covariance: np.ndarray | None = None
+    source: str | None = None
 
 
 @dataclass(frozen=True)
@@ -102,16 +105,17 @@ class ReachFit:
             "spread": {"a": self.spread.spread.a, "b": self.spread.spread.b,
                        "interval": None if self.spread.interval is None
                        else {name: list(bounds) for name, bounds in self.spread.interval.items()},
-                       "known": self.spread.known},
+                       "known": self.spread.known, "source": self.spread.source},
             "player": {"beta": self.beta, "aim_sd": self.aim_sd},
             "notes": [{"code": note.code, "text": note.text} for note in self.notes],
         }
 
 
 def fit_reaches(reaches: Reaches, *, spread_known: bool = False, confidence: float = 0.95,
-                known: dict[str, float] | None = None) -> ReachFit:
-    """Fit each symbol's points (and the spread law unless `spread_known`) to the trials; the symbols in `known`
-    are held at their value (their interval is that value).
+                known: dict[str, float] | None = None, spread_law: SpreadFit | None = None) -> ReachFit:
+    """Fit each symbol's points (and the spread law unless `spread_known` or `spread_law` is given) to the trials;
+    the symbols in `known` are held at their value (their interval is that value). A `spread_law` with a
+    covariance has its uncertainty carried into the points' intervals; one without is held fixed, said in a note.
 
     Raises `BadInputError` when nothing fixes the points' scale (a world whose time costs nothing), and
     `SolverError` when an LP of the identified set fails."""
@@ -128,7 +132,13 @@ def fit_reaches(reaches: Reaches, *, spread_known: bool = False, confidence: flo
         notes.append(Note("few_episodes", f"only {reaches.trials} trials: intervals from so few are rough (a Laplace "
                           "interval tends to be too narrow, and an identified set may rest on a choice so few trials "
                           "do not show to be the player's)"))
-    spread = fit_spread(reaches, known=spread_known, confidence=confidence, notes=notes)
+    if spread_law is None:
+        spread = fit_spread(reaches, known=spread_known, confidence=confidence, notes=notes)
+    else:
+        spread = spread_law
+        if spread.covariance is None:
+            notes.append(Note("spread_held_fixed", f"the spread law from {spread.source} gives no interval: it is held "
+                              "fixed, so the points' intervals leave out its uncertainty (they may be too narrow)"))
     grid = choice_grid(world, spread=spread.spread)
     cost_span = float(np.ptp(grid.cost))
     free = [world.symbols.index(symbol) for symbol in unknown]
@@ -191,6 +201,11 @@ def fit_spread(reaches: Reaches, *, known: bool, confidence: float, notes: list[
     if np.ptp(x) <= 1e-9 * max(1.0, float(np.abs(x).max())):
         notes.append(Note("spread_not_identified", "every reach has the same distance and duration, so the spread "
                           "law's a and b cannot be told apart: the world's own law is used"))
+        return SpreadFit(world.spread, None, True)
+    if not squared.any():
+        notes.append(Note("spread_not_identified", "every reach ended where it was aimed (a pointer's reaches, whose "
+                          "aim is recorded as the endpoint): they cannot give the spread law, so the world's own law "
+                          "is used; give the participant's calibration with --spread-law"))
         return SpreadFit(world.spread, None, True)
 
     def negative_log_likelihood(params: np.ndarray) -> tuple[float, np.ndarray]:

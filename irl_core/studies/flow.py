@@ -29,15 +29,12 @@ from irl_core.play.hold import Clock, HoldProfile
 from irl_core.play.motor_block import MotorBlock, calibration_targets
 from irl_core.play.reach_session import ReachOptions, ReachSession, reach_header
 from irl_core.play.session import PlayOptions, PlaySession, new_session, session_header
-from irl_core.reach.calibration import CalibrationFit, calibration_schedule, calibration_world, fit_calibration
+from irl_core.reach.calibration import SPREAD_FILE, CalibrationFit, calibration_schedule, calibration_world, fit_calibration
 from irl_core.recordings.writer import SessionRecorder
 from irl_core.studies.study import Block, LoadedStudy, Protocol, read_participant, read_protocol
 from irl_core.support.safe_files import built_beside
 from irl_core.support.safe_text import cut, printable
 from irl_core.worlds.reach import ReachWorld
-
-# The spread law a participant's calibration block gave, beside their recordings: spread-<world index>.json.
-SPREAD_FILE = "spread-{index}.json"
 
 Stage = Literal["instructions", "calibration", "practice_over", "next_world", "end"]
 # A block's heading is shown in this much; the study's name takes at most STUDY_NAME_LIMIT of it.

@@ -90,6 +90,6 @@ def test_the_intervals_cover_the_pointers_law_about_as_often_as_they_say():
 def test_the_fitted_law_is_stored_as_json_with_its_intervals():
     fit = fit_calibration(WORLD, *pointer_reaches(10, 0))
     stored = fit.to_json()
-    assert set(stored) == {"a", "b", "trials", "interval", "notes"}
+    assert set(stored) == {"world", "a", "b", "trials", "interval", "confidence", "covariance", "notes"}
     assert stored["trials"] == 40
     assert stored["interval"]["a"][0] <= stored["a"] <= stored["interval"]["a"][1]

@@ -102,7 +102,7 @@ def test_careful_fit_writes_the_reach_json(tmp_path, capsys):
     assert "reach fit of reach: 150 trials from 1 file" in printed and "spread law (fitted" in printed
     answer = json.loads(out.read_text())
     assert set(answer["reward"]) == set(answer["interval"]) == {"G", "C"}
-    assert set(answer["spread"]) == {"a", "b", "interval", "known"} and answer["spread"]["known"] is False
+    assert set(answer["spread"]) == {"a", "b", "interval", "known", "source"} and answer["spread"]["known"] is False
     assert set(answer["spread"]["interval"]) == {"a", "b"}
     assert answer["interval_kind"] == "confidence" and answer["interval_method"] == "laplace"
     for symbol, (low, high) in answer["interval"].items():
