@@ -20,7 +20,8 @@ seeded with that seed. So another kind of interval is measured the same way by n
     python -m bench bench_battery --fit-args "--tie --intervals --widen calibrated"
 
 Each run prints a line as it finishes; the table last (player, world, fit, symbol, covered/seeds, median width,
-median error), as Markdown. Rows below 80% are the ones docs/battery.md explains.
+median error, the point's sd over seeds, the methods and player models the fits chose), as Markdown. Rows
+below 80% are the ones docs/battery.md explains.
 
     nice -n 15 .venv/bin/python -m bench bench_battery --seeds 20                       # the whole battery
     nice -n 15 .venv/bin/python -m bench bench_battery --part population --seeds 20     # the study's row
@@ -134,8 +135,17 @@ def coverage_rows(done: list[Run], rmax_of: dict[str, float]) -> list[tuple[str,
     return rows
 
 
+def point_sd(done: list[Run], group: tuple[str, str, str], symbol: str) -> float:
+    """The sd over seeds of the symbol's point (its cells' median, per cell): set beside the median width, it
+    tells intervals too narrow for the seed-to-seed spread (width well under 3.9 sd) from a point that is biased
+    (width about 3.9 sd, the truth outside anyway)."""
+    points = [float(np.median(run.fitted.theta[[s == symbol for s in run.symbols]]))
+              for run in done if (run.player, run.world, run.fit_args) == group and run.fitted.theta is not None]
+    return float(np.std(points, ddof=1)) if len(points) > 1 else float("nan")
+
+
 def table(done: list[Run], rmax_of: dict[str, float]) -> str:
-    head = "| player | world | fit | symbol | covered | median width | median error | fitted by |"
+    head = "| player | world | fit | symbol | covered | median width | median error | point sd | fitted by |"
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     models: dict[tuple[str, str, str], dict[str, int]] = {}
     for run in done:
@@ -145,7 +155,8 @@ def table(done: list[Run], rmax_of: dict[str, float]) -> str:
         mark = " **<80%**" if row.covered < TARGET * seeds else ""
         by = ", ".join(f"{m} {n}" for m, n in sorted(models[player, world, fit_args].items(), key=lambda x: -x[1]))
         lines.append(f"| {player} | {world} | `{fit_args}` | {row.symbol} | {row.covered}/{seeds}{mark} | "
-                     f"{row.median_width:.4g} | {row.median_error:+.4g} | {by} |")
+                     f"{row.median_width:.4g} | {row.median_error:+.4g} | "
+                     f"{point_sd(done, (player, world, fit_args), row.symbol):.4g} | {by} |")
     return "\n".join(lines)
 
 
