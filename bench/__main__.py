@@ -13,7 +13,7 @@ BENCHMARKS = ("bench_fit", "bench_rollouts", "bench_planning", "bench_play", "be
               "bench_maxent_stop", "bench_evaluation_stop", "bench_people", "bench_people_speed", "bench_people_big",
               "bench_study_cluster", "bench_serve", "bench_serve_workers", "bench_seat_growth", "bench_laplace",
               "bench_plan", "bench_fit_memory", "bench_population", "bench_timing", "bench_invariants", "bench_import",
-              "bench_reach")
+              "bench_reach", "bench_battery")
 
 
 def main() -> None:

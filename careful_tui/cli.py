@@ -133,7 +133,8 @@ def _add_check(commands: Any) -> None:
                        help="simulated datasets per player, each as many episodes as the recordings (default 50)")
     check.add_argument("--players", type=player_names, default=None, metavar="KIND,...",
                        help="rival person-like players, as careful simulate --policy names them (loose, timed, hasty, "
-                            "inverted, reckless; timing and steady on a time world only); default loose,timed,hasty "
+                            "inverted, reckless, streaky, growing, learning; timing and steady on a time world "
+                            "only); default loose,timed,hasty "
                             "(timing,steady on a time world); an empty list checks the fit's own model alone")
     check.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
                        help="folder for check.csv (default: this folder; an earlier check.csv there is replaced)")
@@ -151,19 +152,29 @@ def _add_simulate(commands: Any) -> None:
     simulate.add_argument("--world", required=True, metavar="NAME|FILE", help="built-in world or TOML file")
     simulate.add_argument("--policy", choices=["optimal", "boltzmann", *PERSON_LIKE, *REACH_KINDS], required=True,
                           help="optimal: the best action in every state; boltzmann: actions with probability "
-                               "proportional to exp(beta Q); loose, timed, hasty, inverted, reckless: person-like "
-                               "players over the optimal plan (docs/people.md); timing, steady: players of a time "
-                               "world who hold the key for a time (docs/timing.md); on a reach world optimal is the "
-                               "expected-gain maximiser, boltzmann the soft-optimal reacher and hand a person-like "
-                               "reacher with aim noise, timing noise and lapses (docs/reach.md)")
+                               "proportional to exp(beta Q); loose, timed, hasty, inverted, reckless, streaky, "
+                               "growing, learning: person-like players over the optimal plan (docs/people.md); timing, "
+                               "steady: players of a time world who hold the key for a time (docs/timing.md); on a reach "
+                               "world optimal is the expected-gain maximiser, boltzmann the soft-optimal reacher and "
+                               "hand a person-like reacher with aim noise, timing noise and lapses (docs/reach.md)")
     simulate.add_argument("--beta", type=positive_float, default=None,
                           help="Boltzmann inverse temperature, for --policy boltzmann (default 1.0)")
     simulate.add_argument("--lapse", type=probability, default=None, metavar="P",
-                          help="share of lapsed directions: loose, inverted, timing, steady 0.1 (random), timed 0.1 "
-                               "(the previous one), reckless 0.25 (random); hand: share of lapsed reaches, 0.1 "
-                               "(half aimed at random, half rushed)")
+                          help="share of lapsed directions: loose, inverted, growing, learning, timing, steady 0.1 "
+                               "(random), timed 0.1 (the previous one), streaky 0.1 (random, in streaks), reckless 0.25 "
+                               "(random); hand: share of lapsed reaches, 0.1 (half aimed at random, half rushed)")
+    simulate.add_argument("--streak", type=positive_float, default=None, metavar="STEPS",
+                          help="streaky: the mean length of a streak of lapses, at least 1 (default 4)")
     simulate.add_argument("--spread", type=non_negative_float, default=None, metavar="LEVELS",
-                          help="sd of the level's noise: loose, inverted 1.75, hasty 1")
+                          help="sd of the level's noise: loose, inverted, streaky, learning 1.75, hasty 1, growing 0.5 "
+                               "(its sd at level 0)")
+    simulate.add_argument("--growth", type=non_negative_float, default=None, metavar="LEVELS",
+                          help="growing: the level noise's sd grows by this much per level aimed at (default 0.25)")
+    simulate.add_argument("--fear", type=non_negative_float, default=None, metavar="SHARE",
+                          help="learning: the share of each hazard's reward it believes in its first episode (default "
+                               "0.1); the belief moves to the truth over the episodes")
+    simulate.add_argument("--half-life", dest="half_life", type=positive_float, default=None, metavar="EPISODES",
+                          help="learning: episodes for the belief to close half its gap to the truth (default 5)")
     simulate.add_argument("--weber", type=non_negative_float, default=None, metavar="SD",
                           help="timed, timing: sd of the log hold time (default 0.25, about 25%%); hand: sd of "
                                "the log reach duration (default 0.15)")

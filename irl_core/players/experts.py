@@ -99,11 +99,13 @@ class Rollouts:
     hold_ms: np.ndarray | None = None
 
 
-Chooser = Callable[[np.ndarray, np.ndarray, np.random.Generator], "np.ndarray | tuple[np.ndarray, np.ndarray]"]
-"""A player's choice for many episodes at once: ``choose(states, previous, rng)`` -> actions (n,), where
-`previous` (n,) is each episode's previous action (-1 at its first step). On a time world a chooser
-may return (actions, hold_ms), each (n,), the action's level being the hold's duration bin + 1; a
-chooser of actions alone holds each bin's geometric mid-point."""
+Chooser = Callable[[np.ndarray, np.ndarray, np.random.Generator, np.ndarray],
+                   "np.ndarray | tuple[np.ndarray, np.ndarray]"]
+"""A player's choice for many episodes at once: ``choose(states, previous, rng, episode)`` -> actions (n,),
+where `previous` (n,) is each episode's previous action (-1 at its first step) and `episode` (n,) each
+episode's number in the recording (a player who learns across episodes, or remembers within one, reads it).
+On a time world a chooser may return (actions, hold_ms), each (n,), the action's level being the hold's
+duration bin + 1; a chooser of actions alone holds each bin's geometric mid-point."""
 
 
 def policy_chooser(policy: np.ndarray) -> Chooser:
@@ -111,7 +113,7 @@ def policy_chooser(policy: np.ndarray) -> Chooser:
     policy_cdf = np.cumsum(policy, axis=1)
     last = policy.shape[1] - 1
 
-    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator, episode: np.ndarray) -> np.ndarray:
         return np.minimum((policy_cdf[s] < rng.random((s.size, 1))).sum(axis=1), last)
 
     return choose
@@ -126,9 +128,11 @@ def rollouts(
     rng: np.random.Generator | None = None,
     max_steps: int | None = None,
     starts: np.ndarray | None = None,
+    first_episode: int = 0,
 ) -> Rollouts:
     """Roll out `policy` (S, A), or a `Chooser`, from the world's start cells for `episodes` episodes,
-    or from the states `starts` (episodes,) when given.
+    or from the states `starts` (episodes,) when given. A chooser is told each episode's number in the
+    recording: `first_episode` (a later block's first) and on.
 
     Randomness comes from `rng` when given (to continue a stream block by block), else from `seed`.
     """
@@ -153,7 +157,7 @@ def rollouts(
         if live.size == 0:
             break
         s = state[live]
-        chosen = choose(s, previous[live], rng)
+        chosen = choose(s, previous[live], rng, first_episode + live)
         a = np.asarray(chosen[0] if isinstance(chosen, tuple) else chosen)
         previous[live] = a
         if timed:
@@ -278,7 +282,7 @@ def simulate_to_file(
     header = session_header(mdp, player=player, seed=seed)
     with built_beside(path) as temporary, RecordingWriter(temporary, header, sync_episodes=False) as writer:
         for first in range(0, episodes, block):
-            result = rollouts(mdp, policy, episodes=min(block, episodes - first), rng=rng)
+            result = rollouts(mdp, policy, episodes=min(block, episodes - first), rng=rng, first_episode=first)
             counted: Callable[[int], None] | None = (
                 None if progress is None else lambda done, first=first: progress(first + done))
             _write_block(writer, mdp, result, first_episode=first, progress=counted)

@@ -28,7 +28,25 @@ player        direction                                       level
                                                               explains
 ``reckless``  d*(s); with probability `lapse` (0.25) a        1 everywhere
               uniformly random one
+``streaky``   d*(s), but lapses come in streaks: a two-state  as ``loose``
+              chain (attentive, lapsing) whose streaks last
+              `streak` (4) steps on average and hold a share
+              `lapse` (0.1) of the steps; a lapsing step's
+              direction is uniformly random
+``growing``   as ``loose``                                    c*(s) + round(N(0, `spread` + `growth` c*(s))),
+                                                              `spread` 0.5, `growth` 0.25, clipped: the
+                                                              hand's sd grows linearly with the level aimed at
+``learning``  as ``loose``, over the plan of the hazard it    as ``loose``, over that plan
+              believes in: in episode e (from 0) of a
+              recording it plans with each hazard's reward
+              times 1 + (`fear` - 1) 0.5^(e / `half_life`),
+              `fear` 0.1, `half_life` 5 episodes
 ============  ==============================================  ===============================================
+
+The ``learning`` player learns the hazard's reward, not its precision: the hazard's reward is what the fit is
+there to read, a newcomer does not yet know how bad a fall is, and no model of the fit lets a reward drift
+over episodes. Its truth is the world's reward, the one it learns towards. A hazard is a terminal cell whose
+reward is below zero; the belief is rounded to 0.01, so that a recording's episodes share a few plans.
 
 On a time world (docs/timing.md) two more hold the key for a length of time, not a level:
 
@@ -52,6 +70,8 @@ them out and write them exactly as they do computer experts, with the player nam
 
 from __future__ import annotations
 
+import dataclasses
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -72,6 +92,9 @@ KINDS: dict[str, dict[str, float]] = {
     "reckless": {"lapse": 0.25},
     "timing": {"lapse": 0.1, "weber": 0.25, "poll_ms": 8.0},
     "steady": {"lapse": 0.1, "hold_ms": 600.0},
+    "streaky": {"lapse": 0.1, "streak": 4.0, "spread": 1.75},
+    "growing": {"lapse": 0.1, "spread": 0.5, "growth": 0.25},
+    "learning": {"lapse": 0.1, "spread": 1.75, "fear": 0.1, "half_life": 5.0},
 }
 # The person-like players of a reach world (`irl_core.reach.players.HandReacher`, docs/reach.md), apart from the
 # grid's: their parameters' defaults, in the order the player's name gives them.
@@ -125,7 +148,7 @@ def person_like(mdp: MDP, kind: str, **parameters: float) -> PersonLike:
     values = {name: float(parameters.get(name, default)) for name, default in KINDS[kind].items()}
     _check(values)
     timed_world = mdp.world.care == "time"
-    if (kind in TIME_KINDS) != timed_world and kind not in ("loose", "hasty", "inverted", "reckless"):
+    if (kind in TIME_KINDS and not timed_world) or (kind == "timed" and timed_world):
         raise ValueError(f"the {kind} player " + ("holds for a time and needs a time world (care = \"time\")"
                          if kind in TIME_KINDS else "times the level windows of a world with levels; on a time "
                          "world the timing player holds for a time"))
@@ -142,6 +165,13 @@ def person_like(mdp: MDP, kind: str, **parameters: float) -> PersonLike:
                         spread=values["spread"])
     elif kind == "reckless":
         choose = _loose(d_star, np.ones_like(c_star), L, lapse=values["lapse"], spread=0.0)
+    elif kind == "streaky":
+        choose = _streaky(d_star, c_star, L, lapse=values["lapse"], streak=values["streak"], spread=values["spread"])
+    elif kind == "growing":
+        choose = _loose(d_star, c_star, L, lapse=values["lapse"], spread=values["spread"], growth=values["growth"])
+    elif kind == "learning":
+        choose = _learning(mdp, lapse=values["lapse"], spread=values["spread"], fear=values["fear"],
+                           half_life=values["half_life"])
     elif kind == "timed":
         choose = _timed(d_star, c_star, L, lapse=values["lapse"], weber=values["weber"])
     elif kind in TIME_KINDS:
@@ -158,23 +188,32 @@ def _check(values: dict[str, float]) -> None:
     for name, value in values.items():
         if name == "lapse" and not 0 <= value <= 1:
             raise ValueError(f"lapse is a probability, between 0 and 1, not {value:g}")
-        if name in ("spread", "weber", "poll_ms") and not 0 <= value < np.inf:
+        if name in ("spread", "weber", "poll_ms", "growth", "fear") and not 0 <= value < np.inf:
             raise ValueError(f"{name} must be zero or more, not {value:g}")
-        if name in ("temperature", "hold_ms") and not 0 < value < np.inf:
-            raise ValueError(f"temperature must be positive, not {value:g}")
+        if name in ("temperature", "hold_ms", "half_life") and not 0 < value < np.inf:
+            raise ValueError(f"{name} must be positive, not {value:g}")
+        if name == "streak" and not 1 <= value < np.inf:
+            raise ValueError(f"streak is a mean number of steps, at least 1, not {value:g}")
         if name == "bias" and not abs(value) < np.inf:
             raise ValueError(f"bias must be a finite number of levels, not {value:g}")
+    if "streak" in values and _entering(values["lapse"], values["streak"]) > 1:
+        raise ValueError(f"a lapse share of {values['lapse']:g} needs streaks of at least "
+                         f"{values['lapse'] / (1 - values['lapse']):g} steps, not {values['streak']:g}"
+                         if values["lapse"] < 1 else "a lapse share of 1 leaves no attentive step to end a streak")
 
 
 def motor_trials(person: PersonLike, targets: np.ndarray, levels: int, rng: np.random.Generator) -> np.ndarray:
     """(n, 2) (target, produced) of `person` asked for each of `targets` (n,) in a study's motor calibration
     block: their own hand, without the play's choices (``hasty`` under-holds by its `bias`, ``timed`` times
-    the hold with its Weber noise, the others add ``loose``'s `spread`; ``reckless`` holds as asked)."""
+    the hold with its Weber noise, ``growing`` adds its sd at the target's level, the others add ``loose``'s
+    `spread`; ``reckless`` holds as asked)."""
     targets = np.asarray(targets, dtype=np.int64)
     p = person.parameters
     if person.kind == "timed":
         held = intended_hold_ms(targets) * np.exp(rng.normal(0.0, p["weber"], targets.size))
         produced = level_of_hold(held, levels)
+    elif person.kind == "growing":
+        produced = _noisy_level(targets, p["spread"] + p["growth"] * targets, levels, rng)
     else:
         produced = _noisy_level(targets, p.get("spread", 0.0), levels, rng, bias=p.get("bias", 0.0))
     return np.column_stack([targets, produced]).astype(np.int64)
@@ -209,17 +248,74 @@ def _lapsed(d_star: np.ndarray, lapse: float, rng: np.random.Generator) -> np.nd
     return np.where(lapses, rng.integers(4, size=d_star.size), d_star)
 
 
-def _noisy_level(level: np.ndarray, spread: float, levels: int, rng: np.random.Generator, *,
+def _noisy_level(level: np.ndarray, spread: float | np.ndarray, levels: int, rng: np.random.Generator, *,
                  bias: float = 0.0) -> np.ndarray:
-    """(n,) level (n,) minus `bias` plus N(0, spread), rounded and clipped to 1..levels."""
-    noise = rng.normal(0.0, spread, level.size) if spread > 0 else 0.0
+    """(n,) level (n,) minus `bias` plus N(0, spread), spread one sd or one (n,) per level, rounded and clipped
+    to 1..levels."""
+    noise = rng.normal(0.0, spread, level.size) if np.any(np.asarray(spread) > 0) else 0.0
     return np.clip(np.rint(level - bias + noise), 1, levels).astype(np.int64)
 
 
-def _loose(d_star: np.ndarray, c: np.ndarray, levels: int, *, lapse: float, spread: float) -> Chooser:
-    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def _loose(d_star: np.ndarray, c: np.ndarray, levels: int, *, lapse: float, spread: float,
+           growth: float = 0.0) -> Chooser:
+    """The chooser of ``loose`` over the plan (d_star, c) (S,): its level's sd `spread` + `growth` times the
+    level aimed at (``growing``; 0: the same sd everywhere)."""
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator, episode: np.ndarray) -> np.ndarray:
         d = _lapsed(d_star[s], lapse, rng)
-        return d * levels + _noisy_level(c[s], spread, levels, rng) - 1
+        return d * levels + _noisy_level(c[s], spread + growth * c[s] if growth else spread, levels, rng) - 1
+
+    return choose
+
+
+def _entering(lapse: float, streak: float) -> float:
+    """The chance of an attentive step's successor lapsing, so that streaks of mean length `streak` (leaving with
+    chance 1 / streak) hold a share `lapse` of the steps: the stationary share enter / (enter + leave)."""
+    return np.inf if lapse >= 1 else lapse / (streak * (1 - lapse))
+
+
+def _streaky(d_star: np.ndarray, c_star: np.ndarray, levels: int, *, lapse: float, streak: float,
+             spread: float) -> Chooser:
+    """``streaky``'s chooser: each episode starts attentive or lapsing at the chain's stationary share, then
+    steps through the chain; a lapsing step's direction is uniformly random, its level ``loose``'s."""
+    leave, enter = 1.0 / streak, _entering(lapse, streak)
+    # Whether each episode lapses lives between calls; per thread, so two rollouts on two threads of one
+    # process (a Dask worker's) keep apart. Indexed by the episode's number, reset at its first step.
+    memory = threading.local()
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator, episode: np.ndarray) -> np.ndarray:
+        lapsing = getattr(memory, "lapsing", np.zeros(0, dtype=bool))
+        if lapsing.size <= episode.max(initial=-1):
+            lapsing = memory.lapsing = np.concatenate([lapsing, np.zeros(episode.max() + 1 - lapsing.size, bool)])
+        u = rng.random(s.size)
+        now = np.where(previous < 0, u < lapse, np.where(lapsing[episode], u >= leave, u < enter))
+        lapsing[episode] = now
+        d = np.where(now, rng.integers(4, size=s.size), d_star[s])
+        return d * levels + _noisy_level(c_star[s], spread, levels, rng) - 1
+
+    return choose
+
+
+def _learning(mdp: MDP, *, lapse: float, spread: float, fear: float, half_life: float) -> Chooser:
+    """``learning``'s chooser: ``loose`` over the optimal plan of the world whose hazards' rewards are scaled
+    by the episode's belief (rounded to 0.01), each belief's plan made when first needed."""
+    from irl_core.players.experts import optimal_plan
+
+    hazard = ~mdp.nonterminal & (mdp.R_S < 0)
+    plans: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def plan_of(belief: float) -> tuple[np.ndarray, np.ndarray]:
+        if belief not in plans:
+            greedy = optimal_plan(dataclasses.replace(mdp, R_S=np.where(hazard, belief * mdp.R_S, mdp.R_S))).greedy
+            plans[belief] = mdp.direction[greedy], mdp.carefulness[greedy]
+        return plans[belief]
+
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator, episode: np.ndarray) -> np.ndarray:
+        belief = np.round(1 + (fear - 1) * 0.5 ** (episode / half_life), 2)
+        d, c = np.empty_like(s), np.empty_like(s)
+        for value in np.unique(belief).tolist():
+            mine = belief == value
+            d[mine], c[mine] = (chosen[s[mine]] for chosen in plan_of(value))
+        return _lapsed(d, lapse, rng) * mdp.levels + _noisy_level(c, spread, mdp.levels, rng) - 1
 
     return choose
 
@@ -227,7 +323,7 @@ def _loose(d_star: np.ndarray, c: np.ndarray, levels: int, *, lapse: float, spre
 def _timed(d_star: np.ndarray, c_star: np.ndarray, levels: int, *, lapse: float, weber: float) -> Chooser:
     hold = intended_hold_ms(c_star)
 
-    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator, episode: np.ndarray) -> np.ndarray:
         lapses = rng.random(s.size) < lapse
         again = np.where(previous >= 0, previous // levels, rng.integers(4, size=s.size))
         d = np.where(lapses, again, d_star[s])
@@ -244,7 +340,7 @@ def _hasty(Q: np.ndarray, levels: int, *, temperature: float, bias: float, sprea
     cdf = np.cumsum(weights / weights.sum(axis=1, keepdims=True), axis=1)
     best_level = by_direction.argmax(axis=2) + 1  # (S, 4)
 
-    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator, episode: np.ndarray) -> np.ndarray:
         d = np.minimum((cdf[s] < rng.random((s.size, 1))).sum(axis=1), 3)
         return d * levels + _noisy_level(best_level[s, d], spread, levels, rng, bias=bias) - 1
 
@@ -273,7 +369,8 @@ def _holding(mdp: MDP, d_star: np.ndarray, hold: np.ndarray, *, lapse: float, we
     on the keyboard's polling grid; returns (actions, exact holds)."""
     world, levels = mdp.world, mdp.levels
 
-    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator,
+               episode: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         d = _lapsed(d_star[s], lapse, rng)
         held = hold[s] * np.exp(rng.normal(0.0, weber, s.size)) if weber > 0 else hold[s].astype(float)
         if poll_ms > 0:

@@ -70,12 +70,17 @@ def test_options_set_the_player_and_its_name(capsys, tmp_path):
 
 @pytest.mark.parametrize(("policy", "options", "wanted"), [
     ("loose", ["--beta", "2"], ["warning: --beta applies only to --policy boltzmann; ignored"]),
-    ("timed", ["--spread", "2"], ["warning: --spread applies only to --policy loose, hasty and inverted; ignored"]),
+    ("timed", ["--spread", "2"], ["warning: --spread applies only to --policy loose, hasty, inverted, streaky, growing and "
+                                       "learning; ignored"]),
     ("optimal", ["--weber", "0.3", "--bias", "1"], ["warning: --weber applies only to --policy timed and timing; ignored",
                                                     "warning: --bias applies only to --policy hasty; ignored"]),
     ("boltzmann", ["--lapse", "0.2"],
-     ["warning: --lapse applies only to --policy loose, timed, inverted, reckless, timing and steady; ignored"]),
+     ["warning: --lapse applies only to --policy loose, timed, inverted, reckless, timing, steady, streaky, growing "
+      "and learning; ignored"]),
     ("inverted", ["--lapse", "0.2", "--spread", "1"], []),
+    ("loose", ["--streak", "3", "--fear", "0.5"], ["warning: --streak applies only to --policy streaky; ignored",
+                                                   "warning: --fear applies only to --policy learning; ignored"]),
+    ("learning", ["--fear", "0.5", "--half-life", "2", "--spread", "1"], []),
 ])
 def test_an_option_the_player_does_not_take_is_named_and_ignored(capsys, tmp_path, policy, options, wanted):
     code, out, err = careful_simulate(capsys, tmp_path, "x.jsonl", "--world", "mud", "--policy", policy, *options,

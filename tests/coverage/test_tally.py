@@ -1,5 +1,6 @@
 """`careful check`'s arithmetic against an independent count: coverage per symbol (per cell: every cell of the
-symbol), the medians, and the verdict's binomial band computed from the binomial's own terms."""
+symbol), the medians, and the verdict's binomial band computed from the binomial's own terms; the rivals each
+world takes, the battery's among them."""
 
 from math import comb
 
@@ -7,8 +8,10 @@ import numpy as np
 import pytest
 
 from irl_core.coverage.check import DatasetFit, coverage_band, tally, verdict
-from irl_core.coverage.rivals import default_rivals, rival_choices, rivals_for
+from irl_core.coverage.rivals import default_rivals, parse_rivals, rival_choices, rivals_for
+from irl_core.coverage.simulate import dataset_rng, rival_chooser, simulate_dataset
 from irl_core.errors import UsageError
+from irl_core.worlds.mdp import build_mdp
 from irl_core.worlds.world import load_world
 
 
@@ -85,3 +88,13 @@ def test_the_rivals_are_the_worlds_own_players():
     assert time_world.care == "time" and "timed" not in rival_choices(time_world)
     with pytest.raises(UsageError, match="on 'mud' the players are loose, timed, hasty, inverted, reckless"):
         rivals_for(("steady",), mud)
+
+
+@pytest.mark.parametrize("kind", ["streaky", "growing", "learning"])
+def test_the_battery_players_are_rivals_that_play_a_dataset_of_the_recordings_size(kind):
+    mdp = build_mdp(load_world("mud"))
+    assert rivals_for(parse_rivals(f"loose,{kind}"), mdp.world) == ("loose", kind)
+    starts = np.full(30, mdp.state_of[mdp.world.start_cells[0]])
+    demos = simulate_dataset(mdp, rival_chooser(mdp, kind), starts, dataset_rng(0, 1, 0), recorded_mdp=mdp)
+    again = simulate_dataset(mdp, rival_chooser(mdp, kind), starts, dataset_rng(0, 1, 0), recorded_mdp=mdp)
+    assert demos.episodes == 30 and np.array_equal(demos.counts, again.counts)

@@ -337,7 +337,7 @@ def timing_policy(mdp: MDP, fitted: TimingFit) -> np.ndarray:
     return policy
 
 
-def timing_chooser(mdp: MDP, fitted: TimingFit) -> Callable[[np.ndarray, np.ndarray, np.random.Generator],
+def timing_chooser(mdp: MDP, fitted: TimingFit) -> Callable[[np.ndarray, np.ndarray, np.random.Generator, np.ndarray],
                                                              tuple[np.ndarray, np.ndarray]]:
     """The fitted player as an `irl_core.players.experts.Chooser` over continuous holds (what the fit check
     replays): the direction by the softmax or a lapse's uniform one, the hold log-normal around h*(s, d) or a
@@ -349,7 +349,8 @@ def timing_chooser(mdp: MDP, fitted: TimingFit) -> Callable[[np.ndarray, np.ndar
     aim = np.log(np.maximum(fitted.plan.hold, SHORTEST_HOLD_MS))  # (S, 4)
     low, high = np.log(SHORTEST_HOLD_MS), np.log(world.max_hold_ms)
 
-    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    def choose(s: np.ndarray, previous: np.ndarray, rng: np.random.Generator,
+               episode: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lapsed = rng.random(s.size) < fitted.lapse
         d = np.where(lapsed, rng.integers(4, size=s.size),
                      np.minimum((cdf[s] < rng.random((s.size, 1))).sum(axis=1), 3))
