@@ -161,6 +161,10 @@ FIT_FLAGS: tuple[Flag, ...] = (
         "a reward you know, held at that value instead of fitted (repeatable): it fixes the rewards' units where "
         "nothing in the world does (one level or moves that cost nothing, which else read rewards relative to "
         "the goal)"))),
+    Flag("union", "--union", dict(action="store_true", help=(
+        "with the player model chosen by held-out episodes (maxent's default), join the intervals of every "
+        "candidate model those episodes do not tell from the chosen one beyond their noise, not only the other "
+        "planning assumption's: wider intervals that stay honest when the player is none of the models"))),
     Flag("calibration", "--calibration", dict(type=Path, default=None, metavar="FILE", help=(
         "widen the intervals by the scales careful check learned (the calibration.json it writes), so that they "
         "held the truth at their level for every player it checked; refused if learned on another world or "

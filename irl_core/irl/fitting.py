@@ -197,7 +197,7 @@ def _interval_method(kind: str | None, fitted: Fitted, demos: Demonstrations, op
         method = "sandwich"
     else:
         method = "bootstrap" if demos.episode_groups is None else "two-level bootstrap"
-    if fitted.rival is not None and kind != "identified":
+    if (fitted.rival is not None or fitted.close) and kind != "identified":
         method += "+union"
     return method + ("+calibrated" if options.calibration is not None else "")
 

@@ -46,6 +46,8 @@ class FitOptions:
         cost: on a time world, ``known`` (rewards in points) or ``unknown`` (rewards in seconds of holding).
         known: (symbol, value) pairs: rewards the user knows, held at that value instead of fitted, which fixes
             the units where nothing in the world does (`irl_core.irl.identification`).
+        union: with a player model chosen by held-out episodes, join the intervals of every candidate model they
+            do not tell from the chosen one (`people.choice.close_models`), not only the other planning assumption.
         calibration: scales learned by `careful check` that widen the intervals until they reach their level
             for the players it checked (`irl_core.irl.intervals.calibrated`), or None.
     """
@@ -64,6 +66,7 @@ class FitOptions:
     slip_known: bool = False
     cost: Literal["known", "unknown"] = "known"
     known: tuple[tuple[str, float], ...] = ()
+    union: bool = False
     calibration: Calibration | None = None
 
     def __post_init__(self) -> None:
@@ -123,5 +126,6 @@ class FitOptions:
             # A time world's two (a fit on levels refuses them, and its JSON does not show them).
             **({"slip_known": self.slip_known, "cost": self.cost} if self.slip_known or self.cost != "known" else {}),
             **({"known": dict(self.known)} if self.known else {}),
+            **({"union": True} if self.union else {}),
             **({"calibration": dict(self.calibration.scales)} if self.calibration is not None else {}),
         }

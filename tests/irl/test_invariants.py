@@ -18,8 +18,8 @@ from irl_core.irl import fit
 from irl_core.irl.identification import units_unfixed_why
 from irl_core.irl.intervals.calibrated import Calibration, options_text, world_digest
 from irl_core.irl.intervals.honest import invariant_violations, one_sided
-from irl_core.irl.options import FitOptions
 from irl_core.irl.notes import Note
+from irl_core.irl.options import FitOptions
 from irl_core.players.experts import simulate_to_file
 from irl_core.players.person_like import person_like
 from irl_core.recordings.demonstrations import Demonstrations
@@ -159,6 +159,27 @@ def test_calibrated_intervals_keep_the_rules_and_hold_the_uncalibrated_ones(worl
     plain_sides, sides = one_sided(plain.intervals, plain.rmax), one_sided(result.intervals, result.rmax)
     for before, after, (low, high) in zip(plain_sides, sides, result.intervals):
         assert not before or after == before or (after == 0 and low == -result.rmax and high == result.rmax)
+
+
+@EXAMPLES
+@given(world=worlds(levels=3), episodes=st.integers(3, 15), seed=st.integers(0, 2**16),
+       player=st.sampled_from(["loose", "timed", "hasty"]))
+def test_the_union_over_close_player_models_keeps_the_rules_and_holds_the_chosen_models_intervals(
+        world, episodes, seed, player):
+    demos = play(world, player, episodes, seed)
+    chosen = fitted(demos, method="maxent", tie=True, player_model="auto")
+    joined = fitted(demos, method="maxent", tie=True, player_model="auto", union=True)
+    assert_honest(joined)
+    if chosen is None or chosen.intervals is None:
+        return
+    assert joined.player_model == chosen.player_model and np.allclose(joined.theta, chosen.theta)
+    # Where the chosen model's refits never left the bound its interval is the whole range (`honest_intervals`); a
+    # close model's spread can give the union width there instead. Everywhere else the union holds it.
+    told = ~((chosen.intervals[:, 0] <= -chosen.rmax) & (chosen.intervals[:, 1] >= chosen.rmax))
+    assert (joined.intervals[told, 0] <= chosen.intervals[told, 0] + 1e-9).all()
+    assert (chosen.intervals[told, 1] <= joined.intervals[told, 1] + 1e-9).all()
+    codes = [note.code for note in joined.notes]
+    assert ("+union" in joined.interval_method) == ("models_joined" in codes or chosen.rival_model is not None)
 
 
 def test_the_checker_names_a_point_outside_its_interval_and_a_note_that_contradicts_the_table():
