@@ -54,7 +54,7 @@ from irl_core.recordings.lines import StudyTag
 from irl_core.studies.report import POOLED, fit_report, gather
 from irl_core.studies.study import load_study
 from irl_core.worlds.mdp import build_mdp
-from irl_core.worlds.world import BUILTIN_WORLDS
+from irl_core.worlds.world import BUILTIN_WORLDS, World
 
 EPISODES = 30
 LEVEL_WORLDS = ("mud", "paper")
@@ -191,7 +191,9 @@ def population_study(kind: str, seed: int, *, participants: int, resamples: int,
     path.parent.mkdir(parents=True)
     path.write_text('name = "battery"\nworlds = ["mud"]\npractice_episodes = 0\nepisodes = 10\nout = "data"\n')
     study = load_study(path)
-    mdp = build_mdp(study.worlds[0])
+    world = study.worlds[0]
+    assert isinstance(world, World)  # mud, a grid world (a study's worlds may also be reach worlds)
+    mdp = build_mdp(world)
     player = person_like(mdp, kind)
     for i in range(participants):
         who = f"p{i + 1:02d}"

@@ -7,12 +7,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import irl_core.irl.choices as choices
 from irl_core.irl import FitOptions
+from irl_core.irl.intervals.calibrated import read_calibration
 
 
 def finite_float(text: str) -> float:
@@ -122,6 +124,8 @@ class Flag:
     field: str
     flag: str
     kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    # What the parsed value becomes in `FitOptions` (a file named by the flag, read), where it is not the value.
+    read: Callable[[Any], Any] | None = None
 
 
 FIT_FLAGS: tuple[Flag, ...] = (
@@ -157,6 +161,14 @@ FIT_FLAGS: tuple[Flag, ...] = (
         "a reward you know, held at that value instead of fitted (repeatable): it fixes the rewards' units where "
         "nothing in the world does (one level or moves that cost nothing, which else read rewards relative to "
         "the goal)"))),
+    Flag("union", "--union", dict(action="store_true", help=(
+        "with the player model chosen by held-out episodes (maxent's default), join the intervals of every "
+        "candidate model those episodes do not tell from the chosen one beyond their noise, not only the other "
+        "planning assumption's: wider intervals that stay honest when the player is none of the models"))),
+    Flag("calibration", "--calibration", dict(type=Path, default=None, metavar="FILE", help=(
+        "widen the intervals by the scales careful check learned (the calibration.json it writes), so that they "
+        "held the truth at their level for every player it checked; refused if learned on another world or "
+        "other fit options (the seed aside)")), read=read_calibration),
 )
 if {f.field for f in FIT_FLAGS} != {f.name for f in dataclasses.fields(FitOptions)}:
     raise RuntimeError("careful_tui.arguments.FIT_FLAGS must declare a flag for every FitOptions field")
@@ -170,7 +182,11 @@ def add_fit_options(parser: argparse.ArgumentParser) -> None:
 
 def options_from_args(args: argparse.Namespace) -> FitOptions:
     """The fit's settings from `careful fit`'s parsed arguments (built once; the view refits with replace)."""
-    return FitOptions(**{option.field: getattr(args, option.field) for option in FIT_FLAGS})
+    return FitOptions(**{option.field: _value(option, getattr(args, option.field)) for option in FIT_FLAGS})
+
+
+def _value(option: Flag, parsed: Any) -> Any:
+    return option.read(parsed) if option.read is not None and parsed is not None else parsed
 
 
 def fit_inputs(args: argparse.Namespace) -> list[Path]:

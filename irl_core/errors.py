@@ -20,6 +20,7 @@ The tree; a builtin base in brackets is the one the class had before the tree, k
             PlanError       an option of `careful study plan` (`field` names it)
             SchedulerError  a --scheduler that cannot be used
                 ClusterLost       the cluster lost every worker, or its scheduler, mid-run (`missing`: calls not done)
+            CalibrationError  a calibration file that cannot be used, or one learned on another design
             NotConverged    value iteration stopped at its cap: no expert for this world's gamma (or beta)
             BadInputError   demonstrations that cannot be fitted as given (also a FitError: its `code`)
                 InfeasibleError   no reward satisfies the constraints: the demonstrations or the bound
@@ -196,6 +197,11 @@ class ClusterLost(SchedulerError):
     def __init__(self, message: str, missing: tuple[int, ...] = ()) -> None:
         super().__init__(message)
         self.missing = missing
+
+
+class CalibrationError(InputError):
+    """A calibration (careful check's calibration.json) that cannot be read, or was learned on another world or
+    other fit options: one line naming the file (and line) and the field."""
 
 
 class NotConverged(InputError):

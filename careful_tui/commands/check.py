@@ -2,16 +2,20 @@
 
 Fits the recordings as `careful fit` would (intervals on), then `irl_core.coverage.check` simulates datasets
 of their size from the fit and from rival players and refits each: a progress bar on stderr while they come
-back, the coverage table and a verdict per player on stdout, and ``<out>/check.csv`` written whole through
-the output guard (replaced where an earlier check.csv is, as `careful study report` replaces its report.csv;
-Ctrl+C leaves the old file or none, never part of a new one).
+back, the coverage table and a verdict per player on stdout, and ``<out>/check.csv`` and the scales that would
+bring every player to the level, ``<out>/calibration.json`` (`irl_core.coverage.calibrate`; not for a fit
+already calibrated, whose check measures the widened intervals), each written whole through the output guard
+(replaced where an earlier one is, as `careful study report` replaces its report.csv; Ctrl+C leaves the old
+file or none, never part of a new one).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import time
+from pathlib import Path
 
 from rich import box
 from rich.console import Console
@@ -22,6 +26,7 @@ from rich.text import Text
 from careful_tui.commands.fit import fit_from_args
 from careful_tui.errors import EXIT_FAILURE, EXIT_OK
 from careful_tui.option_words import said
+from irl_core.coverage.calibrate import calibration_of
 from irl_core.coverage.check import CSV_COLUMNS, CheckResult, coverage_band, run_check
 from irl_core.coverage.rivals import default_rivals, rivals_for
 from irl_core.errors import SchedulerError, SolverError, UsageError
@@ -33,14 +38,18 @@ from irl_core.support.safe_files import check_output, check_output_folder, write
 from irl_core.support.safe_text import printable
 
 CHECK_CSV = "check.csv"
+CALIBRATION_JSON = "calibration.json"
 
 
 def run_check_command(args: argparse.Namespace) -> int:
     err = Console(stderr=True, highlight=False)
     named = args.players  # checked at parse time against every player; against the world's once it is read
     out = check_output_folder(args.out, option="--out")
+    inputs = [*args.files, *filter(None, [args.calibration])]
     if out.is_dir():
-        check_output(out / CHECK_CSV, option="--out", inputs=args.files)
+        # A calibrated fit's check measures its intervals and learns no new calibration (it would compound).
+        for name in (CHECK_CSV,) if args.calibration is not None else (CHECK_CSV, CALIBRATION_JSON):
+            check_output(out / name, option="--out", inputs=inputs)
     args.intervals = True  # a check measures the intervals: the refits have them, so the fit does too
     chosen: list[tuple[str, ...]] = []
 
@@ -72,12 +81,20 @@ def run_check_command(args: argparse.Namespace) -> int:
             close(executor)
     elapsed = time.perf_counter() - start
     out.mkdir(parents=True, exist_ok=True)
-    path = write_output(out / CHECK_CSV, csv_text(CSV_COLUMNS, checked.csv_rows()), option="--out",
-                        inputs=args.files)
+    path = write_output(out / CHECK_CSV, csv_text(CSV_COLUMNS, checked.csv_rows()), option="--out", inputs=inputs)
     console = Console(highlight=False)
     console.print(coverage_table(checked, unit=result.reward_unit))
     for line in verdict_lines(checked):
         console.print(Text(line), soft_wrap=True)
+    if result.options.calibration is None:
+        calibration = calibration_of(result, checked.scales, players=tuple(checked.verdicts), datasets=args.datasets,
+                                     seed=args.seed)
+        written = write_output(out / CALIBRATION_JSON, json.dumps(calibration.to_json(), indent=2) + "\n",
+                               option="--out", inputs=inputs)
+        console.print(Text(scales_line(checked, written)), soft_wrap=True)
+    else:
+        console.print(Text("these are the calibrated intervals' coverage (--calibration): no new calibration is "
+                           "learned from them"), soft_wrap=True)
     err.print(Text(f"wrote {printable(str(path), limit=160)}: {plural(len(rivals) + 1, 'player')} x "
                    f"{plural(args.datasets, 'dataset')} of {plural(demos.episodes, 'episode')}, refitted in "
                    f"{elapsed:.1f} s"), soft_wrap=True)
@@ -98,6 +115,15 @@ def coverage_table(checked: CheckResult, *, unit: str) -> Table:
                       "-" if not row.datasets else f"{row.median_width:.3g}",
                       "-" if not row.datasets else f"{row.median_error:+.3g}")
     return table
+
+
+def scales_line(checked: CheckResult, path: Path) -> str:
+    """The learned scales and where they were written, with how to use them."""
+    scales = ", ".join(f"{printable(symbol)} x{scale:.3g}" if scale is not None else
+                       f"{printable(symbol)} none (the whole range)" for symbol, scale in checked.scales.items())
+    return (f"calibration: half-widths around the point widened {scales} would have held the truth in at least "
+            f"{checked.confidence:.0%} of the datasets of every player checked; written to "
+            f"{printable(str(path), limit=160)} (fit with --intervals --calibration {printable(str(path), limit=160)})")
 
 
 def verdict_lines(checked: CheckResult) -> list[str]:

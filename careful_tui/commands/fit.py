@@ -30,7 +30,7 @@ from careful_tui.errors import EXIT_FAILURE, EXIT_OK
 from careful_tui.option_words import said
 from careful_tui.render.figures import figure_suffix_problem
 from careful_tui.render.fit_printout import fit_page_svg, print_fit
-from irl_core.errors import UsageError
+from irl_core.errors import CalibrationError, UsageError
 from irl_core.irl import BadInputError, FitOptions, FitResult, SolverError, fit
 from irl_core.recordings.demonstrations import Demonstrations
 from irl_core.recordings.reach_reader import is_reach_recording
@@ -73,6 +73,8 @@ def fit_from_args(args: argparse.Namespace, *, err: Console | None = None, print
         for warning in ignored_options(options, options.method):
             warn(err, warning)
     demos = load_demonstrations(list(args.files), err)
+    if options.calibration is not None and (why := options.calibration.mismatch(options, demos.mdp.world)):
+        raise CalibrationError(f"{printable(str(args.calibration), limit=160)}: {why}")
     if before_fit is not None:  # a command's checks of its own options against the recordings' world
         before_fit(demos)
     columns = (SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
@@ -113,6 +115,8 @@ def ignored_options(options: FitOptions, method: str) -> list[str]:
     chosen = f" (method auto chose {method})" if choices.method(options.method).chooser else ""
     resampling = [flag for flag, name in RESAMPLING if getattr(options, name) != getattr(default, name)]
     warnings = []
+    if options.calibration is not None and not options.intervals:
+        warnings.append(ignored(["--calibration"], "with --intervals"))
     if resampling and not options.intervals:
         warnings.append(ignored(resampling, "with --intervals"))
     elif resampling and used.interval_kind != "confidence":

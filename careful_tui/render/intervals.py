@@ -78,9 +78,23 @@ def interval_title(result: FitResult) -> str:
                 f"measured between {'participants' if grouped else 'episodes'})")
     if result.interval_kind == "confidence":
         options = result.options
-        return (f"{options.confidence:.0%} confidence intervals ({options.resamples} resamples of "
-                f"{result.demos.episodes} episodes)")
-    return "identified by the demonstrations: every value each reward can take"
+        title = (f"{options.confidence:.0%} confidence intervals ({options.resamples} resamples of "
+                 f"{result.demos.episodes} episodes{widened_by(result)})")
+    else:
+        title = "identified by the demonstrations: every value each reward can take" + (
+            f" ({widened_by(result).removeprefix(', ')})" if widened_by(result) else "")
+    return title
+
+
+def widened_by(result: FitResult) -> str:
+    """", joined with the rival planning model's, widened by careful check's calibration" as the intervals
+    were (`FitResult.interval_method`), or ""."""
+    method = result.interval_method or ""
+    joined = ("every close player model's (--union)" if result.options.union or result.rival_model is None
+              else f"the {result.rival_model} model's")
+    words = [("+union", f"joined with {joined}"),
+             ("+calibrated", "widened by careful check's calibration")]
+    return "".join(f", {said}" for mark, said in words if mark in method)
 
 
 def _open_ends(low: float, high: float, rmax: float) -> tuple[bool, bool]:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binom
 
+from irl_core.coverage.calibrate import learn_scales
 from irl_core.coverage.simulate import (
     dataset_rng,
     fitted_policy,
@@ -161,13 +162,16 @@ def verdict(rows: list[CoverageRow], confidence: float) -> str:
 
 @dataclass(frozen=True)
 class CheckResult:
-    """The coverage rows, a verdict per player (own model first), why some datasets have no intervals."""
+    """The coverage rows, a verdict per player (own model first), why some datasets have no intervals, and the
+    scales that would bring every player's intervals to the level (`irl_core.coverage.calibrate`: symbol -> w,
+    None where no scale does)."""
 
     rows: list[CoverageRow]
     verdicts: dict[str, str]
     problems: dict[str, Counter]
     confidence: float
     datasets: int
+    scales: dict[str, float | None] = dataclasses.field(default_factory=dict)
 
     def csv_rows(self) -> list[list[str]]:
         return [row.cells() for row in self.rows]
@@ -205,6 +209,7 @@ def run_check(result: FitResult, recorded: Demonstrations, *, rivals: tuple[str,
     rows: list[CoverageRow] = []
     verdicts: dict[str, str] = {}
     problems: dict[str, Counter] = {}
+    learned: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for source, kind in enumerate(sources):
         name = own_player_name(result) if kind is None else kind
         these = [f for f in fits[source * datasets:(source + 1) * datasets] if f is not None]
@@ -213,4 +218,8 @@ def run_check(result: FitResult, recorded: Demonstrations, *, rivals: tuple[str,
         rows += mine
         verdicts[name] = verdict(mine, options.confidence)
         problems[name] = Counter(f.problem for f in these if f.problem is not None)
-    return CheckResult(rows, verdicts, problems, options.confidence, datasets)
+        usable = [f for f in these if f.intervals is not None and f.theta is not None]
+        learned.append((np.array([f.theta for f in usable]).reshape(len(usable), len(symbols)),
+                        np.array([f.intervals for f in usable]).reshape(len(usable), len(symbols), 2), truth))
+    scales = learn_scales(learned, symbols, confidence=options.confidence, tolerance=HOLD_TOLERANCE * options.rmax)
+    return CheckResult(rows, verdicts, problems, options.confidence, datasets, scales)

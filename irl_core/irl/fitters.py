@@ -36,6 +36,7 @@ from irl_core.irl.people import (
     people_checks,
     planning_rival,
 )
+from irl_core.irl.people.choice import close_models
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import BadInputError, InfeasibleError
 from irl_core.irl.timing.fit import fit_timing, timing_chooser, timing_policy
@@ -65,6 +66,7 @@ class Fitted:
     observed_policy: np.ndarray | None = None
     people: PlayerFit | None = None
     rival: PlayerFit | None = None
+    close: tuple[PlayerFit, ...] = ()  # with `union`: the other models held-out episodes do not tell apart
     held_upper: np.ndarray | None = None  # (k,) a held reward's upper bound (`people.checks`)
     together: np.ndarray | None = None  # (k, 2) a reward's range along a combination the data do not pin (`laplace`)
     flat: np.ndarray | None = None  # (k,) -1 / +1 where the data bound a reward on one side only (`people.flat`)
@@ -182,6 +184,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
         workers = 1
     notes: list[Note] = []
     rival = None
+    close: tuple[PlayerFit, ...] = ()
     hand = None
     # With one level there is no hand to speak of: person and naive are one model, and a level's noise nothing.
     levels = mdp.levels > 1
@@ -205,6 +208,14 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
                               f"whether the player plans for the hand's noise is not told apart by the held-out "
                               f"episodes ({solution.model.name} and {rival.model.name} agree within their "
                               "noise): the reward's size depends on it, so the intervals cover both"))
+        if options.union:
+            close = close_models(choice)
+            if close:
+                notes.append(Note("models_joined", "the intervals join those of every player model the held-out "
+                                                   f"episodes do not tell from {solution.model.name} beyond their "
+                                                   f"noise ({', '.join(fit.model.name for fit in close)}; "
+                                                   "{union}): each model's estimate with the chosen model's "
+                                                   "spread around it"))
     else:
         solution = fit_given_model(mdp, unknowns, demos.counts, model=player_model(model).with_hand(hand),
                                    rmax=options.rmax)
@@ -243,7 +254,7 @@ def _fit_people(qmap: QMap, demos: Demonstrations, options: FitOptions, *, model
     return Fitted("maxent", solution.theta, V, beta=player.beta, beta_auto=True,
                    status="optimal" if solution.converged else "not_converged", notes=notes,
                    player_model=solution.model.name, player=player, observed_policy=solution.plan.observed,
-                   people=solution, rival=rival, held_upper=checks.held_upper, flat=checks.flat,
+                   people=solution, rival=rival, close=close, held_upper=checks.held_upper, flat=checks.flat,
                    together=together, fit_check=checks.fit_check)
 
 

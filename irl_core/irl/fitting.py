@@ -19,12 +19,14 @@ from collections.abc import Callable
 
 import numpy as np
 
+from irl_core.errors import CalibrationError
 from irl_core.irl.choices import FITTED
 from irl_core.irl.choices import method as method_entry
 from irl_core.irl.evaluation import evaluate
 from irl_core.irl.fit_check import FitCheck, fit_check
 from irl_core.irl.fitters import Fitted, run_fitter
 from irl_core.irl.identification import MOVE, Scale, decide_scale
+from irl_core.irl.intervals.calibrated import widen
 from irl_core.irl.intervals.honest import honest_intervals, honest_notes
 from irl_core.irl.intervals.of_fit import fit_intervals
 from irl_core.irl.lp.margin import lp_constraints
@@ -81,6 +83,8 @@ def fit(
             return fit(demos, options, progress=_stopping(progress, stop), workers=workers, executor=executor)
     if demos.counts.sum() <= 0:
         raise BadInputError("the recordings contain no steps: there is nothing to fit", code="no_steps")
+    if options.calibration is not None and (why := options.calibration.mismatch(options, demos.mdp.world)):
+        raise CalibrationError(f"the calibration does not fit this fit: {why}")
     start = time.perf_counter()
     keep_freed_memory()
     recorded_mdp = demos.mdp
@@ -124,6 +128,12 @@ def fit(
     honest = None
     if bounds is not None:
         honest = honest_intervals(fitted.theta, bounds, flat=fitted.flat, rmax=options.rmax)
+        if options.calibration is not None:
+            # Widened after the invariants: around the point they hold, so it stays inside and an end at ±rmax
+            # stays there (the one-sided note then reads the widened end).
+            honest = dataclasses.replace(honest, bounds=widen(fitted.theta, honest.bounds, unknowns.symbols,
+                                                              options.calibration, rmax=options.rmax))
+            notes.append(_calibrated_note(options, demos.episodes))
         bounds = honest.bounds
     notes.extend(honest_notes(unknowns.labels, fitted.theta, honest, flat=fitted.flat, rmax=options.rmax))
     if bounds is not None and demos.episodes < FEW_EPISODES:
@@ -160,6 +170,7 @@ def fit(
         unknowns=unknowns,
         intervals=bounds,
         interval_kind=kind,
+        interval_method=None if bounds is None else _interval_method(kind, fitted, demos, options),
         demos=demos,
         evaluation=evaluation,
         status=fitted.status,
@@ -174,6 +185,36 @@ def fit(
         recorded_world=None if mdp is recorded_mdp else recorded_mdp.world,
         scale=scale,
     )
+
+
+def _interval_method(kind: str | None, fitted: Fitted, demos: Demonstrations, options: FitOptions) -> str:
+    """How the intervals were made (the JSON's ``interval_method``): ``identified``, ``bootstrap``, ``two-level
+    bootstrap`` (a study's pool: participants, then their episodes) or ``sandwich`` (the timing model), then
+    ``+union`` where they join a rival planning model's and ``+calibrated`` where a calibration widened them."""
+    if kind == "identified":
+        method = "identified"
+    elif fitted.player_model == "timing":
+        method = "sandwich"
+    else:
+        method = "bootstrap" if demos.episode_groups is None else "two-level bootstrap"
+    if (fitted.rival is not None or fitted.close) and kind != "identified":
+        method += "+union"
+    return method + ("+calibrated" if options.calibration is not None else "")
+
+
+def _calibrated_note(options: FitOptions, episodes: int) -> Note:
+    """What the calibration did to the intervals, and the design it was learned on."""
+    calibration = options.calibration
+    assert calibration is not None
+    scales = ", ".join(f"{symbol} x{scale:.3g}" if scale is not None else f"{symbol} the whole range"
+                       for symbol, scale in calibration.scales)
+    design = "" if episodes == calibration.episodes else (
+        f"; it was learned on {calibration.episodes} episodes, these are {episodes}, so it may be too wide or "
+        "too narrow for them")
+    return Note("calibrated", f"intervals calibrated by careful check ({calibration.datasets} datasets of each of "
+                              f"{', '.join(calibration.players)}): each half-width around its point widened "
+                              f"{scales}, so that they held the truth in at least {calibration.confidence:.0%} of "
+                              f"those datasets{design}")
 
 
 def _scale_notes(scale: Scale) -> list[Note]:

@@ -39,6 +39,8 @@ CODES: dict[str, str] = {
     "planning_not_identified": "whether the player plans for the hand's noise is not identified",
     "one_sided": "rewards the data bound on one side only",
     "interval_widened": "intervals widened to hold their point estimate (the refits sat to one side of it)",
+    "models_joined": "the intervals join every player model held-out episodes do not tell apart (union)",
+    "calibrated": "intervals widened by the scales careful check learned, so that they reached their level",
     "pinned_together": "rewards the data pin only in combination: each point is where the search stopped",
     "combinations_unchecked": "too many free rewards to check which the data pin only in combination",
     "unreached": "rewards no recorded action can lead into: held at -rmax, bounded above only",

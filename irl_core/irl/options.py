@@ -16,6 +16,7 @@ from typing import Any, Literal
 import irl_core.irl.choices as choices
 from irl_core.irl.choices import AUTO as PLAYER_AUTO
 from irl_core.irl.choices import MethodName, PlayerModelName, RewardCells, player_model
+from irl_core.irl.intervals.calibrated import Calibration
 from irl_core.irl.notes import Note
 
 MIN_RESAMPLES = 20
@@ -45,6 +46,10 @@ class FitOptions:
         cost: on a time world, ``known`` (rewards in points) or ``unknown`` (rewards in seconds of holding).
         known: (symbol, value) pairs: rewards the user knows, held at that value instead of fitted, which fixes
             the units where nothing in the world does (`irl_core.irl.identification`).
+        union: with a player model chosen by held-out episodes, join the intervals of every candidate model they
+            do not tell from the chosen one (`people.choice.close_models`), not only the other planning assumption.
+        calibration: scales learned by `careful check` that widen the intervals until they reach their level
+            for the players it checked (`irl_core.irl.intervals.calibrated`), or None.
     """
 
     method: MethodName = choices.DEFAULT
@@ -61,6 +66,8 @@ class FitOptions:
     slip_known: bool = False
     cost: Literal["known", "unknown"] = "known"
     known: tuple[tuple[str, float], ...] = ()
+    union: bool = False
+    calibration: Calibration | None = None
 
     def __post_init__(self) -> None:
         choices.method(self.method)
@@ -119,4 +126,6 @@ class FitOptions:
             # A time world's two (a fit on levels refuses them, and its JSON does not show them).
             **({"slip_known": self.slip_known, "cost": self.cost} if self.slip_known or self.cost != "known" else {}),
             **({"known": dict(self.known)} if self.known else {}),
+            **({"union": True} if self.union else {}),
+            **({"calibration": dict(self.calibration.scales)} if self.calibration is not None else {}),
         }

@@ -72,6 +72,9 @@ class FitResult:
         intervals: (k, 2) [low, high] per unknown, or None when not computed.
         interval_kind: ``identified`` (lp: every value the demonstrations allow) or ``confidence``
             (maxent, loss: a bootstrap confidence interval), None without intervals.
+        interval_method: how they were made: ``identified``, ``bootstrap``, ``two-level bootstrap`` or
+            ``sandwich``, with ``+union`` (joined with a rival planning model's) and ``+calibrated`` (widened by
+            careful check's scales) where those apply; None without intervals.
         demos: the demonstrations fitted (their world, counts N(s, a) and sizes).
         evaluation: what an agent that plans for the fitted reward does in the true world.
         status: ``optimal`` or the solver's word for a usable but imperfect answer.
@@ -114,6 +117,7 @@ class FitResult:
     slip_curve: SlipCurve | None = None
     recorded_world: World | None = None
     scale: Scale = field(default_factory=Scale)
+    interval_method: str | None = None
 
     @property
     def mdp(self) -> MDP:
@@ -264,6 +268,7 @@ class FitResult:
                 for r in range(world.rows)
             ],
             "interval_kind": self.interval_kind,
+            "interval_method": self.interval_method,
             "policy": [
                 [
                     None

@@ -3,6 +3,8 @@ whole or not at all (Ctrl+C leaves none, or the earlier one as it was), and the 
 check.csv on one worker and on a Dask LocalCluster of two started by the command inside this test."""
 
 
+import json
+
 import pytest
 
 import careful_tui.commands.check as check_command
@@ -94,3 +96,36 @@ def test_one_worker_and_a_local_cluster_of_two_write_the_same_check_csv(recordin
     assert all(line.split(",")[3] == "3" for line in lines[1:])
     code, _, _ = run(capsys, *common, "--workers", 1, "--seed", 6, "--out", tmp_path / "other")
     assert (tmp_path / "other" / "check.csv").read_text() != one
+
+
+def test_a_check_writes_its_calibration_and_a_fit_widens_by_it_or_refuses_it_naming_the_field(
+        recording, tmp_path, capsys):
+    code, out, err = run(capsys, recording, *QUICK, "--datasets", 3, "--players", "hasty", "--workers", 1,
+                         "--out", tmp_path)
+    assert code == 0, err
+    learned = json.loads((tmp_path / "calibration.json").read_text())
+    assert learned["players"] == ["boltzmann", "hasty"] and set(learned["scales"]) == {"U", "C", "G"}
+    assert learned["datasets"] == 3 and learned["world"] == "mud" and learned["options"]["tie"] is True
+    assert "calibration: half-widths around the point widened" in out
+    plain, calibrated = tmp_path / "plain.json", tmp_path / "calibrated.json"
+    assert main(["fit", str(recording), *QUICK, "--intervals", "--no-view", "--json", str(plain)]) == 0
+    assert main(["fit", str(recording), *QUICK, "--intervals", "--no-view", "--json", str(calibrated),
+                 "--calibration", str(tmp_path / "calibration.json")]) == 0
+    plain_fit, calibrated_fit = json.loads(plain.read_text()), json.loads(calibrated.read_text())
+    assert plain_fit["interval_method"] == "bootstrap"
+    assert calibrated_fit["interval_method"] == "bootstrap+calibrated" and "calibrated" in calibrated_fit["note_codes"]
+    for row, wide_row in zip(plain_fit["interval"], calibrated_fit["interval"]):
+        for cell, wide in zip(row, wide_row):
+            if cell is not None:
+                assert wide[0] <= cell[0] and cell[1] <= wide[1]
+    capsys.readouterr()
+    code = main(["fit", str(recording), "--method", "maxent", "--beta", "1", "--resamples", "20", "--intervals",
+                 "--no-view", "--calibration", str(tmp_path / "calibration.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "calibration.json: options.tie: learned with true" in err
+    # A check of the calibrated fit measures it and learns nothing new: the calibration stays as it was.
+    before = (tmp_path / "calibration.json").read_text()
+    code, out, err = run(capsys, recording, *QUICK, "--datasets", 2, "--players", "", "--workers", 1,
+                         "--calibration", tmp_path / "calibration.json", "--out", tmp_path)
+    assert code == 0, err
+    assert "no new calibration" in out and (tmp_path / "calibration.json").read_text() == before

@@ -16,8 +16,10 @@ from bench.bench_invariants import play  # the bench draws its players the same 
 from irl_core.errors import InputError
 from irl_core.irl import fit
 from irl_core.irl.identification import units_unfixed_why
-from irl_core.irl.intervals.honest import invariant_violations
+from irl_core.irl.intervals.calibrated import Calibration, options_text, world_digest
+from irl_core.irl.intervals.honest import invariant_violations, one_sided
 from irl_core.irl.notes import Note
+from irl_core.irl.options import FitOptions
 from irl_core.players.experts import simulate_to_file
 from irl_core.players.person_like import person_like
 from irl_core.recordings.demonstrations import Demonstrations
@@ -130,6 +132,54 @@ def test_timing_on_time_worlds_with_and_without_a_cost(tmp_path_factory, cost, e
     assert_honest(result)
     if result is not None and result.intervals is not None and episodes < 10:
         assert "few_episodes" in [note.code for note in result.notes]
+
+
+@EXAMPLES
+@given(world=worlds(), episodes=st.integers(3, 15), seed=st.integers(0, 2**16),
+       player=st.sampled_from(["boltzmann", "loose", "hasty"]),
+       method=st.sampled_from([{"method": "loss"}, {"method": "maxent", "player_model": "boltzmann"},
+                               {"method": "maxent", "player_model": "auto"}, {"method": "lp"}]),
+       scales=st.lists(st.one_of(st.none(), st.floats(1.0, 30.0)), min_size=4, max_size=4))
+def test_calibrated_intervals_keep_the_rules_and_hold_the_uncalibrated_ones(world, episodes, seed, player, method,
+                                                                           scales):
+    demos = play(world, "optimal" if method["method"] == "lp" else player, episodes, seed)
+    plain = fitted(demos, tie=True, **method)
+    if plain is None or plain.intervals is None:
+        return
+    options = FitOptions(**{name: value for name, value in FAST.items() if name != "workers"}, tie=True, **method)
+    learned = Calibration(scales=tuple(zip(("U", "C", "G", "move"), scales)), confidence=0.95,
+                          options=options_text(options), world=world.name, world_digest=world_digest(world),
+                          players=("own",), datasets=10, episodes=episodes, seed=0)
+    result = fitted(demos, tie=True, calibration=learned, **method)
+    assert_honest(result)
+    assert result.interval_method.endswith("+calibrated")
+    assert (result.intervals[:, 0] <= plain.intervals[:, 0] + 1e-9).all()
+    assert (plain.intervals[:, 1] <= result.intervals[:, 1] + 1e-9).all()
+    # A one-sided interval stays open on its side: one-sided still, or widened to the whole range.
+    plain_sides, sides = one_sided(plain.intervals, plain.rmax), one_sided(result.intervals, result.rmax)
+    for before, after, (low, high) in zip(plain_sides, sides, result.intervals):
+        assert not before or after == before or (after == 0 and low == -result.rmax and high == result.rmax)
+
+
+@EXAMPLES
+@given(world=worlds(levels=3), episodes=st.integers(3, 15), seed=st.integers(0, 2**16),
+       player=st.sampled_from(["loose", "timed", "hasty"]))
+def test_the_union_over_close_player_models_keeps_the_rules_and_holds_the_chosen_models_intervals(
+        world, episodes, seed, player):
+    demos = play(world, player, episodes, seed)
+    chosen = fitted(demos, method="maxent", tie=True, player_model="auto")
+    joined = fitted(demos, method="maxent", tie=True, player_model="auto", union=True)
+    assert_honest(joined)
+    if chosen is None or chosen.intervals is None:
+        return
+    assert joined.player_model == chosen.player_model and np.allclose(joined.theta, chosen.theta)
+    # Where the chosen model's refits never left the bound its interval is the whole range (`honest_intervals`); a
+    # close model's spread can give the union width there instead. Everywhere else the union holds it.
+    told = ~((chosen.intervals[:, 0] <= -chosen.rmax) & (chosen.intervals[:, 1] >= chosen.rmax))
+    assert (joined.intervals[told, 0] <= chosen.intervals[told, 0] + 1e-9).all()
+    assert (chosen.intervals[told, 1] <= joined.intervals[told, 1] + 1e-9).all()
+    codes = [note.code for note in joined.notes]
+    assert ("+union" in joined.interval_method) == ("models_joined" in codes or chosen.rival_model is not None)
 
 
 def test_the_checker_names_a_point_outside_its_interval_and_a_note_that_contradicts_the_table():

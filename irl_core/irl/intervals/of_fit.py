@@ -96,10 +96,12 @@ def _confidence(fitted: Fitted, qmap: QMap, demos: Demonstrations, options: FitO
         notes.append(Note("resamples_failed", f"{result.failed} of {options.resamples} resamples failed to fit and "
                                               "were left out"))
     bounds = result.intervals[: qmap.k]
-    if fitted.rival is not None:
-        # The other planning assumption's interval is taken to have the same sampling spread about its own
-        # estimate (a second bootstrap would double the time): the union covers both.
-        shift = fitted.rival.theta - fitted.theta
+    others = [] if fitted.rival is None else [fitted.rival]
+    for other in others + [fit for fit in fitted.close if fit is not fitted.rival]:
+        # The other planning assumption's interval (and with `union` every close model's) is taken to have the
+        # same sampling spread about its own estimate (a bootstrap each would multiply the time): the union
+        # covers them all.
+        shift = other.theta - fitted.theta
         bounds = np.clip(np.stack([np.minimum(bounds[:, 0], bounds[:, 0] + shift),
                                    np.maximum(bounds[:, 1], bounds[:, 1] + shift)], axis=1),
                          -options.rmax, options.rmax)

@@ -177,6 +177,17 @@ def _counts_of(rows: sp.csr_matrix, mdp: MDP) -> np.ndarray:
     return np.asarray(rows.sum(axis=0)).reshape(mdp.n_states, mdp.n_actions)
 
 
+def close_models(choice: ModelChoice) -> tuple[PlayerFit, ...]:
+    """The fits of the other candidates that held-out episodes do not tell from the chosen model: those it does not
+    beat beyond their noise (`significantly_better`, the paired per-episode test `planning_rival` asks of the other
+    planning assumption), in the candidates' order; empty without a held-out choice."""
+    if choice.held_out is None or choice.per_episode is None:
+        return ()
+    mine = choice.per_episode[choice.name]
+    return tuple(choice.fits[name] for name in choice.fits
+                 if name != choice.name and not significantly_better(mine, choice.per_episode[name]))
+
+
 def planning_rival(choice: ModelChoice) -> PlayerFit | None:
     """The fit of the other planning assumption (``person`` or ``naive``) when held-out episodes cannot tell it
     from the chosen model, else None."""
