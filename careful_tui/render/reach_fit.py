@@ -114,8 +114,7 @@ def print_reach_fit(console: Console, fit: ReachFit) -> None:
     console.print(table)
     console.print(Text(spread_line(fit)), soft_wrap=True)
     if fit.beta is not None and fit.aim_sd is not None:
-        console.print(Text(f"player: soft-optimal, beta {fit.beta:.3g}, aim noise sd {fit.aim_sd:.3g}, "
-                           f"lapse {fit.lapse or 0:.2g}"), soft_wrap=True)
+        console.print(Text(f"player: soft-optimal, beta {fit.beta:.3g}, aim noise sd {fit.aim_sd:.3g}"), soft_wrap=True)
     for note in fit.notes:
         console.print(Text(f"note ({note.code}): {note.text}", style="yellow"), soft_wrap=True)
 

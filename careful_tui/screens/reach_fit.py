@@ -76,8 +76,7 @@ class ReachFitScreen(Screen[None]):
         fit = self.fit
         text = Text(spread_line(fit))
         if fit.beta is not None and fit.aim_sd is not None:
-            text.append(f"\nplayer: soft-optimal, beta {fit.beta:.3g}, aim noise sd {fit.aim_sd:.3g}, "
-                        f"lapse {fit.lapse or 0:.2g}")
+            text.append(f"\nplayer: soft-optimal, beta {fit.beta:.3g}, aim noise sd {fit.aim_sd:.3g}")
         for note in fit.notes:
             text.append(f"\nnote ({note.code}): {note.text}", style=NOTE)
         return text

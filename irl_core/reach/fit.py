@@ -9,11 +9,9 @@ Two likelihoods, fitted one after the other:
    world's own law is used and said so.
 2. **The points**, from where the player aimed and how long they took. The player is soft-optimal over the
    `ChoiceGrid` built with that spread law: choice (k, j) with probability pi[k, j] = exp(beta EG[k, j]) / Z,
-   then an aim error of their own, N(0, sigma^2) per axis; or, with probability lambda, a lapse: an aim
-   anywhere in the grid's area and any grid duration, uniformly. A trial's duration is read as its nearest
-   grid duration j_i, and its likelihood is (1 - lambda) sum_k pi[k, j_i] N(aim_i; aim_k, sigma^2 I)
-   + lambda / (K D step^2). The unknowns are the points w (one a symbol), beta, log sigma and logit lambda;
-   the known time cost fixes the points' scale.
+   then an aim error of their own, N(0, sigma^2) per axis. A trial's duration is read as its nearest grid
+   duration j_i, and its likelihood is sum_k pi[k, j_i] N(aim_i; aim_k, sigma^2 I). The unknowns are the
+   points w (one a symbol), log beta and log sigma; the known time cost fixes the points' scale.
    Maximised with L-BFGS-B and the exact gradient; intervals by the Laplace approximation over all of them
    (``interval_kind: "confidence"``, ``interval_method: "laplace"``).
 
@@ -33,7 +31,7 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import linprog, minimize
-from scipy.special import expit, logit, logsumexp
+from scipy.special import logsumexp
 from scipy.stats import norm
 
 from irl_core.errors import BadInputError, SolverError
@@ -46,10 +44,6 @@ RMAX = 1e5
 # are a single grid point, which the identified branch handles.
 BETA_RANGE = (1e-6, 1e3)
 SIGMA_STEPS = (0.25, 64.0)
-# The chance that a trial is a lapse (aim and duration anywhere on the grid) is searched within these: a lapse
-# at its lower bound is held there (not an unknown of the Laplace interval: the likelihood is not flat there).
-LAPSE_RANGE = (1e-4, 0.5)
-LAPSE_START = 0.01
 # Below this share of the largest |points| fitted, the spread of the time cost over the allowed durations is
 # said not to fix the points' scale (a world whose limits leave one duration: no care to choose).
 WEAK_SCALE = 0.01
@@ -78,7 +72,7 @@ class SpreadFit:
 
 @dataclass(frozen=True)
 class ReachFit:
-    """A reach fit's answer: points and intervals per symbol, the spread law, the player's beta, sigma and lapse."""
+    """A reach fit's answer: points and intervals per symbol, the spread law, the player's beta and sigma."""
 
     world: ReachWorld
     reward: dict[str, float]
@@ -88,7 +82,6 @@ class ReachFit:
     spread: SpreadFit
     beta: float | None
     aim_sd: float | None
-    lapse: float | None
     confidence: float
     trials: int
     files: int
@@ -110,7 +103,7 @@ class ReachFit:
                        "interval": None if self.spread.interval is None
                        else {name: list(bounds) for name, bounds in self.spread.interval.items()},
                        "known": self.spread.known},
-            "player": {"beta": self.beta, "aim_sd": self.aim_sd, "lapse": self.lapse},
+            "player": {"beta": self.beta, "aim_sd": self.aim_sd},
             "notes": [{"code": note.code, "text": note.text} for note in self.notes],
         }
 
@@ -153,7 +146,7 @@ def fit_reaches(reaches: Reaches, *, spread_known: bool = False, confidence: flo
         reward |= dict(zip(unknown, point.tolist()))
         interval |= {symbol: (float(low), float(high)) for symbol, (low, high) in zip(unknown, bounds)}
         return ReachFit(world, _ordered(world, reward), _ordered(world, interval), "identified", "identified set",
-                        spread, None, None, None, confidence, reaches.trials, reaches.files, notes)
+                        spread, None, None, confidence, reaches.trials, reaches.files, notes)
     spread_effect = None
     if spread.covariance is not None:
         spread_covariance = spread.covariance
@@ -184,7 +177,7 @@ def fit_reaches(reaches: Reaches, *, spread_known: bool = False, confidence: flo
     reward |= dict(zip(unknown, point.tolist()))
     interval |= {symbol: (float(lo), float(hi)) for symbol, lo, hi in zip(unknown, low, high)}
     return ReachFit(world, _ordered(world, reward), _ordered(world, interval), "confidence", "laplace", spread,
-                    beta, float(theta[count + 1]), float(theta[count + 2]), confidence, reaches.trials, reaches.files, notes)
+                    beta, float(theta[count + 1]), confidence, reaches.trials, reaches.files, notes)
 
 
 def fit_spread(reaches: Reaches, *, known: bool, confidence: float, notes: list[Note]) -> SpreadFit:
@@ -261,18 +254,14 @@ def _grid_cells(grid: ChoiceGrid, aims: np.ndarray) -> np.ndarray:
 def soft_objective(grid: ChoiceGrid, hits: np.ndarray, cost: np.ndarray, aims: np.ndarray,
                    columns: np.ndarray) -> Callable[[np.ndarray], tuple[float, np.ndarray]]:
     """The soft-optimal player's negative log-likelihood of the trials and its gradient, as a function of
-    params = (v (F), beta, log sigma, logit lapse) with v = beta * w, for EG[k, j] = w . hits[:, k, j] - cost[k, j]
-    (hits (F, K, D) of the F unknown symbols; cost (K, D) the time cost less the known symbols' expected points);
-    aims (n, 2) and columns (n,) the trials' aims and grid durations.
-
-    A trial is a lapse with probability lapse: its aim uniform over the lattice's area (K cells of step^2) and
-    its duration uniform over the D grid durations, density 1 / (K D step^2); otherwise the soft choice."""
+    params = (v (F), beta, log sigma) with v = beta * w, for EG[k, j] = w . hits[:, k, j] - cost[k, j] (hits
+    (F, K, D) of the F unknown symbols; cost (K, D) the time cost less the known symbols' expected points);
+    aims (n, 2) and columns (n,) the trials' aims and grid durations."""
     symbols, n = hits.shape[0], len(columns)
     xs, ys = np.unique(grid.aims[:, 0]), np.unique(grid.aims[:, 1])  # the lattice: aim k = (xs[k // ny], ys[k % ny])
     dx2 = (aims[:, 0, None] - xs[None, :]) ** 2  # (n, nx)
     dy2 = (aims[:, 1, None] - ys[None, :]) ** 2  # (n, ny)
     shape = (len(xs), len(ys), hits.shape[2])
-    log_lapse_density = -np.log(cost.size * grid.step**2)
     groups = [(j, np.flatnonzero(columns == j)) for j in np.unique(columns)]
     # The aim error is separable: sum_k pi[k, j] N(aim; aim_k) = A_i^T Pi_j B_i with A, B its x and y factors,
     # so every per-trial sum over the lattice is a matrix product.
@@ -280,7 +269,6 @@ def soft_objective(grid: ChoiceGrid, hits: np.ndarray, cost: np.ndarray, aims: n
 
     def negative_log_likelihood(params: np.ndarray) -> tuple[float, np.ndarray]:
         v, beta, sigma = params[:symbols], params[symbols], np.exp(params[symbols + 1])
-        lapse = float(expit(params[symbols + 2]))
         scaled = np.tensordot(v, hits, axes=1) - beta * cost  # (K, D)
         log_pi = scaled - logsumexp(scaled)
         pi = np.exp(log_pi).reshape(shape)
@@ -298,18 +286,12 @@ def soft_objective(grid: ChoiceGrid, hits: np.ndarray, cost: np.ndarray, aims: n
             spread_sum[rows] = (((a * dx2[rows]) @ pi[:, :, j]) * b).sum(axis=1) + (weighted * b * dy2[rows]).sum(axis=1)
         likelihood = np.maximum(likelihood, 1e-300)
         means = sums / likelihood  # (T, n): the expected table value given the trial's aim and duration
-        # Each trial's density: (1 - lapse) M_i + lapse / (K D step^2), M_i = L_i / (2 pi sigma^2) the soft choice's.
-        log_chosen = np.log(likelihood) - np.log(2 * np.pi * sigma**2)
-        log_trial = np.logaddexp(np.log1p(-lapse) + log_chosen, np.log(lapse) + log_lapse_density)
-        # d log(trial) = share_i d log M_i (share_i: the chance the trial was no lapse, given its aim and duration)
-        share = np.exp(np.log1p(-lapse) + log_chosen - log_trial)
         pi_flat = pi.reshape(-1, shape[2])
-        d_v = means[:symbols] @ share - share.sum() * (hits * pi_flat).sum(axis=(1, 2))
-        d_beta = -(means[symbols] @ share - share.sum() * float((cost * pi_flat).sum()))
-        d_sigma = float(share @ (spread_sum / likelihood / sigma**2 - 2))
-        # d/d logit(lapse) = lapse (1 - lapse) (c - M_i) / trial_i = (1 - lapse) - share_i
-        d_lapse = float((1 - lapse - share).sum())
-        return -float(log_trial.sum()), -np.concatenate([d_v, [d_beta, d_sigma, d_lapse]])
+        d_v = means[:symbols].sum(axis=1) - n * (hits * pi_flat).sum(axis=(1, 2))
+        d_beta = -(means[symbols].sum() - n * float((cost * pi_flat).sum()))
+        d_sigma = float((spread_sum / likelihood).sum() / sigma**2 - 2 * n)
+        value = float(np.log(likelihood).sum()) - n * (2 * np.log(sigma) + np.log(2 * np.pi))
+        return -value, -np.concatenate([d_v, [d_beta, d_sigma]])
 
     return negative_log_likelihood
 
@@ -317,53 +299,45 @@ def soft_objective(grid: ChoiceGrid, hits: np.ndarray, cost: np.ndarray, aims: n
 def _soft_fit(grid: ChoiceGrid, hits: np.ndarray, cost: np.ndarray, aims: np.ndarray, columns: np.ndarray,
               spread_effect: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
               ) -> tuple[np.ndarray, np.ndarray | None]:
-    """theta = (w (F), beta, sigma, lapse) of largest likelihood, and the Laplace covariance of (w, beta,
-    log sigma, logit lapse) (None if singular; the lapse's row and column zero when it is held at its smallest),
-    `soft_objective`'s arguments.
+    """theta = (w (F), beta, sigma) of largest likelihood, and the Laplace covariance of (w, beta, log sigma)
+    (None if singular), `soft_objective`'s arguments.
 
     `spread_effect(params)`, when the spread law was fitted, gives the cross derivatives (P, 2) of the negative
     log-likelihood in params and the law's (a, b) and the law's covariance (2, 2): the covariance then carries
     the law's uncertainty too (the two-step correction of Murphy & Topel 1985: V = H^-1 + H^-1 C V_ab C' H^-1).
 
-    Searched as (v = beta * w, beta, log sigma, logit lapse): there beta * EG = v . H - beta * cost is linear, the choice's
+    Searched as (v = beta * w, beta, log sigma): there beta * EG = v . H - beta * cost is linear, the choice's
     log-likelihood concave, and a small beta does not silence the gradient in the points."""
     symbols = hits.shape[0]
     negative_log_likelihood = soft_objective(grid, hits, cost, aims, columns)
-    bounds = [(None, None)] * symbols + [BETA_RANGE] + [tuple(np.log(np.array(SIGMA_STEPS) * grid.step))] + [
-        tuple(logit(np.array(LAPSE_RANGE)))]
-    start = np.concatenate([np.zeros(symbols), [BETA_RANGE[0] * 1e3, np.log(grid.step), logit(LAPSE_START)]])
+    bounds = [(None, None)] * symbols + [BETA_RANGE] + [tuple(np.log(np.array(SIGMA_STEPS) * grid.step))]
+    start = np.concatenate([np.zeros(symbols), [BETA_RANGE[0] * 1e3, np.log(grid.step)]])
     found = minimize(negative_log_likelihood, start, jac=True, method="L-BFGS-B", bounds=bounds,
                      options={"maxiter": 5000})
     params = found.x
     beta = params[symbols]
-    theta = np.concatenate([params[:symbols] / beta, [beta, np.exp(params[symbols + 1]), expit(params[symbols + 2])]])
-    # A lapse at its smallest is held there: the likelihood falls away from that bound rather than peaking, so it
-    # has no Laplace curvature; the others' covariance is then that of the fit with the lapse known.
-    held = params[symbols + 2] <= bounds[-1][0] + 1e-6
-    free = np.arange(len(params) - 1 if held else len(params))
+    theta = np.concatenate([params[:symbols] / beta, [beta, np.exp(params[symbols + 1])]])
     # The Hessian by central differences of the exact gradient, symmetrised; then the delta method to (w, beta, log sigma).
     steps = 1e-5 * np.maximum(1.0, np.abs(params))
-    hessian = np.empty((len(free), len(free)))
-    for row, i in enumerate(free):
+    hessian = np.empty((len(params), len(params)))
+    for i, h in enumerate(steps):
         up, down = params.copy(), params.copy()
-        up[i] += steps[i]
-        down[i] -= steps[i]
-        hessian[row] = (negative_log_likelihood(up)[1][free] - negative_log_likelihood(down)[1][free]) / (2 * steps[i])
+        up[i] += h
+        down[i] -= h
+        hessian[i] = (negative_log_likelihood(up)[1] - negative_log_likelihood(down)[1]) / (2 * h)
     hessian = (hessian + hessian.T) / 2
     try:
-        inverse = np.linalg.inv(hessian)
+        covariance = np.linalg.inv(hessian)
     except np.linalg.LinAlgError:
         return theta, None
     if spread_effect is not None:
         cross, spread_covariance = spread_effect(params)
-        inverse = inverse + inverse @ cross[free] @ spread_covariance @ cross[free].T @ inverse
-    covariance = np.zeros((len(params), len(params)))
-    covariance[np.ix_(free, free)] = inverse
+        covariance = covariance + covariance @ cross @ spread_covariance @ cross.T @ covariance
     jacobian = np.eye(len(params))
     jacobian[:symbols, :symbols] /= beta
     jacobian[:symbols, symbols] = -params[:symbols] / beta**2
     covariance = jacobian @ covariance @ jacobian.T
-    return theta, covariance if np.all(np.diag(covariance)[free] > 0) else None
+    return theta, covariance if np.all(np.diag(covariance) > 0) else None
 
 
 def identified_set(hits: np.ndarray, cost: np.ndarray, cell: int, column: int) -> tuple[np.ndarray, np.ndarray]:

@@ -33,17 +33,15 @@ def test_the_likelihood_and_its_gradient_agree_with_a_brute_force_sum(tmp_path):
     columns = grid.nearest_duration(reaches.durations)
     cost = np.broadcast_to(grid.cost[None, :], grid.hits.shape[1:])
     objective = soft_objective(grid, grid.hits, cost, reaches.aims, columns)
-    w, beta, sigma, lapse = np.array([80.0, -300.0]), 0.3, 3.0, 0.2
-    # The independent route: pi from the gain module, then each trial's mixture summed aim by aim, and a lapse
-    # spread evenly over the grid's K aims' cells (step^2 each) and D durations.
+    w, beta, sigma = np.array([80.0, -300.0]), 0.3, 3.0
+    # The independent route: pi from the gain module, then each trial's mixture summed aim by aim.
     pi = np.exp(soft_choice_log_probabilities(grid, w, beta))
-    uniform = 1 / (grid.hits[0].size * grid.step**2)
-    brute = -sum(np.log((1 - lapse) * pi[:, j] @ multivariate_normal(aim, sigma**2).pdf(grid.aims) + lapse * uniform)
+    brute = -sum(np.log(pi[:, j] @ multivariate_normal(aim, sigma**2).pdf(grid.aims))
                  for aim, j in zip(reaches.aims, columns))
-    params = np.array([*(beta * w), beta, np.log(sigma), np.log(lapse / (1 - lapse))])
+    params = np.array([*(beta * w), beta, np.log(sigma)])
     value, gradient = objective(params)
     assert value == pytest.approx(brute, rel=1e-9)
-    steps = np.eye(5) * 1e-6 * np.maximum(1, np.abs(params))
+    steps = np.eye(4) * 1e-6 * np.maximum(1, np.abs(params))
     numeric = [(objective(params + h)[0] - objective(params - h)[0]) / (2 * h.max()) for h in steps]
     assert gradient == pytest.approx(numeric, rel=1e-4, abs=1e-4)
 
