@@ -30,13 +30,13 @@ from irl_core.irl.people import (
     NEARLY_FLAT,
     PlayerFit,
     choose_player_model,
+    close_models,
     fit_given_model,
     hand_from_trials,
     note_of_bounds,
     people_checks,
     planning_rival,
 )
-from irl_core.irl.people.choice import close_models
 from irl_core.irl.qmap import QMap
 from irl_core.irl.result import BadInputError, InfeasibleError
 from irl_core.irl.timing.fit import fit_timing, timing_chooser, timing_policy

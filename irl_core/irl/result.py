@@ -268,7 +268,6 @@ class FitResult:
                 for r in range(world.rows)
             ],
             "interval_kind": self.interval_kind,
-            "interval_method": self.interval_method,
             "policy": [
                 [
                     None
@@ -289,6 +288,8 @@ class FitResult:
             "fit_check": None if self.fit_check is None else self.fit_check.to_json(),
             "notes": [str(note) for note in self.notes],
             "note_codes": [note.code for note in self.notes],
+            # After the keys every fit has, as a time world's are: how the intervals were made, where there are any.
+            **({} if self.interval_method is None else {"interval_method": self.interval_method}),
             **self._time_json(),
         }
 

@@ -330,6 +330,10 @@ class HoldDetector(SilenceEnded):
         if pending is not None:
             done.append(self._infer(pending))
             self._pending = None
+            if pending.key == key and now >= self._deadline(pending):
+                # Its silence had ended it and only the tick that says so came late (a busy machine): what
+                # follows may be its late repeats, as after `_end`, not presses of their own.
+                self._tail = pending if pending.repeats > 0 or pending.tail_pace_ms is not None else None
         if not repeat:
             self._pending = PendingHold(key=key, started=now, last=now, tail_pace_ms=self._tail_pace_ms(key, repeat))
         self._tail = None

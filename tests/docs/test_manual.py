@@ -38,7 +38,7 @@ def test_the_readme_is_a_start_and_links_only_to_what_exists():
 
 # Measurements, each stated in the one page that measures it (others link there).
 MEASURED_ONCE = {"685 s": "benchmarks.md", "363 ms": "benchmarks.md", "20.8 s": "benchmarks.md",
-                 "147 MB": "benchmarks.md", "19/20": "fitting.md"}
+                 "147 MB": "benchmarks.md", "| percentile (used) | 20/20 | 19/20": "fitting.md"}
 
 
 def test_a_measured_number_is_stated_in_one_page():

@@ -45,7 +45,9 @@ def test_json_has_the_spec_structure(tmp_path, capsys, mud_file):
     assert code == 0, err
     data = json.loads(out_json.read_text())
     assert list(data) == ["method", "world", "options", "reward", "unknown", "interval", "interval_kind", "policy",
-                          "demonstrations", "evaluation", "status", "elapsed_s", "fit_check", "notes", "note_codes"]
+                          "demonstrations", "evaluation", "status", "elapsed_s", "fit_check", "notes", "note_codes",
+                          "interval_method"]
+    assert data["interval_method"] == "identified"
     assert data["method"] == "lp" and data["status"] == "optimal" and data["interval_kind"] == "identified"
     assert data["world"] == BUILTIN_WORLDS["mud"].model_dump(mode="json")
     assert data["options"] == {"rmax": 1000.0, "lambda": 0.0, "beta": 1.0, "reward_cells": "special",

@@ -234,20 +234,31 @@ def test_the_repeat_timeout_has_a_floor() -> None:
 
 @given(gaps=st.lists(st.floats(0.001, 1.0), min_size=1, max_size=30), probe=st.floats(0, 1.5))
 def test_deadline_says_when_poll_ends_the_hold(gaps: list[float], probe: float) -> None:
-    """A press ends the hold after its deadline, or as a second press before any repeat could come."""
+    """A press ends the hold after its deadline, or as a second press before any repeat could come; after a
+    hold its silence ended, the same key again sooner than the hold's pace is its late repeat, dropped (as
+    after `poll` ends it: the tick that would have said so may come late)."""
     clock = FakeClock(0.0)
     profile = HoldProfile()
     detector = HoldDetector(profile, clock=clock)
     detector.press("up")
-    started, repeats = clock.now, 0
+    started, repeats, times, tail_pace = clock.now, 0, [clock.now], None
     for gap in gaps:
         deadline = detector.deadline()
         assert deadline is not None
         clock.now += gap
+        if tail_pace is not None and repeats == 0 and gap * 1000 < tail_pace:
+            assert detector.press("up") == []  # a late repeat of the hold before: dropped, and its key ignored
+            return
         second_press = repeats == 0 and (clock.now - started) * 1000 < profile.earliest_repeat_ms
         ends = clock.now >= deadline or second_press
         assert (detector.press("up") != []) == ends
-        started, repeats = (clock.now, 0) if ends else (started, repeats + 1)
+        if ends:
+            period = (times[-1] - times[1]) * 1000 / (repeats - 1) if repeats >= 2 else profile.repeat_period_ms
+            silenced = clock.now >= deadline and (repeats > 0 or tail_pace is not None)
+            tail_pace = min(profile.repeat_timeout_ms(period), profile.earliest_repeat_ms) if silenced else None
+            started, repeats, times = clock.now, 0, [clock.now]
+        else:
+            repeats, times = repeats + 1, [*times, clock.now]
     deadline = detector.deadline()
     assert deadline is not None
     clock.now += probe

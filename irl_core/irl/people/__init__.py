@@ -32,7 +32,13 @@ from irl_core.support.lazy import lazy_names
 
 if TYPE_CHECKING:
     from irl_core.irl.people.checks import people_checks  # noqa: F401
-    from irl_core.irl.people.choice import ModelChoice, choose_player_model, fit_given_model, planning_rival  # noqa: F401
+    from irl_core.irl.people.choice import (  # noqa: F401
+        ModelChoice,
+        choose_player_model,
+        close_models,
+        fit_given_model,
+        planning_rival,
+    )
     from irl_core.irl.people.fit import PlayerFit, PlayerRefit, curvature_scale  # noqa: F401
     from irl_core.irl.people.hand import hand_from_trials  # noqa: F401
     from irl_core.irl.people.held import FLAT_DROP, note_of_bounds  # noqa: F401
@@ -42,6 +48,7 @@ if TYPE_CHECKING:
 _HOMES = {
     "people_checks": "irl_core.irl.people.checks",
     "ModelChoice": "irl_core.irl.people.choice", "choose_player_model": "irl_core.irl.people.choice",
+    "close_models": "irl_core.irl.people.choice",
     "fit_given_model": "irl_core.irl.people.choice", "planning_rival": "irl_core.irl.people.choice",
     "PlayerFit": "irl_core.irl.people.fit", "PlayerRefit": "irl_core.irl.people.fit",
     "curvature_scale": "irl_core.irl.people.fit",
