@@ -25,7 +25,7 @@ PUBLIC = {
         "Stopped", "at_bound", "fit",
     ],
     "irl_core.irl.people": [
-        "FLAT_DROP", "MAX_COMBINED", "ModelChoice", "NEARLY_FLAT", "PlayerFit", "PlayerRefit", "choose_player_model",
+        "FLAT_DROP", "MAX_COMBINED", "ModelChoice", "NEARLY_FLAT", "PlayerFit", "PlayerRefit", "choose_player_model", "close_models",
         "curvature_scale", "fit_given_model", "hand_from_trials", "laplace_intervals", "log_likelihood", "note_of_bounds",
         "people_checks", "planning_rival",
     ],
