@@ -118,7 +118,7 @@ def fit_time(folder: Path, *, trials: int = 200, repeats: int = 3) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(prog="python -m bench.bench_reach", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+                                     formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False)
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--trials", type=int, default=100)
     parser.add_argument("--parts", default=",".join(PARTS), help=f"which to measure, of {', '.join(PARTS)}")

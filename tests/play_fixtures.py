@@ -1,11 +1,16 @@
 """Shared play-test fixtures: a clock the test moves by hand, the small corner world the play
-tests use, and a two-episode recording of it for replay tests."""
+tests use, a two-episode recording of it for replay tests, and a Pilot runner for the app tests."""
 
 from __future__ import annotations
 
+import asyncio
 import tomllib
+from collections.abc import Awaitable, Callable
 from datetime import datetime
 from pathlib import Path
+
+from textual.app import App
+from textual.pilot import Pilot
 
 from irl_core.play.game import Game
 from irl_core.recordings.lines import SessionHeader
@@ -65,3 +70,13 @@ def write_two_episodes(folder: Path, world: World, *, created: datetime | None =
     recorder.close()
     (path,) = recorder.paths
     return path
+
+
+def run_pilot(app: App, body: Callable[[Pilot], Awaitable[None]], size: tuple[int, int] = (100, 35)) -> None:
+    """Run `app` headless at `size` and drive it with `body` once it has settled."""
+    async def main() -> None:
+        async with app.run_test(size=size) as pilot:
+            await pilot.pause()
+            await body(pilot)
+
+    asyncio.run(main())

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import asyncio
-from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
 from play_fixtures import FakeClock
+from play_fixtures import run_pilot as run
 from textual.pilot import Pilot
 from textual.widgets import Static
 
@@ -39,15 +38,6 @@ def new_app(tmp_path: Path, world: World = WALK, **options) -> tuple[CarefulApp,
     clock = FakeClock()
     app = make_play_app(world, out=tmp_path / "rec", player="tester", seed=1, clock=clock, **options)
     return app, clock
-
-
-def run(app: CarefulApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)) -> None:
-    async def main() -> None:
-        async with app.run_test(size=size) as pilot:
-            await pilot.pause()
-            await body(pilot)
-
-    asyncio.run(main())
 
 
 async def press_repeats(pilot: Pilot, clock: FakeClock, key: str, seconds: float) -> float:

@@ -3,12 +3,11 @@ and recorded, a refusal shown and not recorded, kitty's exact releases, a block'
 
 from __future__ import annotations
 
-import asyncio
-from collections.abc import Awaitable, Callable
 from pathlib import Path
 
 import pytest
 from play_fixtures import FakeClock
+from play_fixtures import run_pilot as run
 from textual.pilot import Pilot
 from textual.widgets import Static
 
@@ -27,15 +26,6 @@ def new_app(tmp_path: Path, *, trials: int = 3) -> tuple[CarefulApp, FakeClock]:
     app = make_reach_app(WORLD, out=tmp_path / "rec", player="tester", seed=5, trials=trials, clock=clock,
                          event_times=False)
     return app, clock
-
-
-def run(app: CarefulApp, body: Callable[[Pilot], Awaitable[None]], size=(100, 35)) -> None:
-    async def main() -> None:
-        async with app.run_test(size=size) as pilot:
-            await pilot.pause()
-            await body(pilot)
-
-    asyncio.run(main())
 
 
 def panel(app: CarefulApp) -> str:
