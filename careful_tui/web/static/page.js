@@ -501,7 +501,8 @@
     g.lineWidth = 1.5 * px;
     g.stroke();
     g.fillStyle = "#cfd8e3";
-    g.fillText("start", view.start[0], view.start[1] + START_RADIUS + 12 * px);
+    // Above the start: below it the label ran off the field's edge (the built-in worlds start 20 units from it).
+    g.fillText("start", view.start[0], view.start[1] - START_RADIUS - 12 * px);
     const last = view.last;
     if (last) {
       g.strokeStyle = "rgba(255, 255, 255, 0.35)";
