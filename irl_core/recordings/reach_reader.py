@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
@@ -82,18 +82,22 @@ def is_reach_recording(path: str | Path) -> bool:
     return isinstance(header, dict) and isinstance(header.get("world"), dict) and header["world"].get("care") == "reach"
 
 
-def read_reach_recording(path: str | Path) -> ReachRecording:
-    """Read and check one reach recording; `RecordingError` naming file, line and field of the first problem."""
+def read_reach_recording(path: str | Path, *, keep: Callable[[ReachStep], None] | None = None) -> ReachRecording:
+    """Read and check one reach recording; `RecordingError` naming file, line and field of the first problem.
+
+    `keep`, if given, is handed each checked trial in place of `ReachRecording.steps` (left empty), so that a
+    caller wanting arrays holds no line objects: a million trials are about 1.4 GB of them."""
     path = Path(path)
     with open_recording(path) as file:
         try:
-            return _read(path, file)
+            return _read(path, file, keep)
         except OSError as exc:
             raise RecordingError(path, None, None, f"cannot read the file ({read_problem(exc)})") from None
 
 
-def _read(path: Path, file: BinaryIO) -> ReachRecording:
+def _read(path: Path, file: BinaryIO, keep: Callable[[ReachStep], None] | None) -> ReachRecording:
     recording: ReachRecording | None = None
+    last: ReachStep | None = None
     number = 0
     while data := file.readline(MAX_LINE_BYTES + 1):
         number += 1
@@ -123,17 +127,19 @@ def _read(path: Path, file: BinaryIO) -> ReachRecording:
             step = ReachStep.model_validate(obj)
         except ValidationError as exc:
             raise line_error(path, number, exc, obj) from None
-        _check(recording, step, path, number)
-        recording.steps.append(step)
+        _check(recording.world, last, step, path, number)
+        last = step
+        if keep is None:
+            recording.steps.append(step)
+        else:
+            keep(step)
     if recording is None:
         raise EmptyRecording(path, None, None, "the file is empty: no session header")
     return recording
 
 
-def _check(recording: ReachRecording, step: ReachStep, path: Path, number: int) -> None:
-    """That `step` agrees with the world and the trials before it."""
-    world = recording.world
-    last = recording.steps[-1] if recording.steps else None
+def _check(world: ReachWorld, last: ReachStep | None, step: ReachStep, path: Path, number: int) -> None:
+    """That `step` agrees with the world and the trial before it (`last`)."""
     if last is not None and step.episode <= last.episode:
         raise RecordingError(path, number, "episode", f"{step.episode} does not come after episode {last.episode}")
     if step.t != 0:
@@ -159,19 +165,27 @@ def read_reaches(paths: Iterable[str | Path]) -> tuple[Reaches, list[str]]:
     """Every trial of reach recordings of one world, pooled, and the readers' warnings.
 
     Raises `RecordingError` for a bad file, a file of another world, or no trial at all."""
-    recordings = [read_reach_recording(path) for path in paths]
+    aims: list[tuple[float, float]] = []
+    durations: list[float] = []
+    endpoints: list[tuple[float, float]] = []
+
+    def keep(step: ReachStep) -> None:
+        aims.append(step.aim)
+        durations.append(step.duration_ms)
+        endpoints.append(step.endpoint)
+
+    recordings = [read_reach_recording(path, keep=keep) for path in paths]
     first = recordings[0]
     for recording in recordings[1:]:
         if recording.world != first.world:
             raise RecordingError(recording.path, 1, "world", f"not the world of {first.path}: one world at a time")
-    steps = [step for recording in recordings for step in recording.steps]
-    if not steps:
+    if not durations:
         raise RecordingError(first.path, None, None, "no trials, so there is nothing to fit; simulate some first")
     reaches = Reaches(
         world=first.world,
-        aims=np.array([step.aim for step in steps], dtype=float),
-        durations=np.array([step.duration_ms for step in steps], dtype=float),
-        endpoints=np.array([step.endpoint for step in steps], dtype=float),
+        aims=np.array(aims, dtype=float).reshape(-1, 2),
+        durations=np.array(durations, dtype=float),
+        endpoints=np.array(endpoints, dtype=float).reshape(-1, 2),
         files=len(recordings),
     )
     return reaches, [warning for recording in recordings for warning in recording.warnings]
