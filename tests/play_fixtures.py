@@ -8,14 +8,16 @@ import tomllib
 from collections.abc import Awaitable, Callable
 from datetime import datetime
 from pathlib import Path
-
-from textual.app import App
-from textual.pilot import Pilot
+from typing import TYPE_CHECKING
 
 from irl_core.play.game import Game
 from irl_core.recordings.lines import SessionHeader
 from irl_core.recordings.writer import SessionRecorder
 from irl_core.worlds.world import World, world_from_dict
+
+if TYPE_CHECKING:  # the headless session tests import this module and must not load Textual
+    from textual.app import App
+    from textual.pilot import Pilot
 
 
 class FakeClock:
